@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Installs missing dependencies, then configures and builds exoid into build/ (binaries in build/bin/).
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bash "$here/scripts/setup-deps.sh"
+source "$here/scripts/env.sh"
+jobs="$(nproc)"
+cmake -S "$here" -B "$here/build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$EXOID_CMEEL_PREFIX" >/dev/null
+cmake --build "$here/build" -j "$jobs"
