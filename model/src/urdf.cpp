@@ -1,0 +1,297 @@
+#include "exoid/model/urdf.hpp"
+
+#include <console_bridge/console.h>
+#include <tinyxml2.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+
+namespace exoid {
+
+namespace {
+
+/// Collects urdfdom's console messages so that a parse failure becomes one line naming the problem.
+class CaptureHandler : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR && last_error.empty()) last_error = text;
+  }
+  std::string last_error;
+};
+
+bool fail(std::string* error, const std::string& message) {
+  if (error) *error = message;
+  return false;
+}
+
+Eigen::Matrix3d rotation(const urdf::Rotation& r) {
+  return Eigen::Quaterniond(r.w, r.x, r.y, r.z).normalized().toRotationMatrix();
+}
+Eigen::Vector3d vector(const urdf::Vector3& v) { return {v.x, v.y, v.z}; }
+
+bool finite(const urdf::Pose& p) {
+  return std::isfinite(p.position.x) && std::isfinite(p.position.y) && std::isfinite(p.position.z) &&
+         std::isfinite(p.rotation.x) && std::isfinite(p.rotation.y) && std::isfinite(p.rotation.z) &&
+         std::isfinite(p.rotation.w);
+}
+
+}  // namespace
+
+Eigen::Matrix3d inertiaTensor(const Vector10d& phi) {
+  Eigen::Matrix3d I;
+  I << phi[4], phi[5], phi[6], phi[5], phi[7], phi[8], phi[6], phi[8], phi[9];
+  return I;
+}
+
+Vector10d paramsFromInertial(double m, const Eigen::Vector3d& c, const Eigen::Matrix3d& R,
+                             const Eigen::Matrix3d& Ic) {
+  const Eigen::Matrix3d I =
+      R * Ic * R.transpose() + m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+  Vector10d phi;
+  phi << m, m * c.x(), m * c.y(), m * c.z(), I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2), I(2, 2);
+  return phi;
+}
+
+Vector10d transformParams(const Vector10d& phi, const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+  // r' = R r + p:  I'_o = R I_o R^T + m(|p|^2 E - p p^T) + 2 (p . Rh) E - (Rh) p^T - p (Rh)^T
+  const double m = phi[0];
+  const Eigen::Vector3d h = R * phi.segment<3>(1);
+  const Eigen::Matrix3d E = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d I = R * inertiaTensor(phi) * R.transpose() +
+                            m * (p.squaredNorm() * E - p * p.transpose()) + 2.0 * p.dot(h) * E -
+                            h * p.transpose() - p * h.transpose();
+  const Eigen::Vector3d h2 = h + m * p;
+  Vector10d out;
+  out << m, h2.x(), h2.y(), h2.z(), I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2), I(2, 2);
+  return out;
+}
+
+Eigen::Matrix4d pseudoInertia(const Vector10d& phi) {
+  const Eigen::Matrix3d I = inertiaTensor(phi);
+  Eigen::Matrix4d P;
+  P.topLeftCorner<3, 3>() = 0.5 * I.trace() * Eigen::Matrix3d::Identity() - I;
+  P.topRightCorner<3, 1>() = phi.segment<3>(1);
+  P.bottomLeftCorner<1, 3>() = phi.segment<3>(1).transpose();
+  P(3, 3) = phi[0];
+  return P;
+}
+
+bool buildModelFromUrdfFile(const std::string& path, bool floating_base, Model& model, std::string* error,
+                            double gravity_magnitude) {
+  std::ifstream in(path);
+  if (!in) return fail(error, "cannot read URDF file '" + path + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string err;
+  if (!buildModelFromUrdfString(ss.str(), floating_base, model, &err, gravity_magnitude))
+    return fail(error, "URDF '" + path + "': " + err);
+  return true;
+}
+
+bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model& out, std::string* error,
+                              double gravity_magnitude) {
+  if (!std::isfinite(gravity_magnitude) || gravity_magnitude < 0.0)
+    return fail(error, "gravity must be finite and non-negative");
+  // Document order of the joints (urdfdom keeps them in a name-sorted map).
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS)
+    return fail(error, std::string("malformed XML: ") + (doc.ErrorStr() ? doc.ErrorStr() : "parse error"));
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  if (!robot) return fail(error, "no <robot> element");
+  std::map<std::string, int> joint_order;
+  for (const tinyxml2::XMLElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
+    const char* name = j->Attribute("name");
+    if (name) joint_order.emplace(name, static_cast<int>(joint_order.size()));
+  }
+
+  CaptureHandler capture;
+  console_bridge::useOutputHandler(&capture);
+  urdf::ModelInterfaceSharedPtr urdf_model;
+  try {
+    urdf_model = urdf::parseURDF(xml);
+  } catch (const std::exception& e) {
+    capture.last_error = e.what();
+  }
+  console_bridge::restorePreviousOutputHandler();
+  if (!urdf_model)
+    return fail(error, capture.last_error.empty() ? "urdfdom could not parse the robot" : capture.last_error);
+  urdf::LinkConstSharedPtr root = urdf_model->getRoot();
+  if (!root) return fail(error, "no root link");
+
+  Model m;
+  m.name = urdf_model->getName();
+  m.floating_base = floating_base;
+  m.gravity = Eigen::Vector3d(0.0, 0.0, -gravity_magnitude);
+  std::vector<Vector10d> phis;
+  std::vector<double> lower, upper, effort;
+
+  // Depth-first walk. For every link: the body it belongs to and its placement in that body.
+  struct Item {
+    urdf::LinkConstSharedPtr link;
+    int body;
+    Eigen::Matrix3d R;
+    Eigen::Vector3d p;
+  };
+  std::vector<Item> stack;
+  if (floating_base) {
+    m.body_names.push_back(root->name);
+    m.parent.push_back(-1);
+    m.tree_rotation.push_back(Eigen::Matrix3d::Identity());
+    m.tree_position.push_back(Eigen::Vector3d::Zero());
+    m.joint_axis.push_back(Eigen::Vector3d::Zero());
+    phis.push_back(Vector10d::Zero());
+    stack.push_back({root, 0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()});
+  } else {
+    stack.push_back({root, -1, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()});
+  }
+  while (!stack.empty()) {
+    Item it = stack.back();
+    stack.pop_back();
+    const urdf::Link& link = *it.link;
+    Model::Frame frame;
+    frame.name = link.name;
+    frame.body = it.body;
+    frame.rotation = it.R;
+    frame.position = it.p;
+    m.frames.push_back(frame);
+    if (link.inertial && it.body >= 0) {
+      const urdf::Inertial& in = *link.inertial;
+      const double vals[] = {in.mass, in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz};
+      for (double v : vals)
+        if (!std::isfinite(v)) return fail(error, "link '" + link.name + "': non-finite inertial value");
+      if (!finite(in.origin)) return fail(error, "link '" + link.name + "': non-finite inertial origin");
+      if (in.mass < 0.0) return fail(error, "link '" + link.name + "': negative mass");
+      Eigen::Matrix3d Ic;
+      Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+      const Vector10d local = paramsFromInertial(in.mass, vector(in.origin.position), rotation(in.origin.rotation), Ic);
+      phis[it.body] += transformParams(local, it.R, it.p);
+    }
+    // Children in document order; pushed in reverse so that the first is visited first.
+    std::vector<urdf::JointSharedPtr> joints(link.child_joints.begin(), link.child_joints.end());
+    std::sort(joints.begin(), joints.end(), [&](const urdf::JointSharedPtr& a, const urdf::JointSharedPtr& b) {
+      return joint_order[a->name] < joint_order[b->name];
+    });
+    for (auto ji = joints.rbegin(); ji != joints.rend(); ++ji) {
+      const urdf::Joint& joint = **ji;
+      urdf::LinkConstSharedPtr child = urdf_model->getLink(joint.child_link_name);
+      if (!child) return fail(error, "joint '" + joint.name + "': unknown child link");
+      if (!finite(joint.parent_to_joint_origin_transform))
+        return fail(error, "joint '" + joint.name + "': non-finite origin");
+      const Eigen::Matrix3d Rj = it.R * rotation(joint.parent_to_joint_origin_transform.rotation);
+      const Eigen::Vector3d pj = it.p + it.R * vector(joint.parent_to_joint_origin_transform.position);
+      if (joint.type == urdf::Joint::FIXED) {
+        stack.push_back({child, it.body, Rj, pj});
+      } else if (joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS) {
+        Eigen::Vector3d axis = vector(joint.axis);
+        if (!axis.allFinite() || axis.norm() < 1e-12)
+          return fail(error, "joint '" + joint.name + "': zero or non-finite axis");
+        // Placeholder index; bodies are renumbered in tree order below.
+        stack.push_back({child, -2 - static_cast<int>(m.joint_names.size()), Rj, pj});
+        m.joint_names.push_back(joint.name);
+        m.body_names.push_back(child->name);
+        m.parent.push_back(it.body);
+        m.tree_rotation.push_back(Rj);
+        m.tree_position.push_back(pj);
+        m.joint_axis.push_back(axis.normalized());
+        phis.push_back(Vector10d::Zero());
+        const bool limited = joint.type == urdf::Joint::REVOLUTE && joint.limits;
+        lower.push_back(limited ? joint.limits->lower : -std::numeric_limits<double>::infinity());
+        upper.push_back(limited ? joint.limits->upper : std::numeric_limits<double>::infinity());
+        effort.push_back(joint.limits ? joint.limits->effort : 0.0);
+      } else {
+        static const char* names[] = {"unknown", "revolute", "continuous", "prismatic", "floating", "planar", "fixed"};
+        const int t = static_cast<int>(joint.type);
+        return fail(error, "joint '" + joint.name + "': type " + (t >= 0 && t <= 6 ? names[t] : "?") +
+                               " is not supported (revolute, continuous and fixed are)");
+      }
+    }
+    // A revolute child's body index is its discovery index: resolve the placeholders just pushed.
+    for (Item& s : stack) {
+      if (s.body <= -2) {
+        const int joint = -2 - s.body;
+        s.body = (floating_base ? 1 : 0) + joint;
+        // Its own frame is the body frame.
+        s.R.setIdentity();
+        s.p.setZero();
+      }
+    }
+  }
+  // Bodies were appended in the order joints were discovered (parent before child, but siblings' subtrees
+  // interleaved). Renumber into depth-first order following the document order of the joints.
+  const int nb = static_cast<int>(m.body_names.size());
+  std::vector<std::vector<int>> children(nb);
+  std::vector<int> roots;
+  for (int b = 0; b < nb; ++b) (m.parent[b] < 0 ? roots : children[m.parent[b]]).push_back(b);
+  // Sibling order: document order of the joint that created the body (floating base first).
+  auto key = [&](int b) {
+    const int j = b - (floating_base ? 1 : 0);
+    return j < 0 ? -1 : joint_order[m.joint_names[j]];
+  };
+  for (auto& c : children) std::sort(c.begin(), c.end(), [&](int a, int b) { return key(a) < key(b); });
+  std::sort(roots.begin(), roots.end(), [&](int a, int b) { return key(a) < key(b); });
+  std::vector<int> order;
+  std::vector<int> dfs(roots.rbegin(), roots.rend());
+  while (!dfs.empty()) {
+    const int b = dfs.back();
+    dfs.pop_back();
+    order.push_back(b);
+    for (auto c = children[b].rbegin(); c != children[b].rend(); ++c) dfs.push_back(*c);
+  }
+  std::vector<int> new_index(nb);
+  for (int i = 0; i < nb; ++i) new_index[order[i]] = i;
+
+  Model& r = out = Model();
+  r.name = m.name;
+  r.floating_base = floating_base;
+  r.gravity = m.gravity;
+  r.nbodies = nb;
+  r.njoints = static_cast<int>(m.joint_names.size());
+  r.nv = (floating_base ? 6 : 0) + r.njoints;
+  r.phi = Eigen::VectorXd::Zero(r.nparams());
+  r.position_lower.resize(r.njoints);
+  r.position_upper.resize(r.njoints);
+  r.effort_limit.resize(r.njoints);
+  for (int i = 0; i < nb; ++i) {
+    const int o = order[i];
+    r.body_names.push_back(m.body_names[o]);
+    r.parent.push_back(m.parent[o] < 0 ? -1 : new_index[m.parent[o]]);
+    // Placement relative to the parent body frame: stored as absolute-in-parent during the walk.
+    r.tree_rotation.push_back(m.tree_rotation[o]);
+    r.tree_position.push_back(m.tree_position[o]);
+    r.joint_axis.push_back(m.joint_axis[o]);
+    r.phi.segment<kParamsPerBody>(r.bodyParamIndex(i)) = phis[o];
+    const int old_joint = o - (floating_base ? 1 : 0);
+    if (old_joint >= 0) {
+      const int j = r.jointOfBody(i);
+      r.joint_names.resize(r.njoints);
+      r.joint_names[j] = m.joint_names[old_joint];
+      r.position_lower[j] = lower[old_joint];
+      r.position_upper[j] = upper[old_joint];
+      r.effort_limit[j] = effort[old_joint];
+    }
+  }
+  r.joint_body.resize(r.njoints);
+  r.joint_type.assign(r.njoints, JointType::Revolute);
+  for (int j = 0; j < r.njoints; ++j) r.joint_body[j] = j + (floating_base ? 1 : 0);
+  r.subtree.assign(nb, {});
+  for (int b = nb - 1; b >= 0; --b) {
+    r.subtree[b].insert(r.subtree[b].begin(), b);
+    if (r.parent[b] >= 0) {
+      auto& ps = r.subtree[r.parent[b]];
+      ps.insert(ps.end(), r.subtree[b].begin(), r.subtree[b].end());
+    }
+  }
+  for (auto& s : r.subtree) std::sort(s.begin(), s.end());
+  for (Model::Frame f : m.frames) {
+    if (f.body >= 0) f.body = new_index[f.body];
+    r.frames.push_back(f);
+  }
+  return true;
+}
+
+}  // namespace exoid
