@@ -10,7 +10,7 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 DEB_PACKAGES=(
-  build-essential cmake pkg-config python3 python3-venv
+  build-essential cmake pkg-config python3 python3-venv libqhull-dev libtinyxml2-dev libconsole-bridge-dev
   libeigen3-dev libmujoco-dev
   liblcm-dev liblcm-bin liblcm-java default-jdk-headless libjchart2d-java
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev

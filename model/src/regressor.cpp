@@ -1,10 +1,15 @@
 #include "exoid/model/regressor.hpp"
 
+#include "exoid/model/dynamics.hpp"
 #include "spatial.hpp"
 
 namespace exoid {
 
-void forwardKinematics(const Model& model, Data& d, const State& s) {
+namespace {
+
+/// One forward pass. drift = true: accelerations and gravity set to zero (velocity-product terms only).
+void forwardPass(const Model& model, Data& d, const State& s, bool drift) {
+  const double ka = drift ? 0.0 : 1.0;
   for (int b = 0; b < model.nbodies; ++b) {
     const int parent = model.parent[b];
     const int j = model.jointOfBody(b);
@@ -14,11 +19,11 @@ void forwardKinematics(const Model& model, Data& d, const State& s) {
       d.axis[b].setZero();
       d.omega[b] = s.base_omega;
       d.vel[b] = s.base_velocity;
-      d.alpha[b] = s.base_domega;
-      d.acc[b] = s.base_acceleration - s.base_orientation.conjugate() * model.gravity;
+      d.alpha[b] = ka * s.base_domega;
+      d.acc[b] = ka * (s.base_acceleration - s.base_orientation.conjugate() * model.gravity);
       continue;
     }
-    const double q = s.q[j], v = s.v[j], a = s.a[j];
+    const double q = s.q[j], v = s.v[j], a = ka * s.a[j];
     const Eigen::Matrix3d joint_rotation =
         Eigen::AngleAxisd(q, model.joint_axis[b]).toRotationMatrix();
     if (parent < 0) {  // child of the fixed root: the root does not move, gravity is its acceleration
@@ -28,7 +33,7 @@ void forwardKinematics(const Model& model, Data& d, const State& s) {
       d.omega[b] = d.axis[b] * v;
       d.vel[b].setZero();
       d.alpha[b] = d.axis[b] * a;
-      d.acc[b] = -model.gravity;
+      d.acc[b] = -ka * model.gravity;
       continue;
     }
     const Eigen::Matrix3d Rp = d.R[parent] * model.tree_rotation[b];
@@ -44,6 +49,11 @@ void forwardKinematics(const Model& model, Data& d, const State& s) {
     d.acc[b] = d.acc[parent] + d.alpha[parent].cross(r) + wp.cross(wp.cross(r));
   }
 }
+
+}  // namespace
+
+void forwardKinematics(const Model& model, Data& d, const State& s) { forwardPass(model, d, s, false); }
+void forwardKinematicsDrift(const Model& model, Data& d, const State& s) { forwardPass(model, d, s, true); }
 
 namespace {
 

@@ -1,0 +1,72 @@
+// Fixed-base regressor against KDL's tree inverse dynamics (TreeIdSolver_RNE), on the KUKA LWR4+ URDF of
+// the shared data set and on the exoskeleton with its body fixed to the world: 1000 random states each.
+#include <gtest/gtest.h>
+#include <kdl/treeidsolver_recursive_newton_euler.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+
+#include <random>
+
+#include "exoid/model/regressor.hpp"
+#include "exoid/model/urdf.hpp"
+#include "support/paths.hpp"
+
+namespace exoid {
+namespace {
+
+double maxRelErrorAgainstKdl(const std::string& urdf, int samples, uint64_t seed) {
+  Model model;
+  std::string err;
+  EXPECT_TRUE(buildModelFromUrdfFile(urdf, false, model, &err)) << err;
+  KDL::Tree tree;
+  EXPECT_TRUE(kdl_parser::treeFromFile(urdf, tree));
+  EXPECT_EQ(static_cast<int>(tree.getNrOfJoints()), model.njoints);
+  // KDL's joint numbering -> ours, by joint name.
+  std::vector<int> kdl_index(model.njoints, -1);
+  for (const auto& element : tree.getSegments()) {
+    const KDL::Segment& seg = GetTreeElementSegment(element.second);
+    if (seg.getJoint().getType() == KDL::Joint::None) continue;
+    const int j = model.jointIndex(seg.getJoint().getName());
+    EXPECT_GE(j, 0) << seg.getJoint().getName();
+    if (j >= 0) kdl_index[j] = GetTreeElementQNr(element.second);
+  }
+  KDL::TreeIdSolver_RNE solver(tree, KDL::Vector(0.0, 0.0, -9.81));
+  KDL::JntArray q(model.njoints), qd(model.njoints), qdd(model.njoints), tau(model.njoints);
+  KDL::WrenchMap no_external;
+  Data data(model);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  double worst = 0.0;
+  for (int s = 0; s < samples; ++s) {
+    State st = State::zero(model);
+    for (int j = 0; j < model.njoints; ++j) {
+      st.q[j] = M_PI * u(rng);
+      st.v[j] = 3.0 * u(rng);
+      st.a[j] = 20.0 * u(rng);
+      q(kdl_index[j]) = st.q[j];
+      qd(kdl_index[j]) = st.v[j];
+      qdd(kdl_index[j]) = st.a[j];
+    }
+    EXPECT_GE(solver.CartToJnt(q, qd, qdd, no_external, tau), 0);
+    Eigen::VectorXd tau_kdl(model.njoints);
+    for (int j = 0; j < model.njoints; ++j) tau_kdl[j] = tau(kdl_index[j]);
+    computeJointTorqueRegressor(model, data, st);
+    const Eigen::VectorXd tau_k = data.K * model.phi;
+    worst = std::max(worst, (tau_k - tau_kdl).cwiseAbs().maxCoeff() / tau_kdl.cwiseAbs().maxCoeff());
+  }
+  return worst;
+}
+
+TEST(RegressorVsKdl, KukaLwr4ThousandRandomStates) {
+  const double worst = maxRelErrorAgainstKdl(test::sharedPath("datasets/kuka_lwr4/kuka_lwr4.urdf"), 1000, 11);
+  std::printf("KUKA LWR4+: max relative error of K*phi vs KDL TreeIdSolver_RNE: %.3e\n", worst);
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(RegressorVsKdl, ExoskeletonFixedBaseThousandRandomStates) {
+  const double worst = maxRelErrorAgainstKdl(test::configPath("exo.urdf"), 1000, 12);
+  std::printf("exoskeleton (fixed base): max relative error of K*phi vs KDL TreeIdSolver_RNE: %.3e\n", worst);
+  EXPECT_LT(worst, 1e-9);
+}
+
+}  // namespace
+}  // namespace exoid
