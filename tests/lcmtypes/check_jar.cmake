@@ -1,0 +1,18 @@
+cmake_policy(SET CMP0057 NEW)
+# ctest helper: `jar tf JAR` must list exoid_lcm/<T>.class for every T in EXPECT (comma separated).
+# Usage: cmake -DJAR_TOOL=jar -DJAR=path.jar -DEXPECT=a_t,b_t -P check_jar.cmake
+if(NOT EXISTS "${JAR}")
+  message(FATAL_ERROR "jar not found: ${JAR} (build target exoid_lcmtypes_jar)")
+endif()
+execute_process(COMMAND "${JAR_TOOL}" tf "${JAR}" OUTPUT_VARIABLE listing RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "'${JAR_TOOL} tf ${JAR}' failed with ${rc}")
+endif()
+string(REPLACE "\n" ";" entries "${listing}")
+string(REPLACE "," ";" expected "${EXPECT}")
+foreach(t IN LISTS expected)
+  if(NOT "exoid_lcm/${t}.class" IN_LIST entries)
+    message(FATAL_ERROR "${JAR} lacks exoid_lcm/${t}.class; it holds: ${listing}")
+  endif()
+endforeach()
+message(STATUS "${JAR} holds exoid_lcm/{${EXPECT}}.class")

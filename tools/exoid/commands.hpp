@@ -1,0 +1,7 @@
+#pragma once
+// Subcommands of the exoid binary. Each returns the process exit code: 0 ok, 2 bad input or failure.
+namespace exoid::cli {
+int cmdModel(int argc, char** argv);
+int cmdRegressor(int argc, char** argv);
+int cmdBaseParams(int argc, char** argv);
+}  // namespace exoid::cli
