@@ -105,6 +105,7 @@ std::string describeBaseParameters(const Model& model, const BaseParameters& bas
   os << "Not identifiable (no effect on any generalized force):\n   ";
   for (int i = 0; i < base.nparams; ++i)
     if (base.kind[i] == Identifiability::None) os << " " << names[i];
+  if (none == 0) os << " (none)";
   os << "\n";
   return os.str();
 }
