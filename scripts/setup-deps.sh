@@ -15,7 +15,7 @@ DEB_PACKAGES=(
   liblcm-dev liblcm-bin liblcm-java default-jdk-headless libjchart2d-java
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev
   libgtest-dev libbenchmark-dev libyaml-cpp-dev libcereal-dev
-  iproute2 util-linux xvfb xauth x11-apps
+  iproute2 util-linux xvfb xauth x11-apps imagemagick xdotool
 )
 PROXSUITE_VERSION=0.8.0
 

@@ -1,0 +1,45 @@
+#pragma once
+// A run as one row per tick (the `exoid export` schema, docs/data-formats.md), and the equation-of-motion
+// residual of a run. Both align every channel by tick; a tick missing any needed message is skipped and
+// counted, never filled in.
+#include <string>
+#include <vector>
+
+#include "exoid/model/model.hpp"
+#include "exoid/tools/run_log.hpp"
+
+namespace exoid::tools {
+
+struct ExportOptions {
+  bool truth = false;        ///< ground-truth channel instead of the sensors
+  double filter_hz = 0.0;    ///< sensors only: > 0 adds v_/a_ and base_dw* by zero-phase Butterworth + differences
+};
+
+struct RunTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<double>> rows;
+  long skipped_ticks = 0;    ///< ticks with a missing message on a needed channel
+};
+
+/// Builds the table. Fails with *error if the log has no usable tick or the options are invalid.
+bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& options, RunTable& table,
+                   std::string* error);
+
+/// Wrench on each foot from a plate sample: force on the foot (world) and its moment about the world origin.
+void footWrenchFromPlate(const ForcePlateSample& plate, Eigen::Vector3d& force, Eigen::Vector3d& moment_world_origin);
+
+struct EomResidual {
+  long ticks = 0;
+  double max_relative = 0.0;     ///< max over ticks of max|W phi - y| / max|y|
+  double rms_absolute = 0.0;     ///< RMS of W phi - y over all rows and ticks (N, N m)
+  std::vector<double> rms_per_row;  ///< [nv]
+};
+
+/// Residual of K(q, v, dv) phi = y over a run, with q, v, dv and the base pose from the ground-truth
+/// channel (the simulator's own accelerations), joint torques from the joint torque sensors (EXO_STATE,
+/// unactuated joints 0) and external wrenches from the force plates. phi: parameters to test (e.g. the
+/// model's). Needs the model's "right_foot" and "left_foot" bodies.
+bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& log, EomResidual& out,
+                 std::string* error);
+
+}  // namespace exoid::tools

@@ -1,0 +1,191 @@
+#include "exoid/tools/run_table.hpp"
+
+#include <unordered_map>
+
+#include "exoid/estimator/filters.hpp"
+#include "exoid/estimator/measurement.hpp"
+#include "exoid/model/regressor.hpp"
+#include "exoid/tools/state_columns.hpp"
+
+namespace exoid::tools {
+
+namespace {
+const char* const kSides[2] = {"right", "left"};
+
+template <class T>
+std::unordered_map<int64_t, const T*> byTick(const std::vector<T>& v) {
+  std::unordered_map<int64_t, const T*> m;
+  for (const T& s : v) m.emplace(s.tick, &s);
+  return m;
+}
+
+State truthState(const Model& model, const GroundTruthSample& t) {
+  State s = State::zero(model);
+  s.base_orientation = t.base_orientation;
+  s.base_position = t.base_position;
+  s.base_omega = t.base_omega;
+  s.base_velocity = t.base_velocity;
+  s.base_domega = t.base_domega;
+  s.base_acceleration = t.base_acceleration;
+  s.q = t.q;
+  s.v = t.v;
+  s.a = t.a;
+  return s;
+}
+}  // namespace
+
+void footWrenchFromPlate(const ForcePlateSample& p, Eigen::Vector3d& f, Eigen::Vector3d& n) {
+  const Eigen::Matrix3d R = p.plate_orientation.toRotationMatrix();
+  f = -(R * p.force);
+  n = -(R * p.moment) + p.plate_position.cross(f);
+}
+
+bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& opt, RunTable& table,
+                   std::string* error) {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  table = RunTable();
+  std::vector<int> actuated;
+  for (int j = 0; j < model.njoints; ++j)
+    if (model.effort_limit[j] > 0.0) actuated.push_back(j);
+  const auto plates_r = byTick(log.plates[0]);
+  const auto plates_l = byTick(log.plates[1]);
+
+  auto appendTauPlates = [&](std::vector<std::string>& h) {
+    for (int j : actuated) h.push_back("tau_" + model.joint_names[j]);
+    for (const char* side : kSides)
+      for (const char* c : {"fx", "fy", "fz", "nx", "ny", "nz"}) h.push_back(std::string("fp_") + side + "_" + c);
+  };
+  if (opt.truth) {
+    if (opt.filter_hz > 0.0) return fail("--filter applies to sensor data only (the truth has exact derivatives)");
+    if (log.truth.empty()) return fail("the log has no ground-truth (EXO_TRUTH) messages");
+    table.header = {"t"};
+    for (const std::string& n : StateColumns::names(model, true)) table.header.push_back(n);
+    appendTauPlates(table.header);
+    for (const GroundTruthSample& t : log.truth) {
+      std::vector<double> row{t.utime * 1e-6};
+      StateColumns::write(model, truthState(model, t), row, true);
+      for (int j : actuated) row.push_back(t.tau_applied[j]);
+      for (int side = 0; side < 2; ++side) {
+        row.insert(row.end(), {t.foot_force[side].x(), t.foot_force[side].y(), t.foot_force[side].z()});
+        row.insert(row.end(), {t.foot_moment[side].x(), t.foot_moment[side].y(), t.foot_moment[side].z()});
+      }
+      table.rows.push_back(std::move(row));
+    }
+    return true;
+  }
+  // Sensors: encoders, IMU, joint torque sensors, plates. Ticks missing a plate message are skipped.
+  if (log.states.empty()) return fail("the log has no robot state (EXO_STATE) messages");
+  if (opt.filter_hz < 0.0) return fail("--filter must be positive");
+  std::vector<const RobotStateSample*> st;
+  std::vector<const ForcePlateSample*> pr, pl;
+  for (const RobotStateSample& s : log.states) {
+    auto r = plates_r.find(s.tick), l = plates_l.find(s.tick);
+    if (r == plates_r.end() || l == plates_l.end()) {
+      ++table.skipped_ticks;
+      continue;
+    }
+    st.push_back(&s);
+    pr.push_back(r->second);
+    pl.push_back(l->second);
+  }
+  if (st.empty()) return fail("no tick has both the robot state and both plate messages");
+  const int n = static_cast<int>(st.size()), nj = model.njoints;
+  const bool derive = opt.filter_hz > 0.0;
+  Eigen::MatrixXd q(n, nj), gyro(n, 3), v, a, dw;
+  for (int i = 0; i < n; ++i) {
+    q.row(i) = st[i]->q.transpose();
+    gyro.row(i) = st[i]->imu_gyro.transpose();
+  }
+  if (derive) {
+    // Thesis section III-E: filter, differentiate, filter again; the same for the body angular velocity.
+    const double dt = n > 1 ? (st[n - 1]->utime - st[0]->utime) * 1e-6 / (n - 1) : 1e-3;
+    if (opt.filter_hz >= 0.5 / dt) return fail("--filter must be below the Nyquist frequency " + std::to_string(0.5 / dt) + " Hz");
+    const Biquad lp = Biquad::butterworthLowPass(opt.filter_hz, 1.0 / dt);
+    q = filtfilt(lp, q);
+    v = filtfilt(lp, differentiate(q, dt));
+    a = filtfilt(lp, differentiate(v, dt));
+    gyro = filtfilt(lp, gyro);
+    dw = filtfilt(lp, differentiate(gyro, dt));
+    for (int i = 0; i < n; ++i) q.row(i) = st[i]->q.transpose();  // positions themselves stay unfiltered
+  }
+  table.header = {"t"};
+  for (const std::string& j : model.joint_names) table.header.push_back("q_" + j);
+  if (derive) {
+    for (const std::string& j : model.joint_names) table.header.push_back("v_" + j);
+    for (const std::string& j : model.joint_names) table.header.push_back("a_" + j);
+  }
+  for (const char* c : {"base_qw", "base_qx", "base_qy", "base_qz", "base_wx", "base_wy", "base_wz"}) table.header.push_back(c);
+  if (derive) for (const char* c : {"base_dwx", "base_dwy", "base_dwz"}) table.header.push_back(c);
+  for (const char* c : {"base_ax", "base_ay", "base_az"}) table.header.push_back(c);
+  appendTauPlates(table.header);
+  for (int i = 0; i < n; ++i) {
+    const RobotStateSample& s = *st[i];
+    std::vector<double> row{s.utime * 1e-6};
+    for (int j = 0; j < nj; ++j) row.push_back(s.q[j]);
+    if (derive) {
+      for (int j = 0; j < nj; ++j) row.push_back(v(i, j));
+      for (int j = 0; j < nj; ++j) row.push_back(a(i, j));
+    }
+    const Eigen::Quaterniond& o = s.imu_orientation;
+    row.insert(row.end(), {o.w(), o.x(), o.y(), o.z(), gyro(i, 0), gyro(i, 1), gyro(i, 2)});
+    if (derive) row.insert(row.end(), {dw(i, 0), dw(i, 1), dw(i, 2)});
+    // Accelerometer = R^T (a - g): the classical acceleration of the base origin is R^T a = accel + R^T g.
+    const Eigen::Vector3d acc = s.imu_accel + o.conjugate() * model.gravity;
+    row.insert(row.end(), {acc.x(), acc.y(), acc.z()});
+    for (int j : actuated) row.push_back(s.tau[j]);
+    for (const ForcePlateSample* p : {pr[i], pl[i]}) {
+      Eigen::Vector3d f, m;
+      footWrenchFromPlate(*p, f, m);
+      row.insert(row.end(), {f.x(), f.y(), f.z(), m.x(), m.y(), m.z()});
+    }
+    table.rows.push_back(std::move(row));
+  }
+  return true;
+}
+
+bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& log, EomResidual& out,
+                 std::string* error) {
+  out = EomResidual();
+  const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
+  if (feet[0] < 0 || feet[1] < 0 || !model.floating_base) {
+    if (error) *error = "the EoM residual needs a floating-base model with right_foot and left_foot links";
+    return false;
+  }
+  const auto states = byTick(log.states);
+  const auto plates_r = byTick(log.plates[0]);
+  const auto plates_l = byTick(log.plates[1]);
+  Data kin(model);
+  Eigen::VectorXd y(model.nv), tau(model.njoints);
+  Eigen::VectorXd sum_sq = Eigen::VectorXd::Zero(model.nv);
+  for (const GroundTruthSample& t : log.truth) {
+    auto s = states.find(t.tick);
+    auto r = plates_r.find(t.tick), l = plates_l.find(t.tick);
+    if (s == states.end() || r == plates_r.end() || l == plates_l.end()) continue;
+    const State state = truthState(model, t);
+    computeJointTorqueRegressor(model, kin, state);
+    ExternalWrench w[2];
+    for (int side = 0; side < 2; ++side) {
+      w[side].body = feet[side];
+      footWrenchFromPlate(*(side == 0 ? r->second : l->second), w[side].force, w[side].moment_world_origin);
+    }
+    for (int j = 0; j < model.njoints; ++j) tau[j] = s->second->has_tau[j] ? s->second->tau[j] : 0.0;
+    generalizedForceFromMeasurements(model, kin, state, tau, w, 2, y);
+    const Eigen::VectorXd e = kin.K * phi - y;
+    out.max_relative = std::max(out.max_relative, e.cwiseAbs().maxCoeff() / std::max(y.cwiseAbs().maxCoeff(), 1e-12));
+    sum_sq += e.cwiseAbs2();
+    ++out.ticks;
+  }
+  if (out.ticks == 0) {
+    if (error) *error = "no tick has ground truth, robot state and both plates";
+    return false;
+  }
+  out.rms_per_row.resize(model.nv);
+  for (int i = 0; i < model.nv; ++i) out.rms_per_row[i] = std::sqrt(sum_sq[i] / out.ticks);
+  out.rms_absolute = std::sqrt(sum_sq.sum() / (out.ticks * model.nv));
+  return true;
+}
+
+}  // namespace exoid::tools
