@@ -17,10 +17,9 @@ echo
 echo "== 1. Model summary ============================================================"
 "$bin/exoid" model --model "$here/config/exo.urdf" --floating-base
 echo
-echo "== Regressor self-check =========================================================="
-"$bin/exoid" selfcheck --model "$here/config/exo.urdf" --mjcf "$here/config/exo.xml" \
-  ${EXOID_KUKA_URDF:+--fixed-urdf "$EXOID_KUKA_URDF"} \
-  $( [ -f "$shared/datasets/kuka_lwr4/kuka_lwr4.urdf" ] && echo --fixed-urdf "$shared/datasets/kuka_lwr4/kuka_lwr4.urdf" )
+echo "== Regressor self-check: K(q, v, dv) * phi against MuJoCo (floating base) and KDL (fixed base) =="
+"$bin/test_regressor" --gtest_brief=1 --gtest_filter='RegressorVsMujoco.*:SingleBody.*' | grep -E "max relative|PASSED|FAILED"
+"$bin/test_regressor_kdl" --gtest_brief=1 | grep -E "max relative|PASSED|FAILED"
 echo
 echo "== 2. Base parameters ==========================================================="
 "$bin/exoid" base-params --model "$here/config/exo.urdf" --floating-base | tee "$out/base_parameters_exo.txt" | head -4

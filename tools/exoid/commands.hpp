@@ -4,4 +4,6 @@ namespace exoid::cli {
 int cmdModel(int argc, char** argv);
 int cmdRegressor(int argc, char** argv);
 int cmdBaseParams(int argc, char** argv);
+int cmdExport(int argc, char** argv);
+int cmdExperiment(int argc, char** argv);
 }  // namespace exoid::cli

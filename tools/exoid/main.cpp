@@ -15,6 +15,8 @@ const Command kCommands[] = {
     {"model", exoid::cli::cmdModel, "print a model summary: links, joints, masses, total mass, standing CoM, base parameters"},
     {"regressor", exoid::cli::cmdRegressor, "evaluate the joint torque regressor K(q, v, dv) for states from a CSV"},
     {"base-params", exoid::cli::cmdBaseParams, "structural base parameters: which parameters are identifiable, alone or combined"},
+    {"experiment", exoid::cli::cmdExperiment, "closed-loop run: sim + controller over LCM in a private network namespace, logged and summarised"},
+    {"export", exoid::cli::cmdExport, "a logged run as one CSV row per tick (sensors, or --truth)"},
 };
 
 void usage(FILE* out) {

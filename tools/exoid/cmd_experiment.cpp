@@ -1,0 +1,159 @@
+// exoid experiment: sim + controller (+ estimator once it exists) as separate processes over LCM udpm://
+// inside a private network namespace, in lockstep, logged by lcm-logger, summarised from the log.
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "commands.hpp"
+#include "exoid/controller/config.hpp"
+#include "exoid/lcm/channels.hpp"
+#include "exoid/model/urdf.hpp"
+#include "exoid/tools/args.hpp"
+#include "exoid/tools/experiment_summary.hpp"
+#include "exoid/tools/process.hpp"
+#include "exoid/tools/run_log.hpp"
+
+namespace exoid::cli {
+
+namespace {
+constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
+
+constexpr char kHelp[] =
+    "usage: exoid experiment --scenario SCENARIO.yaml --out DIR [options]\n\n"
+    "Runs the closed loop: exo_sim (MuJoCo, lockstep) and exo_controller (centroidal balance QP doing the\n"
+    "thesis's CoM moves) as separate processes talking LCM over udpm:// with ttl=0 inside a private network\n"
+    "namespace (unshare -n; multicast routed on its loopback only), recorded by lcm-logger. Writes\n"
+    "  DIR/run.lcmlog       every message of every channel (lcm-logger format)\n"
+    "  DIR/summary.json     moves_done, fell, com_rmse_m, max_foot_slip_m, qp_solve_us_p50/p99, fallbacks,\n"
+    "                       realtime_factor, missing_ticks, eom_residual_max_rel, ...\n"
+    "  DIR/summary.md       the same as a table (also printed)\n"
+    "  DIR/sim.log, DIR/controller.log, DIR/logger.log   process output\n\n"
+    "options:\n"
+    "  --scenario FILE          sim scenario (config/scenarios/*.yaml): noise, undeclared effects\n"
+    "  --out DIR                output directory (created)\n"
+    "  --controller-config FILE controller configuration (default config/controller.yaml)\n"
+    "  --sensors FILE           sensor noise configuration (default config/sensors.yaml)\n"
+    "  --model URDF             controller's model (default config/exo.urdf)\n"
+    "  --mjcf FILE              simulated robot (default config/exo.xml)\n"
+    "  --seed N                 CoM move sequence seed (default 1; use different seeds for training and\n"
+    "                           validation runs)\n"
+    "  --moves N                number of CoM moves (default: the controller configuration's, 20)\n"
+    "  --realtime               run the sim at wall-clock 1 kHz instead of lockstep\n"
+    "  --help                   this text\n\n"
+    "needs: root (or unprivileged user namespaces) for unshare, iproute2, lcm-logger.\n"
+    "exit codes: 0 run completed (see summary for pass/fail of the targets), 2 bad input or a process failed.\n";
+
+int fail(const std::string& msg) {
+  std::fprintf(stderr, "exoid experiment: error: %s\n", msg.c_str());
+  return 2;
+}
+
+std::string binDir() {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
+  if (n <= 0) return ".";
+  buf[n] = '\0';
+  return std::filesystem::path(buf).parent_path().string();
+}
+
+/// Re-executes this command inside a new network namespace (root: unshare -n; otherwise unshare -r -n).
+int reexecInPrivateNetns(int argc, char** argv) {
+  std::vector<std::string> args = {"unshare"};
+  if (::geteuid() != 0) args.push_back("-r");
+  args.insert(args.end(), {"-n", "--", "/proc/self/exe"});
+  for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
+  ::setenv(kNetnsEnv, "1", 1);
+  std::vector<char*> c;
+  for (auto& a : args) c.push_back(a.data());
+  c.push_back(nullptr);
+  ::execvp("unshare", c.data());
+  return fail("cannot run 'unshare' (util-linux) to create a private network namespace");
+}
+}  // namespace
+
+int cmdExperiment(int argc, char** argv) {
+  const std::string config = EXOID_CONFIG_DIR;
+  tools::Args args;
+  args.option("scenario").option("out").option("controller-config", config + "/controller.yaml");
+  args.option("sensors", config + "/sensors.yaml").option("model", config + "/exo.urdf");
+  args.option("mjcf", config + "/exo.xml").option("seed", "1").option("moves", "0");
+  args.flag("realtime").flag("help");
+  std::string err;
+  if (!args.parse(argc, argv, 2, &err)) return fail(err);
+  if (args.has("help")) return std::fputs(kHelp, stdout), 0;
+  if (!args.has("scenario") || !args.has("out")) return fail("--scenario and --out are required (exoid experiment --help)");
+  for (const char* f : {"scenario", "controller-config", "sensors", "model", "mjcf"})
+    if (!std::filesystem::is_regular_file(args.get(f))) return fail("--" + std::string(f) + ": no such file '" + args.get(f) + "'");
+  long seed = 0, moves = 0;
+  if (!args.getInt("seed", seed, &err) || !args.getInt("moves", moves, &err)) return fail(err);
+  controller::ControllerConfig cc;
+  if (!controller::loadControllerConfig(args.get("controller-config"), cc, &err)) return fail(err);
+  if (moves < 0) return fail("--moves must be >= 0");
+  if (moves == 0) moves = cc.trajectory.moves;
+  const double duration = cc.trajectory.initial_hold + moves * (cc.trajectory.move_duration + cc.trajectory.hold_duration) +
+                          cc.trajectory.final_hold;
+
+  if (!std::getenv(kNetnsEnv)) return reexecInPrivateNetns(argc, argv);
+  // Inside the namespace: loopback up, multicast routed to it; nothing can leave this namespace.
+  if (std::system("ip link set lo up") != 0 || std::system("ip route add 224.0.0.0/4 dev lo") != 0)
+    return fail("cannot configure the private network namespace (ip link/route failed; is iproute2 installed?)");
+
+  const std::filesystem::path out = args.get("out");
+  std::filesystem::create_directories(out);
+  const std::string log_path = (out / "run.lcmlog").string();
+  std::filesystem::remove(log_path);
+  const std::string url = std::string(channels::kDefaultUrl) + "&recv_buf_size=16777216";
+  ::setenv("LCM_DEFAULT_URL", url.c_str(), 1);
+  const std::string bin = binDir();
+
+  pid_t logger = tools::spawn({"lcm-logger", "--lcm-url=" + url, "--force", log_path}, (out / "logger.log").string(), &err);
+  if (logger < 0) return fail(err);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  pid_t ctrl = tools::spawn({bin + "/exo_controller", "--model", args.get("model"), "--config", args.get("controller-config"),
+                             "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
+                            (out / "controller.log").string(), &err);
+  if (ctrl < 0) return tools::stop(logger, SIGINT, 2000), fail(err);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  char dur[32];
+  std::snprintf(dur, sizeof dur, "%.3f", duration);
+  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s -> %s\n", moves, duration,
+              args.get("scenario").c_str(), out.c_str());
+  std::fflush(stdout);
+  const auto t0 = std::chrono::steady_clock::now();
+  pid_t sim = tools::spawn({bin + "/exo_sim", "--model", args.get("mjcf"), "--sensors", args.get("sensors"), "--scenario",
+                            args.get("scenario"), "--mode", args.has("realtime") ? "realtime" : "lockstep",
+                            "--duration", dur, "--lcm-url", url},
+                           "", &err);
+  if (sim < 0) return tools::stop(ctrl, SIGTERM, 2000), tools::stop(logger, SIGINT, 2000), fail(err);
+  int sim_code = -1, ctrl_code = -1;
+  tools::waitFor(sim, -1, &sim_code);
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!tools::waitFor(ctrl, 5000, &ctrl_code)) ctrl_code = tools::stop(ctrl, SIGTERM, 2000);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger drain its socket
+  tools::stop(logger, SIGINT, 5000);
+  if (sim_code != 0) return fail("exo_sim exited with code " + std::to_string(sim_code));
+  if (ctrl_code != 0)
+    std::fprintf(stderr, "exoid experiment: warning: exo_controller exited with code %d (see %s)\n", ctrl_code,
+                 (out / "controller.log").c_str());
+
+  Model model;
+  if (!buildModelFromUrdfFile(args.get("model"), true, model, &err)) return fail(err);
+  tools::RunLog log;
+  if (!tools::readRunLog(log_path, model.joint_names, log, &err)) return fail(err);
+  tools::ExperimentSummary s;
+  if (!tools::summarizeExperiment(model, log, static_cast<int>(moves), wall, s, &err)) return fail(err);
+  const std::string table = tools::summaryTable(s);
+  std::ofstream(out / "summary.json") << tools::summaryJson(s);
+  std::ofstream(out / "summary.md") << "# Experiment " << args.get("scenario") << " (seed " << seed << ")\n\n" << table;
+  std::printf("\n%s\nwritten: %s, %s, %s\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
+              (out / "summary.md").c_str());
+  return 0;
+}
+
+}  // namespace exoid::cli

@@ -1,0 +1,21 @@
+#pragma once
+// Child processes for `exoid experiment`: spawn with argv (no shell), wait with a deadline, stop.
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+namespace exoid::tools {
+
+/// Starts argv[0] (searched in PATH) with the given arguments. Output goes to log_path (appended) if not
+/// empty, otherwise it is inherited. Returns the pid, or -1 with *error.
+pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error);
+
+/// Waits up to timeout_ms for the process to exit (timeout_ms < 0: forever). Returns true and its exit
+/// code (128 + signal if killed by one) when it exited; false on timeout.
+bool waitFor(pid_t pid, int timeout_ms, int* exit_code);
+
+/// Sends sig, then waits up to grace_ms; if still running, kills it (SIGKILL) and reaps it.
+int stop(pid_t pid, int sig, int grace_ms);
+
+}  // namespace exoid::tools

@@ -1,0 +1,74 @@
+#include "exoid/tools/process.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <thread>
+
+namespace exoid::tools {
+
+pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error) {
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  int fd = -1;
+  if (!log_path.empty()) {
+    fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (fd < 0) {
+      if (error) *error = "cannot write '" + log_path + "': " + std::strerror(errno);
+      return -1;
+    }
+  }
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    if (error) *error = std::string("fork failed: ") + std::strerror(errno);
+    if (fd >= 0) ::close(fd);
+    return -1;
+  }
+  if (pid == 0) {
+    if (fd >= 0) {
+      ::dup2(fd, STDOUT_FILENO);
+      ::dup2(fd, STDERR_FILENO);
+      ::close(fd);
+    }
+    ::execvp(args[0], args.data());
+    std::fprintf(stderr, "cannot start '%s': %s\n", args[0], std::strerror(errno));
+    ::_exit(127);
+  }
+  if (fd >= 0) ::close(fd);
+  return pid;
+}
+
+bool waitFor(pid_t pid, int timeout_ms, int* exit_code) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  for (;;) {
+    int status = 0;
+    const pid_t r = ::waitpid(pid, &status, timeout_ms < 0 ? 0 : WNOHANG);
+    if (r == pid) {
+      if (exit_code) *exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      return true;
+    }
+    if (r < 0 && errno != EINTR) {
+      if (exit_code) *exit_code = -1;
+      return true;
+    }
+    if (timeout_ms >= 0 && std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
+int stop(pid_t pid, int sig, int grace_ms) {
+  int code = -1;
+  ::kill(pid, sig);
+  if (waitFor(pid, grace_ms, &code)) return code;
+  ::kill(pid, SIGKILL);
+  waitFor(pid, -1, &code);
+  return code;
+}
+
+}  // namespace exoid::tools
