@@ -1,0 +1,91 @@
+#pragma once
+// Sim inputs read from YAML: the sensor noise model (config/sensors.yaml) and a scenario
+// (config/scenarios/*.yaml). Loaders run once at startup; they report the first problem as one line
+// "<file>: <key>: <what>" and never throw. Formats: docs/sim.md.
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace exoid::sim {
+
+/// One-sigma Gaussian white noise of every sensor, per sample (1 kHz). Zero switches a sensor's noise off.
+struct SensorConfig {
+  double encoder_sigma = 0.0;                                 ///< rad
+  double torque_sigma = 0.0;                                  ///< N m, joint torque sensors
+  Eigen::Vector3d imu_orientation_sigma = Eigen::Vector3d::Zero();  ///< rad, rotation about world x, y, z
+  double gyro_sigma = 0.0;                                    ///< rad/s, per axis
+  double accel_sigma = 0.0;                                   ///< m/s^2, per axis
+  Eigen::Vector3d plate_force_sigma = Eigen::Vector3d::Zero();   ///< N, plate x, y, z
+  Eigen::Vector3d plate_moment_sigma = Eigen::Vector3d::Zero();  ///< N m, plate x, y, z
+  double cop_min_force = 20.0;  ///< N: CoP is reported only while the normal load exceeds this (else 0)
+  std::string source;           ///< file it was read from ("" = built in)
+};
+
+/// Reads a sensors file (every key required, unknown keys refused, sigmas finite and >= 0).
+bool loadSensorConfig(const std::string& path, SensorConfig* out, std::string* err);
+/// The same config with every sigma zero (cop_min_force kept).
+SensorConfig noiseOff(const SensorConfig& config);
+
+/// A per-joint value; name is a joint name or "all" (applied first; named joints override it).
+struct JointValue {
+  std::string joint;
+  double value = 0.0;
+};
+
+/// A rigid mass added to a link (undeclared payload).
+struct Payload {
+  std::string link;
+  double mass = 0.0;                                 ///< kg, > 0
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();     ///< its centre of mass, link frame, m
+  Eigen::Matrix<double, 6, 1> inertia = Eigen::Matrix<double, 6, 1>::Zero();  ///< about its com, link frame:
+                                                     ///< ixx iyy izz ixy ixz iyz (MJCF fullinertia order)
+};
+
+/// Torque sensor error: measured = gain * true + offset (before noise).
+struct TorqueSensorError {
+  std::string joint;  ///< joint name or "all"
+  double offset = 0.0;  ///< N m
+  double gain = 1.0;
+};
+
+/// Physics and sensor effects that the URDF (hence controller and estimator) does not know about.
+/// Applied to the MuJoCo model / the sim's sensor model only.
+struct Effects {
+  std::vector<JointValue> joint_damping;       ///< N m s/rad (MuJoCo dof_damping), >= 0
+  std::vector<JointValue> joint_frictionloss;  ///< N m (MuJoCo dof_frictionloss: dry friction), >= 0
+  std::vector<JointValue> armature;            ///< kg m^2 (MuJoCo dof_armature: reflected rotor inertia), >= 0
+  std::vector<Payload> payloads;
+  std::vector<TorqueSensorError> torque_sensor;
+  bool any() const {
+    return !joint_damping.empty() || !joint_frictionloss.empty() || !armature.empty() || !payloads.empty() ||
+           !torque_sensor.empty();
+  }
+};
+
+enum class NoiseMode { Realistic, Off, File };
+
+struct InitialState {
+  double base_height_offset = 0.0;  ///< m, added to the MJCF base height (standing: 0)
+  std::vector<JointValue> joints;   ///< rad, initial joint angles (others 0); "all" not allowed
+};
+
+struct Scenario {
+  std::string name = "default";
+  std::string description;
+  uint64_t seed = 1;                  ///< noise RNG seed
+  NoiseMode noise = NoiseMode::Realistic;
+  std::string noise_file;             ///< NoiseMode::File: sensors file (resolved against the scenario's dir)
+  Effects effects;
+  InitialState initial;
+  std::string source;                 ///< file it was read from ("" = built-in default)
+};
+
+/// Reads a scenario file. Joint/link names are checked later, by simLoad (it knows the model).
+bool loadScenario(const std::string& path, Scenario* out, std::string* err);
+
+/// The noise a scenario asks for: Realistic -> `realistic`, Off -> noiseOff(realistic), File -> that file.
+bool resolveSensorConfig(const Scenario& scenario, const SensorConfig& realistic, SensorConfig* out,
+                         std::string* err);
+
+}  // namespace exoid::sim

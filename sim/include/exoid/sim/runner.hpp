@@ -1,0 +1,55 @@
+#pragma once
+// The exo_sim loop over LCM (library exoid_sim_runner, so tests can drive it in-process over memq://).
+// Per tick k: obtain the command for tick k (lockstep: wait for it, bounded; realtime: the latest valid one
+// at the 1 kHz deadline), simStep, publish EXO_STATE, EXO_PLATE_RIGHT, EXO_PLATE_LEFT, EXO_TRUTH for tick k.
+// Commands on EXO_COMMAND pass a MessageGate (duplicate, out-of-order, non-finite, malformed: rejected and
+// counted) before the CommandArbiter sees them. No allocation per tick once running.
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "exoid/lcm/lcm_endpoint.hpp"
+#include "exoid/sim/command.hpp"
+#include "exoid/sim/sim.hpp"
+
+namespace exoid::sim {
+
+struct RunOptions {
+  SimMode mode = SimMode::Lockstep;
+  double duration_s = 10.0;       ///< simulated seconds (ticks = round(duration * 1000))
+  int command_timeout_ms = 100;   ///< lockstep: wait this long for the command of tick k, then fall back
+  int hold_ticks = 50;            ///< fallback: hold the last valid command this many ticks, then zero torque
+  double start_timeout_s = 5.0;   ///< lockstep: wait this long for the first command (re-sending tick 0)
+  bool quiet = false;             ///< no progress lines
+  std::FILE* log = stdout;        ///< progress and summary
+};
+
+struct RunSummary {
+  int64_t ticks = 0;
+  double sim_time_s = 0.0, wall_time_s = 0.0, realtime_factor = 0.0;
+  uint64_t accepted = 0;           ///< commands admitted by the gate
+  uint64_t rejected = 0;           ///< commands rejected by the gate (sum of the four reasons)
+  uint64_t rejected_by_reason[4] = {0, 0, 0, 0};  ///< duplicate, out_of_order, non_finite, malformed
+  int64_t fresh_ticks = 0;         ///< ticks that applied a fresh command
+  int64_t held_ticks = 0;          ///< stale ticks on the held command
+  int64_t zero_ticks = 0;          ///< stale ticks on zero torque
+  int64_t timeouts = 0;            ///< lockstep waits that ended without the command
+  int64_t refused = 0;             ///< commands simStep refused (cannot happen after the gate; kept as a check)
+  int64_t clamped = 0;             ///< commands with a torque clamped to the actuator range
+  int64_t overruns = 0;            ///< realtime: ticks that missed their 1 ms deadline
+  int64_t mujoco_warnings = 0;
+  bool fell = false;               ///< base dropped more than kFallDrop at some tick
+  bool interrupted = false;        ///< stopped early by the stop flag (SIGINT/SIGTERM)
+  int64_t fallbackTicks() const { return held_ticks + zero_ticks; }
+};
+
+/// Runs the simulation loop on `endpoint` (data must be freshly reset). Returns false on an LCM failure
+/// (*err one line). `stop`, if given, ends the run early when it becomes non-zero.
+bool runSim(const SimModel& model, SimData& data, LcmEndpoint& endpoint, const RunOptions& options,
+            RunSummary* summary, std::string* err, const volatile std::sig_atomic_t* stop = nullptr);
+
+/// The final one-line summary (no trailing newline).
+std::string formatSummary(const RunSummary& s);
+
+}  // namespace exoid::sim

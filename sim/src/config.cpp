@@ -1,0 +1,305 @@
+// YAML loaders for the sensor noise model and scenarios. yaml-cpp throws; every call into it is wrapped so
+// that a bad file becomes one line "<file>: <key>: <what>" and never an exception (startup code only).
+#include "exoid/sim/config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <initializer_list>
+#include <string>
+
+namespace exoid::sim {
+namespace {
+
+// Error sink that prefixes the file name; fail() always returns false so call sites can `return fail(...)`.
+struct Ctx {
+  std::string file;
+  std::string* err;
+  bool fail(const std::string& key, const std::string& what) const {
+    if (err) *err = file + ": " + (key.empty() ? "" : key + ": ") + what;
+    return false;
+  }
+};
+
+std::string join(const std::string& a, const std::string& b) { return a.empty() ? b : a + "." + b; }
+
+const char* typeName(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Null: return "null";
+    case YAML::NodeType::Scalar: return "a scalar";
+    case YAML::NodeType::Sequence: return "a sequence";
+    case YAML::NodeType::Map: return "a map";
+    default: return "undefined";
+  }
+}
+
+bool loadFile(const Ctx& c, YAML::Node* root) {
+  try {
+    *root = YAML::LoadFile(c.file);
+  } catch (const YAML::BadFile&) {
+    return c.fail("", "cannot open file");
+  } catch (const YAML::Exception& e) {
+    return c.fail("", std::string("malformed YAML: ") + e.what());
+  }
+  if (!root->IsMap()) return c.fail("", std::string("top level must be a map, found ") + typeName(*root));
+  return true;
+}
+
+// Every key of `map` must be one of `allowed`.
+bool checkKeys(const Ctx& c, const YAML::Node& map, const std::string& path,
+               std::initializer_list<const char*> allowed) {
+  if (!map.IsMap()) return c.fail(path, std::string("expected a map, found ") + typeName(map));
+  for (const auto& kv : map) {
+    if (!kv.first.IsScalar()) return c.fail(path, "keys must be scalars");
+    const std::string k = kv.first.as<std::string>();
+    bool ok = false;
+    for (const char* a : allowed) ok = ok || k == a;
+    if (!ok) {
+      std::string list;
+      for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      return c.fail(join(path, k), "unknown key (allowed: " + list + ")");
+    }
+  }
+  return true;
+}
+
+bool getRequired(const Ctx& c, const YAML::Node& map, const std::string& path, const char* key, YAML::Node* out) {
+  const YAML::Node n = map[key];
+  if (!n) return c.fail(join(path, key), "missing");
+  *out = n;
+  return true;
+}
+
+bool toDouble(const Ctx& c, const YAML::Node& n, const std::string& key, double* out) {
+  if (!n.IsScalar()) return c.fail(key, std::string("expected a number, found ") + typeName(n));
+  try {
+    *out = n.as<double>();
+  } catch (const YAML::Exception&) {
+    return c.fail(key, "expected a number, found '" + n.Scalar() + "'");
+  }
+  if (!std::isfinite(*out)) return c.fail(key, "must be finite");
+  return true;
+}
+
+bool toNonNegative(const Ctx& c, const YAML::Node& n, const std::string& key, double* out) {
+  if (!toDouble(c, n, key, out)) return false;
+  if (*out < 0.0) return c.fail(key, "must be >= 0");
+  return true;
+}
+
+bool toString(const Ctx& c, const YAML::Node& n, const std::string& key, std::string* out) {
+  if (!n.IsScalar()) return c.fail(key, std::string("expected a string, found ") + typeName(n));
+  *out = n.Scalar();
+  return true;
+}
+
+template <int N>
+bool toVector(const Ctx& c, const YAML::Node& n, const std::string& key, Eigen::Matrix<double, N, 1>* out,
+              bool non_negative) {
+  if (!n.IsSequence() || n.size() != N)
+    return c.fail(key, "expected a sequence of " + std::to_string(N) + " numbers");
+  for (int i = 0; i < N; ++i) {
+    const std::string k = key + "[" + std::to_string(i) + "]";
+    if (!(non_negative ? toNonNegative(c, n[i], k, &(*out)[i]) : toDouble(c, n[i], k, &(*out)[i]))) return false;
+  }
+  return true;
+}
+
+// A map joint -> number, e.g. {all: 0.5, right_knee: 1.0}.
+bool toJointValues(const Ctx& c, const YAML::Node& n, const std::string& key, bool allow_all, bool non_negative,
+                   std::vector<JointValue>* out) {
+  if (!n.IsMap()) return c.fail(key, std::string("expected a map joint: value, found ") + typeName(n));
+  for (const auto& kv : n) {
+    JointValue jv;
+    jv.joint = kv.first.as<std::string>();
+    const std::string k = join(key, jv.joint);
+    if (!allow_all && jv.joint == "all") return c.fail(k, "'all' is not allowed here");
+    if (!(non_negative ? toNonNegative(c, kv.second, k, &jv.value) : toDouble(c, kv.second, k, &jv.value)))
+      return false;
+    out->push_back(jv);
+  }
+  return true;
+}
+
+bool parsePayload(const Ctx& c, const YAML::Node& n, const std::string& key, Payload* p) {
+  if (!checkKeys(c, n, key, {"link", "mass", "com", "inertia"})) return false;
+  YAML::Node v;
+  if (!getRequired(c, n, key, "link", &v) || !toString(c, v, join(key, "link"), &p->link)) return false;
+  if (!getRequired(c, n, key, "mass", &v) || !toDouble(c, v, join(key, "mass"), &p->mass)) return false;
+  if (p->mass <= 0.0) return c.fail(join(key, "mass"), "must be > 0");
+  if (n["com"] && !toVector<3>(c, n["com"], join(key, "com"), &p->com, false)) return false;
+  if (n["inertia"]) {
+    if (!toVector<6>(c, n["inertia"], join(key, "inertia"), &p->inertia, false)) return false;
+    Eigen::Matrix3d I;
+    I << p->inertia[0], p->inertia[3], p->inertia[4], p->inertia[3], p->inertia[1], p->inertia[5], p->inertia[4],
+        p->inertia[5], p->inertia[2];
+    // A physical inertia tensor is positive semi-definite (and obeys the triangle inequality of its
+    // principal moments); anything else makes MuJoCo's body inertia meaningless.
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(I);
+    const Eigen::Vector3d d = es.eigenvalues();
+    const double tol = 1e-12 * std::max(1.0, d.cwiseAbs().maxCoeff());
+    if (d.minCoeff() < -tol || d[0] + d[1] < d[2] - tol)
+      return c.fail(join(key, "inertia"), "not a physical inertia tensor (ixx iyy izz ixy ixz iyz about the com)");
+  }
+  return true;
+}
+
+bool parseEffects(const Ctx& c, const YAML::Node& n, Effects* e) {
+  const std::string key = "effects";
+  if (n.IsNull()) return true;  // "effects:" with nothing = none
+  if (!checkKeys(c, n, key, {"joint_damping", "joint_frictionloss", "armature", "payload", "torque_sensor"}))
+    return false;
+  if (n["joint_damping"] &&
+      !toJointValues(c, n["joint_damping"], "effects.joint_damping", true, true, &e->joint_damping))
+    return false;
+  if (n["joint_frictionloss"] &&
+      !toJointValues(c, n["joint_frictionloss"], "effects.joint_frictionloss", true, true, &e->joint_frictionloss))
+    return false;
+  if (n["armature"] && !toJointValues(c, n["armature"], "effects.armature", true, true, &e->armature)) return false;
+  if (const YAML::Node p = n["payload"]) {
+    // One payload (a map) or several (a sequence of maps).
+    if (p.IsSequence()) {
+      for (size_t i = 0; i < p.size(); ++i) {
+        Payload pl;
+        if (!parsePayload(c, p[i], "effects.payload[" + std::to_string(i) + "]", &pl)) return false;
+        e->payloads.push_back(pl);
+      }
+    } else {
+      Payload pl;
+      if (!parsePayload(c, p, "effects.payload", &pl)) return false;
+      e->payloads.push_back(pl);
+    }
+  }
+  if (const YAML::Node t = n["torque_sensor"]) {
+    if (!t.IsMap()) return c.fail("effects.torque_sensor", "expected a map joint: {offset, gain}");
+    for (const auto& kv : t) {
+      TorqueSensorError ts;
+      ts.joint = kv.first.as<std::string>();
+      const std::string k = join("effects.torque_sensor", ts.joint);
+      if (!checkKeys(c, kv.second, k, {"offset", "gain"})) return false;
+      if (kv.second["offset"] && !toDouble(c, kv.second["offset"], join(k, "offset"), &ts.offset)) return false;
+      if (kv.second["gain"] && !toDouble(c, kv.second["gain"], join(k, "gain"), &ts.gain)) return false;
+      if (ts.gain <= 0.0) return c.fail(join(k, "gain"), "must be > 0");
+      e->torque_sensor.push_back(ts);
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool loadSensorConfig(const std::string& path, SensorConfig* out, std::string* err) {
+  const Ctx c{path, err};
+  YAML::Node root;
+  if (!loadFile(c, &root)) return false;
+  SensorConfig s;
+  s.source = path;
+  try {
+    if (!checkKeys(c, root, "", {"encoder", "joint_torque", "imu", "force_plate"})) return false;
+    YAML::Node sec, v;
+    if (!getRequired(c, root, "", "encoder", &sec) || !checkKeys(c, sec, "encoder", {"sigma"}) ||
+        !getRequired(c, sec, "encoder", "sigma", &v) || !toNonNegative(c, v, "encoder.sigma", &s.encoder_sigma))
+      return false;
+    if (!getRequired(c, root, "", "joint_torque", &sec) || !checkKeys(c, sec, "joint_torque", {"sigma"}) ||
+        !getRequired(c, sec, "joint_torque", "sigma", &v) ||
+        !toNonNegative(c, v, "joint_torque.sigma", &s.torque_sigma))
+      return false;
+    if (!getRequired(c, root, "", "imu", &sec) ||
+        !checkKeys(c, sec, "imu", {"orientation_sigma", "gyro_sigma", "accel_sigma"}) ||
+        !getRequired(c, sec, "imu", "orientation_sigma", &v) ||
+        !toVector<3>(c, v, "imu.orientation_sigma", &s.imu_orientation_sigma, true) ||
+        !getRequired(c, sec, "imu", "gyro_sigma", &v) || !toNonNegative(c, v, "imu.gyro_sigma", &s.gyro_sigma) ||
+        !getRequired(c, sec, "imu", "accel_sigma", &v) || !toNonNegative(c, v, "imu.accel_sigma", &s.accel_sigma))
+      return false;
+    if (!getRequired(c, root, "", "force_plate", &sec) ||
+        !checkKeys(c, sec, "force_plate", {"force_sigma", "moment_sigma", "cop_min_force"}) ||
+        !getRequired(c, sec, "force_plate", "force_sigma", &v) ||
+        !toVector<3>(c, v, "force_plate.force_sigma", &s.plate_force_sigma, true) ||
+        !getRequired(c, sec, "force_plate", "moment_sigma", &v) ||
+        !toVector<3>(c, v, "force_plate.moment_sigma", &s.plate_moment_sigma, true) ||
+        !getRequired(c, sec, "force_plate", "cop_min_force", &v) ||
+        !toNonNegative(c, v, "force_plate.cop_min_force", &s.cop_min_force))
+      return false;
+  } catch (const YAML::Exception& e) {
+    return c.fail("", std::string("YAML error: ") + e.what());
+  }
+  *out = s;
+  return true;
+}
+
+SensorConfig noiseOff(const SensorConfig& config) {
+  SensorConfig s;
+  s.cop_min_force = config.cop_min_force;
+  s.source = config.source.empty() ? "noise off" : config.source + " (noise off)";
+  return s;
+}
+
+bool loadScenario(const std::string& path, Scenario* out, std::string* err) {
+  const Ctx c{path, err};
+  YAML::Node root;
+  if (!loadFile(c, &root)) return false;
+  Scenario s;
+  s.source = path;
+  try {
+    if (!checkKeys(c, root, "", {"name", "description", "seed", "noise", "effects", "initial_state"})) return false;
+    YAML::Node v;
+    if (!getRequired(c, root, "", "name", &v) || !toString(c, v, "name", &s.name)) return false;
+    if (s.name.empty()) return c.fail("name", "must not be empty");
+    if (root["description"] && !toString(c, root["description"], "description", &s.description)) return false;
+    if (!getRequired(c, root, "", "seed", &v)) return false;
+    if (!v.IsScalar()) return c.fail("seed", std::string("expected an unsigned integer, found ") + typeName(v));
+    try {
+      s.seed = v.as<uint64_t>();
+    } catch (const YAML::Exception&) {
+      return c.fail("seed", "expected an unsigned integer, found '" + v.Scalar() + "'");
+    }
+    if (!getRequired(c, root, "", "noise", &v)) return false;
+    std::string noise;
+    if (!toString(c, v, "noise", &noise)) return false;
+    if (noise == "realistic") {
+      s.noise = NoiseMode::Realistic;
+    } else if (noise == "off") {
+      s.noise = NoiseMode::Off;
+    } else if (!noise.empty()) {
+      // Any other value is a sensors file, relative to the scenario file's directory.
+      s.noise = NoiseMode::File;
+      const size_t slash = path.find_last_of('/');
+      s.noise_file = (noise[0] == '/' || slash == std::string::npos) ? noise : path.substr(0, slash + 1) + noise;
+    } else {
+      return c.fail("noise", "expected realistic, off or a sensors file path");
+    }
+    if (root["effects"] && !parseEffects(c, root["effects"], &s.effects)) return false;
+    if (const YAML::Node init = root["initial_state"]) {
+      if (!checkKeys(c, init, "initial_state", {"base_height_offset", "joints"})) return false;
+      if (init["base_height_offset"] &&
+          !toDouble(c, init["base_height_offset"], "initial_state.base_height_offset", &s.initial.base_height_offset))
+        return false;
+      if (init["joints"] &&
+          !toJointValues(c, init["joints"], "initial_state.joints", false, false, &s.initial.joints))
+        return false;
+    }
+  } catch (const YAML::Exception& e) {
+    return c.fail("", std::string("YAML error: ") + e.what());
+  }
+  *out = s;
+  return true;
+}
+
+bool resolveSensorConfig(const Scenario& scenario, const SensorConfig& realistic, SensorConfig* out,
+                         std::string* err) {
+  switch (scenario.noise) {
+    case NoiseMode::Realistic: *out = realistic; return true;
+    case NoiseMode::Off: *out = noiseOff(realistic); return true;
+    case NoiseMode::File: {
+      std::string e;
+      if (loadSensorConfig(scenario.noise_file, out, &e)) return true;
+      if (err) *err = scenario.source + ": noise: " + e;
+      return false;
+    }
+  }
+  return false;
+}
+
+}  // namespace exoid::sim

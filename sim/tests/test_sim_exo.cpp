@@ -1,0 +1,283 @@
+// Tests on the real robot (config/exo.xml + config/exo.urdf): plates under a standing robot, and the
+// equations of motion of exoid's regressor against the simulator's contact wrenches and plate readings.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <dirent.h>
+
+#include "exoid/model/regressor.hpp"
+#include "exoid/model/urdf.hpp"
+#include "sim_test_util.hpp"
+
+namespace exoid::sim::test {
+namespace {
+
+constexpr double kRobotMass = 41.05;  // kg, config/exo_true_parameters.csv (sum of the 11 links)
+constexpr double kG = 9.81;
+
+// Joint PD to q_ref from the simulator's current state (no transport delay: test only). Explicit damping on
+// the light ankle link is unstable at 1 kHz once a foot unloads, so the ankle gains stay moderate except
+// when standing still (stiff ankles damp the ~1.5 Hz sway mode within 1 s).
+struct PdGains {
+  double kp, kd, ankle_kp, ankle_kd;
+};
+constexpr PdGains kStandGains{1000.0, 150.0, 20000.0, 100.0};
+constexpr PdGains kMoveGains{1000.0, 100.0, 2000.0, 50.0};
+void pd(const SimModel& sm, const SimData& sd, const Eigen::VectorXd& q_ref, const PdGains& g,
+        JointCommandSample& cmd) {
+  for (int j = 0; j < sm.nj; ++j) {
+    const bool ankle = sm.joint_names[j].find("ankle_pd") != std::string::npos;
+    const double kp = ankle ? g.ankle_kp : g.kp, kd = ankle ? g.ankle_kd : g.kd;
+    cmd.tau[j] = -kp * (sd.d->qpos[sm.qpos_adr[j]] - q_ref[j]) - kd * sd.d->qvel[sm.dof_adr[j]];
+  }
+}
+
+class SimExo : public MujocoWarningsFail {
+ protected:
+  void SetUp() override {
+    MujocoWarningsFail::SetUp();
+    std::string err;
+    ASSERT_TRUE(buildModelFromUrdfFile(configPath("exo.urdf"), true, model, &err)) << err;
+  }
+  void load(const Scenario& sc) {
+    std::string err;
+    ASSERT_TRUE(simLoad(configPath("exo.xml"), noiseOff(realisticSensors()), sc, sm, &err)) << err;
+    ASSERT_TRUE(simMakeData(sm, sd, &err)) << err;
+    ASSERT_EQ(sm.joint_names, model.joint_names);  // samples are in the Model's joint order
+  }
+  Model model;
+  SimModel sm;
+  SimData sd;
+};
+
+TEST_F(SimExo, MjcfAndUrdfDescribeTheSameRobot) {
+  load(makeScenario(NoiseMode::Off));
+  EXPECT_NEAR(model.totalMass(), kRobotMass, 1e-9);
+  EXPECT_NEAR(sm.m->body_subtreemass[mj_name2id(sm.m, mjOBJ_BODY, "body")], kRobotMass, 1e-9);
+  int sensed = 0;
+  for (int j = 0; j < sm.nj; ++j) {
+    const bool ie = sm.joint_names[j].find("ankle_ie") != std::string::npos;
+    EXPECT_EQ(sd.state.has_tau[j], !ie) << sm.joint_names[j];  // in/eversion joints are passive
+    sensed += sd.state.has_tau[j];
+  }
+  EXPECT_EQ(sensed, 8);
+}
+
+// (b) Standing still on the plates with a PD holding q = 0: once the sway has settled, the plates carry
+// exactly the robot's weight (force ON the plates points down), and each CoP lies under its sole.
+TEST_F(SimExo, PlatesCarryTheRobotWeightWhenStandingStill) {
+  load(makeScenario(NoiseMode::Off));
+  JointCommandSample cmd = simZeroCommand(sm);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(sm.nj);
+  const double W = kRobotMass * kG;
+  double worst = 0.0;
+  for (int k = 0; k < 2500; ++k) {
+    cmd.tick = k;
+    pd(sm, sd, zero, kStandGains, cmd);
+    simStep(sm, sd, cmd);
+    if (k < 1500) continue;  // the sway mode (about 1.5 Hz) decays below 1e-6 within ~1 s
+    const double fz = sd.plates[0].force.z() + sd.plates[1].force.z();
+    worst = std::max(worst, std::abs(fz + W) / W);
+    for (int i = 0; i < kNumFeet; ++i) {
+      const ForcePlateSample& p = sd.plates[i];
+      ASSERT_LT(p.force.z(), -0.2 * W) << "both feet carry load";
+      // CoP in world, then in the sole box's frame: inside its footprint (sole x axis points down).
+      const Eigen::Vector3d cop_w = p.plate_position + p.plate_orientation.toRotationMatrix() * p.cop;
+      const int g = sm.foot_geom[i];
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Rg(sd.d->geom_xmat + 9 * g);
+      const Eigen::Vector3d local = Rg.transpose() * (cop_w - Eigen::Vector3d(sd.d->geom_xpos + 3 * g));
+      const double* size = sm.m->geom_size + 3 * g;
+      EXPECT_LT(std::abs(local.y()), size[1]) << "tick " << k;
+      EXPECT_LT(std::abs(local.z()), size[2]) << "tick " << k;
+      EXPECT_NEAR(cop_w.z(), 0.0, 1e-12);  // on the plate top
+    }
+  }
+  std::printf("[ plates ] max |sum Fz_on_plates + m g| / m g over the last 1 s: %.3e\n", worst);
+  RecordProperty("plate_weight_relative_error", std::to_string(worst));
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_FALSE(simFell(sm, sd));
+  // Standing still: the noise-free accelerometer reads +g up (specific force) in the base frame.
+  const Eigen::Matrix3d R = sd.truth.base_orientation.toRotationMatrix();
+  EXPECT_LT((sd.state.imu_accel - R.transpose() * Eigen::Vector3d(0, 0, kG)).norm(), 1e-4);
+}
+
+// Residuals of K(q, v, a) phi = y, with y built from external wrenches on the feet (about the world
+// origin, world coordinates) as described in docs/sim.md. Returns max |K phi - y| and max |y|.
+struct EomResidual {
+  double err = 0.0, scale = 0.0;
+};
+EomResidual eomResidual(const Model& model, Data& kin, State& st, const GroundTruthSample& t,
+                        const std::array<Eigen::Vector3d, 2>& F, const std::array<Eigen::Vector3d, 2>& N) {
+  st.base_orientation = t.base_orientation;
+  st.base_position = t.base_position;
+  st.base_omega = t.base_omega;
+  st.base_velocity = t.base_velocity;
+  st.base_domega = t.base_domega;
+  st.base_acceleration = t.base_acceleration;
+  st.q = t.q;
+  st.v = t.v;
+  st.a = t.a;
+  computeJointTorqueRegressor(model, kin, st);  // also forward kinematics: kin.p, kin.axis in base coords
+  const Eigen::VectorXd Kphi = kin.K * model.phi;
+  const Eigen::Matrix3d R = t.base_orientation.toRotationMatrix();
+  const int foot_body[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(model.nv);
+  Eigen::Matrix<double, 6, 1> w[2];
+  for (int i = 0; i < 2; ++i) {
+    // Wrench on the foot about the base origin, base coordinates: [R^T (n_O - p_b x f); R^T f].
+    w[i].head<3>() = R.transpose() * (N[i] - t.base_position.cross(F[i]));
+    w[i].tail<3>() = R.transpose() * F[i];
+    y.head<6>() += w[i];
+  }
+  for (int j = 0; j < model.njoints; ++j) {
+    const int b = model.joint_body[j];
+    double yj = t.tau_applied[j];
+    for (int i = 0; i < 2; ++i) {
+      const auto& sub = model.subtree[b];
+      if (std::find(sub.begin(), sub.end(), foot_body[i]) == sub.end()) continue;
+      Eigen::Matrix<double, 6, 1> S;  // joint motion axis [axis; p x axis], base coordinates
+      S.head<3>() = kin.axis[b];
+      S.tail<3>() = kin.p[b].cross(kin.axis[b]);
+      yj += S.dot(w[i]);
+    }
+    y[model.jointRow(j)] = yj;
+  }
+  return {(Kphi - y).cwiseAbs().maxCoeff(), y.cwiseAbs().maxCoeff()};
+}
+
+struct EomRun {
+  double truth = 0.0, plates = 0.0;  // max over ticks of max|K phi - y| / max|y|
+  double min_load = 1e300;           // smallest vertical load on one foot (N)
+};
+
+// A squat: bends smoothly to a = 0.1 rad over 1 s (hip and ankle flexion a, knee 2a: trunk stays upright),
+// then oscillates a by +-0.05 rad at 2 Hz (joint speeds up to ~1 rad/s).
+EomRun runEom(const Model& model, const SimModel& sm, SimData& sd, int ticks) {
+  Data kin(model);
+  State st = State::zero(model);
+  JointCommandSample cmd = simZeroCommand(sm);
+  Eigen::VectorXd q_ref = Eigen::VectorXd::Zero(sm.nj);
+  EomRun r;
+  for (int k = 0; k < ticks; ++k) {
+    const double s = std::min(1.0, k / 1000.0);
+    const double a = 0.1 * s * s * (3.0 - 2.0 * s) + (k < 1000 ? 0.0 : 0.05 * std::sin(4.0 * M_PI * (k - 1000) * 1e-3));
+    for (int j = 0; j < sm.nj; ++j) {
+      const std::string& n = sm.joint_names[j];
+      q_ref[j] = n.find("hip_fe") != std::string::npos || n.find("ankle_pd") != std::string::npos ? a
+                 : n.find("knee") != std::string::npos                                             ? 2.0 * a
+                                                                                                   : 0.0;
+    }
+    cmd.tick = k;
+    pd(sm, sd, q_ref, kMoveGains, cmd);
+    simStep(sm, sd, cmd);
+    if (k < 10) continue;  // first contact transient (y ~ 0 while the robot settles onto the plates)
+    const GroundTruthSample& tr = sd.truth;
+    const EomResidual rt = eomResidual(model, kin, st, tr, tr.foot_force, tr.foot_moment);
+    // Plate measurement -> wrench on the foot: negate the wrench ON the plate and move it to the world origin.
+    std::array<Eigen::Vector3d, 2> F, N;
+    for (int i = 0; i < 2; ++i) {
+      const ForcePlateSample& p = sd.plates[i];
+      const Eigen::Matrix3d Rp = p.plate_orientation.toRotationMatrix();
+      const Eigen::Vector3d f = Rp * p.force;
+      F[i] = -f;
+      N[i] = -(Rp * p.moment + p.plate_position.cross(f));
+    }
+    const EomResidual rp = eomResidual(model, kin, st, tr, F, N);
+    r.truth = std::max(r.truth, rt.err / rt.scale);
+    r.plates = std::max(r.plates, rp.err / rp.scale);
+    r.min_load = std::min({r.min_load, tr.foot_force[0].z(), tr.foot_force[1].z()});
+  }
+  return r;
+}
+
+// (c) In-process EoM consistency: noise off, no effect -> the sim is exactly the URDF's rigid-body model.
+TEST_F(SimExo, RegressorEquationsOfMotionHoldOnTruthAndPlates) {
+  load(makeScenario(NoiseMode::Off));
+  const EomRun r = runEom(model, sm, sd, 2500);
+  std::printf("[ eom ] max rel residual: truth contacts %.3e, plates %.3e (min load on a foot %.1f N)\n", r.truth,
+              r.plates, r.min_load);
+  RecordProperty("eom_residual_truth", std::to_string(r.truth));
+  RecordProperty("eom_residual_plates", std::to_string(r.plates));
+  EXPECT_LE(r.truth, 1e-8);
+  EXPECT_LE(r.plates, 1e-8);
+  EXPECT_GT(r.min_load, 0.25 * kRobotMass * kG);  // both feet stayed loaded while squatting
+  EXPECT_FALSE(simFell(sm, sd));
+}
+
+// ...and every undeclared effect breaks it (the residual is what an estimator would have to explain).
+TEST_F(SimExo, UndeclaredEffectsBreakTheEquationsOfMotion) {
+  struct Case {
+    const char* name;
+    void (*edit)(Effects&);
+  };
+  const Case cases[] = {
+      {"joint_damping", [](Effects& e) { e.joint_damping = {{"all", 1.0}}; }},
+      {"joint_frictionloss", [](Effects& e) { e.joint_frictionloss = {{"all", 1.5}}; }},
+      {"armature", [](Effects& e) { e.armature = {{"all", 0.05}}; }},
+      {"payload", [](Effects& e) {
+         Payload p;
+         p.link = "body";
+         p.mass = 3.0;
+         p.com = Eigen::Vector3d(-0.12, 0.0, 0.35);
+         e.payloads = {p};
+       }},
+  };
+  for (const Case& c : cases) {
+    Scenario sc = makeScenario(NoiseMode::Off);
+    c.edit(sc.effects);
+    SimModel m;
+    SimData d;
+    std::string err;
+    ASSERT_TRUE(simLoad(configPath("exo.xml"), SensorConfig(), sc, m, &err)) << err;
+    ASSERT_TRUE(simMakeData(m, d, &err)) << err;
+    const EomRun r = runEom(model, m, d, 2500);
+    std::printf("[ eom ] undeclared %-18s residual: truth %.3e, plates %.3e\n", c.name, r.truth, r.plates);
+    EXPECT_GT(r.truth, 1e-3) << c.name;
+    EXPECT_GT(r.plates, 1e-3) << c.name;
+  }
+}
+
+// Every shipped scenario loads against the real model, and the realistic sensors file is complete.
+TEST_F(SimExo, ShippedScenariosLoad) {
+  const SensorConfig realistic = realisticSensors();
+  EXPECT_DOUBLE_EQ(realistic.encoder_sigma, 9e-6);
+  const std::string dir = configPath("scenarios");
+  DIR* dp = opendir(dir.c_str());
+  ASSERT_NE(dp, nullptr) << dir;
+  std::vector<std::string> names;
+  while (dirent* e = readdir(dp)) {
+    const std::string f = e->d_name;
+    if (f.size() > 5 && f.substr(f.size() - 5) == ".yaml") names.push_back(f);
+  }
+  closedir(dp);
+  for (const char* required : {"nominal.yaml", "ideal.yaml", "undeclared_friction.yaml", "undeclared_armature.yaml",
+                               "undeclared_payload.yaml", "torque_sensor_bias.yaml"})
+    EXPECT_NE(std::find(names.begin(), names.end(), required), names.end()) << required;
+  for (const std::string& f : names) {
+    Scenario sc;
+    SensorConfig noise;
+    SimModel m;
+    SimData d;
+    std::string err;
+    ASSERT_TRUE(loadScenario(dir + "/" + f, &sc, &err)) << err;
+    ASSERT_TRUE(resolveSensorConfig(sc, realistic, &noise, &err)) << err;
+    ASSERT_TRUE(simLoad(configPath("exo.xml"), noise, sc, m, &err)) << err;
+    ASSERT_TRUE(simMakeData(m, d, &err)) << err;
+    EXPECT_EQ(sc.name + ".yaml", f);
+    if (f == "nominal.yaml" || f == "ideal.yaml") {
+      EXPECT_FALSE(sc.effects.any()) << f;
+    }
+    if (f == "ideal.yaml") {
+      EXPECT_EQ(noise.encoder_sigma, 0.0);
+    }
+    if (f == "nominal.yaml") {
+      EXPECT_EQ(noise.encoder_sigma, 9e-6);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace exoid::sim::test
