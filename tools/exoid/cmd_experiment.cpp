@@ -14,6 +14,8 @@
 #include "exoid/controller/config.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/sim/config.hpp"
+#include "exoid/sim/sim.hpp"
 #include "exoid/tools/args.hpp"
 #include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/process.hpp"
@@ -54,19 +56,19 @@ int fail(const std::string& msg) {
   return 2;
 }
 
-std::string binDir() {
+std::string selfPath() {
   char buf[4096];
   const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return ".";
+  if (n <= 0) return "exoid";
   buf[n] = '\0';
-  return std::filesystem::path(buf).parent_path().string();
+  return buf;
 }
 
 /// Re-executes this command inside a new network namespace (root: unshare -n; otherwise unshare -r -n).
 int reexecInPrivateNetns(int argc, char** argv) {
   std::vector<std::string> args = {"unshare"};
   if (::geteuid() != 0) args.push_back("-r");
-  args.insert(args.end(), {"-n", "--", "/proc/self/exe"});
+  args.insert(args.end(), {"-n", "--", selfPath()});
   for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
   ::setenv(kNetnsEnv, "1", 1);
   std::vector<char*> c;
@@ -99,6 +101,14 @@ int cmdExperiment(int argc, char** argv) {
   const double duration = cc.trajectory.initial_hold + moves * (cc.trajectory.move_duration + cc.trajectory.hold_duration) +
                           cc.trajectory.final_hold;
 
+  {  // Validate the sim's inputs here, before any process starts, so that errors name the file and key.
+    sim::SensorConfig realistic, noise;
+    sim::Scenario scenario;
+    sim::SimModel probe;
+    if (!sim::loadSensorConfig(args.get("sensors"), &realistic, &err) || !sim::loadScenario(args.get("scenario"), &scenario, &err) ||
+        !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(args.get("mjcf"), noise, scenario, probe, &err))
+      return fail(err);
+  }
   if (!std::getenv(kNetnsEnv)) return reexecInPrivateNetns(argc, argv);
   // Inside the namespace: loopback up, multicast routed to it; nothing can leave this namespace.
   if (std::system("ip link set lo up") != 0 || std::system("ip route add 224.0.0.0/4 dev lo") != 0)
@@ -110,7 +120,7 @@ int cmdExperiment(int argc, char** argv) {
   std::filesystem::remove(log_path);
   const std::string url = std::string(channels::kDefaultUrl) + "&recv_buf_size=16777216";
   ::setenv("LCM_DEFAULT_URL", url.c_str(), 1);
-  const std::string bin = binDir();
+  const std::string bin = std::filesystem::path(selfPath()).parent_path().string();
 
   pid_t logger = tools::spawn({"lcm-logger", "--lcm-url=" + url, "--force", log_path}, (out / "logger.log").string(), &err);
   if (logger < 0) return fail(err);
