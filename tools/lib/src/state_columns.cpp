@@ -59,8 +59,10 @@ bool StateColumns::bind(const Model& model, const CsvTable& table, std::string* 
   if (floating_) {
     for (int i = 0; i < 4; ++i) if (!need(kQuat[i], quat_[i])) return false;
     for (int i = 0; i < 3; ++i)
-      if (!need(kW[i], w_[i]) || !need(kV[i], v_base_[i]) || !need(kDW[i], dw_[i]) || !need(kA[i], acc_[i])) return false;
-    for (int i = 0; i < 3; ++i) pos_[i] = table.column(kP[i]);  // optional: not used by the regressor
+      if (!need(kW[i], w_[i]) || !need(kDW[i], dw_[i]) || !need(kA[i], acc_[i])) return false;
+    // Optional: neither enters K (classical accelerations make the dynamics independent of them), and the
+    // robot measures neither (sensor exports leave them out).
+    for (int i = 0; i < 3; ++i) v_base_[i] = table.column(kV[i]), pos_[i] = table.column(kP[i]);
   }
   return true;
 }
@@ -80,7 +82,7 @@ bool StateColumns::read(const std::vector<double>& row, State& s, std::string* e
   s.base_orientation = q.normalized();
   for (int i = 0; i < 3; ++i) {
     s.base_omega[i] = row[w_[i]];
-    s.base_velocity[i] = row[v_base_[i]];
+    s.base_velocity[i] = v_base_[i] >= 0 ? row[v_base_[i]] : 0.0;
     s.base_domega[i] = row[dw_[i]];
     s.base_acceleration[i] = row[acc_[i]];
     s.base_position[i] = pos_[i] >= 0 ? row[pos_[i]] : 0.0;

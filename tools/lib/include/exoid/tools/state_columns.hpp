@@ -1,8 +1,8 @@
 #pragma once
 // The states CSV schema of docs/data-formats.md: q_<joint>, v_<joint>, a_<joint> per URDF joint and, for a
-// floating base, base_qw..qz (world <- base, Hamilton), base_wx..wz, base_vx..vz, base_dwx..dwz,
-// base_ax..az (all base coordinates; a = classical acceleration of the base origin, gravity excluded) and
-// optionally base_px..pz (world). Other columns (t, tau_*, fp_*, ...) are ignored by readers.
+// floating base, base_qw..qz (world <- base, Hamilton), base_wx..wz, base_dwx..dwz, base_ax..az (all base
+// coordinates; a = classical acceleration of the base origin, gravity excluded) and optionally base_vx..vz
+// (base coordinates) and base_px..pz (world), which do not enter K. Other columns (t, tau_*, fp_*, ...) are ignored by readers.
 #include <string>
 #include <vector>
 
