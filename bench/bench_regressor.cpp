@@ -6,6 +6,7 @@
 #include <random>
 
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 
@@ -23,14 +24,9 @@ struct Fixture {
       std::exit(2);
     }
     std::mt19937_64 rng(1);
-    std::uniform_real_distribution<double> u(-1.0, 1.0);
     for (int i = 0; i < 64; ++i) {
       State s = State::zero(model);
-      s.base_orientation = Eigen::Quaterniond(Eigen::Vector4d(u(rng), u(rng), u(rng), u(rng)).normalized());
-      s.base_omega = Eigen::Vector3d(u(rng), u(rng), u(rng));
-      s.base_domega = Eigen::Vector3d(u(rng), u(rng), u(rng));
-      s.base_acceleration = Eigen::Vector3d(u(rng), u(rng), u(rng));
-      for (int j = 0; j < model.njoints; ++j) s.q[j] = u(rng), s.v[j] = u(rng), s.a[j] = u(rng);
+      randomState(model, rng, s);
       states.push_back(s);
     }
   }

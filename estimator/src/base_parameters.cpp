@@ -6,6 +6,7 @@
 #include <random>
 #include <sstream>
 
+#include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 
 namespace exoid {
@@ -15,20 +16,9 @@ BaseParameters computeBaseParameters(const Model& model, const BaseParameterOpti
   Eigen::MatrixXd W(options.samples * nv, p);
   Data data(model);
   std::mt19937_64 rng(options.seed);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto vec = [&](double s) { return Eigen::Vector3d(s * u(rng), s * u(rng), s * u(rng)); };
   State s = State::zero(model);
   for (int k = 0; k < options.samples; ++k) {
-    s.base_orientation = Eigen::Quaterniond(Eigen::Vector4d(u(rng), u(rng), u(rng), u(rng)).normalized());
-    s.base_omega = vec(2.0);
-    s.base_velocity = vec(1.0);
-    s.base_domega = vec(10.0);
-    s.base_acceleration = vec(10.0);
-    for (int j = 0; j < model.njoints; ++j) {
-      s.q[j] = M_PI * u(rng);
-      s.v[j] = 3.0 * u(rng);
-      s.a[j] = 20.0 * u(rng);
-    }
+    randomState(model, rng, s);
     computeJointTorqueRegressor(model, data, s);
     W.middleRows(k * nv, nv) = data.K;
   }

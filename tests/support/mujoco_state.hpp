@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "exoid/model/model.hpp"
+#include "exoid/model/random_state.hpp"
 
 namespace exoid::test {
 
@@ -31,22 +32,10 @@ inline MujocoMap mapJoints(const mjModel* m, const Model& model) {
   return map;
 }
 
-/// Random state: any orientation, joint angles in [-pi, pi], brisk velocities and accelerations.
+/// Random state (exoid::randomState) as a value.
 inline State randomState(const Model& model, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto vec = [&](double s) { return Eigen::Vector3d(s * u(rng), s * u(rng), s * u(rng)); };
   State s = State::zero(model);
-  s.base_orientation = Eigen::Quaterniond(Eigen::Vector4d(u(rng), u(rng), u(rng), u(rng)).normalized());
-  s.base_position = vec(1.0);
-  s.base_omega = vec(2.0);
-  s.base_velocity = vec(1.0);
-  s.base_domega = vec(10.0);
-  s.base_acceleration = vec(10.0);
-  for (int j = 0; j < model.njoints; ++j) {
-    s.q[j] = M_PI * u(rng);
-    s.v[j] = 3.0 * u(rng);
-    s.a[j] = 20.0 * u(rng);
-  }
+  exoid::randomState(model, rng, s);
   return s;
 }
 
