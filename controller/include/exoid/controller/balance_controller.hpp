@@ -1,0 +1,133 @@
+#pragma once
+// BalanceController: the 1 kHz centroidal balance controller (Vallinas et al., ICORR 2023, as used in the seed
+// thesis section IV-A, without the torso stabilisation task). One tick:
+//   input checks -> BaseStateEstimator -> computeRobotDynamics (rnea, crba, sole Jacobians/drifts, centroidal)
+//   -> MomentumTask / PostureRegularization / ContactSixD -> BalanceFormulation -> QpSolver -> joint torques,
+// with a safe fallback (hold the last safe command, then joint damping). tick() never allocates, never throws
+// and never blocks. Timing convention: the command answers state tick k with command.tick = k + 1.
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "exoid/controller/base_state_estimator.hpp"
+#include "exoid/controller/com_trajectory.hpp"
+#include "exoid/controller/config.hpp"
+#include "exoid/controller/formulation.hpp"
+#include "exoid/controller/qp_solver.hpp"
+#include "exoid/controller/robot_dynamics.hpp"
+#include "exoid/controller/tasks.hpp"
+#include "exoid/samples.hpp"
+#include "exoid/status_samples.hpp"
+
+namespace exoid::controller {
+
+/// Why a tick did not produce a QP torque command.
+enum class FallbackReason : int8_t { None = 0, InvalidInput, OutOfOrder, Stale, QpFailed, NonFiniteTorque, Recovering };
+const char* toString(FallbackReason reason);
+
+/// Everything of controller_status_t plus controller-internal counters (the base part goes on LCM as is).
+struct ControllerStatus : ControllerStatusSample {
+  CommandMode mode = CommandMode::Torque;
+  FallbackReason reason = FallbackReason::None;
+  int32_t qp_failures = 0;    ///< ticks whose QP gave no usable solution (status or non-finite)
+  int32_t hold_ticks = 0;     ///< ticks spent holding the last safe command
+  int32_t damping_ticks = 0;  ///< ticks spent in joint damping
+  int32_t dropped_contact_directions = 0;  ///< contact directions removed by the range projection this tick
+  double leg_disagreement = 0.0;  ///< m, half the disagreement of the legs about the base position
+  double trajectory_time = 0.0;   ///< s since the trajectory start (start-up latch complete)
+  bool trajectory_ready = false;  ///< the move sequence has been generated
+  bool trajectory_failed = false; ///< the feet are latched but no move sequence fits (the CoM start is held)
+  bool trajectory_done = false;   ///< every move and hold finished
+};
+
+/// Seconds from the first state to the end of the final hold, known upfront from the configuration:
+/// start-up latch (estimator.latch_ticks) + initial hold + moves * (move + hold) + final hold.
+double plannedRunDuration(const ControllerConfig& config);
+
+class BalanceController {
+ public:
+  /// Setup (allocates). `solver` defaults to ProxQP with config.solver. Check ok()/error() afterwards.
+  BalanceController(const Model& model, const ControllerConfig& config, uint64_t seed,
+                    std::unique_ptr<QpSolver> solver = nullptr);
+  ~BalanceController();
+
+  bool ok() const { return ok_; }
+  const std::string& error() const { return error_; }
+
+  /// Sizes a command sample for this model (setup).
+  void prepare(JointCommandSample& command) const;
+  /// Sets the estimator's feedforward: a generalized-force correction [nv] or joint torques [njoints] (base
+  /// rows 0), valid from `tick`. It enters the dynamics of the QP when config.feedforward.enabled and is
+  /// younger than max_age_ticks. Returns false (and ignores it) on a wrong size or non-finite values.
+  bool setFeedforward(const Eigen::Ref<const Eigen::VectorXd>& tau_ff, int64_t tick);
+  void clearFeedforward();
+
+  /// One control tick for the state of tick k: fills `out` (tick k+1) and `status`. Allocation-free.
+  void tick(const RobotStateSample& in, JointCommandSample& out, ControllerStatus& status);
+
+  // --- inspection (tests, the app, benchmarks) ---
+  const Model& model() const { return model_; }
+  const ControllerConfig& config() const { return cfg_; }
+  const CoMTrajectory& trajectory() const { return trajectory_; }
+  const BaseStateEstimator& estimator() const { return *estimator_; }
+  const RobotDynamicsData& dynamics() const { return dyn_; }
+  const BalanceFormulation& formulation() const { return formulation_; }
+  const QpProblem& problem() const { return qp_; }
+  const QpResult& result() const { return result_; }
+  const CoMReference& reference() const { return ref_; }
+  const Vector6d& desiredMomentumRate() const { return rate_desired_; }
+  /// Trajectory duration (s), known once the trajectory is generated (at the end of the start-up latch).
+  double trajectoryDuration() const { return trajectory_.ready() ? trajectory_.duration() : 0.0; }
+  const std::array<SoleFrame, 2>& soles() const { return soles_; }
+
+ private:
+  bool inputValid(const RobotStateSample& in) const;
+  void startTrajectory(int64_t tick);
+  bool runQp();
+  void fallbackTorque(JointCommandSample& out);
+
+  const Model& model_;
+  ControllerConfig cfg_;
+  uint64_t seed_;
+  bool ok_ = false;
+  std::string error_;
+
+  std::array<SoleFrame, 2> soles_{};
+  SoleFrame imu_{};
+  std::unique_ptr<BaseStateEstimator> estimator_;
+  CoMTrajectory trajectory_;
+  MomentumTask momentum_;
+  PostureRegularization posture_;
+  ContactSixD contact_right_, contact_left_;
+  BalanceFormulation formulation_;
+  std::unique_ptr<QpSolver> solver_;
+  RobotDynamicsData dyn_;
+  QpProblem qp_;
+  QpResult result_;
+
+  CoMReference ref_;
+  Vector6d rate_desired_ = Vector6d::Zero();
+  Eigen::VectorXd dnu_desired_, dnu_weights_;
+  Eigen::VectorXd tau_gen_;      // [nv] generalized force of the solution
+  Eigen::VectorXd tau_cmd_;      // [njoints] command being built
+  Eigen::VectorXd tau_last_safe_;  // [njoints]
+  Eigen::VectorXd tau_ff_joint_;   // [njoints] feedforward reported in the command
+  Eigen::VectorXd ff_input_;       // [nv] last feedforward received
+  Eigen::VectorXi joint_actuated_;  // [njoints] 1 if actuated
+  Eigen::VectorXd joint_limit_;     // [njoints] torque bound (0 on unactuated joints)
+
+  bool has_last_tick_ = false;
+  int64_t last_tick_ = 0;
+  int64_t trajectory_start_tick_ = 0;
+  bool has_last_safe_ = false;
+  bool has_feedforward_ = false;
+  int64_t feedforward_tick_ = 0;
+  int bad_streak_ = 0;
+  int good_streak_ = 0;
+  bool damping_latched_ = false;
+  // counters (mirrored into the status every tick)
+  int32_t fallbacks_ = 0, rejected_ = 0, stale_ = 0, qp_failures_ = 0, hold_ticks_ = 0, damping_ticks_ = 0;
+};
+
+}  // namespace exoid::controller

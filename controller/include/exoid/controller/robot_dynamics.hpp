@@ -1,0 +1,47 @@
+#pragma once
+// Everything the balance formulation needs about the robot at one tick, computed from an estimated State by
+// the model library (Pinocchio-like: computeRobotDynamics(model, soles, data, state) fills preallocated data).
+//
+// Coordinates: M, h and the generalized forces follow the model's convention (nu = [omega_b; v_b; dq] in base
+// coordinates, classical base acceleration). Contact quantities are re-expressed in the WORLD frame with the
+// wrench ordering of the formulation, [force; moment]:
+//   Jc_i = [R J_i,lin; R J_i,ang]   (6 x nv)   so that   [a_i; alpha_i] = Jc_i dnu + drift_i   (world),
+//   and a world wrench f_i = [F; M about the sole origin] produces the generalized force Jc_i^T f_i.
+#include <Eigen/Core>
+#include <array>
+
+#include "exoid/controller/base_state_estimator.hpp"
+#include "exoid/model/dynamics.hpp"
+
+namespace exoid::controller {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+struct RobotDynamicsData {
+  explicit RobotDynamicsData(const Model& model);
+
+  DynamicsData dyn;               ///< model-library scratch (M in dyn.M)
+  Eigen::VectorXd h;              ///< [nv] nonlinear effects C(q, nu) nu + g(q) (rnea at dnu = 0)
+  Eigen::VectorXd tau_ff;         ///< [nv] generalized-force correction from the estimator (0 by default)
+  Eigen::VectorXd nu;             ///< [nv] generalized velocity of the state
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  ///< world <- base
+  std::array<Matrix6Xd, 2> Jc;    ///< [right, left] world contact Jacobians [linear; angular]
+  std::array<Vector6d, 2> drift{};         ///< world [linear; angular] classical acceleration at dnu = 0
+  std::array<Vector6d, 2> foot_velocity{};  ///< world [linear; angular] velocity of the sole frames
+  std::array<Eigen::Vector3d, 2> foot_position{};  ///< world, from the base estimate and the kinematics
+  std::array<Eigen::Matrix3d, 2> foot_rotation{};  ///< world <- sole
+  double mass = 0.0;
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();           ///< world
+  Eigen::Vector3d com_velocity = Eigen::Vector3d::Zero();  ///< world
+  Vector6d momentum = Vector6d::Zero();  ///< world, [linear; angular about the CoM]
+  Matrix6Xd J_scratch;                   ///< base-frame Jacobian scratch
+};
+
+/// Fills `data` for `state` (model parameters, gravity from the model). Allocation-free.
+/// Order: rnea (h, with dnu = 0), crba (M), zero-gravity drift kinematics, sole Jacobians and drifts,
+/// centroidal momentum.
+void computeRobotDynamics(const Model& model, const std::array<SoleFrame, 2>& soles, RobotDynamicsData& data,
+                          const State& state);
+
+}  // namespace exoid::controller

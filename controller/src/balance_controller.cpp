@@ -1,0 +1,303 @@
+#include "exoid/controller/balance_controller.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "exoid/controller/proxqp_solver.hpp"
+
+namespace exoid::controller {
+
+const char* toString(FallbackReason reason) {
+  switch (reason) {
+    case FallbackReason::None: return "none";
+    case FallbackReason::InvalidInput: return "invalid input";
+    case FallbackReason::OutOfOrder: return "tick not increasing";
+    case FallbackReason::Stale: return "stale input";
+    case FallbackReason::QpFailed: return "qp failed";
+    case FallbackReason::NonFiniteTorque: return "non-finite torque";
+    case FallbackReason::Recovering: return "recovering";
+  }
+  return "?";
+}
+
+double plannedRunDuration(const ControllerConfig& c) {
+  const TrajectoryConfig& t = c.trajectory;
+  return c.estimator.latch_ticks * c.loop.period + t.initial_hold + t.moves * (t.move_duration + t.hold_duration) +
+         t.final_hold;
+}
+
+namespace {
+double clampAbs(double v, double limit) { return std::max(-limit, std::min(limit, v)); }
+}  // namespace
+
+BalanceController::BalanceController(const Model& model, const ControllerConfig& config, uint64_t seed,
+                                     std::unique_ptr<QpSolver> solver)
+    : model_(model),
+      cfg_(config),
+      seed_(seed),
+      trajectory_(config.trajectory.moves),
+      momentum_(config.momentum),
+      posture_(config.posture, model.njoints),
+      contact_right_(config.contact, BaseStateEstimator::kRight),
+      contact_left_(config.contact, BaseStateEstimator::kLeft),
+      formulation_(model, config.contact, config.torque),
+      solver_(std::move(solver)),
+      dyn_(model) {
+  std::string why;
+  if (!model.floating_base) {
+    error_ = "the balance controller needs a floating-base model";
+    return;
+  }
+  if (!validateControllerConfig(cfg_, &why)) {
+    error_ = "controller config: " + why;
+    return;
+  }
+  if (!resolveSoleFrame(model, cfg_.contact.right_sole_frame, soles_[0], &why) ||
+      !resolveSoleFrame(model, cfg_.contact.left_sole_frame, soles_[1], &why)) {
+    error_ = "contact frames: " + why;
+    return;
+  }
+  // IMU frame: "imu" if the model has one, the base frame otherwise.
+  if (model.frameIndex("imu") >= 0) resolveSoleFrame(model, "imu", imu_, nullptr);
+  else imu_ = SoleFrame{0, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()};
+  if (imu_.body != 0) {
+    error_ = "the IMU frame must be on the base body";
+    return;
+  }
+  estimator_ = std::make_unique<BaseStateEstimator>(model, cfg_.estimator, cfg_.loop.period, soles_, imu_);
+
+  if (!solver_) solver_ = makeProxQpSolver({cfg_.solver.eps_abs, cfg_.solver.max_iterations});
+  const QpDimensions dims = formulation_.dimensions();
+  qp_.resize(dims);
+  result_.resize(dims);
+  if (!solver_->setup(dims)) {
+    error_ = std::string("QP solver '") + solver_->name() + "' setup failed";
+    return;
+  }
+  dnu_desired_ = Eigen::VectorXd::Zero(model.nv);
+  dnu_weights_ = Eigen::VectorXd::Zero(model.nv);
+  tau_gen_ = Eigen::VectorXd::Zero(model.nv);
+  tau_cmd_ = Eigen::VectorXd::Zero(model.njoints);
+  tau_last_safe_ = Eigen::VectorXd::Zero(model.njoints);
+  tau_ff_joint_ = Eigen::VectorXd::Zero(model.njoints);
+  ff_input_ = Eigen::VectorXd::Zero(model.nv);
+  joint_actuated_ = Eigen::VectorXi::Zero(model.njoints);
+  joint_limit_ = Eigen::VectorXd::Zero(model.njoints);
+  const auto& act = formulation_.actuatedRows();
+  for (size_t k = 0; k < act.size(); ++k) {
+    const int j = act[k] - 6;
+    joint_actuated_[j] = 1;
+    joint_limit_[j] = formulation_.torqueLimits()[static_cast<Eigen::Index>(k)];
+  }
+  ok_ = true;
+}
+
+BalanceController::~BalanceController() = default;
+
+void BalanceController::prepare(JointCommandSample& c) const {
+  c.tau = Eigen::VectorXd::Zero(model_.njoints);
+  c.tau_ff = Eigen::VectorXd::Zero(model_.njoints);
+}
+
+bool BalanceController::setFeedforward(const Eigen::Ref<const Eigen::VectorXd>& tau_ff, int64_t tick) {
+  if (!tau_ff.allFinite()) return false;
+  if (tau_ff.size() == model_.nv) {
+    ff_input_ = tau_ff;
+  } else if (tau_ff.size() == model_.njoints) {
+    ff_input_.head<6>().setZero();
+    ff_input_.tail(model_.njoints) = tau_ff;
+  } else {
+    return false;
+  }
+  ff_input_ = ff_input_.cwiseMax(-cfg_.feedforward.max_abs).cwiseMin(cfg_.feedforward.max_abs);
+  has_feedforward_ = true;
+  feedforward_tick_ = tick;
+  return true;
+}
+
+void BalanceController::clearFeedforward() {
+  has_feedforward_ = false;
+  ff_input_.setZero();
+}
+
+bool BalanceController::inputValid(const RobotStateSample& in) const {
+  if (in.q.size() != model_.njoints || !in.q.allFinite()) return false;
+  if (!in.imu_gyro.allFinite() || !in.imu_orientation.coeffs().allFinite()) return false;
+  const double n = in.imu_orientation.coeffs().norm();
+  return std::abs(n - 1.0) <= cfg_.fallback.max_quaternion_norm_error;
+}
+
+void BalanceController::startTrajectory(int64_t tick) {
+  // Posture and contact references from the start-up estimate; support polygon of the latched soles.
+  posture_.setReference(estimator_->initialPosture());
+  contact_right_.setReference(estimator_->solePosition(0), estimator_->soleRotation(0));
+  contact_left_.setReference(estimator_->solePosition(1), estimator_->soleRotation(1));
+  computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+  const auto yaw = [](const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); };
+  const SupportPolygon polygon = SupportPolygon::fromSoles(
+      estimator_->solePosition(0).head<2>(), yaw(estimator_->soleRotation(0)), estimator_->solePosition(1).head<2>(),
+      yaw(estimator_->soleRotation(1)), cfg_.contact.sole_half_length, cfg_.contact.sole_half_width);
+  trajectory_.generate(cfg_.trajectory, seed_, dyn_.com, polygon);  // not ready() on failure: holds the start
+  trajectory_start_tick_ = tick;
+}
+
+bool BalanceController::runQp() {
+  computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+  momentum_.compute(ref_, dyn_, rate_desired_);
+  posture_.compute(estimator_->state(), dnu_desired_, dnu_weights_);
+  formulation_.build(dyn_, rate_desired_, momentum_.weights(), dnu_desired_, dnu_weights_, contact_right_,
+                     contact_left_, qp_);
+  solver_->solve(qp_, result_);
+  return result_.status == QpStatus::Solved && result_.x.allFinite();
+}
+
+void BalanceController::fallbackTorque(JointCommandSample& out) {
+  if (has_last_safe_ && !damping_latched_ && bad_streak_ <= cfg_.fallback.hold_ticks) {
+    out.mode = CommandMode::HoldLastSafe;
+    tau_cmd_ = tau_last_safe_;
+    ++hold_ticks_;
+    return;
+  }
+  damping_latched_ = true;
+  out.mode = CommandMode::Damping;
+  for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j) {
+    const double vj = estimator_ && std::isfinite(estimator_->state().v[j]) ? estimator_->state().v[j] : 0.0;
+    tau_cmd_[j] = clampAbs(-cfg_.fallback.damping * vj, cfg_.fallback.damping_torque_limit);
+  }
+  ++damping_ticks_;
+}
+
+void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out, ControllerStatus& st) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (out.tau.size() != model_.njoints || out.tau_ff.size() != model_.njoints) prepare(out);  // misuse only
+  out.tick = in.tick + 1;
+  out.source_tick = in.tick;
+  out.utime = in.utime + static_cast<int64_t>(std::llround(cfg_.loop.period * 1e6));
+  st.utime = in.utime;
+  st.tick = in.tick;
+
+  FallbackReason reason = FallbackReason::None;
+  bool fresh = false;  // the estimator took this sample
+  if (!ok_) {
+    reason = FallbackReason::InvalidInput;
+  } else if (!inputValid(in)) {
+    reason = FallbackReason::InvalidInput;
+    ++rejected_;
+  } else if (has_last_tick_ && in.tick <= last_tick_) {
+    reason = FallbackReason::OutOfOrder;
+    ++rejected_;
+  } else {
+    const int64_t gap = has_last_tick_ ? in.tick - last_tick_ : 1;
+    if (gap > 1) stale_ += static_cast<int32_t>(gap - 1);
+    const bool was_latched = estimator_->latched();
+    estimator_->update(in, gap);
+    has_last_tick_ = true;
+    last_tick_ = in.tick;
+    fresh = true;
+    if (gap - 1 > cfg_.fallback.max_missed_ticks) reason = FallbackReason::Stale;
+    if (estimator_->latched() && !was_latched) startTrajectory(in.tick);
+  }
+
+  st.qp_status = QpStatus::NotRun;
+  st.qp_iterations = 0;
+  st.qp_solve_us = 0.0;
+  if (fresh) {
+    // Reference: the trajectory once the feet are latched; before that, hold the current CoM.
+    if (estimator_->latched()) {
+      const double t = static_cast<double>(in.tick - trajectory_start_tick_) * cfg_.loop.period;
+      trajectory_.sample(t, ref_);
+      if (!trajectory_.ready()) ref_.position = trajectory_.start();
+      st.trajectory_time = t;
+    } else {
+      computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+      ref_ = CoMReference{};
+      ref_.position = dyn_.com;
+      contact_right_.setReference(estimator_->solePosition(0), estimator_->soleRotation(0));
+      contact_left_.setReference(estimator_->solePosition(1), estimator_->soleRotation(1));
+      posture_.setReference(estimator_->initialPosture());
+    }
+    // Feedforward from the estimator enters the dynamics (h + tau_ff), zero when absent or too old.
+    const bool use_ff = cfg_.feedforward.enabled && has_feedforward_ &&
+                        in.tick - feedforward_tick_ <= cfg_.feedforward.max_age_ticks;
+    if (use_ff) dyn_.tau_ff = ff_input_;
+    else dyn_.tau_ff.setZero();
+
+    const bool qp_ok = runQp();
+    st.qp_status = result_.status;
+    st.qp_iterations = result_.iterations;
+    st.qp_solve_us = result_.solve_us;
+    if (!qp_ok) {
+      ++qp_failures_;
+      if (reason == FallbackReason::None) reason = FallbackReason::QpFailed;
+    } else {
+      formulation_.generalizedForce(dyn_, result_.x, tau_gen_);
+      for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j)
+        tau_cmd_[j] = joint_actuated_[j] ? clampAbs(tau_gen_[6 + j], joint_limit_[j]) : 0.0;
+      if (!tau_cmd_.allFinite() && reason == FallbackReason::None) reason = FallbackReason::NonFiniteTorque;
+      for (Eigen::Index j = 0; j < tau_ff_joint_.size(); ++j)
+        tau_ff_joint_[j] = joint_actuated_[j] ? dyn_.tau_ff[6 + j] : 0.0;
+    }
+    // Status: estimate, reference, momentum and the QP's wrenches.
+    st.com_ref = ref_.position;
+    st.com_vel_ref = ref_.velocity;
+    st.com = dyn_.com;
+    st.com_vel = dyn_.com_velocity;
+    st.momentum_rate_ref = rate_desired_;
+    st.momentum = dyn_.momentum;
+    if (qp_ok) {
+      st.wrench_right = result_.x.segment<6>(model_.nv);
+      st.wrench_left = result_.x.segment<6>(model_.nv + 6);
+    }
+    st.move_index = ref_.move_index;
+    st.moves_done = ref_.moves_done;
+    st.trajectory_ready = trajectory_.ready();
+    st.trajectory_failed = estimator_->latched() && !trajectory_.ready();
+    st.trajectory_done = ref_.done;
+    st.leg_disagreement = estimator_->legDisagreement();
+    st.dropped_contact_directions = formulation_.droppedContactDirections();
+  }
+
+  // ---- mode selection: torque, or the fallback (hold the last safe command, then damping) ----
+  bool good = reason == FallbackReason::None;
+  if (good && damping_latched_) {
+    ++good_streak_;
+    if (good_streak_ < cfg_.fallback.recovery_ticks) {
+      good = false;
+      reason = FallbackReason::Recovering;
+    }
+  }
+  if (good) {
+    out.mode = CommandMode::Torque;
+    tau_last_safe_ = tau_cmd_;
+    has_last_safe_ = true;
+    bad_streak_ = 0;
+    damping_latched_ = false;
+  } else {
+    if (reason != FallbackReason::Recovering) {
+      ++bad_streak_;
+      good_streak_ = 0;
+    }
+    ++fallbacks_;
+    fallbackTorque(out);
+    tau_ff_joint_.setZero();
+  }
+  // Last line of defence: finite, within limits, zero on unactuated joints.
+  for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j) {
+    const double v = std::isfinite(tau_cmd_[j]) ? tau_cmd_[j] : 0.0;
+    out.tau[j] = joint_actuated_[j] ? clampAbs(v, joint_limit_[j]) : 0.0;
+    out.tau_ff[j] = std::isfinite(tau_ff_joint_[j]) ? tau_ff_joint_[j] : 0.0;
+  }
+
+  st.mode = out.mode;
+  st.reason = reason;
+  st.fallbacks = fallbacks_;
+  st.rejected_inputs = rejected_;
+  st.stale_inputs = stale_;
+  st.qp_failures = qp_failures_;
+  st.hold_ticks = hold_ticks_;
+  st.damping_ticks = damping_ticks_;
+  st.tick_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace exoid::controller

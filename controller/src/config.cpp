@@ -1,0 +1,364 @@
+#include "exoid/controller/config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <sstream>
+
+namespace exoid::controller {
+
+namespace {
+
+/// Reads typed fields from one YAML section, remembering the first error (with the full field name).
+class Reader {
+ public:
+  Reader(const std::string& source, std::string* error) : source_(source), error_(error) {}
+
+  bool ok() const { return ok_; }
+
+  bool fail(const std::string& field, const std::string& what) {
+    if (ok_ && error_) *error_ = source_ + ": " + field + ": " + what;
+    ok_ = false;
+    return false;
+  }
+
+  /// The section `name` of `root`, a map whose keys must all be in `allowed`.
+  YAML::Node section(const YAML::Node& root, const std::string& name, std::initializer_list<const char*> allowed) {
+    if (!ok_) return YAML::Node();
+    const YAML::Node node = root[name];
+    if (!node) {
+      fail(name, "missing section");
+      return YAML::Node();
+    }
+    if (!node.IsMap()) {
+      fail(name, "expected a map");
+      return YAML::Node();
+    }
+    checkKeys(node, name, allowed);
+    return node;
+  }
+
+  void checkKeys(const YAML::Node& map, const std::string& prefix, std::initializer_list<const char*> allowed) {
+    for (const auto& kv : map) {
+      const std::string key = kv.first.as<std::string>();
+      bool known = false;
+      for (const char* a : allowed) known = known || key == a;
+      if (!known) fail(prefix.empty() ? key : prefix + "." + key, "unknown key");
+    }
+  }
+
+  void number(const YAML::Node& sec, const std::string& sname, const char* key, double& out) {
+    if (!ok_) return;
+    const std::string field = sname + "." + key;
+    const YAML::Node n = sec[key];
+    if (!n) {
+      fail(field, "missing");
+      return;
+    }
+    if (!n.IsScalar()) {
+      fail(field, "expected a number");
+      return;
+    }
+    double v = 0.0;
+    if (!YAML::convert<double>::decode(n, v) || !std::isfinite(v)) {
+      fail(field, "expected a finite number, got '" + n.Scalar() + "'");
+      return;
+    }
+    out = v;
+  }
+
+  void integer(const YAML::Node& sec, const std::string& sname, const char* key, int& out) {
+    if (!ok_) return;
+    const std::string field = sname + "." + key;
+    const YAML::Node n = sec[key];
+    if (!n) {
+      fail(field, "missing");
+      return;
+    }
+    long long v = 0;
+    if (!n.IsScalar() || !YAML::convert<long long>::decode(n, v) || v < INT32_MIN || v > INT32_MAX) {
+      fail(field, "expected an integer");
+      return;
+    }
+    out = static_cast<int>(v);
+  }
+
+  void boolean(const YAML::Node& sec, const std::string& sname, const char* key, bool& out) {
+    if (!ok_) return;
+    const std::string field = sname + "." + key;
+    const YAML::Node n = sec[key];
+    if (!n) {
+      fail(field, "missing");
+      return;
+    }
+    bool v = false;
+    if (!n.IsScalar() || !YAML::convert<bool>::decode(n, v)) {
+      fail(field, "expected true or false");
+      return;
+    }
+    out = v;
+  }
+
+  void text(const YAML::Node& sec, const std::string& sname, const char* key, std::string& out) {
+    if (!ok_) return;
+    const std::string field = sname + "." + key;
+    const YAML::Node n = sec[key];
+    if (!n || !n.IsScalar() || n.Scalar().empty()) {
+      fail(field, n ? "expected a non-empty string" : "missing");
+      return;
+    }
+    out = n.Scalar();
+  }
+
+  template <int N>
+  void vector(const YAML::Node& sec, const std::string& sname, const char* key, Eigen::Matrix<double, N, 1>& out) {
+    if (!ok_) return;
+    const std::string field = sname + "." + key;
+    const YAML::Node n = sec[key];
+    if (!n) {
+      fail(field, "missing");
+      return;
+    }
+    const std::string expect = "expected " + std::to_string(N) + " finite numbers (or one for all)";
+    if (n.IsScalar()) {  // one value for every component
+      double v = 0.0;
+      if (!YAML::convert<double>::decode(n, v) || !std::isfinite(v)) {
+        fail(field, expect);
+        return;
+      }
+      out.setConstant(v);
+      return;
+    }
+    if (!n.IsSequence() || static_cast<int>(n.size()) != N) {
+      fail(field, expect);
+      return;
+    }
+    for (int i = 0; i < N; ++i) {
+      double v = 0.0;
+      if (!n[i].IsScalar() || !YAML::convert<double>::decode(n[i], v) || !std::isfinite(v)) {
+        fail(field, expect);
+        return;
+      }
+      out[i] = v;
+    }
+  }
+
+ private:
+  std::string source_;
+  std::string* error_;
+  bool ok_ = true;
+};
+
+bool failWith(std::string* error, const std::string& text) {
+  if (error) *error = text;
+  return false;
+}
+
+}  // namespace
+
+bool parseControllerConfig(const std::string& yaml, const std::string& source, ControllerConfig& c,
+                           std::string* error) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::Exception& e) {
+    std::string msg = e.what();
+    for (char& ch : msg)
+      if (ch == '\n') ch = ' ';
+    return failWith(error, source + ": YAML syntax error: " + msg);
+  }
+  if (!root.IsMap()) return failWith(error, source + ": expected a YAML map of sections");
+
+  Reader r(source, error);
+  try {
+    r.checkKeys(root, "", {"loop", "trajectory", "estimator", "momentum", "posture", "contact", "torque", "solver",
+                           "fallback", "feedforward"});
+    {
+      const auto s = r.section(root, "loop", {"period"});
+      r.number(s, "loop", "period", c.loop.period);
+    }
+    {
+      const char* n = "trajectory";
+      const auto s = r.section(root, n,
+                               {"moves", "move_duration", "hold_duration", "initial_hold", "final_hold",
+                                "polygon_margin", "min_move_distance", "max_move_distance", "vertical_min",
+                                "vertical_max", "max_sampling_attempts"});
+      auto& t = c.trajectory;
+      r.integer(s, n, "moves", t.moves);
+      r.number(s, n, "move_duration", t.move_duration);
+      r.number(s, n, "hold_duration", t.hold_duration);
+      r.number(s, n, "initial_hold", t.initial_hold);
+      r.number(s, n, "final_hold", t.final_hold);
+      r.number(s, n, "polygon_margin", t.polygon_margin);
+      r.number(s, n, "min_move_distance", t.min_move_distance);
+      r.number(s, n, "max_move_distance", t.max_move_distance);
+      r.number(s, n, "vertical_min", t.vertical_min);
+      r.number(s, n, "vertical_max", t.vertical_max);
+      r.integer(s, n, "max_sampling_attempts", t.max_sampling_attempts);
+    }
+    {
+      const char* n = "estimator";
+      const auto s = r.section(root, n,
+                               {"joint_velocity_cutoff_hz", "gyro_cutoff_hz", "orientation_time_constant",
+                                "initial_base_xy", "ground_height", "latch_ticks"});
+      auto& e = c.estimator;
+      r.number(s, n, "joint_velocity_cutoff_hz", e.joint_velocity_cutoff_hz);
+      r.number(s, n, "gyro_cutoff_hz", e.gyro_cutoff_hz);
+      r.number(s, n, "orientation_time_constant", e.orientation_time_constant);
+      r.vector<2>(s, n, "initial_base_xy", e.initial_base_xy);
+      r.number(s, n, "ground_height", e.ground_height);
+      r.integer(s, n, "latch_ticks", e.latch_ticks);
+    }
+    {
+      const char* n = "momentum";
+      const auto s = r.section(root, n, {"kp_com", "kd_com", "kd_angular", "weight_linear", "weight_angular"});
+      auto& m = c.momentum;
+      r.vector<3>(s, n, "kp_com", m.kp_com);
+      r.vector<3>(s, n, "kd_com", m.kd_com);
+      r.vector<3>(s, n, "kd_angular", m.kd_angular);
+      r.vector<3>(s, n, "weight_linear", m.weight_linear);
+      r.vector<3>(s, n, "weight_angular", m.weight_angular);
+    }
+    {
+      const char* n = "posture";
+      const auto s = r.section(root, n, {"weight_joint", "weight_base", "kp", "kd"});
+      r.number(s, n, "weight_joint", c.posture.weight_joint);
+      r.number(s, n, "weight_base", c.posture.weight_base);
+      r.number(s, n, "kp", c.posture.kp);
+      r.number(s, n, "kd", c.posture.kd);
+    }
+    {
+      const char* n = "contact";
+      const auto s = r.section(root, n,
+                               {"right_sole_frame", "left_sole_frame", "friction_coefficient", "sole_half_length",
+                                "sole_half_width", "cop_margin", "min_normal_force", "yaw_moment_coefficient", "kp",
+                                "kd", "force_weight", "range_tolerance"});
+      auto& k = c.contact;
+      r.text(s, n, "right_sole_frame", k.right_sole_frame);
+      r.text(s, n, "left_sole_frame", k.left_sole_frame);
+      r.number(s, n, "friction_coefficient", k.friction_coefficient);
+      r.number(s, n, "sole_half_length", k.sole_half_length);
+      r.number(s, n, "sole_half_width", k.sole_half_width);
+      r.number(s, n, "cop_margin", k.cop_margin);
+      r.number(s, n, "min_normal_force", k.min_normal_force);
+      r.number(s, n, "yaw_moment_coefficient", k.yaw_moment_coefficient);
+      r.number(s, n, "kp", k.kp);
+      r.number(s, n, "kd", k.kd);
+      r.number(s, n, "force_weight", k.force_weight);
+      r.number(s, n, "range_tolerance", k.range_tolerance);
+    }
+    {
+      const auto s = r.section(root, "torque", {"limit_scale"});
+      r.number(s, "torque", "limit_scale", c.torque.limit_scale);
+    }
+    {
+      const auto s = r.section(root, "solver", {"eps_abs", "max_iterations"});
+      r.number(s, "solver", "eps_abs", c.solver.eps_abs);
+      r.integer(s, "solver", "max_iterations", c.solver.max_iterations);
+    }
+    {
+      const char* n = "fallback";
+      const auto s = r.section(root, n,
+                               {"hold_ticks", "damping", "damping_torque_limit", "recovery_ticks", "max_missed_ticks",
+                                "max_quaternion_norm_error"});
+      auto& f = c.fallback;
+      r.integer(s, n, "hold_ticks", f.hold_ticks);
+      r.number(s, n, "damping", f.damping);
+      r.number(s, n, "damping_torque_limit", f.damping_torque_limit);
+      r.integer(s, n, "recovery_ticks", f.recovery_ticks);
+      r.integer(s, n, "max_missed_ticks", f.max_missed_ticks);
+      r.number(s, n, "max_quaternion_norm_error", f.max_quaternion_norm_error);
+    }
+    {
+      const char* n = "feedforward";
+      const auto s = r.section(root, n, {"enabled", "max_abs", "max_age_ticks"});
+      r.boolean(s, n, "enabled", c.feedforward.enabled);
+      r.number(s, n, "max_abs", c.feedforward.max_abs);
+      r.integer(s, n, "max_age_ticks", c.feedforward.max_age_ticks);
+    }
+  } catch (const YAML::Exception& e) {
+    return failWith(error, source + ": " + e.what());
+  }
+  if (!r.ok()) return false;
+  std::string why;
+  if (!validateControllerConfig(c, &why)) return failWith(error, source + ": " + why);
+  return true;
+}
+
+bool loadControllerConfig(const std::string& path, ControllerConfig& config, std::string* error) {
+  std::ifstream in(path);
+  if (!in) return failWith(error, path + ": cannot open controller config");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parseControllerConfig(ss.str(), path, config, error);
+}
+
+bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
+  auto positive = [&](double v, const char* field) {
+    return v > 0.0 ? true : failWith(error, std::string(field) + ": must be > 0");
+  };
+  auto nonneg = [&](double v, const char* field) {
+    return v >= 0.0 ? true : failWith(error, std::string(field) + ": must be >= 0");
+  };
+  auto nonneg3 = [&](const Eigen::Vector3d& v, const char* field) {
+    return (v.array() >= 0.0).all() ? true : failWith(error, std::string(field) + ": every component must be >= 0");
+  };
+  const auto& t = c.trajectory;
+  const auto& e = c.estimator;
+  const auto& k = c.contact;
+  const auto& f = c.fallback;
+  return positive(c.loop.period, "loop.period") &&
+         (t.moves >= 1 ? true : failWith(error, "trajectory.moves: must be >= 1")) &&
+         positive(t.move_duration, "trajectory.move_duration") && nonneg(t.hold_duration, "trajectory.hold_duration") &&
+         nonneg(t.initial_hold, "trajectory.initial_hold") && nonneg(t.final_hold, "trajectory.final_hold") &&
+         nonneg(t.polygon_margin, "trajectory.polygon_margin") &&
+         nonneg(t.min_move_distance, "trajectory.min_move_distance") &&
+         (t.max_move_distance > t.min_move_distance
+              ? true
+              : failWith(error, "trajectory.max_move_distance: must be > trajectory.min_move_distance")) &&
+         (t.vertical_max >= t.vertical_min ? true
+                                           : failWith(error, "trajectory.vertical_max: must be >= vertical_min")) &&
+         (t.max_sampling_attempts >= 1 ? true : failWith(error, "trajectory.max_sampling_attempts: must be >= 1")) &&
+         positive(e.joint_velocity_cutoff_hz, "estimator.joint_velocity_cutoff_hz") &&
+         (e.joint_velocity_cutoff_hz < 0.5 / c.loop.period
+              ? true
+              : failWith(error, "estimator.joint_velocity_cutoff_hz: must be below the Nyquist frequency")) &&
+         nonneg(e.gyro_cutoff_hz, "estimator.gyro_cutoff_hz") &&
+         (e.gyro_cutoff_hz < 0.5 / c.loop.period
+              ? true
+              : failWith(error, "estimator.gyro_cutoff_hz: must be below the Nyquist frequency")) &&
+         nonneg(e.orientation_time_constant, "estimator.orientation_time_constant") &&
+         (e.latch_ticks >= 1 ? true : failWith(error, "estimator.latch_ticks: must be >= 1")) &&
+         nonneg3(c.momentum.kp_com, "momentum.kp_com") && nonneg3(c.momentum.kd_com, "momentum.kd_com") &&
+         nonneg3(c.momentum.kd_angular, "momentum.kd_angular") &&
+         nonneg3(c.momentum.weight_linear, "momentum.weight_linear") &&
+         nonneg3(c.momentum.weight_angular, "momentum.weight_angular") &&
+         positive(c.posture.weight_joint, "posture.weight_joint") &&
+         positive(c.posture.weight_base, "posture.weight_base") && nonneg(c.posture.kp, "posture.kp") &&
+         nonneg(c.posture.kd, "posture.kd") && positive(k.friction_coefficient, "contact.friction_coefficient") &&
+         positive(k.sole_half_length, "contact.sole_half_length") &&
+         positive(k.sole_half_width, "contact.sole_half_width") && nonneg(k.cop_margin, "contact.cop_margin") &&
+         (k.cop_margin < k.sole_half_length && k.cop_margin < k.sole_half_width
+              ? true
+              : failWith(error, "contact.cop_margin: must be smaller than the sole half length and half width")) &&
+         nonneg(k.min_normal_force, "contact.min_normal_force") &&
+         nonneg(k.yaw_moment_coefficient, "contact.yaw_moment_coefficient") && nonneg(k.kp, "contact.kp") &&
+         nonneg(k.kd, "contact.kd") && positive(k.force_weight, "contact.force_weight") &&
+         positive(k.range_tolerance, "contact.range_tolerance") &&
+         (c.torque.limit_scale > 0.0 && c.torque.limit_scale <= 1.0
+              ? true
+              : failWith(error, "torque.limit_scale: must be in (0, 1]")) &&
+         positive(c.solver.eps_abs, "solver.eps_abs") &&
+         (c.solver.max_iterations >= 1 ? true : failWith(error, "solver.max_iterations: must be >= 1")) &&
+         (f.hold_ticks >= 0 ? true : failWith(error, "fallback.hold_ticks: must be >= 0")) &&
+         nonneg(f.damping, "fallback.damping") && nonneg(f.damping_torque_limit, "fallback.damping_torque_limit") &&
+         (f.recovery_ticks >= 1 ? true : failWith(error, "fallback.recovery_ticks: must be >= 1")) &&
+         (f.max_missed_ticks >= 0 ? true : failWith(error, "fallback.max_missed_ticks: must be >= 0")) &&
+         positive(f.max_quaternion_norm_error, "fallback.max_quaternion_norm_error") &&
+         nonneg(c.feedforward.max_abs, "feedforward.max_abs") &&
+         (c.feedforward.max_age_ticks >= 0 ? true : failWith(error, "feedforward.max_age_ticks: must be >= 0"));
+}
+
+}  // namespace exoid::controller

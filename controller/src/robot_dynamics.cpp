@@ -1,0 +1,49 @@
+#include "exoid/controller/robot_dynamics.hpp"
+
+namespace exoid::controller {
+
+RobotDynamicsData::RobotDynamicsData(const Model& model)
+    : dyn(model),
+      h(Eigen::VectorXd::Zero(model.nv)),
+      tau_ff(Eigen::VectorXd::Zero(model.nv)),
+      nu(Eigen::VectorXd::Zero(model.nv)),
+      Jc{Matrix6Xd::Zero(6, model.nv), Matrix6Xd::Zero(6, model.nv)},
+      J_scratch(Matrix6Xd::Zero(6, model.nv)) {}
+
+void computeRobotDynamics(const Model& model, const std::array<SoleFrame, 2>& soles, RobotDynamicsData& d,
+                          const State& state) {
+  // h = M*0 + C nu + g: rnea with zero accelerations (the State's base/joint accelerations are ignored here).
+  d.nu.head<3>() = state.base_omega;
+  d.nu.segment<3>(3) = state.base_velocity;
+  d.nu.tail(model.njoints) = state.v;
+  rnea(model, d.dyn, state);
+  d.h = d.dyn.tau;
+  crba(model, d.dyn, state);
+  // Kinematics at zero acceleration and zero gravity: velocity-product accelerations only (the drifts).
+  forwardKinematicsDrift(model, d.dyn.kin, state);
+  d.R = state.base_orientation.toRotationMatrix();
+  const Eigen::Matrix3d& R = d.R;
+  for (size_t i = 0; i < 2; ++i) {
+    const SoleFrame& s = soles[i];
+    computePointJacobian(model, d.dyn.kin, s.body, s.position, d.J_scratch);
+    d.Jc[i].topRows<3>().noalias() = R * d.J_scratch.bottomRows<3>();
+    d.Jc[i].bottomRows<3>().noalias() = R * d.J_scratch.topRows<3>();
+    const Vector6d drift_b = pointAccelerationDrift(d.dyn.kin, s.body, s.position);
+    d.drift[i].head<3>() = R * drift_b.tail<3>();
+    d.drift[i].tail<3>() = R * drift_b.head<3>();
+    d.foot_velocity[i].noalias() = d.Jc[i] * d.nu;
+    const size_t b = static_cast<size_t>(s.body);
+    d.foot_position[i] = state.base_position + R * (d.dyn.kin.p[b] + d.dyn.kin.R[b] * s.position);
+    d.foot_rotation[i] = R * d.dyn.kin.R[b] * s.rotation;
+  }
+  centroidal(model, d.dyn);
+  d.mass = d.dyn.mass;
+  d.com = state.base_position + R * d.dyn.com;
+  const Eigen::Vector3d P = d.dyn.momentum_origin.tail<3>();  // linear momentum, base coordinates
+  const Eigen::Vector3d L_origin = d.dyn.momentum_origin.head<3>();
+  d.com_velocity = R * P / d.mass;
+  d.momentum.head<3>() = R * P;
+  d.momentum.tail<3>() = R * (L_origin - d.dyn.com.cross(P));
+}
+
+}  // namespace exoid::controller

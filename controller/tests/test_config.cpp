@@ -1,0 +1,78 @@
+// config/controller.yaml loading: every field is read and checked, errors name the field.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "controller_test_util.hpp"
+
+namespace exoid::controller {
+namespace {
+
+std::string readDefaultConfig() {
+  std::ifstream in(testing::configPath("controller.yaml"));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// The default file with the first line matching `key:` (after indentation) replaced by `replacement`.
+std::string withLine(const std::string& text, const std::string& key, const std::string& replacement) {
+  std::istringstream in(text);
+  std::ostringstream out;
+  std::string line;
+  bool done = false;
+  while (std::getline(in, line)) {
+    const auto p = line.find_first_not_of(' ');
+    if (!done && p != std::string::npos && line.compare(p, key.size() + 1, key + ":") == 0) {
+      if (!replacement.empty()) out << line.substr(0, p) << replacement << "\n";
+      done = true;
+      continue;
+    }
+    out << line << "\n";
+  }
+  EXPECT_TRUE(done) << key;
+  return out.str();
+}
+
+TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
+  ControllerConfig c;
+  std::string err;
+  ASSERT_TRUE(testing::loadConfig(c, &err)) << err;
+  EXPECT_DOUBLE_EQ(c.loop.period, 0.001);
+  EXPECT_EQ(c.trajectory.moves, 20);
+  EXPECT_EQ(c.contact.right_sole_frame, "right_sole");
+  EXPECT_DOUBLE_EQ(c.contact.sole_half_length, 0.14);
+  EXPECT_DOUBLE_EQ(c.contact.sole_half_width, 0.06);
+  EXPECT_EQ(c.momentum.kp_com.size(), 3);
+  EXPECT_GT(c.momentum.kp_com.minCoeff(), 0.0);
+  EXPECT_TRUE(validateControllerConfig(c, &err)) << err;
+}
+
+TEST(ControllerConfig, ErrorsNameTheField) {
+  const std::string text = readDefaultConfig();
+  ControllerConfig c;
+  std::string err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "kp_com", ""), "cfg", c, &err));
+  EXPECT_EQ(err, "cfg: momentum.kp_com: missing");
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "kp_com", "kp_com: [1, 2]"), "cfg", c, &err));
+  EXPECT_NE(err.find("momentum.kp_com"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "period", "period: fast"), "cfg", c, &err));
+  EXPECT_NE(err.find("loop.period"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "friction_coefficient", "friction_coefficent: 0.7"), "cfg", c, &err));
+  EXPECT_NE(err.find("contact.friction_coefficent: unknown key"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "friction_coefficient", "friction_coefficient: -0.1"), "cfg", c, &err));
+  EXPECT_NE(err.find("contact.friction_coefficient: must be > 0"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "moves", "moves: 2.5"), "cfg", c, &err));
+  EXPECT_NE(err.find("trajectory.moves"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "joint_velocity_cutoff_hz", "joint_velocity_cutoff_hz: 900"), "cfg", c, &err));
+  EXPECT_NE(err.find("Nyquist"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig("loop: [1, 2", "cfg", c, &err));
+  EXPECT_NE(err.find("YAML"), std::string::npos) << err;
+  EXPECT_EQ(err.find('\n'), std::string::npos) << "one line";
+  EXPECT_FALSE(loadControllerConfig("/nonexistent/controller.yaml", c, &err));
+  EXPECT_NE(err.find("/nonexistent/controller.yaml"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace exoid::controller

@@ -1,0 +1,243 @@
+// Safe fallback of BalanceController: bad inputs (NaN, out-of-order, stale, bad quaternion) and QP failures
+// (infeasible, non-finite solution) hold the last safe command for fallback.hold_ticks, then damp the joints;
+// the command is always finite, within limits, zero on the passive joints, and every event is counted.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "controller_test_util.hpp"
+#include "exoid/controller/balance_controller.hpp"
+#include "exoid/controller/proxqp_solver.hpp"
+
+namespace exoid::controller {
+namespace {
+
+/// ProxQP with scripted failures (the solver interface makes the control law testable without a solver bug).
+class ScriptedSolver final : public QpSolver {
+ public:
+  enum class Mode { Pass, Infeasible, NaN };
+  explicit ScriptedSolver(const QpSolverSettings& s) : inner_(makeProxQpSolver(s)) {}
+  bool setup(const QpDimensions& d) override { return inner_->setup(d); }
+  void solve(const QpProblem& p, QpResult& r) override {
+    inner_->solve(p, r);
+    if (mode == Mode::Infeasible) r.status = QpStatus::Infeasible;
+    if (mode == Mode::NaN) r.x[3] = std::numeric_limits<double>::quiet_NaN();  // "solved" but non-finite
+  }
+  void resetWarmStart() override { inner_->resetWarmStart(); }
+  const char* name() const override { return "scripted"; }
+  Mode mode = Mode::Pass;
+
+ private:
+  std::unique_ptr<QpSolver> inner_;
+};
+
+class FallbackTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string err;
+    ASSERT_TRUE(testing::loadModel(model_, &err)) << err;
+    ASSERT_TRUE(testing::loadConfig(cfg_, &err)) << err;
+    make(cfg_);
+  }
+  void make(const ControllerConfig& cfg) {
+    auto solver = std::make_unique<ScriptedSolver>(QpSolverSettings{cfg.solver.eps_abs, cfg.solver.max_iterations});
+    solver_ = solver.get();
+    ctrl_ = std::make_unique<BalanceController>(model_, cfg, 1, std::move(solver));
+    ASSERT_TRUE(ctrl_->ok()) << ctrl_->error();
+    ctrl_->prepare(cmd_);
+    sample_.q = Eigen::VectorXd::Zero(model_.njoints);  // standing pose of config/exo.urdf
+    sample_.tau = Eigen::VectorXd::Zero(model_.njoints);
+    sample_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model_.njoints, true);
+  }
+  /// One tick with the standing sample at `tick`; checks the invariants every command must satisfy.
+  void tick(int64_t tick) {
+    sample_.tick = tick;
+    sample_.utime = tick * 1000;
+    ctrl_->tick(sample_, cmd_, st_);
+    ASSERT_TRUE(cmd_.tau.allFinite());
+    ASSERT_TRUE(cmd_.tau_ff.allFinite());
+    EXPECT_EQ(cmd_.tick, tick + 1);
+    for (int j = 0; j < model_.njoints; ++j) {
+      EXPECT_LE(std::abs(cmd_.tau[j]), model_.effort_limit[j] * cfg_.torque.limit_scale + 1e-12);
+      if (model_.effort_limit[j] == 0.0) {
+        EXPECT_EQ(cmd_.tau[j], 0.0) << "passive joint " << j;
+      }
+    }
+  }
+  /// Runs good ticks until the controller is in torque mode past the start-up latch.
+  int64_t settle(int64_t from = 0) {
+    const int64_t end = from + cfg_.estimator.latch_ticks + 50;
+    for (int64_t k = from; k < end; ++k) tick(k);
+    EXPECT_EQ(cmd_.mode, CommandMode::Torque);
+    EXPECT_EQ(st_.fallbacks, 0);
+    return end;
+  }
+
+  Model model_;
+  ControllerConfig cfg_;
+  ScriptedSolver* solver_ = nullptr;
+  std::unique_ptr<BalanceController> ctrl_;
+  RobotStateSample sample_;
+  JointCommandSample cmd_;
+  ControllerStatus st_;
+};
+
+TEST_F(FallbackTest, NaNStateHoldsTheLastSafeCommandThenDampsThenRecovers) {
+  int64_t k = settle();
+  const Eigen::VectorXd safe = cmd_.tau;
+  ASSERT_GT(safe.norm(), 1.0);  // standing needs torque (ankles, hips)
+  const int hold = cfg_.fallback.hold_ticks, extra = 10;
+  sample_.q[2] = std::numeric_limits<double>::quiet_NaN();
+  for (int i = 0; i < hold + extra; ++i, ++k) {
+    tick(k);
+    EXPECT_EQ(st_.reason, FallbackReason::InvalidInput);
+    if (i < hold) {
+      EXPECT_EQ(cmd_.mode, CommandMode::HoldLastSafe) << i;
+      EXPECT_EQ((cmd_.tau - safe).norm(), 0.0);
+    } else {
+      EXPECT_EQ(cmd_.mode, CommandMode::Damping) << i;
+      // tau = -D v with the last joint velocity estimate (at rest: 0), bounded.
+      EXPECT_LE(cmd_.tau.lpNorm<Eigen::Infinity>(), cfg_.fallback.damping_torque_limit);
+    }
+    EXPECT_EQ(cmd_.tau_ff.norm(), 0.0);
+  }
+  EXPECT_EQ(st_.rejected_inputs, hold + extra);
+  EXPECT_EQ(st_.fallbacks, hold + extra);
+  EXPECT_EQ(st_.hold_ticks, hold);
+  EXPECT_EQ(st_.damping_ticks, extra);
+  // Good samples again. The first is stale (its predecessor is hold + extra ticks back), then the controller
+  // needs recovery_ticks consecutive good ticks before it leaves the damping mode.
+  sample_.q[2] = 0.0;
+  tick(k++);
+  EXPECT_EQ(st_.reason, FallbackReason::Stale);
+  EXPECT_EQ(st_.stale_inputs, hold + extra);
+  EXPECT_EQ(cmd_.mode, CommandMode::Damping);
+  for (int i = 0; i < cfg_.fallback.recovery_ticks - 1; ++i, ++k) {
+    tick(k);
+    EXPECT_EQ(cmd_.mode, CommandMode::Damping) << i;
+    EXPECT_EQ(st_.reason, FallbackReason::Recovering);
+  }
+  tick(k++);
+  EXPECT_EQ(cmd_.mode, CommandMode::Torque);
+  EXPECT_EQ(st_.reason, FallbackReason::None);
+  EXPECT_EQ(st_.fallbacks, hold + extra + cfg_.fallback.recovery_ticks);
+}
+
+TEST_F(FallbackTest, NaNBeforeAnyGoodTickDampsAtOnce) {
+  sample_.imu_gyro = Eigen::Vector3d(0.0, std::numeric_limits<double>::infinity(), 0.0);
+  tick(0);
+  EXPECT_EQ(cmd_.mode, CommandMode::Damping);  // no safe command to hold yet
+  EXPECT_EQ(cmd_.tau.norm(), 0.0);
+  EXPECT_EQ(st_.rejected_inputs, 1);
+  EXPECT_EQ(st_.qp_status, QpStatus::NotRun);
+}
+
+TEST_F(FallbackTest, OutOfOrderDuplicateAndBadQuaternionAreRejected) {
+  int64_t k = settle();
+  tick(k - 1);  // duplicate of the last accepted tick
+  EXPECT_EQ(st_.reason, FallbackReason::OutOfOrder);
+  tick(k - 5);  // older
+  EXPECT_EQ(st_.reason, FallbackReason::OutOfOrder);
+  sample_.imu_orientation.coeffs() *= 1.5;  // not a unit quaternion
+  tick(k++);
+  EXPECT_EQ(st_.reason, FallbackReason::InvalidInput);
+  EXPECT_EQ(st_.rejected_inputs, 3);
+  EXPECT_EQ(st_.fallbacks, 3);
+  EXPECT_EQ(cmd_.mode, CommandMode::HoldLastSafe);
+  sample_.imu_orientation = Eigen::Quaterniond::Identity();
+  tick(k++);  // next tick after the rejected one: gap 2 from the last accepted, within max_missed_ticks
+  EXPECT_EQ(cmd_.mode, CommandMode::Torque);
+  EXPECT_EQ(st_.stale_inputs, 1);
+}
+
+TEST_F(FallbackTest, GapBeyondTheLimitIsStale) {
+  int64_t k = settle();
+  const int gap = cfg_.fallback.max_missed_ticks + 2;
+  tick(k + gap - 1);
+  EXPECT_EQ(st_.reason, FallbackReason::Stale);
+  EXPECT_EQ(cmd_.mode, CommandMode::HoldLastSafe);
+  EXPECT_EQ(st_.stale_inputs, gap - 1);
+  tick(k + gap);
+  EXPECT_EQ(cmd_.mode, CommandMode::Torque);  // hold, not damping: back to torque at once
+}
+
+TEST_F(FallbackTest, QpFailureHoldsThenDamps) {
+  int64_t k = settle();
+  const Eigen::VectorXd safe = cmd_.tau;
+  solver_->mode = ScriptedSolver::Mode::Infeasible;
+  for (int i = 0; i < cfg_.fallback.hold_ticks + 5; ++i, ++k) {
+    tick(k);
+    EXPECT_EQ(st_.reason, FallbackReason::QpFailed);
+    EXPECT_EQ(st_.qp_status, QpStatus::Infeasible);
+    EXPECT_EQ(cmd_.mode, i < cfg_.fallback.hold_ticks ? CommandMode::HoldLastSafe : CommandMode::Damping);
+    if (i < cfg_.fallback.hold_ticks) {
+      EXPECT_EQ((cmd_.tau - safe).norm(), 0.0);
+    }
+  }
+  EXPECT_EQ(st_.qp_failures, cfg_.fallback.hold_ticks + 5);
+  EXPECT_EQ(st_.fallbacks, cfg_.fallback.hold_ticks + 5);
+  EXPECT_EQ(st_.rejected_inputs, 0);
+}
+
+TEST_F(FallbackTest, NonFiniteSolutionNeverReachesTheCommand) {
+  int64_t k = settle();
+  solver_->mode = ScriptedSolver::Mode::NaN;
+  tick(k++);
+  EXPECT_EQ(st_.reason, FallbackReason::QpFailed);
+  EXPECT_EQ(cmd_.mode, CommandMode::HoldLastSafe);
+  EXPECT_EQ(st_.qp_failures, 1);
+  solver_->mode = ScriptedSolver::Mode::Pass;
+  tick(k++);
+  EXPECT_EQ(cmd_.mode, CommandMode::Torque);
+}
+
+TEST_F(FallbackTest, InfeasibleProblemFromTheConfigFallsBack) {
+  // Each foot must push 5 kN (ten times the weight): the real ProxQP reports it infeasible every tick.
+  ControllerConfig cfg = cfg_;
+  cfg.contact.min_normal_force = 5000.0;
+  make(cfg);
+  for (int64_t k = 0; k < 50; ++k) {
+    tick(k);
+    EXPECT_NE(st_.qp_status, QpStatus::Solved);
+    EXPECT_EQ(cmd_.mode, CommandMode::Damping);
+  }
+  EXPECT_EQ(st_.qp_failures, 50);
+  EXPECT_EQ(st_.fallbacks, 50);
+}
+
+TEST_F(FallbackTest, FeedforwardIsAppliedReportedAndAgesOut) {
+  // Not a fallback, but the same standing fixture: the estimator's feedforward on an actuated joint enters
+  // the dynamics, so the commanded torque moves by exactly that amount; command.tau_ff reports it; a stale
+  // estimate (older than feedforward.max_age_ticks) is ignored.
+  int64_t k = settle();
+  tick(k++);
+  const Eigen::VectorXd tau0 = cmd_.tau;
+  const int knee = model_.jointIndex("left_knee");
+  Eigen::VectorXd ff = Eigen::VectorXd::Zero(model_.njoints);
+  ff[knee] = 2.5;
+  ASSERT_TRUE(ctrl_->setFeedforward(ff, k));
+  tick(k++);
+  EXPECT_NEAR(cmd_.tau_ff[knee], 2.5, 1e-12);
+  EXPECT_NEAR(cmd_.tau[knee] - tau0[knee], 2.5, 0.05);  // the state barely changed in one tick
+  EXPECT_FALSE(ctrl_->setFeedforward(Eigen::VectorXd::Zero(3), k));  // wrong size: ignored
+  for (int i = 0; i < cfg_.feedforward.max_age_ticks + 1; ++i) tick(k++);
+  EXPECT_EQ(cmd_.tau_ff.norm(), 0.0);
+  EXPECT_NEAR(cmd_.tau[knee], tau0[knee], 0.05);
+}
+
+TEST_F(FallbackTest, ImpossibleTrajectoryIsReportedAndTheStartIsHeld) {
+  ControllerConfig cfg = cfg_;
+  cfg.trajectory.polygon_margin = 0.3;  // no point of the support polygon is 0.3 m inside it
+  cfg.trajectory.max_sampling_attempts = 100;
+  make(cfg);
+  settle();
+  EXPECT_TRUE(st_.trajectory_failed);
+  EXPECT_FALSE(st_.trajectory_ready);
+  EXPECT_EQ(cmd_.mode, CommandMode::Torque);  // still balancing, on the start-up CoM
+  EXPECT_NEAR((st_.com_ref - st_.com).norm(), 0.0, 1e-3);
+  EXPECT_EQ(st_.move_index, -1);
+}
+
+}  // namespace
+}  // namespace exoid::controller

@@ -1,0 +1,236 @@
+// Proof that BalanceController::tick() does not allocate, in a realistic closed loop against MuJoCo (start-up
+// latch and trajectory generation, QP solves with warm start, a NaN input with hold and damping, a stale gap,
+// a QP failure with the warm-start reset and preconditioner recomputation, recovery, feedforward updates).
+// Three independent detectors around every tick:
+//   1. Eigen::internal::set_is_malloc_allowed(false): the controller sources and the header-only ProxQP are
+//      compiled INTO this target with EIGEN_RUNTIME_NO_MALLOC and without NDEBUG, so any Eigen heap allocation
+//      asserts (positive control below: a death test);
+//   2. a replaced global operator new / new[] (all variants) counting calls;
+//   3. glibc malloc / calloc / realloc / memalign / posix_memalign / aligned_alloc interposed and counted,
+//      which also covers exoid_model (compiled without EIGEN_RUNTIME_NO_MALLOC) and any C code.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdlib>
+#include <limits>
+#include <new>
+
+#include "exoid/controller/balance_controller.hpp"
+#include "exoid/controller/proxqp_solver.hpp"
+#include "mujoco_exo.hpp"
+
+#ifndef EIGEN_RUNTIME_NO_MALLOC
+#error "test_no_allocation must be compiled with EIGEN_RUNTIME_NO_MALLOC"
+#endif
+
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<long> g_news{0};
+std::atomic<long> g_mallocs{0};
+
+void* countedNew(std::size_t n) {
+  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
+  void* p = std::malloc(n ? n : 1);
+  if (!p) throw std::bad_alloc();
+  return p;
+}
+void* countedAlignedNew(std::size_t n, std::align_val_t a) {
+  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
+  void* p = nullptr;
+  if (posix_memalign(&p, static_cast<std::size_t>(a), n ? n : 1) != 0) throw std::bad_alloc();
+  return p;
+}
+}  // namespace
+
+void* operator new(std::size_t n) { return countedNew(n); }
+void* operator new[](std::size_t n) { return countedNew(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return std::malloc(n ? n : 1); }
+void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return std::malloc(n ? n : 1); }
+void* operator new(std::size_t n, std::align_val_t a) { return countedAlignedNew(n, a); }
+void* operator new[](std::size_t n, std::align_val_t a) { return countedAlignedNew(n, a); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* __libc_memalign(std::size_t, std::size_t);
+void __libc_free(void*);
+
+static inline void countMalloc() {
+  if (g_counting.load(std::memory_order_relaxed)) g_mallocs.fetch_add(1, std::memory_order_relaxed);
+}
+void* malloc(std::size_t n) {
+  countMalloc();
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t n, std::size_t s) {
+  countMalloc();
+  return __libc_calloc(n, s);
+}
+void* realloc(void* p, std::size_t n) {
+  countMalloc();
+  return __libc_realloc(p, n);
+}
+void* memalign(std::size_t a, std::size_t n) {
+  countMalloc();
+  return __libc_memalign(a, n);
+}
+void* aligned_alloc(std::size_t a, std::size_t n) {
+  countMalloc();
+  return __libc_memalign(a, n);
+}
+int posix_memalign(void** out, std::size_t a, std::size_t n) {
+  countMalloc();
+  *out = __libc_memalign(a, n);
+  return *out ? 0 : ENOMEM;
+}
+void free(void* p) { __libc_free(p); }
+}
+
+namespace exoid::controller {
+namespace {
+
+/// Counts allocations between construction and destruction (Eigen's runtime check armed meanwhile).
+class NoAllocationScope {
+ public:
+  NoAllocationScope() {
+    news0_ = g_news.load();
+    mallocs0_ = g_mallocs.load();
+    g_counting.store(true);
+    Eigen::internal::set_is_malloc_allowed(false);
+  }
+  ~NoAllocationScope() { stop(); }
+  void stop() {
+    if (!active_) return;
+    Eigen::internal::set_is_malloc_allowed(true);
+    g_counting.store(false);
+    active_ = false;
+  }
+  long news() const { return g_news.load() - news0_; }
+  long mallocs() const { return g_mallocs.load() - mallocs0_; }
+
+ private:
+  bool active_ = true;
+  long news0_ = 0, mallocs0_ = 0;
+};
+
+TEST(NoAllocationDetectors, CountersAndEigenCheckAreLive) {
+  {
+    NoAllocationScope scope;
+    int* volatile p = new int(3);
+    void* volatile m = std::malloc(16);
+    scope.stop();
+    EXPECT_GE(scope.news(), 1);
+    EXPECT_GE(scope.mallocs(), 2);  // the malloc, and operator new's own malloc
+    delete p;
+    std::free(m);
+  }
+  EXPECT_DEATH(
+      {
+        Eigen::internal::set_is_malloc_allowed(false);
+        Eigen::VectorXd v(1000);
+        v.setZero();
+      },
+      "heap allocation is forbidden");
+}
+
+/// ProxQP that can be told to report a failure (exercises the fallback and the warm-start reset path).
+class FailableSolver final : public QpSolver {
+ public:
+  explicit FailableSolver(const QpSolverSettings& s) : inner_(s) {}
+  bool setup(const QpDimensions& d) override { return inner_.setup(d); }
+  void solve(const QpProblem& p, QpResult& r) override {
+    inner_.solve(p, r);
+    if (fail) {
+      r.status = QpStatus::Infeasible;
+      inner_.resetWarmStart();
+    }
+  }
+  void resetWarmStart() override { inner_.resetWarmStart(); }
+  const char* name() const override { return "failable-proxqp"; }
+  bool fail = false;
+
+ private:
+  ProxQpSolver inner_;
+};
+
+TEST(NoAllocation, ControllerTickInClosedLoop) {
+  std::string err;
+  Model model;
+  ASSERT_TRUE(testing::loadModel(model, &err)) << err;
+  ControllerConfig cfg;
+  ASSERT_TRUE(testing::loadConfig(cfg, &err)) << err;
+  testing::MujocoExo sim;
+  ASSERT_TRUE(sim.load(model, &err)) << err;
+  auto solver = std::make_unique<FailableSolver>(QpSolverSettings{cfg.solver.eps_abs, cfg.solver.max_iterations});
+  FailableSolver* failable = solver.get();
+  BalanceController ctrl(model, cfg, 3, std::move(solver));
+  ASSERT_TRUE(ctrl.ok()) << ctrl.error();
+
+  RobotStateSample state;
+  sim.prepare(state);
+  JointCommandSample cmd, pending;
+  ctrl.prepare(cmd);
+  ctrl.prepare(pending);
+  ControllerStatus st;
+  Eigen::VectorXd ff = Eigen::VectorXd::Zero(model.njoints);
+
+  const long latch = cfg.estimator.latch_ticks;
+  // Start-up latch, initial hold and three moves with their holds (~10 s, ~10^4 ticks).
+  const long total = latch + static_cast<long>((cfg.trajectory.initial_hold +
+                                                3 * (cfg.trajectory.move_duration + cfg.trajectory.hold_duration)) /
+                                               cfg.loop.period);
+  const long nan_at = latch + 300, gap_at = latch + 600, qp_fail_at = latch + 900;
+  long tick_news = 0, tick_mallocs = 0, ticks = 0, max_news_tick = -1;
+  int64_t tick_id = 0;
+  bool saw_hold = false, saw_damping = false, saw_torque_after = false;
+  for (long k = 0; k < total; ++k) {
+    sim.step1();
+    sim.sample(state, tick_id, testing::realisticNoise());
+    if (k >= nan_at && k < nan_at + cfg.fallback.hold_ticks + 5) state.q[1] = std::numeric_limits<double>::quiet_NaN();
+    if (k == gap_at) tick_id += cfg.fallback.max_missed_ticks + 3, state.tick = tick_id;  // stale gap
+    failable->fail = k >= qp_fail_at && k < qp_fail_at + 3;
+    sim.apply(pending);
+    ff.setConstant(0.01 * static_cast<double>(k % 7));
+    {
+      NoAllocationScope scope;
+      ctrl.setFeedforward(ff, tick_id);
+      ctrl.tick(state, cmd, st);
+      scope.stop();
+      tick_news += scope.news();
+      tick_mallocs += scope.mallocs();
+      if (scope.news() + scope.mallocs() > 0 && max_news_tick < 0) max_news_tick = k;
+    }
+    ++ticks;
+    saw_hold = saw_hold || cmd.mode == CommandMode::HoldLastSafe;
+    saw_damping = saw_damping || cmd.mode == CommandMode::Damping;
+    saw_torque_after = saw_torque_after || (k > qp_fail_at + 200 && cmd.mode == CommandMode::Torque);
+    std::swap(pending, cmd);
+    sim.step2();
+    ++tick_id;
+  }
+  EXPECT_EQ(tick_news, 0) << "operator new calls inside tick(), first at loop index " << max_news_tick;
+  EXPECT_EQ(tick_mallocs, 0) << "malloc-family calls inside tick(), first at loop index " << max_news_tick;
+  // The run really went through the paths that could allocate.
+  EXPECT_TRUE(st.trajectory_ready);
+  EXPECT_GE(st.qp_failures, 3);
+  EXPECT_GE(st.rejected_inputs, cfg.fallback.hold_ticks + 5);
+  EXPECT_GT(st.stale_inputs, cfg.fallback.max_missed_ticks);
+  EXPECT_TRUE(saw_hold);
+  EXPECT_TRUE(saw_damping);
+  EXPECT_TRUE(saw_torque_after);
+  EXPECT_GT(sim.baseHeight(), 1.0);  // and the robot is still standing
+  EXPECT_EQ(ticks, total);
+}
+
+}  // namespace
+}  // namespace exoid::controller
