@@ -1,6 +1,7 @@
 #include "exoid/tools/process.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -12,7 +13,17 @@
 
 namespace exoid::tools {
 
-pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error) {
+std::vector<int> allowedCpus() {
+  std::vector<int> cpus;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::sched_getaffinity(0, sizeof(set), &set) == 0)
+    for (int c = 0; c < CPU_SETSIZE; ++c)
+      if (CPU_ISSET(c, &set)) cpus.push_back(c);
+  return cpus;
+}
+
+pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error, int cpu) {
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
@@ -31,6 +42,12 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, s
     return -1;
   }
   if (pid == 0) {
+    if (cpu >= 0) {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      CPU_SET(cpu, &set);
+      ::sched_setaffinity(0, sizeof(set), &set);  // best effort: a failure only costs speed
+    }
     if (fd >= 0) {
       ::dup2(fd, STDOUT_FILENO);
       ::dup2(fd, STDERR_FILENO);

@@ -160,6 +160,7 @@ bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& l
   Data kin(model);
   Eigen::VectorXd y(model.nv), tau(model.njoints);
   Eigen::VectorXd sum_sq = Eigen::VectorXd::Zero(model.nv);
+  double max_error = 0.0, max_y = 0.0;
   for (const GroundTruthSample& t : log.truth) {
     auto s = states.find(t.tick);
     auto r = plates_r.find(t.tick), l = plates_l.find(t.tick);
@@ -174,7 +175,8 @@ bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& l
     for (int j = 0; j < model.njoints; ++j) tau[j] = s->second->has_tau[j] ? s->second->tau[j] : 0.0;
     generalizedForceFromMeasurements(model, kin, state, tau, w, 2, y);
     const Eigen::VectorXd e = kin.K * phi - y;
-    out.max_relative = std::max(out.max_relative, e.cwiseAbs().maxCoeff() / std::max(y.cwiseAbs().maxCoeff(), 1e-12));
+    max_error = std::max(max_error, e.cwiseAbs().maxCoeff());
+    max_y = std::max(max_y, y.cwiseAbs().maxCoeff());
     sum_sq += e.cwiseAbs2();
     ++out.ticks;
   }
@@ -182,6 +184,7 @@ bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& l
     if (error) *error = "no tick has ground truth, robot state and both plates";
     return false;
   }
+  out.max_relative = max_error / std::max(max_y, 1e-300);
   out.rms_per_row.resize(model.nv);
   for (int i = 0; i < model.nv; ++i) out.rms_per_row[i] = std::sqrt(sum_sq[i] / out.ticks);
   out.rms_absolute = std::sqrt(sum_sq.sum() / (out.ticks * model.nv));

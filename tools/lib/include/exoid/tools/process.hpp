@@ -8,8 +8,11 @@
 namespace exoid::tools {
 
 /// Starts argv[0] (searched in PATH) with the given arguments. Output goes to log_path (appended) if not
-/// empty, otherwise it is inherited. Returns the pid, or -1 with *error.
-pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error);
+/// empty, otherwise it is inherited. cpu >= 0 pins the child to that CPU. Returns the pid, or -1 with *error.
+pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error, int cpu = -1);
+
+/// CPUs this process may run on, in increasing order.
+std::vector<int> allowedCpus();
 
 /// Waits up to timeout_ms for the process to exit (timeout_ms < 0: forever). Returns true and its exit
 /// code (128 + signal if killed by one) when it exited; false on timeout.

@@ -30,7 +30,8 @@ void footWrenchFromPlate(const ForcePlateSample& plate, Eigen::Vector3d& force, 
 
 struct EomResidual {
   long ticks = 0;
-  double max_relative = 0.0;     ///< max over ticks of max|W phi - y| / max|y|
+  double max_relative = 0.0;     ///< max over ticks and rows of |W phi - y|, over the run's max |y| (a per-tick
+                                 ///< ratio is meaningless at touch-down, where y is ~0 in free fall)
   double rms_absolute = 0.0;     ///< RMS of W phi - y over all rows and ticks (N, N m)
   std::vector<double> rms_per_row;  ///< [nv]
 };
