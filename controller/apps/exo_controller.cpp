@@ -56,6 +56,7 @@ void printHelp() {
       "Options:\n"
       "  --model PATH           URDF of the robot (default: config/exo.urdf)\n"
       "  --config PATH          controller configuration (default: config/controller.yaml)\n"
+      "  --moves N              number of CoM moves (default: trajectory.moves of the configuration, 20)\n"
       "  --seed N               seed of the CoM move sequence, unsigned integer (default: 1); use different seeds\n"
       "                         for training and validation runs\n"
       "  --lcm-url URL          LCM URL (default: $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0);\n"
@@ -123,6 +124,7 @@ int main(int argc, char** argv) {
   unsigned long long seed = 1;
   long long idle_timeout_ms = kDefaultIdleTimeoutMs;
   bool use_estimate = true, quiet = false, print_duration = false;
+  long long moves = 0;  // 0: the configuration's
 
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -146,6 +148,8 @@ int main(int argc, char** argv) {
       long long s = 0;
       if (!parseInt(value("--seed"), 0, INT64_MAX, &s)) return badInput("--seed needs an unsigned integer");
       seed = static_cast<unsigned long long>(s);
+    } else if (a == "--moves") {
+      if (!parseInt(value("--moves"), 1, 1000, &moves)) return badInput("--moves needs an integer in 1..1000");
     } else if (a == "--lcm-url") {
       const char* v = value("--lcm-url");
       if (!v) return badInput("--lcm-url needs a URL");
@@ -170,6 +174,7 @@ int main(int argc, char** argv) {
   if (!buildModelFromUrdfFile(model_path, true, model, &err)) return badInput("--model " + model_path + ": " + err);
   ControllerConfig cfg;
   if (!loadControllerConfig(config_path, cfg, &err)) return badInput(err);
+  if (moves > 0) cfg.trajectory.moves = static_cast<int>(moves);
   if (print_duration) {
     std::printf("%.3f\n", plannedRunDuration(cfg));
     return kExitOk;

@@ -1,4 +1,4 @@
-// LowPass2 and BaseStateEstimator: filter response, and the stationary-feet kinematics on synthetic samples.
+// BaseStateEstimator: the stationary-feet kinematics on synthetic samples (its filter: tests/model/test_filters.cpp).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,45 +9,6 @@
 
 namespace exoid::controller {
 namespace {
-
-TEST(LowPass2, ButterworthResponse) {
-  const double fs = 1000.0, fc = 100.0;
-  LowPass2 f;
-  f.configure(1, fc, fs);
-  ASSERT_FALSE(f.passThrough());
-  // Unit DC gain.
-  EXPECT_NEAR((f.b0() + f.b1() + f.b2()) / (1.0 + f.a1() + f.a2()), 1.0, 1e-12);
-  // |H| at the cutoff is 1/sqrt(2) (-3 dB); at fs/4 (250 Hz) a 2nd-order Butterworth (bilinear, pre-warped)
-  // gives 1/sqrt(1 + (tan(pi 250/1000) / tan(pi 100/1000))^4).
-  auto gain = [&](double freq) {
-    LowPass2 g;
-    g.configure(1, fc, fs);
-    Eigen::VectorXd x(1), y(1);
-    double cs = 0.0, sn = 0.0;
-    const int n0 = 2000, n = 2000;  // settle, then correlate over whole periods of both test frequencies
-    for (int k = 0; k < n0 + n; ++k) {
-      const double ph = 2.0 * M_PI * freq * k / fs;
-      x[0] = std::sin(ph);
-      g.filter(x, y);
-      if (k >= n0) {
-        sn += y[0] * std::sin(ph);
-        cs += y[0] * std::cos(ph);
-      }
-    }
-    return 2.0 / n * std::hypot(sn, cs);
-  };
-  EXPECT_NEAR(gain(fc), 1.0 / std::sqrt(2.0), 0.01);
-  const double r = std::tan(M_PI * 250.0 / fs) / std::tan(M_PI * fc / fs);
-  EXPECT_NEAR(gain(250.0), 1.0 / std::sqrt(1.0 + std::pow(r, 4)), 0.01);
-  // reset() to a constant: no transient.
-  Eigen::VectorXd c = Eigen::VectorXd::Constant(1, 3.0), y(1);
-  f.reset(c);
-  f.filter(c, y);
-  EXPECT_DOUBLE_EQ(y[0], 3.0);
-  LowPass2 off;
-  off.configure(2, 0.0, fs);
-  EXPECT_TRUE(off.passThrough());
-}
 
 class EstimatorTest : public ::testing::Test {
  protected:

@@ -2,7 +2,7 @@
 
 #include <unordered_map>
 
-#include "exoid/estimator/filters.hpp"
+#include "exoid/signal/filters.hpp"
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/tools/state_columns.hpp"

@@ -16,7 +16,7 @@
 #include <string>
 
 #include "exoid/controller/config.hpp"
-#include "exoid/controller/filters.hpp"
+#include "exoid/signal/filters.hpp"
 #include "exoid/model/model.hpp"
 #include "exoid/samples.hpp"
 
@@ -71,7 +71,7 @@ class BaseStateEstimator {
   std::array<SoleFrame, 2> soles_;
   SoleFrame imu_;
 
-  LowPass2 dq_filter_, gyro_filter_;
+  LowPassFilter dq_filter_, gyro_filter_;
   Data kin_;
   State kin_state_;  // q only (velocities/accelerations zero) for the kinematics
   Eigen::Matrix<double, 6, Eigen::Dynamic> J_;

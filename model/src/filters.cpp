@@ -1,4 +1,4 @@
-#include "exoid/estimator/filters.hpp"
+#include "exoid/signal/filters.hpp"
 
 #include <cmath>
 
@@ -6,40 +6,49 @@ namespace exoid {
 
 Biquad Biquad::butterworthLowPass(double fc, double fs) {
   const double k = std::tan(M_PI * fc / fs);  // pre-warped analogue cutoff
-  const double q = 1.0 / std::sqrt(2.0);
-  const double norm = 1.0 / (1.0 + k / q + k * k);
+  const double norm = 1.0 / (1.0 + M_SQRT2 * k + k * k);
   Biquad c;
   c.b0 = k * k * norm;
   c.b1 = 2.0 * c.b0;
   c.b2 = c.b0;
   c.a1 = 2.0 * (k * k - 1.0) * norm;
-  c.a2 = (1.0 - k / q + k * k) * norm;
+  c.a2 = (1.0 - M_SQRT2 * k + k * k) * norm;
   return c;
 }
 
-LowPassFilter::LowPassFilter(const Biquad& c, int width)
-    : c_(c), x1_(Eigen::VectorXd::Zero(width)), x2_(x1_), y1_(x1_), y2_(x1_) {}
+void LowPassFilter::configure(int channels, double cutoff_hz, double sample_hz) {
+  x1_ = x2_ = y1_ = y2_ = Eigen::VectorXd::Zero(channels);
+  initialized_ = false;
+  pass_through_ = !(cutoff_hz > 0.0) || !(cutoff_hz < 0.5 * sample_hz);
+  c_ = pass_through_ ? Biquad() : Biquad::butterworthLowPass(cutoff_hz, sample_hz);
+}
 
-void LowPassFilter::step(Eigen::Ref<Eigen::VectorXd> x) {
-  if (!initialized_) {
-    x1_ = x2_ = y1_ = y2_ = x;
-    initialized_ = true;
+void LowPassFilter::reset(const Eigen::Ref<const Eigen::VectorXd>& value) {
+  x1_ = x2_ = y1_ = y2_ = value;
+  initialized_ = true;
+}
+
+void LowPassFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& in, Eigen::Ref<Eigen::VectorXd> out) {
+  if (pass_through_) {
+    out = in;
+    return;
   }
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    const double y = c_.b0 * x[i] + c_.b1 * x1_[i] + c_.b2 * x2_[i] - c_.a1 * y1_[i] - c_.a2 * y2_[i];
+  if (!initialized_) reset(in);
+  for (Eigen::Index i = 0; i < in.size(); ++i) {
+    const double x = in[i];
+    const double y = c_.b0 * x + c_.b1 * x1_[i] + c_.b2 * x2_[i] - c_.a1 * y1_[i] - c_.a2 * y2_[i];
     x2_[i] = x1_[i];
-    x1_[i] = x[i];
+    x1_[i] = x;
     y2_[i] = y1_[i];
     y1_[i] = y;
-    x[i] = y;
+    out[i] = y;
   }
 }
 
 namespace {
 Eigen::VectorXd onePass(const Biquad& c, const Eigen::VectorXd& x) {
   Eigen::VectorXd y(x.size());
-  // Start in steady state at the first value.
-  double x1 = x[0], x2 = x[0], y1 = x[0], y2 = x[0];
+  double x1 = x[0], x2 = x[0], y1 = x[0], y2 = x[0];  // steady state at the first value
   for (Eigen::Index i = 0; i < x.size(); ++i) {
     y[i] = c.b0 * x[i] + c.b1 * x1 + c.b2 * x2 - c.a1 * y1 - c.a2 * y2;
     x2 = x1, x1 = x[i], y2 = y1, y1 = y[i];

@@ -4,7 +4,7 @@
 
 #include <complex>
 
-#include "exoid/estimator/filters.hpp"
+#include "exoid/signal/filters.hpp"
 
 namespace exoid {
 namespace {
@@ -38,17 +38,73 @@ TEST(Butterworth, ForwardBackwardHasZeroPhase) {
 
 TEST(Butterworth, CausalStepMatchesTheRecursion) {
   const Biquad c = Biquad::butterworthLowPass(20.0, 1000.0);
-  LowPassFilter filter(c, 1);
+  LowPassFilter filter;
+  filter.configure(1, 20.0, 1000.0);
   Eigen::VectorXd v(1);
   double x1 = 1.0, x2 = 1.0, y1 = 1.0, y2 = 1.0;
   for (int i = 0; i < 200; ++i) {
     const double x = (i == 0) ? 1.0 : std::cos(0.1 * i);
     v[0] = x;
-    filter.step(v);
+    filter.filter(v, v);
     const double y = c.b0 * x + c.b1 * x1 + c.b2 * x2 - c.a1 * y1 - c.a2 * y2;
     x2 = x1, x1 = x, y2 = y1, y1 = y;
     EXPECT_NEAR(v[0], y, 1e-14);
   }
+}
+
+TEST(Butterworth, PassThroughAndReset) {
+  LowPassFilter off;
+  off.configure(2, 0.0, 1000.0);
+  EXPECT_TRUE(off.passThrough());
+  Eigen::VectorXd v(2), out(2);
+  v << 1.5, -2.0;
+  off.filter(v, out);
+  EXPECT_EQ(out, v);
+  LowPassFilter on;
+  on.configure(2, 30.0, 1000.0);
+  on.reset(v);
+  on.filter(v, out);  // a constant stays constant from a reset state
+  EXPECT_NEAR((out - v).norm(), 0.0, 1e-14);
+}
+
+TEST(Butterworth, MeasuredSineResponse) {
+  const double fs = 1000.0, fc = 100.0;
+  LowPassFilter f;
+  f.configure(1, fc, fs);
+  ASSERT_FALSE(f.passThrough());
+  // Unit DC gain.
+  const Biquad& b = f.coefficients();
+  EXPECT_NEAR((b.b0 + b.b1 + b.b2) / (1.0 + b.a1 + b.a2), 1.0, 1e-12);
+  // |H| at the cutoff is 1/sqrt(2) (-3 dB); at fs/4 (250 Hz) a 2nd-order Butterworth (bilinear, pre-warped)
+  // gives 1/sqrt(1 + (tan(pi 250/1000) / tan(pi 100/1000))^4).
+  auto gain = [&](double freq) {
+    LowPassFilter g;
+    g.configure(1, fc, fs);
+    Eigen::VectorXd x(1), y(1);
+    double cs = 0.0, sn = 0.0;
+    const int n0 = 2000, n = 2000;  // settle, then correlate over whole periods of both test frequencies
+    for (int k = 0; k < n0 + n; ++k) {
+      const double ph = 2.0 * M_PI * freq * k / fs;
+      x[0] = std::sin(ph);
+      g.filter(x, y);
+      if (k >= n0) {
+        sn += y[0] * std::sin(ph);
+        cs += y[0] * std::cos(ph);
+      }
+    }
+    return 2.0 / n * std::hypot(sn, cs);
+  };
+  EXPECT_NEAR(gain(fc), 1.0 / std::sqrt(2.0), 0.01);
+  const double r = std::tan(M_PI * 250.0 / fs) / std::tan(M_PI * fc / fs);
+  EXPECT_NEAR(gain(250.0), 1.0 / std::sqrt(1.0 + std::pow(r, 4)), 0.01);
+  // reset() to a constant: no transient.
+  Eigen::VectorXd c = Eigen::VectorXd::Constant(1, 3.0), y(1);
+  f.reset(c);
+  f.filter(c, y);
+  EXPECT_DOUBLE_EQ(y[0], 3.0);
+  LowPassFilter off;
+  off.configure(2, 0.0, fs);
+  EXPECT_TRUE(off.passThrough());
 }
 
 TEST(Differentiate, ExactOnQuadratics) {
