@@ -65,13 +65,13 @@ std::string shortConfig() {
   set("hold_duration", "0.3");
   set("initial_hold", "0.3");
   set("final_hold", "0.2");
-  const std::string path = ::testing::TempDir() + "/exo_controller_short.yaml";
+  const std::string path = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_controller_short.yaml";
   std::ofstream(path) << text;
   return path;
 }
 
 TEST(ExoControllerBinary, HelpAndBadInputExitCodes) {
-  const std::string out = ::testing::TempDir() + "/exo_controller_help.txt";
+  const std::string out = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_controller_help.txt";
   EXPECT_EQ(waitExit(spawn({"--help"}, out)), 0);
   const std::string help = slurp(out);
   for (const char* needle : {"--model", "--config", "--seed", "--lcm-url", "--idle-timeout-ms", "EXO_STATE",
@@ -86,7 +86,7 @@ TEST(ExoControllerBinary, HelpAndBadInputExitCodes) {
   EXPECT_EQ(waitExit(spawn({"--model", "/nonexistent/exo.urdf"}, out)), 2);
   EXPECT_EQ(waitExit(spawn({"--seed", "abc"}, out)), 2);
   EXPECT_EQ(waitExit(spawn({"--frobnicate"}, out)), 2);
-  const std::string bad = ::testing::TempDir() + "/bad_controller.yaml";
+  const std::string bad = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_bad_controller.yaml";
   std::ofstream(bad) << "loop: {period: 0.001}\n";
   EXPECT_EQ(waitExit(spawn({"--config", bad}, out)), 2);
   // Nobody publishes (in-process memq provider): the idle timeout ends it.
@@ -135,7 +135,7 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
                                                    solved_count += m.qp_status == 0;
                                                  });
 
-  const std::string out = ::testing::TempDir() + "/exo_controller_run.txt";
+  const std::string out = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_controller_run.txt";
   const pid_t pid = spawn({"--config", shortConfig(), "--lcm-url", url, "--seed", "4", "--idle-timeout-ms", "2000",
                            "--quiet"},
                           out);

@@ -1,4 +1,5 @@
 #pragma once
+#include <unistd.h>
 // Shared helpers of the sim tests: a fixture that turns MuJoCo warnings into failures, a tiny inline biped
 // that satisfies the sim's MJCF contract, temp files, and the global allocation counter (test_sim_core.cpp).
 #include <gtest/gtest.h>
@@ -49,8 +50,9 @@ class MujocoWarningsFail : public ::testing::Test {
 };
 
 /// Writes `text` to a fresh file under the test's temp dir and returns its path.
+/// Writes a file private to this process (ctest runs test cases as parallel processes: a shared name raced).
 inline std::string writeTemp(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + "/exoid_sim_" + name;
+  const std::string path = ::testing::TempDir() + "/exoid_sim_" + std::to_string(::getpid()) + "_" + name;
   std::ofstream(path) << text;
   return path;
 }

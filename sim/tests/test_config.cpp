@@ -111,7 +111,8 @@ TEST(SimConfig, ScenarioParses) {
 
   // noise: a sensors file, relative to the scenario's directory.
   const std::string sensors = writeTemp("rel_sensors.yaml", kGoodSensors);
-  const std::string p2 = writeTemp("file_noise.yaml", "name: f\nseed: 1\nnoise: exoid_sim_rel_sensors.yaml\n");
+  const std::string rel = sensors.substr(sensors.find_last_of('/') + 1);  // the name, relative to the directory
+  const std::string p2 = writeTemp("file_noise.yaml", "name: f\nseed: 1\nnoise: " + rel + "\n");
   ASSERT_TRUE(loadScenario(p2, &s, &err)) << err;
   EXPECT_EQ(s.noise, NoiseMode::File);
   EXPECT_EQ(s.noise_file, sensors);

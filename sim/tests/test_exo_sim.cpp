@@ -1,5 +1,6 @@
 // exo_sim over LCM: the loop in-process against a fake controller on memq:// (timing convention, gate,
 // fallbacks), and the binary's command line (help, exit codes, one-line errors).
+#include <unistd.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -150,7 +151,7 @@ CliRun runExoSim(const std::string& args) {
 }
 
 std::string writeFile(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + "/exo_sim_cli_" + name;
+  const std::string path = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_sim_cli_" + name;
   std::ofstream(path) << text;
   return path;
 }
