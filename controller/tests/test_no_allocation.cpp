@@ -8,6 +8,7 @@
 //   2. a replaced global operator new / new[] (all variants) counting calls;
 //   3. glibc malloc / calloc / realloc / memalign / posix_memalign / aligned_alloc interposed and counted,
 //      which also covers exoid_model (compiled without EIGEN_RUNTIME_NO_MALLOC) and any C code.
+// (2 and 3: tests/support/alloc_counter, shared by every no-allocation test.)
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -19,82 +20,11 @@
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/proxqp_solver.hpp"
 #include "mujoco_exo.hpp"
+#include "support/alloc_counter.hpp"
 
 #ifndef EIGEN_RUNTIME_NO_MALLOC
 #error "test_no_allocation must be compiled with EIGEN_RUNTIME_NO_MALLOC"
 #endif
-
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_news{0};
-std::atomic<long> g_mallocs{0};
-
-void* countedNew(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
-  void* p = std::malloc(n ? n : 1);
-  if (!p) throw std::bad_alloc();
-  return p;
-}
-void* countedAlignedNew(std::size_t n, std::align_val_t a) {
-  if (g_counting.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
-  void* p = nullptr;
-  if (posix_memalign(&p, static_cast<std::size_t>(a), n ? n : 1) != 0) throw std::bad_alloc();
-  return p;
-}
-}  // namespace
-
-void* operator new(std::size_t n) { return countedNew(n); }
-void* operator new[](std::size_t n) { return countedNew(n); }
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept { return std::malloc(n ? n : 1); }
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept { return std::malloc(n ? n : 1); }
-void* operator new(std::size_t n, std::align_val_t a) { return countedAlignedNew(n, a); }
-void* operator new[](std::size_t n, std::align_val_t a) { return countedAlignedNew(n, a); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-
-extern "C" {
-void* __libc_malloc(std::size_t);
-void* __libc_calloc(std::size_t, std::size_t);
-void* __libc_realloc(void*, std::size_t);
-void* __libc_memalign(std::size_t, std::size_t);
-void __libc_free(void*);
-
-static inline void countMalloc() {
-  if (g_counting.load(std::memory_order_relaxed)) g_mallocs.fetch_add(1, std::memory_order_relaxed);
-}
-void* malloc(std::size_t n) {
-  countMalloc();
-  return __libc_malloc(n);
-}
-void* calloc(std::size_t n, std::size_t s) {
-  countMalloc();
-  return __libc_calloc(n, s);
-}
-void* realloc(void* p, std::size_t n) {
-  countMalloc();
-  return __libc_realloc(p, n);
-}
-void* memalign(std::size_t a, std::size_t n) {
-  countMalloc();
-  return __libc_memalign(a, n);
-}
-void* aligned_alloc(std::size_t a, std::size_t n) {
-  countMalloc();
-  return __libc_memalign(a, n);
-}
-int posix_memalign(void** out, std::size_t a, std::size_t n) {
-  countMalloc();
-  *out = __libc_memalign(a, n);
-  return *out ? 0 : ENOMEM;
-}
-void free(void* p) { __libc_free(p); }
-}
 
 namespace exoid::controller {
 namespace {
@@ -102,25 +32,20 @@ namespace {
 /// Counts allocations between construction and destruction (Eigen's runtime check armed meanwhile).
 class NoAllocationScope {
  public:
-  NoAllocationScope() {
-    news0_ = g_news.load();
-    mallocs0_ = g_mallocs.load();
-    g_counting.store(true);
-    Eigen::internal::set_is_malloc_allowed(false);
-  }
+  NoAllocationScope() { Eigen::internal::set_is_malloc_allowed(false); }
   ~NoAllocationScope() { stop(); }
   void stop() {
     if (!active_) return;
     Eigen::internal::set_is_malloc_allowed(true);
-    g_counting.store(false);
+    counter_.stop();
     active_ = false;
   }
-  long news() const { return g_news.load() - news0_; }
-  long mallocs() const { return g_mallocs.load() - mallocs0_; }
+  long news() const { return counter_.news(); }
+  long mallocs() const { return counter_.mallocs(); }
 
  private:
   bool active_ = true;
-  long news0_ = 0, mallocs0_ = 0;
+  exoid::test::AllocationCounter counter_;
 };
 
 TEST(NoAllocationDetectors, CountersAndEigenCheckAreLive) {

@@ -21,12 +21,6 @@ namespace exoid::sim::test {
 #endif
 inline std::string configPath(const std::string& rel) { return std::string(EXOID_CONFIG_DIR) + "/" + rel; }
 
-/// Heap allocations while counting is on (defined in test_sim_core.cpp): every malloc-family call
-/// (g_allocations, includes the ones made by operator new) and every global operator new (g_new_calls).
-extern std::atomic<long> g_allocations;
-extern std::atomic<long> g_new_calls;
-extern std::atomic<bool> g_count_allocations;
-
 /// Collects MuJoCo warnings; every test of the sim runs under it and fails on any warning.
 class MujocoWarningsFail : public ::testing::Test {
  protected:

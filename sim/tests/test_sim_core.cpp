@@ -12,78 +12,7 @@
 
 #include "exoid/sim/command.hpp"
 #include "sim_test_util.hpp"
-
-// --- global allocation counters (test binary only) ----------------------------------------------------
-// operator new is replaced (counted), and the C allocator is interposed (glibc's __libc_* entry points), so
-// that Eigen's and MuJoCo's own mallocs are seen as well.
-namespace exoid::sim::test {
-std::atomic<long> g_allocations{0};
-std::atomic<long> g_new_calls{0};
-std::atomic<bool> g_count_allocations{false};
-}  // namespace exoid::sim::test
-
-namespace {
-inline void countMalloc() {
-  if (exoid::sim::test::g_count_allocations.load(std::memory_order_relaxed)) ++exoid::sim::test::g_allocations;
-}
-inline void countNew() {
-  if (exoid::sim::test::g_count_allocations.load(std::memory_order_relaxed)) ++exoid::sim::test::g_new_calls;
-}
-}  // namespace
-
-extern "C" {
-void* __libc_malloc(std::size_t);
-void* __libc_calloc(std::size_t, std::size_t);
-void* __libc_realloc(void*, std::size_t);
-void* __libc_memalign(std::size_t, std::size_t);
-void* malloc(std::size_t n) {
-  countMalloc();
-  return __libc_malloc(n);
-}
-void* calloc(std::size_t n, std::size_t size) {
-  countMalloc();
-  return __libc_calloc(n, size);
-}
-void* realloc(void* p, std::size_t n) {
-  countMalloc();
-  return __libc_realloc(p, n);
-}
-void* memalign(std::size_t align, std::size_t n) {
-  countMalloc();
-  return __libc_memalign(align, n);
-}
-void* aligned_alloc(std::size_t align, std::size_t n) {
-  countMalloc();
-  return __libc_memalign(align, n);
-}
-int posix_memalign(void** out, std::size_t align, std::size_t n) {
-  countMalloc();
-  *out = __libc_memalign(align, n);
-  return *out ? 0 : ENOMEM;
-}
-}
-
-namespace {
-void* countedNew(std::size_t n, std::size_t align) {
-  countNew();
-  void* p = align > alignof(std::max_align_t) ? std::aligned_alloc(align, (n + align - 1) / align * align)
-                                               : std::malloc(n ? n : 1);
-  if (!p) throw std::bad_alloc();
-  return p;
-}
-}  // namespace
-void* operator new(std::size_t n) { return countedNew(n, 0); }
-void* operator new[](std::size_t n) { return countedNew(n, 0); }
-void* operator new(std::size_t n, std::align_val_t a) { return countedNew(n, static_cast<std::size_t>(a)); }
-void* operator new[](std::size_t n, std::align_val_t a) { return countedNew(n, static_cast<std::size_t>(a)); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+#include "support/alloc_counter.hpp"
 
 namespace exoid::sim::test {
 namespace {
@@ -258,27 +187,25 @@ TEST_F(SimCore, StepDoesNotAllocate) {
   CommandArbiter arb;
   arbiterInit(arb, sm, 5);
   JointCommandSample cmd = simZeroCommand(sm);
-  g_allocations = 0;
-  g_new_calls = 0;
-  g_count_allocations = true;
+  exoid::test::AllocationCounter counter;
   for (int k = 0; k < 1000; ++k) {
     cmd.tick = k;
     cmd.tau[0] = 0.5 * std::sin(0.01 * k);
     if (k % 3 != 0) arbiterOffer(arb, cmd);
     simStep(sm, sd, arbiterSelect(arb, k));
   }
-  g_count_allocations = false;
-  EXPECT_EQ(g_new_calls.load(), 0);
-  EXPECT_EQ(g_allocations.load(), 0);
+  counter.stop();
+  EXPECT_EQ(counter.news(), 0);
+  EXPECT_EQ(counter.mallocs(), 0);
   EXPECT_GT(sd.d->ncon, 0);  // the contact path ran too
   // The counters work: operator new and Eigen's malloc are both seen.
-  g_count_allocations = true;
+  exoid::test::AllocationCounter probe_counter;
   auto* boxed = new double(1.0);
   Eigen::VectorXd probe(100);
-  g_count_allocations = false;
+  probe_counter.stop();
   delete boxed;
-  EXPECT_GE(g_new_calls.load(), 1);
-  EXPECT_GE(g_allocations.load(), 2);
+  EXPECT_GE(probe_counter.news(), 1);
+  EXPECT_GE(probe_counter.mallocs(), 2);
   EXPECT_EQ(probe.size(), 100);
 }
 
