@@ -139,3 +139,21 @@ TEST_F(RunLogTest, NotALogIsAnError) {
 
 }  // namespace
 }  // namespace exoid
+
+namespace exoid {
+namespace {
+TEST(ExportCli, HelpDocumentsTheSchemaAndBadInputFails) {
+  test::TempDir dir("export_cli");
+  auto r = test::runCommand(test::exoidBinary() + " export --help", dir.path);
+  EXPECT_EQ(r.exit_code, 0);
+  for (const char* s : {"--log", "--out", "--truth", "--filter", "fp_<right|left>_fx", "base_ax", "tau_<joint>", "exit codes"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s;
+  r = test::runCommand(test::exoidBinary() + " export --log " + dir.file("none.lcmlog") + " --out " + dir.file("o.csv"), dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("none.lcmlog"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("o.csv")));
+  r = test::runCommand(test::exoidBinary() + " export --log x --out y --filter -3", dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+}
+}  // namespace
+}  // namespace exoid

@@ -83,7 +83,6 @@ bool summarizeExperiment(const Model& model, const RunLog& log, int moves_planne
   s.ticks = static_cast<long>(log.truth.size());
   s.sim_seconds = (log.truth.back().tick - log.truth.front().tick + 1) * 1e-3;
   s.realtime_factor = wall_seconds > 0 ? s.sim_seconds / wall_seconds : 0.0;
-  if (s.moves_done < moves_planned) s.fell = s.fell || s.moves_done == 0;
   // Lost messages: every sim channel must have every tick of the truth range.
   const int64_t first = log.truth.front().tick, last_tick = log.truth.back().tick;
   const long expected = static_cast<long>(last_tick - first + 1);

@@ -11,7 +11,7 @@ namespace exoid::tools {
 struct ExperimentSummary {
   int moves_planned = 0;
   int moves_done = 0;
-  bool fell = false;               ///< base dropped > 0.25 m below its start, or the run ended early
+  bool fell = false;               ///< the true base height dropped > 0.25 m below its start
   double com_rmse_m = 0.0;         ///< true CoM (from the exact state and the model) vs the CoM reference
   double com_max_error_m = 0.0;
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
