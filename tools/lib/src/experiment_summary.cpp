@@ -41,13 +41,7 @@ bool summarizeExperiment(const Model& model, const RunLog& log, int moves_planne
   long n = 0;
   for (size_t i = 0; i < log.truth.size(); ++i) {
     const GroundTruthSample& t = log.truth[i];
-    State x = State::zero(model);
-    x.q = t.q;
-    x.v = t.v;
-    x.base_orientation = t.base_orientation;
-    x.base_omega = t.base_omega;
-    x.base_velocity = t.base_velocity;
-    forwardKinematics(model, dyn.kin, x);
+    forwardKinematics(model, dyn.kin, stateFromTruth(model, t));
     centroidal(model, dyn);
     const Eigen::Matrix3d R = t.base_orientation.toRotationMatrix();
     const Eigen::Vector3d com = t.base_position + R * dyn.com;

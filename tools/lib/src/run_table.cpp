@@ -19,7 +19,9 @@ std::unordered_map<int64_t, const T*> byTick(const std::vector<T>& v) {
   return m;
 }
 
-State truthState(const Model& model, const GroundTruthSample& t) {
+}  // namespace
+
+State stateFromTruth(const Model& model, const GroundTruthSample& t) {
   State s = State::zero(model);
   s.base_orientation = t.base_orientation;
   s.base_position = t.base_position;
@@ -32,7 +34,6 @@ State truthState(const Model& model, const GroundTruthSample& t) {
   s.a = t.a;
   return s;
 }
-}  // namespace
 
 void footWrenchFromPlate(const ForcePlateSample& p, Eigen::Vector3d& f, Eigen::Vector3d& n) {
   const Eigen::Matrix3d R = p.plate_orientation.toRotationMatrix();
@@ -66,7 +67,7 @@ bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& o
     appendTauPlates(table.header);
     for (const GroundTruthSample& t : log.truth) {
       std::vector<double> row{t.utime * 1e-6};
-      StateColumns::write(model, truthState(model, t), row, true);
+      StateColumns::write(model, stateFromTruth(model, t), row, true);
       for (int j : actuated) row.push_back(t.tau_applied[j]);
       for (int side = 0; side < 2; ++side) {
         row.insert(row.end(), {t.foot_force[side].x(), t.foot_force[side].y(), t.foot_force[side].z()});
@@ -165,7 +166,7 @@ bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& l
     auto s = states.find(t.tick);
     auto r = plates_r.find(t.tick), l = plates_l.find(t.tick);
     if (s == states.end() || r == plates_r.end() || l == plates_l.end()) continue;
-    const State state = truthState(model, t);
+    const State state = stateFromTruth(model, t);
     computeJointTorqueRegressor(model, kin, state);
     ExternalWrench w[2];
     for (int side = 0; side < 2; ++side) {
