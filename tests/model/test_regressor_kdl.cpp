@@ -13,12 +13,17 @@
 namespace exoid {
 namespace {
 
-double maxRelErrorAgainstKdl(const std::string& urdf, int samples, uint64_t seed) {
+double maxRelErrorAgainstKdl(const std::string& urdf, int samples, uint64_t seed, bool from_string = false) {
   Model model;
   std::string err;
-  EXPECT_TRUE(buildModelFromUrdfFile(urdf, false, model, &err)) << err;
   KDL::Tree tree;
-  EXPECT_TRUE(kdl_parser::treeFromFile(urdf, tree));
+  if (from_string) {
+    EXPECT_TRUE(buildModelFromUrdfString(urdf, false, model, &err)) << err;
+    EXPECT_TRUE(kdl_parser::treeFromString(urdf, tree));
+  } else {
+    EXPECT_TRUE(buildModelFromUrdfFile(urdf, false, model, &err)) << err;
+    EXPECT_TRUE(kdl_parser::treeFromFile(urdf, tree));
+  }
   EXPECT_EQ(static_cast<int>(tree.getNrOfJoints()), model.njoints);
   // KDL's joint numbering -> ours, by joint name.
   std::vector<int> kdl_index(model.njoints, -1);
@@ -65,6 +70,38 @@ TEST(RegressorVsKdl, KukaLwr4ThousandRandomStates) {
 TEST(RegressorVsKdl, ExoskeletonFixedBaseThousandRandomStates) {
   const double worst = maxRelErrorAgainstKdl(test::configPath("exo.urdf"), 1000, 12);
   std::printf("exoskeleton (fixed base): max relative error of K*phi vs KDL TreeIdSolver_RNE: %.3e\n", worst);
+  EXPECT_LT(worst, 1e-9);
+}
+
+// A branching tree with what the exoskeleton lacks: massive links on fixed joints (lumped into their parent),
+// a continuous joint, joint axes that are not z, rotated joint and inertial frames.
+constexpr char kBranchingTree[] = R"(<robot name="branching">
+  <link name="root"/>
+  <link name="a"><inertial><origin xyz="0.1 0.02 -0.03" rpy="0.1 0.2 0.3"/><mass value="2.0"/>
+    <inertia ixx="0.02" ixy="0.001" ixz="-0.002" iyy="0.03" iyz="0.0005" izz="0.025"/></inertial></link>
+  <link name="a_tool"><inertial><origin xyz="0.05 0 0.01" rpy="0 0.5 0"/><mass value="0.7"/>
+    <inertia ixx="0.004" ixy="0" ixz="0" iyy="0.005" iyz="0" izz="0.006"/></inertial></link>
+  <link name="b"><inertial><origin xyz="0 0.2 0"/><mass value="1.5"/>
+    <inertia ixx="0.03" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.03"/></inertial></link>
+  <link name="c"><inertial><origin xyz="0.15 0 0"/><mass value="1.1"/>
+    <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+  <joint name="ja" type="revolute"><parent link="root"/><child link="a"/><origin xyz="0 0 0.3" rpy="0.3 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="10" velocity="5"/></joint>
+  <joint name="jtool" type="fixed"><parent link="a"/><child link="a_tool"/><origin xyz="0.4 0 0" rpy="0 0 0.7"/></joint>
+  <joint name="jb" type="continuous"><parent link="a_tool"/><child link="b"/><origin xyz="0.1 0 0" rpy="0 0.2 0"/>
+    <axis xyz="0.6 0 0.8"/></joint>
+  <joint name="jc" type="revolute"><parent link="a"/><child link="c"/><origin xyz="0 0.1 0.2" rpy="0 0 -0.4"/>
+    <axis xyz="1 0 0"/><limit lower="-3" upper="3" effort="10" velocity="5"/></joint>
+</robot>)";
+
+TEST(RegressorVsKdl, BranchingTreeWithMassiveFixedLinks) {
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfString(kBranchingTree, false, model, &err)) << err;
+  EXPECT_EQ(model.nbodies, 3);  // a (with a_tool lumped in), b, c
+  EXPECT_NEAR(model.phi[model.bodyParamIndex(model.bodyIndex("a"))], 2.7, 1e-15);
+  const double worst = maxRelErrorAgainstKdl(kBranchingTree, 1000, 13, true);
+  std::printf("branching tree with fixed links: max relative error of K*phi vs KDL: %.3e\n", worst);
   EXPECT_LT(worst, 1e-9);
 }
 
