@@ -1,6 +1,6 @@
-// exo_controller end to end over LCM (udpm, ttl=0, a private port): this test plays the simulator in lockstep
-// (MuJoCo on config/exo.xml publishes EXO_STATE for tick k and waits for EXO_COMMAND of tick k + 1), runs a
-// short trajectory and checks the timing convention, the status stream, the exit code and the summary line.
+// exo_controller end to end over LCM (udpm, ttl=0, inside a private network namespace): this test plays the
+// simulator in lockstep (MuJoCo on config/exo.xml publishes EXO_STATE for tick k and waits for EXO_COMMAND of
+// tick k + 1), runs a short trajectory and checks the timing convention, the status stream, the exit code and the summary line.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -15,6 +15,7 @@
 
 #include "exoid/controller/balance_controller.hpp"
 #include "mujoco_exo.hpp"
+#include "support/netns.hpp"
 
 namespace exoid::controller {
 namespace {
@@ -100,7 +101,9 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
   ASSERT_TRUE(testing::loadModel(model, &err)) << err;
   testing::MujocoExo sim;
   ASSERT_TRUE(sim.load(model, &err)) << err;
-  const std::string url = "udpm://239.255.76.67:" + std::to_string(7700 + getpid() % 200) + "?ttl=0";
+  // Two processes over udpm: only inside a private network namespace (the controller inherits it).
+  if (!exoid::test::enterPrivateNetworkNamespace(&err)) GTEST_SKIP() << err;
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
   auto lcm = LcmEndpoint::create(url, &err);
   if (!lcm) GTEST_SKIP() << "udpm LCM unavailable here: " << err;
   {  // loopback multicast must work for two processes to talk (it does on a normal host)
@@ -110,7 +113,7 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
     lcm->publishRaw("EXO_CTRL_TEST_PING", ping, sizeof(ping));
     for (int i = 0; i < 10 && !echoed; ++i) lcm->handleTimeout(50);
     lcm->unsubscribe(id);
-    if (!echoed) GTEST_SKIP() << "udpm multicast does not loop back on this host";
+    ASSERT_TRUE(echoed) << "udpm multicast does not loop back in the private namespace";
   }
 
   JointCommandSample command;
