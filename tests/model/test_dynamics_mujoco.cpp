@@ -12,16 +12,8 @@
 namespace exoid {
 namespace {
 
-class DynamicsVsMujoco : public test::MujocoTest {
+class DynamicsVsMujoco : public test::ExoMujocoTest {
  protected:
-  void SetUp() override {
-    MujocoTest::SetUp();
-    std::string err;
-    ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model_, &err)) << err;
-    load(test::configPath("exo.xml"));
-    m_->opt.disableflags |= mjDSBL_CONTACT;
-    map_ = test::mapJoints(m_, model_);
-  }
   /// nu_mujoco = T nu_exoid: MuJoCo's free joint is [v world; omega local], ours [omega base; v base].
   Eigen::MatrixXd velocityMap(const State& s) const {
     Eigen::MatrixXd T = Eigen::MatrixXd::Zero(m_->nv, model_.nv);
@@ -31,8 +23,6 @@ class DynamicsVsMujoco : public test::MujocoTest {
     for (int j = 0; j < model_.njoints; ++j) T(map_.dof[j], model_.jointRow(j)) = 1.0;
     return T;
   }
-  Model model_;
-  test::MujocoMap map_;
 };
 
 TEST_F(DynamicsVsMujoco, RneaAndCrbaMatchMuJoCo) {

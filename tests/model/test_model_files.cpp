@@ -10,21 +10,13 @@
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "support/mujoco_fixture.hpp"
+#include "support/mujoco_state.hpp"
 #include "support/paths.hpp"
 
 namespace exoid {
 namespace {
 
-class ModelFiles : public test::MujocoTest {
- protected:
-  void SetUp() override {
-    MujocoTest::SetUp();
-    std::string err;
-    ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model_, &err)) << err;
-    load(test::configPath("exo.xml"));
-  }
-  Model model_;
-};
+using ModelFiles = test::ExoMujocoTest;
 
 Eigen::Matrix3d quatToMatrix(const mjtNum* q) { return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix(); }
 

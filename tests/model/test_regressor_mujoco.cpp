@@ -11,19 +11,7 @@
 namespace exoid {
 namespace {
 
-class RegressorVsMujoco : public test::MujocoTest {
- protected:
-  void SetUp() override {
-    MujocoTest::SetUp();
-    std::string err;
-    ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model_, &err)) << err;
-    load(test::configPath("exo.xml"));
-    m_->opt.disableflags |= mjDSBL_CONTACT;  // inverse dynamics of the free tree only
-    map_ = test::mapJoints(m_, model_);
-  }
-  Model model_;
-  test::MujocoMap map_;
-};
+using RegressorVsMujoco = test::ExoMujocoTest;
 
 TEST_F(RegressorVsMujoco, ThousandRandomStatesMatchMjInverseAndMjRne) {
   ASSERT_EQ(model_.nv, m_->nv);

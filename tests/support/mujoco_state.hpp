@@ -1,6 +1,6 @@
 #pragma once
 // Test-side conversions between MuJoCo's state and exoid::State, written independently of the sim library
-// so that the regressor proof does not share code with what it checks.
+// so that the regressor proof does not share code with what it checks, and the exoskeleton fixture.
 #include <mujoco/mujoco.h>
 
 #include <random>
@@ -8,6 +8,9 @@
 
 #include "exoid/model/model.hpp"
 #include "exoid/model/random_state.hpp"
+#include "exoid/model/urdf.hpp"
+#include "support/mujoco_fixture.hpp"
+#include "support/paths.hpp"
 
 namespace exoid::test {
 
@@ -82,5 +85,25 @@ inline Eigen::VectorXd fromMujocoForce(const mjtNum* qfrc, const State& s, const
 inline double relError(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return (a - b).cwiseAbs().maxCoeff() / std::max(b.cwiseAbs().maxCoeff(), 1e-300);
 }
+
+}  // namespace exoid::test
+
+namespace exoid::test {
+
+/// The exoskeleton twice: model_ from config/exo.urdf (floating base) and m_/d_ from config/exo.xml with
+/// contacts disabled (inverse dynamics of the free tree), joints mapped by name.
+class ExoMujocoTest : public MujocoTest {
+ protected:
+  void SetUp() override {
+    MujocoTest::SetUp();
+    std::string err;
+    ASSERT_TRUE(buildModelFromUrdfFile(configPath("exo.urdf"), true, model_, &err)) << err;
+    load(configPath("exo.xml"));
+    m_->opt.disableflags |= mjDSBL_CONTACT;
+    map_ = mapJoints(m_, model_);
+  }
+  Model model_;
+  MujocoMap map_;
+};
 
 }  // namespace exoid::test
