@@ -4,8 +4,7 @@
 #    urdfdom 3.0.1, Eigen 3.4.0, GoogleTest 1.12.1, Google Benchmark 1.7.1, yaml-cpp 0.7.0, cereal 1.3.2).
 #  - From PyPI, into the project-local virtual environment .deps/venv, only what Debian lacks:
 #    proxsuite (ProxQP, the controller's QP solver; ships C++ headers and a CMake config via cmeel).
-# Prints the CMake prefix path of the PyPI packages on its last line of stdout is NOT relied upon; see
-# scripts/env.sh for how builds find them.
+# Builds find the PyPI package's CMake config through scripts/env.sh (EXOID_CMEEL_PREFIX).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
