@@ -11,7 +11,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 DEB_PACKAGES=(
   build-essential cmake pkg-config python3 python3-venv libqhull-dev libtinyxml2-dev libconsole-bridge-dev
   libeigen3-dev libmujoco-dev
-  liblcm-dev liblcm-bin liblcm-java default-jdk-headless libjchart2d-java
+  liblcm-dev liblcm-bin liblcm-java libglib2.0-dev default-jdk-headless libjchart2d-java
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev
   libgtest-dev libbenchmark-dev libyaml-cpp-dev libcereal-dev
   iproute2 util-linux xvfb xauth x11-apps imagemagick xdotool
