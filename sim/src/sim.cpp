@@ -103,49 +103,6 @@ Eigen::Vector3d gaussian3(SimData& sd, const Eigen::Vector3d& sigma) {
 
 }  // namespace
 
-SimModel::~SimModel() {
-  if (m) mj_deleteModel(m);
-}
-SimModel::SimModel(SimModel&& o) noexcept { *this = std::move(o); }
-SimModel& SimModel::operator=(SimModel&& o) noexcept {
-  if (this == &o) return *this;
-  if (m) mj_deleteModel(m);
-  m = std::exchange(o.m, nullptr);
-  mjcf_path = std::move(o.mjcf_path);
-  options = std::move(o.options);
-  scenario = std::move(o.scenario);
-  noise = std::move(o.noise);
-  nj = o.nj;
-  joint_names = std::move(o.joint_names);
-  joint_id = std::move(o.joint_id);
-  qpos_adr = std::move(o.qpos_adr);
-  dof_adr = std::move(o.dof_adr);
-  actuator = std::move(o.actuator);
-  gear = std::move(o.gear);
-  torque_sensor_adr = std::move(o.torque_sensor_adr);
-  torque_gain = std::move(o.torque_gain);
-  torque_offset = std::move(o.torque_offset);
-  base_body = o.base_body;
-  base_qpos = o.base_qpos;
-  base_dof = o.base_dof;
-  imu_site = o.imu_site;
-  imu_quat_adr = o.imu_quat_adr;
-  imu_gyro_adr = o.imu_gyro_adr;
-  imu_accel_adr = o.imu_accel_adr;
-  foot_geom = o.foot_geom;
-  plate_site = o.plate_site;
-  plate_force_adr = o.plate_force_adr;
-  plate_torque_adr = o.plate_torque_adr;
-  plate_tare_force = o.plate_tare_force;
-  plate_tare_torque = o.plate_tare_torque;
-  qpos_init = std::move(o.qpos_init);
-  return *this;
-}
-
-SimData::~SimData() {
-  if (d) mj_deleteData(d);
-}
-
 bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scenario& scenario, SimModel& out,
              std::string* err, const SimOptions& options) {
   SimModel sm;
@@ -335,7 +292,6 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
 }
 
 bool simMakeData(const SimModel& sm, SimData& sd, std::string* err) {
-  if (sd.d) mj_deleteData(sd.d);
   sd.d = mj_makeData(sm.m);
   if (!sd.d) return fail(err, sm.mjcf_path + ": MuJoCo cannot allocate mjData");
   const Eigen::Index nj = sm.nj;

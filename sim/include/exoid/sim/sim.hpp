@@ -38,17 +38,40 @@ struct SimOptions {
   SimNames names;
 };
 
+/// Owning, move-only handle of a MuJoCo object (mjModel, mjData): frees it with `Free`, converts to the raw
+/// pointer for MuJoCo's C API. Lets the structs below use the compiler's moves instead of field lists.
+template <class T, void (*Free)(T*)>
+class MjOwned {
+ public:
+  MjOwned() = default;
+  ~MjOwned() { reset(); }
+  MjOwned(const MjOwned&) = delete;
+  MjOwned& operator=(const MjOwned&) = delete;
+  MjOwned(MjOwned&& o) noexcept : p_(o.p_) { o.p_ = nullptr; }
+  MjOwned& operator=(MjOwned&& o) noexcept {
+    if (this != &o) reset(), p_ = o.p_, o.p_ = nullptr;
+    return *this;
+  }
+  MjOwned& operator=(T* p) noexcept {  ///< takes ownership
+    reset();
+    p_ = p;
+    return *this;
+  }
+  operator T*() const { return p_; }
+  T* operator->() const { return p_; }
+  void reset() {
+    if (p_) Free(p_);
+    p_ = nullptr;
+  }
+
+ private:
+  T* p_ = nullptr;
+};
+
 /// Constant description: the MuJoCo model with the scenario's effects applied, and every id the pipeline
 /// needs. Owns m (RAII); movable, not copyable.
 struct SimModel {
-  SimModel() = default;
-  ~SimModel();
-  SimModel(const SimModel&) = delete;
-  SimModel& operator=(const SimModel&) = delete;
-  SimModel(SimModel&& other) noexcept;
-  SimModel& operator=(SimModel&& other) noexcept;
-
-  mjModel* m = nullptr;
+  MjOwned<mjModel, mj_deleteModel> m;
   std::string mjcf_path;
   SimOptions options;
   Scenario scenario;
@@ -87,12 +110,7 @@ struct SimStats {
 
 /// Mutable state: mjData, the noise generator, and the samples of the last tick (sized once).
 struct SimData {
-  SimData() = default;
-  ~SimData();
-  SimData(const SimData&) = delete;
-  SimData& operator=(const SimData&) = delete;
-
-  mjData* d = nullptr;
+  MjOwned<mjData, mj_deleteData> d;
   std::mt19937_64 rng;          ///< noise source, seeded from Scenario::seed on reset
   bool has_spare_normal = false;
   double spare_normal = 0.0;    ///< second output of the last Box-Muller draw
