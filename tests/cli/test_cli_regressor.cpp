@@ -96,8 +96,8 @@ TEST_F(RegressorCli, OutputTimesPhiEqualsInverseDynamics) {
 
 TEST_F(RegressorCli, KukaMeasurementFileIsAcceptedAsStates) {
   const auto r = test::runCommand(test::exoidBinary() + " regressor --model " +
-                                      test::sharedPath("datasets/kuka_lwr4/kuka_lwr4.urdf") + " --states " +
-                                      test::sharedPath("datasets/kuka_lwr4/measurements_1.csv") + " --out " +
+                                      test::dataPath("kuka_lwr4/kuka_lwr4.urdf") + " --states " +
+                                      test::dataPath("kuka_lwr4/measurements_1.csv") + " --out " +
                                       dir_.file("W.csv"),
                                   dir_.path);
   ASSERT_EQ(r.exit_code, 0) << r.err;

@@ -61,7 +61,7 @@ TEST(BaseParameters, Exoskeleton) {
 TEST(BaseParameters, KukaLwr4FixedBase) {
   Model model;
   std::string err;
-  ASSERT_TRUE(buildModelFromUrdfFile(test::sharedPath("datasets/kuka_lwr4/kuka_lwr4.urdf"), false, model, &err)) << err;
+  ASSERT_TRUE(buildModelFromUrdfFile(test::dataPath("kuka_lwr4/kuka_lwr4.urdf"), false, model, &err)) << err;
   const BaseParameters base = computeBaseParameters(model);
   std::printf("%s", describeBaseParameters(model, base).c_str());
   EXPECT_LT(base.gap_ratio, 1e-6);

@@ -4,6 +4,7 @@
 #include <kdl/treeidsolver_recursive_newton_euler.hpp>
 #include <kdl_parser/kdl_parser.hpp>
 
+#include <limits>
 #include <random>
 
 #include "exoid/model/regressor.hpp"
@@ -17,14 +18,16 @@ double maxRelErrorAgainstKdl(const std::string& urdf, int samples, uint64_t seed
   Model model;
   std::string err;
   KDL::Tree tree;
-  if (from_string) {
-    EXPECT_TRUE(buildModelFromUrdfString(urdf, false, model, &err)) << err;
-    EXPECT_TRUE(kdl_parser::treeFromString(urdf, tree));
-  } else {
-    EXPECT_TRUE(buildModelFromUrdfFile(urdf, false, model, &err)) << err;
-    EXPECT_TRUE(kdl_parser::treeFromFile(urdf, tree));
+  // A model that fails to load must fail the test with its message, never run on (the old EXPECT_TRUE here
+  // went on into an empty model and segfaulted when the data set was missing).
+  const bool ours = from_string ? buildModelFromUrdfString(urdf, false, model, &err)
+                                : buildModelFromUrdfFile(urdf, false, model, &err);
+  const bool kdl = from_string ? kdl_parser::treeFromString(urdf, tree) : kdl_parser::treeFromFile(urdf, tree);
+  if (!ours || !kdl || static_cast<int>(tree.getNrOfJoints()) != model.njoints) {
+    ADD_FAILURE() << "cannot load " << (from_string ? std::string("the inline URDF") : urdf) << ": " << err
+                  << (kdl ? "" : " (KDL parser failed too)");
+    return std::numeric_limits<double>::infinity();
   }
-  EXPECT_EQ(static_cast<int>(tree.getNrOfJoints()), model.njoints);
   // KDL's joint numbering -> ours, by joint name.
   std::vector<int> kdl_index(model.njoints, -1);
   for (const auto& element : tree.getSegments()) {
@@ -62,7 +65,7 @@ double maxRelErrorAgainstKdl(const std::string& urdf, int samples, uint64_t seed
 }
 
 TEST(RegressorVsKdl, KukaLwr4ThousandRandomStates) {
-  const double worst = maxRelErrorAgainstKdl(test::sharedPath("datasets/kuka_lwr4/kuka_lwr4.urdf"), 1000, 11);
+  const double worst = maxRelErrorAgainstKdl(test::dataPath("kuka_lwr4/kuka_lwr4.urdf"), 1000, 11);
   std::printf("KUKA LWR4+: max relative error of K*phi vs KDL TreeIdSolver_RNE: %.3e\n", worst);
   EXPECT_LT(worst, 1e-9);
 }
