@@ -11,9 +11,12 @@ namespace exoid::cli {
 
 namespace {
 constexpr char kHelp[] =
-    "usage: exoid export --log RUN.lcmlog --out RUN.csv [--truth | --filter HZ] [--model URDF]\n\n"
+    "usage: exoid export --log RUN.lcmlog --out RUN.csv [--truth | --filter HZ] [--model URDF] [--allow-partial]\n\n"
     "Turns a logged run into one CSV row per control tick (1 kHz). Every channel is aligned by tick; a tick\n"
-    "missing a needed message is skipped and counted (reported on stderr), never interpolated.\n\n"
+    "missing a needed message is skipped and counted (reported on stderr), never interpolated. A damaged log\n"
+    "(bytes that are not a valid event, events that do not decode, a cut-off last event) is read past the\n"
+    "damage; how many events were damaged and where the readable part ends are reported on stderr, and the\n"
+    "export fails unless --allow-partial is given.\n\n"
     "columns (docs/data-formats.md):\n"
     "  t                              seconds (tick * 1e-3)\n"
     "  q_<joint>                      joint encoders (rad)\n"
@@ -37,8 +40,10 @@ constexpr char kHelp[] =
     "                  for validation only\n"
     "  --filter HZ     sensors only: add the derivative columns, Butterworth cutoff HZ (e.g. 50)\n"
     "  --model URDF    robot model naming the joints (default config/exo.urdf)\n"
+    "  --allow-partial export what is readable from a damaged log (the damage is still reported)\n"
     "  --help          this text\n\n"
-    "exit codes: 0 success, 2 bad input (unreadable log, no usable tick, bad option).\n";
+    "exit codes: 0 success (with --allow-partial also from a damaged log), 2 bad input (unreadable log, no\n"
+    "            usable tick, bad option), 3 the log is damaged (nothing written; see --allow-partial).\n";
 
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid export: error: %s\n", msg.c_str());
@@ -49,7 +54,7 @@ int fail(const std::string& msg) {
 int cmdExport(int argc, char** argv) {
   tools::Args args;
   args.option("log").option("out").option("filter", "0").option("model", std::string(EXOID_CONFIG_DIR) + "/exo.urdf");
-  args.flag("truth").flag("help");
+  args.flag("truth").flag("allow-partial").flag("help");
   std::string err;
   if (!args.parse(argc, argv, 2, &err)) return fail(err);
   if (args.has("help")) return std::fputs(kHelp, stdout), 0;
@@ -62,6 +67,11 @@ int cmdExport(int argc, char** argv) {
   if (!buildModelFromUrdfFile(args.get("model"), true, model, &err)) return fail(err);
   tools::RunLog log;
   if (!tools::readRunLog(args.get("log"), model.joint_names, log, &err)) return fail(err);
+  if (!log.intact()) {
+    std::fprintf(stderr, "exoid export: %s: %s: %s\n", args.has("allow-partial") ? "warning" : "error",
+                 args.get("log").c_str(), log.damageReport().c_str());
+    if (!args.has("allow-partial")) return 3;
+  }
   tools::RunTable table;
   if (!tools::buildRunTable(model, log, opt, table, &err)) return fail(args.get("log") + ": " + err);
   tools::AtomicCsvWriter out;
@@ -74,8 +84,9 @@ int cmdExport(int argc, char** argv) {
   }
   if (!out.commit(&err)) return fail(err);
   std::fprintf(stderr, "exoid export: %zu ticks -> %s (%ld ticks skipped for a missing message; %ld log events "
-               "rejected%s%s)\n", table.rows.size(), args.get("out").c_str(), table.skipped_ticks, log.rejected,
-               log.first_rejection.empty() ? "" : ", first: ", log.first_rejection.c_str());
+               "rejected%s%s; %ld damaged stretches%s)\n", table.rows.size(), args.get("out").c_str(), table.skipped_ticks,
+               log.rejected, log.first_rejection.empty() ? "" : ", first: ", log.first_rejection.c_str(), log.corrupt_events,
+               log.truncated ? "; cut off at the end" : "");
   return 0;
 }
 
