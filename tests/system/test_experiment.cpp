@@ -313,6 +313,16 @@ TEST_F(RunEnd, AHungControllerEndsTheRunAfterTheMissingCommandLimit) {
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
 
+// A hung sim (SIGSTOP): the controller's idle timeout (5 s without a state) ends it, the run stops.
+TEST_F(RunEnd, AHungSimIsDetectedThroughTheControllersIdleTimeout) {
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject stop:sim:2");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  EXPECT_NE(r.summary["failures"].dump().find("exo_sim stopped publishing"), std::string::npos) << r.summary;
+  EXPECT_LT(r.wall_s, 30.0);
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
 // Observed: killing exoid_logger gave exit 0 and "moves done 9/20, real-time factor 3.7x, missing ticks -2".
 TEST_F(RunEnd, AKilledLoggerIsReportedAndTheLogMarkedIncomplete) {
   const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject kill:logger:2");

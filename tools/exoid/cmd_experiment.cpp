@@ -345,8 +345,10 @@ int cmdExperiment(int argc, char** argv) {
     if (reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 3.0)) {
       char buf[240];
       if (ctrl.code != 0)
-        std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over (see %s)",
-                      tools::describeExit(ctrl.code).c_str(), ctrl.ended_at_s, (out / "controller.log").c_str());
+        std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over%s (see %s)",
+                      tools::describeExit(ctrl.code).c_str(), ctrl.ended_at_s,
+                      ctrl.code == 3 ? ": no robot state for its idle timeout, exo_sim stopped publishing" : "",
+                      (out / "controller.log").c_str());
       else
         std::snprintf(buf, sizeof buf, "exo_sim did not finish within 3 s of exo_controller completing its moves");
       facts.failures.push_back(buf);
