@@ -351,26 +351,32 @@ TEST_F(RunEnd, TheWatchdogBoundsTheRun) {
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
 
-TEST_F(RunEnd, SigintStopsEverythingCleanly) {
-  std::string err;
-  std::vector<std::string> argv;
-  std::istringstream words(command(test::configPath("scenarios/ideal.yaml"), ""));
-  for (std::string w; words >> w;) argv.push_back(w);
-  const pid_t pid = tools::spawn(argv, dir_.file("sigint.log"), &err);
-  ASSERT_GT(pid, 0) << err;
-  // Wait for the sim to be running (its progress in sim.log), then interrupt.
-  for (int i = 0; i < 400 && test::slurp(dir_.file("run/sim.log")).find("exo_sim: t 1.0 s") == std::string::npos; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(25));
-  // pid is exoid itself (it re-executes itself through unshare, keeping its pid).
-  ASSERT_EQ(::kill(pid, SIGINT), 0);
-  int code = -1;
-  ASSERT_TRUE(tools::waitFor(pid, 20000, &code)) << "exoid experiment did not stop within 20 s of SIGINT";
-  EXPECT_EQ(code, 4) << test::slurp(dir_.file("sigint.log"));
-  const auto summary = nlohmann::json::parse(test::slurp(dir_.file("run/summary.json")), nullptr, false);
-  ASSERT_TRUE(summary.is_object()) << test::slurp(dir_.file("sigint.log"));
-  EXPECT_EQ(summary["outcome"], "interrupted");
-  EXPECT_NE(summary["failures"].dump().find("interrupted by SIGINT"), std::string::npos) << summary;
-  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+TEST_F(RunEnd, SigintAndSigtermStopEverythingCleanly) {
+  for (const int sig : {SIGINT, SIGTERM}) {
+    const std::string name = sig == SIGINT ? "SIGINT" : "SIGTERM";
+    std::filesystem::remove_all(dir_.file("run"));
+    std::string err;
+    std::vector<std::string> argv;
+    std::istringstream words(command(test::configPath("scenarios/ideal.yaml"), ""));
+    for (std::string w; words >> w;) argv.push_back(w);
+    const pid_t pid = tools::spawn(argv, dir_.file("signal.log"), &err);
+    ASSERT_GT(pid, 0) << err;
+    // Wait for the sim to be running (its progress in sim.log), then interrupt.
+    for (int i = 0; i < 400 && test::slurp(dir_.file("run/sim.log")).find("exo_sim: t 1.0 s") == std::string::npos; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    // pid is exoid itself (it re-executes itself through unshare, keeping its pid).
+    ASSERT_EQ(::kill(pid, sig), 0);
+    int code = -1;
+    ASSERT_TRUE(tools::waitFor(pid, 20000, &code)) << "exoid experiment did not stop within 20 s of " << name;
+    EXPECT_EQ(code, 4) << name << test::slurp(dir_.file("signal.log"));
+    const auto summary = nlohmann::json::parse(test::slurp(dir_.file("run/summary.json")), nullptr, false);
+    ASSERT_TRUE(summary.is_object()) << test::slurp(dir_.file("signal.log"));
+    EXPECT_EQ(summary["outcome"], "interrupted");
+    EXPECT_NE(summary["failures"].dump().find("interrupted by " + name), std::string::npos) << summary;
+    EXPECT_LT(summary["ticks_simulated"].get<long>(), summary["ticks_planned"].get<long>());
+    EXPECT_EQ(summary["log_complete"], true) << summary;  // the logger was stopped last and drained
+    EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+  }
 }
 
 // Options the controller would refuse are refused before anything starts (observed: --moves 1001 ran the sim
