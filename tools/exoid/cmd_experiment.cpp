@@ -342,7 +342,7 @@ int cmdExperiment(int argc, char** argv) {
       facts.failures.push_back(buf);
       break;
     }
-    if (reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 3.0)) {
+    if (reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 10.0)) {
       char buf[240];
       if (ctrl.code != 0)
         std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over%s (see %s)",
@@ -350,7 +350,7 @@ int cmdExperiment(int argc, char** argv) {
                       ctrl.code == 3 ? ": no robot state for its idle timeout, exo_sim stopped publishing" : "",
                       (out / "controller.log").c_str());
       else
-        std::snprintf(buf, sizeof buf, "exo_sim did not finish within 3 s of exo_controller completing its moves");
+        std::snprintf(buf, sizeof buf, "exo_sim did not finish within 10 s of exo_controller completing its moves");
       facts.failures.push_back(buf);
       break;
     }
@@ -409,9 +409,17 @@ int cmdExperiment(int argc, char** argv) {
   facts.log_readable = tools::readRunLog(log_path, model.joint_names, log, &facts.log_error);
   const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
   const std::string table = tools::summaryTable(s);
-  std::ofstream(out / "summary.json") << tools::summaryJson(s);
-  std::ofstream(out / "summary.md") << "# Experiment " << scenario_path << " (seed " << seed << ")\n\n" << table;
-  std::printf("\n%s\nwritten: %s, %s, %s (%.1f s wall)\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
+  std::printf("\n%s\n", table.c_str());
+  for (const auto& [file, text] : {std::pair<std::string, std::string>{"summary.json", tools::summaryJson(s)},
+                                   {"summary.md", "# Experiment " + scenario_path + " (seed " + std::to_string(seed) +
+                                                      ")\n\n" + table}}) {
+    std::ofstream f(out / file);
+    if (!(f << text) || (f.close(), f.fail())) {
+      std::fprintf(stderr, "exoid experiment: error: cannot write '%s'\n", (out / file).c_str());
+      return kExitFailed;
+    }
+  }
+  std::printf("written: %s, %s, %s (%.1f s wall)\n", log_path.c_str(), (out / "summary.json").c_str(),
               (out / "summary.md").c_str(), wall);
   if (s.outcome == "interrupted") return kExitInterrupted;
   if (s.outcome == "failed") {
