@@ -109,7 +109,9 @@ int cmdExperiment(int argc, char** argv) {
   // outlives the controller would apply zero torque at the end.
   const double duration = controller::plannedRunDuration(cc);
 
-  {  // Validate the sim's inputs here, before any process starts, so that errors name the file and key.
+  {  // Validate every input here, before any process starts, so that errors name the file and key.
+    Model controller_model;
+    if (!buildModelFromUrdfFile(model_path, true, controller_model, &err)) return fail(err);
     sim::SensorConfig realistic, noise;
     sim::Scenario scenario;
     sim::SimModel probe;
