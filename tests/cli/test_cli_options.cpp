@@ -77,6 +77,14 @@ TEST_F(CliOptions, ExperimentRefusesWhatTheControllerWouldBeforeStarting) {
   expectError(base + " --seed -1", "--seed: '-1': out of range, expected an integer >= 0");
   expectError(base + " --seed 99999999999999999999", "--seed: '99999999999999999999': integer too large");
   expectError(base + " --seed 1.5", "--seed: '1.5': not an integer");
+  // A controller model with a mass of "13,5" used to load as 0 kg and the robot fell during the run.
+  std::string urdf = test::slurp(test::configPath("exo.urdf"));
+  const size_t mass = urdf.find("<mass value=\"");
+  ASSERT_NE(mass, std::string::npos);
+  urdf.replace(mass, urdf.find('"', mass + 13) - mass + 1, "<mass value=\"13,5\"");
+  std::ofstream(dir_.file("comma.urdf")) << urdf;
+  expectError(base + " --model " + dir_.file("comma.urdf"), "comma.urdf': link '");
+  expectError(base + " --model " + dir_.file("comma.urdf"), "<mass value='13,5'>");
   EXPECT_FALSE(std::filesystem::exists(dir_.file("out"))) << "nothing started";
 }
 

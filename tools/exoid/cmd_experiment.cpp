@@ -238,12 +238,12 @@ int cmdExperiment(int argc, char** argv) {
   const bool lockstep = !realtime;
 
   Model model;
-  if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail("--model " + model_path + ": " + err);
+  if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail(err);
   {  // What exo_controller checks at start-up (configuration against the model, move sequence), here.
     controller::BalanceController probe(model, cc, static_cast<uint64_t>(seed));
     if (!probe.ok()) return fail(controller_config + ": " + probe.error());
   }
-  {  // Validate the sim's inputs here, before any process starts, so that errors name the file and key.
+  {  // Validate the sim's inputs here too, before any process starts, so that errors name the file and key.
     sim::SensorConfig realistic, noise;
     sim::Scenario scenario;
     sim::SimModel probe;
