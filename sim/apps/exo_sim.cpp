@@ -114,6 +114,9 @@ int main(int argc, char** argv) {
       "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).");
   if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
   opt.mode = mode == "realtime" ? SimMode::Realtime : SimMode::Lockstep;
+  // From here on a stop request ends the run cleanly (exit 5, --result written), also while loading.
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
 
   // Inputs: every problem is one line naming the file and the field.
   std::string err;
@@ -134,8 +137,6 @@ int main(int argc, char** argv) {
     return kExitRuntime;
   }
 
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
   if (!opt.quiet) {
     std::printf("exo_sim: %s, scenario '%s' (%s), noise %s, seed %llu, %s, %.3f s, LCM %s\n", model_path.c_str(),
                 scenario.name.c_str(), scenario_path.c_str(), noise.source.empty() ? "none" : noise.source.c_str(),

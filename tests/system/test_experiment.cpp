@@ -347,6 +347,8 @@ TEST_F(RunEnd, TheWatchdogBoundsTheRun) {
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
   ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
   EXPECT_NE(r.summary["failures"].dump().find("watchdog: the run was still going after"), std::string::npos) << r.summary;
+  // Stopped early (the sim reports the ticks it did; stopped while loading it reports 0).
+  EXPECT_TRUE(r.summary["sim_reported"]) << r.summary;
   EXPECT_LT(r.summary["ticks_simulated"].get<long>(), r.summary["ticks_planned"].get<long>());
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
