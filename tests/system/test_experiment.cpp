@@ -9,6 +9,8 @@
 #include <dirent.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
 
 #include <algorithm>
 #include <chrono>
@@ -155,9 +157,8 @@ TEST(ExperimentCli, BadInputIsRejectedWithOneLine) {
 }
 
 // --- runs that end early ---------------------------------------------------------------------------------
-// Each run uses 2 moves (8.2 s simulated) and its own copy of the controller configuration, so that every
-// process of the run carries the run's directory on its command line: after `exoid experiment` returns, no
-// process of the run may be left, running or as a zombie.
+// Each run uses 2 moves (8.2 s simulated). After `exoid experiment` returns, no process of the run may be
+// left, running or unreaped (leftovers()).
 class RunEnd : public ::testing::Test {
  protected:
   struct Result {
@@ -166,12 +167,10 @@ class RunEnd : public ::testing::Test {
     double wall_s = 0.0;
   };
   void SetUp() override {
-    std::ifstream in(test::configPath("controller.yaml"));
-    std::ofstream(dir_.file("controller.yaml")) << in.rdbuf();
+    ASSERT_EQ(::prctl(PR_SET_CHILD_SUBREAPER, 1), 0);
   }
   std::string command(const std::string& scenario, const std::string& extra) const {
-    return test::exoidBinary() + " experiment --moves 2 --controller-config " + dir_.file("controller.yaml") +
-           " --scenario " + scenario + " --out " + dir_.file("run") + " " + extra;
+    return test::exoidBinary() + " experiment --moves 2 --scenario " + scenario + " --out " + dir_.file("run") + " " + extra;
   }
   Result run(const std::string& scenario, const std::string& extra) {
     Result r;
@@ -182,39 +181,35 @@ class RunEnd : public ::testing::Test {
     r.sim = nlohmann::json::parse(test::slurp(dir_.file("run/sim_result.json")), nullptr, false);
     return r;
   }
-  /// Processes (live or zombie) started after this test began whose command line names the run directory,
-  /// or zombies of the run's programs.
+  /// Descendants of this test that `exoid experiment` left behind, running or unreaped. The test process is a
+  /// child subreaper (SetUp), so every orphan of the run is re-parented to it: after exoid returned, a
+  /// leftover is exactly a child of ours that is not exoid itself. Leftovers are killed and reaped here.
   std::vector<std::string> leftovers() const {
     std::vector<std::string> found;
-    const long long t_self = startTime("self");
-    DIR* d = ::opendir("/proc");
+    for (;;) {  // orphans that exited but were never reaped (zombies)
+      int status = 0;
+      const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+      if (pid <= 0) break;
+      found.push_back(std::to_string(pid) + " (exited, not reaped by exoid)");
+    }
+    DIR* d = ::opendir("/proc");  // orphans still running
     while (dirent* e = d ? ::readdir(d) : nullptr) {
       const std::string pid = e->d_name;
-      if (pid.find_first_not_of("0123456789") != std::string::npos || pid == std::to_string(::getpid())) continue;
-      std::string cmdline = test::slurp("/proc/" + pid + "/cmdline");
-      std::replace(cmdline.begin(), cmdline.end(), '\0', ' ');
+      if (pid.find_first_not_of("0123456789") != std::string::npos) continue;
       const std::string stat = test::slurp("/proc/" + pid + "/stat");
       const size_t close = stat.rfind(')');
       if (close == std::string::npos) continue;
-      const std::string comm = stat.substr(stat.find('(') + 1, close - stat.find('(') - 1);
-      const bool zombie = stat.size() > close + 2 && stat[close + 2] == 'Z';
-      const bool ours = cmdline.find(dir_.path.string()) != std::string::npos ||
-                        (zombie && (comm == "exo_sim" || comm == "exo_controller" || comm == "exoid_logger") &&
-                         startTime(pid) >= t_self);
-      if (ours) found.push_back(pid + " " + comm + (zombie ? " (zombie)" : "") + ": " + cmdline);
+      std::istringstream rest(stat.substr(close + 2));
+      std::string state;
+      long ppid = 0;
+      rest >> state >> ppid;
+      if (ppid != ::getpid()) continue;
+      found.push_back(pid + " " + stat.substr(stat.find('(') + 1, close - stat.find('(') - 1) + " (still running)");
+      ::kill(static_cast<pid_t>(std::stol(pid)), SIGKILL);
+      ::waitpid(static_cast<pid_t>(std::stol(pid)), nullptr, 0);
     }
     if (d) ::closedir(d);
     return found;
-  }
-  static long long startTime(const std::string& pid) {  // field 22 of /proc/PID/stat, clock ticks since boot
-    const std::string stat = test::slurp("/proc/" + pid + "/stat");
-    const size_t close = stat.rfind(')');
-    if (close == std::string::npos) return -1;
-    std::istringstream in(stat.substr(close + 2));
-    std::string field;
-    for (int i = 3; i <= 22 && in >> field; ++i) {
-    }
-    return std::atoll(field.c_str());
   }
   std::string writeScenario(const std::string& name, const std::string& text) const {
     std::ofstream(dir_.file(name)) << text;
