@@ -1,10 +1,14 @@
 // exo_sim over LCM: the loop in-process against a fake controller on memq:// (timing convention, gate,
 // fallbacks), and the binary's command line (help, exit codes, one-line errors).
+#include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <array>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -325,6 +329,39 @@ TEST(ExoSimCli, OpenLoopRunPrintsProgressAndSummary) {
   EXPECT_EQ(q.code, 0) << q.out;
   EXPECT_EQ(q.out.rfind("exo_sim: summary: completed, ticks 300 of 300,", 0), 0u) << q.out;  // only the summary
   EXPECT_EQ(runExoSim("--result /nonexistent/dir/r.json --quiet --lcm-url memq:// --start-timeout-s 0 --duration 0.01").code, 1);
+}
+
+// SIGTERM (here during the start handshake, waiting for a controller) ends the run cleanly: exit 5, the
+// result says interrupted. A SIGTERM while the model loads is honoured too (the handler is installed first).
+TEST(ExoSimCli, SigtermEndsTheRunWithExitFiveAndItsResult) {
+  const std::string result = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_sim_sigterm.json";
+  for (const int delay_ms : {600, 0}) {
+    std::remove(result.c_str());
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, STDOUT_FILENO);
+      ::execl(EXO_SIM_BIN, EXO_SIM_BIN, "--lcm-url", "memq://", "--duration", "10", "--result", result.c_str(),
+              static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    if (delay_ms == 0 && WIFSIGNALED(status)) continue;  // killed before main() installed the handler
+    ASSERT_TRUE(WIFEXITED(status)) << delay_ms;
+    EXPECT_EQ(WEXITSTATUS(status), 5) << delay_ms;
+    std::ifstream in(result);
+    const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    RunSummary s;
+    std::string err;
+    ASSERT_TRUE(parseRunSummaryJson(json, &s, &err)) << err << json;
+    EXPECT_EQ(s.outcome, RunOutcome::Interrupted);
+    EXPECT_LT(s.ticks, 10000);
+  }
+  std::remove(result.c_str());
 }
 
 }  // namespace
