@@ -306,9 +306,10 @@ int cmdExperiment(int argc, char** argv) {
   // Supervise: the first of {sim done, a process ended early, watchdog, signal} ends the run.
   tools::RunFacts facts;
   auto since = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  // True once a child that was started has ended (a child never started, pid -1, never "ends").
   auto reap = [&](Child& c) {
     if (c.running && tools::waitFor(c.pid, 0, &c.code)) c.running = false, c.ended_at_s = since();
-    return !c.running;
+    return c.pid > 0 && !c.running;
   };
   std::streamoff echoed = 0;
   double sim_time = 0.0;
