@@ -318,7 +318,7 @@ int cmdExperiment(int argc, char** argv) {
     echoNewLines(sim_log, &echoed, &sim_time);
     if (inject.at_s >= 0.0 && !inject.done && sim_time >= inject.at_s) {
       Child& target = inject.process == "sim" ? sim : inject.process == "controller" ? ctrl : logger;
-      ::kill(target.pid, inject.action == "kill" ? SIGKILL : SIGSTOP);
+      if (target.pid > 0) ::kill(target.pid, inject.action == "kill" ? SIGKILL : SIGSTOP);  // never kill(-1, ...)
       inject.done = true;
     }
     if (reap(sim)) break;

@@ -68,6 +68,10 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, s
 }
 
 bool waitFor(pid_t pid, int timeout_ms, int* exit_code) {
+  if (pid <= 0) {  // waitpid(-1 or 0, ...) would reap any child
+    if (exit_code) *exit_code = -1;
+    return true;
+  }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
   for (;;) {
     int status = 0;
@@ -87,6 +91,7 @@ bool waitFor(pid_t pid, int timeout_ms, int* exit_code) {
 
 int stop(pid_t pid, int sig, int grace_ms) {
   int code = -1;
+  if (pid <= 0) return code;  // kill(0 or -1, ...) would signal the group or everything
   ::kill(pid, sig);
   ::kill(pid, SIGCONT);
   if (waitFor(pid, grace_ms, &code)) return code;
