@@ -37,7 +37,7 @@ int cmdBaseParams(int argc, char** argv) {
       ->transform(common::strictInteger(1, 100000000))->type_name("N");
   app.add_option("--seed", seed, "random seed")->transform(common::strictInteger(0))->type_name("S");
   app.add_option("--tolerance", opt.tolerance, "pivots below T times the largest count as zero; 0 < T < 1")
-      ->transform(common::strictNumber(0.0, 1.0))->type_name("T");
+      ->transform(common::strictNumber())->type_name("T");  // open interval: checked below
   app.footer("exit codes: 0 success, 2 bad input.");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   if (opt.tolerance <= 0.0 || opt.tolerance >= 1.0)
