@@ -91,7 +91,7 @@ TEST_F(CliOptions, ExperimentRefusesWhatTheControllerWouldBeforeStarting) {
 TEST_F(CliOptions, BaseParamsRefusesImpossibleRequests) {
   const std::string base = bin("exoid") + " base-params --model " + test::configPath("exo.urdf") + " --floating-base";
   // --tolerance 1 used to keep no pivot and segfault on the empty combination matrix.
-  expectError(base + " --tolerance 1", "--tolerance: '1': out of range, expected 0 < T < 1");
+  expectError(base + " --tolerance 1", "--tolerance: '1': out of range, expected in (0, 1)");
   expectError(base + " --tolerance 0", "--tolerance: '0': out of range");
   expectError(base + " --tolerance -1e-9", "--tolerance: '-1e-9': out of range");
   // --samples 1 stacked 16 rows for 130 parameters and reported rank 16 as if it were the answer.
