@@ -37,6 +37,7 @@ TEST_F(CliOptions, EveryBinaryHasGeneratedHelp) {
       {bin("exo_sim"), {"--duration", "--mode", "--hold-ticks", "INTEGER in [0, 3600000]", "exit codes"}},
       {bin("exo_controller"), {"--moves", "--seed", "--idle-timeout-ms", "--print-duration", "exit codes"}},
       // The logger's default URL is the project's, ttl=0 included (it used to print it without).
+      {bin("exoid_lcm_demo_publisher"), {"--count", "--rate", "--start-tick", "--url", "--channel", "exit codes"}},
       {"env -u LCM_DEFAULT_URL " + bin("exoid_logger"),
        {"--lcm-url", "default udpm://239.255.76.67:7667?ttl=0", "--out", "--recv-buf-mb", "exit codes"}},
   };
@@ -56,7 +57,7 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   for (const std::string& command : {bin("exoid") + " model", bin("exoid") + " base-params",
                                      bin("exoid") + " regressor", bin("exoid") + " export",
                                      bin("exoid") + " experiment", bin("exo_sim"), bin("exo_controller"),
-                                     bin("exoid_logger")}) {
+                                     bin("exoid_logger"), bin("exoid_lcm_demo_publisher")}) {
     expectError(command + " --bogus 1", "unknown option '--bogus'");
     expectError(command + " --bogus=1", "unknown option '--bogus'");
     expectError(command + " stray", "unexpected argument 'stray'");
@@ -66,6 +67,9 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   expectError(bin("exoid") + " model --model " + test::configPath("exo.urdf") + " --gravity 9,81",
               "--gravity: '9,81': not a number");
   expectError(bin("exoid_logger") + " --out x.lcmlog --recv-buf-mb 0", "--recv-buf-mb: '0': out of range");
+  expectError(bin("exoid_logger") + " --out x.lcmlog --lcm-url 'udpm://239.255.76.67:+7667?ttl=0'",
+              "--lcm-url: '239.255.76.67:+7667' is not a multicast GROUP:PORT");
+  expectError(bin("exoid_lcm_demo_publisher") + " --count 1.5", "--count: '1.5': not an integer");
   expectError(bin("exoid") + " export --log a --out b --filter nan", "--filter: 'nan': not finite");
 }
 
