@@ -69,6 +69,9 @@ int parseCli(CLI::App& app, int argc, const char* const* argv) {
       if (dynamic_cast<const CLI::ArgumentMismatch*>(&e) && what.find(" missing") != std::string::npos &&
           what.find(':') != std::string::npos)
         what = what.substr(0, what.find(':')) + ": missing value";
+      else if (dynamic_cast<const CLI::ArgumentMismatch*>(&e) && what.find("At Most") != std::string::npos &&
+               what.find(':') != std::string::npos)
+        what = what.substr(0, what.find(':')) + ": given more than once";
       for (char& c : what)
         if (c == '\n') c = ' ';
       std::fprintf(stderr, "%s: error: %s (see --help)\n", prog.c_str(), what.c_str());

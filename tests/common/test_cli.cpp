@@ -89,7 +89,7 @@ TEST(Cli, OneLineErrors) {
   expectError({"--count", "1.5"}, "--count: '1.5': not an integer");
   expectError({"--count", "0"}, "expected an integer in [1, 1000]");
   expectError({"--count", "99999999999999999999"}, "integer too large");
-  expectError({"--count", "2", "--count", "3"}, "--count");
+  expectError({"--count", "2", "--count", "3"}, "--count: given more than once");
 }
 
 }  // namespace
