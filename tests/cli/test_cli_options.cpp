@@ -108,6 +108,12 @@ TEST_F(CliOptions, BaseParamsRefusesImpossibleRequests) {
   const test::CommandResult r = run(base + " --samples 9");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find(": 100 of 130 standard parameters"), std::string::npos) << r.out;
+  const test::CommandResult kuka =
+      run(bin("exoid") + " base-params --samples 12 --model " + test::dataPath("kuka_lwr4/kuka_lwr4.urdf"));
+  ASSERT_EQ(kuka.exit_code, 0) << kuka.err;
+  EXPECT_NE(kuka.out.find(": 57 of 84 standard parameters"), std::string::npos) << kuka.out;
+  expectError(bin("exoid") + " base-params --samples 11 --model " + test::dataPath("kuka_lwr4/kuka_lwr4.urdf"),
+              "use at least 12");
 }
 
 TEST_F(CliOptions, OneBodyModelsDoNotCrash) {
