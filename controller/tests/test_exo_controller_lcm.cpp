@@ -98,6 +98,9 @@ TEST(ExoControllerBinary, HelpAndBadInputExitCodes) {
   const std::string bad = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_bad_controller.yaml";
   std::ofstream(bad) << "loop: {period: 0.001}\n";
   EXPECT_EQ(waitExit(spawn({"--config", bad}, out)), 2);
+  std::ofstream(bad) << slurp(testing::configPath("controller.yaml")) << "solver: {eps_abs: 1.0e-9, max_iterations: 5}\n";
+  EXPECT_EQ(waitExit(spawn({"--config", bad}, out)), 2);  // the second solver section used to be ignored
+  EXPECT_NE(slurp(out).find(bad + ": solver: duplicate key"), std::string::npos) << slurp(out);
   // Nobody publishes (in-process memq provider): the idle timeout ends it.
   EXPECT_EQ(waitExit(spawn({"--lcm-url", "memq://", "--idle-timeout-ms", "200", "--quiet"}, out)), 3);
   EXPECT_NE(slurp(out).find("idle timeout"), std::string::npos);

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "exoid/common/cli.hpp"
+#include "exoid/common/strict_number.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "lcm_wire.hpp"
 
@@ -70,9 +71,9 @@ int main(int argc, char** argv) {
   const std::string hostport = url.substr(7, url.find('?') == std::string::npos ? std::string::npos : url.find('?') - 7);
   const size_t colon = hostport.rfind(':');
   in_addr group{};
-  char* end = nullptr;
-  const long port = colon == std::string::npos ? 0 : std::strtol(hostport.c_str() + colon + 1, &end, 10);
-  if (colon == std::string::npos || *end || port < 1 || port > 65535 ||
+  int64_t port = 0;
+  if (colon == std::string::npos || !exoid::common::parseInt(hostport.substr(colon + 1), 1, 65535, port) ||
+      hostport[colon + 1] == '+' ||
       inet_aton(hostport.substr(0, colon).c_str(), &group) == 0 || !IN_MULTICAST(ntohl(group.s_addr)))
     return bad("--lcm-url: '" + hostport + "' is not a multicast GROUP:PORT");
   if (!force && access(out.c_str(), F_OK) == 0) return bad("'" + out + "' exists (use --force to overwrite)");

@@ -133,6 +133,19 @@ TEST(SimConfig, ScenarioParses) {
   EXPECT_NE(err.find("nowhere.yaml: cannot open file"), std::string::npos) << err;
 }
 
+TEST(SimConfig, ByteOrderMarkAndCrlfReadTheSame) {
+  std::string crlf = "\xEF\xBB\xBF";
+  for (char c : std::string(kGoodScenario)) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  Scenario plain, windows;
+  std::string err;
+  ASSERT_TRUE(loadScenario(writeTemp("plain_scenario.yaml", kGoodScenario), &plain, &err)) << err;
+  ASSERT_TRUE(loadScenario(writeTemp("crlf_scenario.yaml", crlf), &windows, &err)) << err;
+  EXPECT_EQ(windows.name, plain.name);
+  EXPECT_EQ(windows.effects.payloads.size(), 1u);
+  EXPECT_EQ(windows.effects.payloads[0].com, plain.effects.payloads[0].com);
+  EXPECT_EQ(windows.initial.joints.size(), plain.initial.joints.size());
+}
+
 TEST(SimConfig, SubnormalNumbersAreNumbers) {
   std::string text = kGoodScenario;
   text.replace(text.find("armature: {all: 0.01}"), 21, "armature: {all: 1e-320}");

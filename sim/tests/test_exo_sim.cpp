@@ -273,6 +273,8 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
   const std::string nan_mjcf = writeFile("nan.xml", mjcf);  // MuJoCo 2.2 alone accepts it with a warning
   mjcf.replace(mjcf.find("mass=\"nan\""), 10, "mass=\"inf\"");
   const std::string inf_mjcf = writeFile("inf.xml", mjcf);  // and this one silently
+  const std::string duplicate =
+      writeFile("dup.yaml", "name: x\nseed: 1\nnoise: off\neffects: {joint_damping: {all: 1, all: 2}}\n");
   const std::string unknown_joint =
       writeFile("joint.yaml", "name: x\nseed: 1\nnoise: off\neffects: {joint_damping: {knee: 1}}\n");
   struct Case {
@@ -289,6 +291,7 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
       {"--command-timeout-ms x", "--command-timeout-ms: 'x': not an integer"},
       {"--hold-ticks -1", "--hold-ticks: '-1': out of range, expected an integer in [0, 1000000000]"},
       {"--scenario " + bad_scenario, bad_scenario + ": effects.dampin: unknown key"},
+      {"--scenario " + duplicate, duplicate + ": effects.joint_damping.all: duplicate key (line 4; first on line 4)"},
       {"--scenario " + unknown_joint, unknown_joint + ": effects.joint_damping.knee: unknown joint 'knee'"},
       {"--model " + bad_mjcf, bad_mjcf + ": MuJoCo cannot load the model"},
       {"--model " + nan_mjcf, nan_mjcf + ": body 'right_plate' <inertial mass='nan'> (line 14): not finite"},

@@ -37,6 +37,7 @@ TEST_F(CliOptions, EveryBinaryHasGeneratedHelp) {
       {bin("exo_sim"), {"--duration", "--mode", "--hold-ticks", "INTEGER in [0, 3600000]", "exit codes"}},
       {bin("exo_controller"), {"--moves", "--seed", "--idle-timeout-ms", "--print-duration", "exit codes"}},
       // The logger's default URL is the project's, ttl=0 included (it used to print it without).
+      {bin("exoid_lcm_demo_publisher"), {"--count", "--rate", "--start-tick", "--url", "--channel", "exit codes"}},
       {"env -u LCM_DEFAULT_URL " + bin("exoid_logger"),
        {"--lcm-url", "default udpm://239.255.76.67:7667?ttl=0", "--out", "--recv-buf-mb", "exit codes"}},
   };
@@ -56,7 +57,7 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   for (const std::string& command : {bin("exoid") + " model", bin("exoid") + " base-params",
                                      bin("exoid") + " regressor", bin("exoid") + " export",
                                      bin("exoid") + " experiment", bin("exo_sim"), bin("exo_controller"),
-                                     bin("exoid_logger")}) {
+                                     bin("exoid_logger"), bin("exoid_lcm_demo_publisher")}) {
     expectError(command + " --bogus 1", "unknown option '--bogus'");
     expectError(command + " --bogus=1", "unknown option '--bogus'");
     expectError(command + " stray", "unexpected argument 'stray'");
@@ -66,6 +67,9 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   expectError(bin("exoid") + " model --model " + test::configPath("exo.urdf") + " --gravity 9,81",
               "--gravity: '9,81': not a number");
   expectError(bin("exoid_logger") + " --out x.lcmlog --recv-buf-mb 0", "--recv-buf-mb: '0': out of range");
+  expectError(bin("exoid_logger") + " --out x.lcmlog --lcm-url 'udpm://239.255.76.67:+7667?ttl=0'",
+              "--lcm-url: '239.255.76.67:+7667' is not a multicast GROUP:PORT");
+  expectError(bin("exoid_lcm_demo_publisher") + " --count 1.5", "--count: '1.5': not an integer");
   expectError(bin("exoid") + " export --log a --out b --filter nan", "--filter: 'nan': not finite");
 }
 
@@ -91,7 +95,7 @@ TEST_F(CliOptions, ExperimentRefusesWhatTheControllerWouldBeforeStarting) {
 TEST_F(CliOptions, BaseParamsRefusesImpossibleRequests) {
   const std::string base = bin("exoid") + " base-params --model " + test::configPath("exo.urdf") + " --floating-base";
   // --tolerance 1 used to keep no pivot and segfault on the empty combination matrix.
-  expectError(base + " --tolerance 1", "--tolerance: '1': out of range, expected 0 < T < 1");
+  expectError(base + " --tolerance 1", "--tolerance: '1': out of range, expected in (0, 1)");
   expectError(base + " --tolerance 0", "--tolerance: '0': out of range");
   expectError(base + " --tolerance -1e-9", "--tolerance: '-1e-9': out of range");
   // --samples 1 stacked 16 rows for 130 parameters and reported rank 16 as if it were the answer.
@@ -104,6 +108,12 @@ TEST_F(CliOptions, BaseParamsRefusesImpossibleRequests) {
   const test::CommandResult r = run(base + " --samples 9");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find(": 100 of 130 standard parameters"), std::string::npos) << r.out;
+  const test::CommandResult kuka =
+      run(bin("exoid") + " base-params --samples 12 --model " + test::dataPath("kuka_lwr4/kuka_lwr4.urdf"));
+  ASSERT_EQ(kuka.exit_code, 0) << kuka.err;
+  EXPECT_NE(kuka.out.find(": 57 of 84 standard parameters"), std::string::npos) << kuka.out;
+  expectError(bin("exoid") + " base-params --samples 11 --model " + test::dataPath("kuka_lwr4/kuka_lwr4.urdf"),
+              "use at least 12");
 }
 
 TEST_F(CliOptions, OneBodyModelsDoNotCrash) {

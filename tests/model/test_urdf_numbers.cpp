@@ -84,6 +84,16 @@ TEST(UrdfNumbers, FileErrorsNameTheFile) {
   std::remove(path.c_str());
 }
 
+TEST(UrdfNumbers, ByteOrderMarkAndCrlfReadTheSame) {
+  Model plain, windows;
+  std::string err, crlf = "\xEF\xBB\xBF";
+  for (char c : urdf()) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  ASSERT_TRUE(buildModelFromUrdfString(urdf(), true, plain, &err)) << err;
+  ASSERT_TRUE(buildModelFromUrdfString(crlf, true, windows, &err)) << err;
+  EXPECT_EQ(plain.phi, windows.phi);
+  EXPECT_EQ(plain.joint_names, windows.joint_names);
+}
+
 TEST(UrdfNumbers, ShippedModelsPass) {
   for (const std::string& path : {test::configPath("exo.urdf"), test::dataPath("kuka_lwr4/kuka_lwr4.urdf")}) {
     Model m;
