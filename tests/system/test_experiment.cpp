@@ -299,6 +299,8 @@ TEST_F(RunEnd, AHungControllerEndsTheRunAfterTheMissingCommandLimit) {
   ASSERT_TRUE(r.summary.is_object() && r.sim.is_object()) << r.cmd.out;
   EXPECT_EQ(r.sim["outcome"], "controller_lost");
   EXPECT_EQ(r.sim["missing_commands"], 5);
+  EXPECT_NE(test::slurp(dir_.file("run/sim.log")).find("exo_sim: summary: controller_lost (5 consecutive commands missing"),
+            std::string::npos);
   EXPECT_NE(r.summary["failures"].dump().find("exo_controller stopped answering"), std::string::npos) << r.summary;
   // The sim's fallback ticks reach the summary (the controller's own count stays 0).
   EXPECT_EQ(r.summary["sim_held_ticks"], r.sim["held_ticks"]);
