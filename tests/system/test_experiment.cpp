@@ -409,7 +409,12 @@ TEST_F(RunEnd, OptionsTheControllerRefusesAreRefusedBeforeAnythingStarts) {
 // (exit 134). Root ignores permission bits, so the unwritable places are in /proc and /sys.
 TEST_F(RunEnd, AnUnusableOutputDirectoryIsOneLineAndExitTwo) {
   std::ofstream(dir_.file("a_file")) << "x";
-  for (const std::string& out : {dir_.file("a_file"), std::string("/proc/self/exoid_out"), std::string("/sys/exoid_out")}) {
+  const std::string too_long = "/tmp/" + std::string(5000, 'x');  // ENAMETOOLONG made std::filesystem throw
+  const auto r = test::runCommand(test::exoidBinary() + " experiment --moves 2 --scenario " + too_long + " --out " + too_long,
+                                  dir_.path);
+  EXPECT_EQ(r.exit_code, 2) << r.err.substr(0, 300);
+  EXPECT_EQ(r.err.rfind("exoid experiment: error: --scenario: no such file", 0), 0u) << r.err.substr(0, 300);
+  for (const std::string& out : {dir_.file("a_file"), std::string("/proc/self/exoid_out"), std::string("/sys/exoid_out"), too_long}) {
     const auto r = test::runCommand(test::exoidBinary() + " experiment --moves 2 --scenario " +
                                         test::configPath("scenarios/ideal.yaml") + " --out " + out,
                                     dir_.path);

@@ -225,7 +225,8 @@ int cmdExperiment(int argc, char** argv) {
                                                               {"model", &model_path},
                                                               {"mjcf", &mjcf}};
   for (const auto& [name, file] : files)
-    if (!std::filesystem::is_regular_file(*file)) return fail("--" + std::string(name) + ": no such file '" + *file + "'");
+    if (std::error_code ec; !std::filesystem::is_regular_file(*file, ec))  // the throwing overload aborted on odd paths
+      return fail("--" + std::string(name) + ": no such file '" + *file + "'" + (ec ? " (" + ec.message() + ")" : ""));
   Injection inject;
   if (!inject_text.empty() && !parseInjection(inject_text, &inject, &err)) return fail(err);
   controller::ControllerConfig cc;
