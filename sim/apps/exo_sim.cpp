@@ -1,4 +1,5 @@
 // exo_sim: the simulated exoskeleton on two force plates, as an LCM process (docs/sim.md).
+#include <cerrno>
 #include <csignal>
 #include <cmath>
 #include <cstdio>
@@ -51,6 +52,24 @@ void printHelp() {
       "  --start-timeout-s S      lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
       "                           for a late controller; if none comes, run open loop without waiting (default 5)\n"
       "  --quiet                  no progress line (the summary line is always printed)\n"
+      "\n"
+      "in-loop controller (docs/plugin.md; without --controller-plugin a controller process answers EXO_COMMAND):\n"
+      "  --controller-plugin LIB  load the controller plugin LIB (e.g. build/lib/libexoid_controller_plugin.so)\n"
+      "                           and call it from the loop after each step: state of tick k in, command for\n"
+      "                           tick k+1 out (the same one-tick delay as a controller process); the loop\n"
+      "                           publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS and feeds EXO_ESTIMATE's\n"
+      "                           feedforward to it. A failed, non-finite, malformed or over-budget answer is\n"
+      "                           replaced by a counted fallback: hold the last good torque, then damping\n"
+      "  --controller-model URDF  robot model given to the plugin (default %s/exo.urdf)\n"
+      "  --controller-config FILE the plugin's configuration (default %s/controller.yaml)\n"
+      "  --controller-seed N      seed given to the plugin: the CoM move sequence (default 1)\n"
+      "  --controller-moves N     CoM moves (default 0: the configuration's)\n"
+      "  --controller-rate-hz HZ  plugin rate, a divisor of the 1000 Hz physics rate (default 1000); the command\n"
+      "                           is held between calls\n"
+      "  --plugin-budget-us US    a call longer than US microseconds (wall clock) is discarded and counted\n"
+      "                           (default: none in lockstep, which stays deterministic; half the controller\n"
+      "                           period in realtime)\n"
+      "  --plugin-hold-ticks N    fallback: controller ticks on the last good torque before damping (default 20)\n"
       "  --help                   this text\n"
       "\n"
       "channels (LCM, package exoid_lcm, SI units, docs/lcm.md):\n"
@@ -60,17 +79,23 @@ void printHelp() {
       "             EXO_PLATE_LEFT   force_plate_t    plate frame; CoP m on the top surface (0 below 20 N load)\n"
       "             EXO_TRUTH        ground_truth_t   exact state, accelerations, applied torques, contact\n"
       "                                               wrenches ON the feet (world, moment about the world origin)\n"
+      "             EXO_COMMAND, EXO_CONTROLLER_STATUS   with --controller-plugin: the plugin's command and status\n"
       "  subscribes EXO_COMMAND      joint_command_t  torque command N m for tick `tick`; NaN/Inf, wrong size or\n"
       "                                               names, duplicate and out-of-order ticks are rejected and\n"
       "                                               counted; torques are clamped to the actuator ranges\n"
+      "                                               (not with --controller-plugin)\n"
+      "             EXO_ESTIMATE     estimator_output_t with --controller-plugin: its tau_ff goes to the plugin\n"
       "\n"
       "output: a progress line per simulated second (unless --quiet), then one summary line: ticks, realtime\n"
       "factor, accepted/rejected commands by reason, fallback ticks (held, zero, timeouts), clamped commands,\n"
-      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m).\n"
+      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m); with a plugin a second\n"
+      "line: calls, good answers, failures by kind, over-budget calls, fallback ticks, call time.\n"
       "\n"
       "exit codes: 0 run completed (also when interrupted by SIGINT/SIGTERM or when the robot fell),\n"
-      "            1 runtime failure (LCM), 2 bad input (options, MJCF, sensors or scenario file).\n",
-      EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, exoid::channels::kDefaultUrl);
+      "            1 runtime failure (LCM), 2 bad input (options, MJCF, sensors or scenario file; a plugin that\n"
+      "            does not load, has another ABI version or fails to create).\n",
+      EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR,
+      exoid::channels::kDefaultUrl);
 }
 
 int badInput(const std::string& msg) {
@@ -103,6 +128,10 @@ int main(int argc, char** argv) {
   std::string scenario_path = config + "/scenarios/nominal.yaml";
   std::string url = LcmEndpoint::defaultUrl();
   RunOptions opt;
+  PluginOptions plugin_opt;
+  plugin_opt.model_path = config + "/exo.urdf";
+  plugin_opt.config_path = config + "/controller.yaml";
+  double plugin_budget_us = -1.0;  // < 0: the mode's default
 
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i], value;
@@ -157,6 +186,35 @@ int main(int argc, char** argv) {
       if (!parseDouble(value, &d) || d < 0.0 || d > 3600.0)
         return badInput("--start-timeout-s: expected seconds in [0, 3600], got '" + value + "'");
       opt.start_timeout_s = d;
+    } else if (arg == "--controller-plugin") {
+      plugin_opt.path = value;
+    } else if (arg == "--controller-model") {
+      plugin_opt.model_path = value;
+    } else if (arg == "--controller-config") {
+      plugin_opt.config_path = value;
+    } else if (arg == "--controller-seed") {
+      char* end = nullptr;
+      errno = 0;
+      const unsigned long long seed = std::strtoull(value.c_str(), &end, 10);
+      if (value.empty() || value[0] == '-' || errno != 0 || *end != '\0')
+        return badInput("--controller-seed: expected an unsigned integer, got '" + value + "'");
+      plugin_opt.seed = seed;
+    } else if (arg == "--controller-moves") {
+      if (!parseInt(value, &n) || n < 0 || n > 1000)
+        return badInput("--controller-moves: expected 0..1000, got '" + value + "'");
+      plugin_opt.moves = static_cast<int>(n);
+    } else if (arg == "--controller-rate-hz") {
+      if (!parseInt(value, &n) || n < 1 || n > 1000 || 1000 % n != 0)
+        return badInput("--controller-rate-hz: expected a divisor of 1000 (1000, 500, 250, 200, ...), got '" + value + "'");
+      plugin_opt.divisor = static_cast<int>(1000 / n);
+    } else if (arg == "--plugin-budget-us") {
+      if (!parseDouble(value, &d) || d < 0.0 || d > 1e7)
+        return badInput("--plugin-budget-us: expected microseconds >= 0, got '" + value + "'");
+      plugin_budget_us = d;
+    } else if (arg == "--plugin-hold-ticks") {
+      if (!parseInt(value, &n) || n < 0 || n > 1000000000)
+        return badInput("--plugin-hold-ticks: expected a tick count >= 0, got '" + value + "'");
+      plugin_opt.hold_ticks = static_cast<int>(n);
     } else {
       return badInput("unknown option '" + arg + "' (see --help)");
     }
@@ -173,6 +231,15 @@ int main(int argc, char** argv) {
   SimData data;
   if (!simLoad(model_path, noise, scenario, model, &err)) return badInput(err);
   if (!simMakeData(model, data, &err)) return badInput(err);
+  std::unique_ptr<ControllerPlugin> plugin;
+  if (!plugin_opt.path.empty()) {
+    plugin_opt.budget_us = plugin_budget_us >= 0.0                 ? plugin_budget_us
+                           : opt.mode == SimMode::Realtime ? 500.0 * plugin_opt.divisor
+                                                           : 0.0;
+    plugin = ControllerPlugin::load(plugin_opt, model.joint_names, model.m->opt.timestep, &err);
+    if (!plugin) return badInput(err);
+    opt.plugin = plugin.get();
+  }
   std::string normalised;
   if (!LcmEndpoint::checkUrl(url, &normalised, &err)) return badInput("--lcm-url: " + err);
   std::unique_ptr<LcmEndpoint> endpoint = LcmEndpoint::create(normalised, &err);
@@ -184,6 +251,9 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   if (!opt.quiet) {
+    if (plugin)
+      std::printf("exo_sim: controller plugin '%s' (%s) at %d Hz, seed %llu\n", plugin->name(), plugin_opt.path.c_str(),
+                  1000 / plugin_opt.divisor, static_cast<unsigned long long>(plugin_opt.seed));
     std::printf("exo_sim: %s, scenario '%s' (%s), noise %s, seed %llu, %s, %.3f s, LCM %s\n", model_path.c_str(),
                 scenario.name.c_str(), scenario_path.c_str(), noise.source.empty() ? "none" : noise.source.c_str(),
                 static_cast<unsigned long long>(scenario.seed),
@@ -193,6 +263,7 @@ int main(int argc, char** argv) {
   RunSummary summary;
   const bool ok = runSim(model, data, *endpoint, opt, &summary, &err, &g_stop);
   std::printf("%s\n", formatSummary(summary).c_str());
+  if (plugin) std::printf("%s\n", plugin->formatStats().c_str());
   std::fflush(stdout);
   if (!ok) {
     std::fprintf(stderr, "exo_sim: %s\n", err.c_str());

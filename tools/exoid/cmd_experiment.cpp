@@ -1,5 +1,6 @@
-// exoid experiment: sim + controller (+ estimator once it exists) as separate processes over LCM udpm://
-// inside a private network namespace, in lockstep, logged by exoid_logger, summarised from the log.
+// exoid experiment: sim + controller (+ estimator once it exists) over LCM udpm:// inside a private network
+// namespace, in lockstep, logged by exoid_logger, summarised from the log. The controller runs inside the
+// sim's loop as a plugin (default) or as its own process.
 #include <signal.h>
 #include <unistd.h>
 
@@ -29,14 +30,16 @@ constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
 
 constexpr char kHelp[] =
     "usage: exoid experiment --scenario SCENARIO.yaml --out DIR [options]\n\n"
-    "Runs the closed loop: exo_sim (MuJoCo, lockstep) and exo_controller (centroidal balance QP doing the\n"
-    "thesis's CoM moves) as separate processes talking LCM over udpm:// with ttl=0 inside a private network\n"
-    "namespace (unshare -n; multicast routed on its loopback only), recorded without loss. Writes\n"
+    "Runs the closed loop: exo_sim (MuJoCo, lockstep) with the centroidal balance QP doing the thesis's CoM\n"
+    "moves, either inside the sim's loop as a plugin (default) or as the separate exo_controller process; every\n"
+    "channel goes over LCM udpm:// with ttl=0 inside a private network namespace (unshare -n; multicast routed\n"
+    "on its loopback only), recorded without loss. Writes\n"
     "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger)\n"
     "  DIR/summary.json     moves_done, fell, com_rmse_m, max_foot_slip_m, qp_solve_us_p50/p99, fallbacks,\n"
     "                       realtime_factor, missing_ticks, eom_residual_max_rel, ...\n"
     "  DIR/summary.md       the same as a table (also printed)\n"
-    "  DIR/controller.log, DIR/logger.log   process output (the sim's progress is printed)\n\n"
+    "  DIR/controller.log, DIR/logger.log   process output (the sim's progress is printed; controller.log only\n"
+    "                       with --controller process)\n\n"
     "options:\n"
     "  --scenario FILE          sim scenario (config/scenarios/*.yaml): noise, undeclared effects\n"
     "  --out DIR                output directory (created)\n"
@@ -47,6 +50,11 @@ constexpr char kHelp[] =
     "  --seed N                 CoM move sequence seed (default 1; use different seeds for training and\n"
     "                           validation runs)\n"
     "  --moves N                number of CoM moves (default: the controller configuration's, 20)\n"
+    "  --controller plugin|process\n"
+    "                           plugin (default): the balance controller runs inside exo_sim's loop as\n"
+    "                           build/lib/libexoid_controller_plugin.so (docs/plugin.md), no controller process;\n"
+    "                           process: exo_controller as its own process over LCM. Same commands tick by tick\n"
+    "  --controller-plugin LIB  plugin mode: another controller plugin library\n"
     "  --realtime               run the sim at wall-clock 1 kHz instead of lockstep\n"
     "  --no-pin                 do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
     "                           controller share the first allowed CPU; the logger is never pinned)\n"
@@ -57,6 +65,13 @@ constexpr char kHelp[] =
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid experiment: error: %s\n", msg.c_str());
   return 2;
+}
+
+std::string selfPath();
+
+/// build/lib/libexoid_controller_plugin.so next to this binary's build/bin.
+std::string pluginPath() {
+  return (std::filesystem::path(selfPath()).parent_path().parent_path() / "lib" / "libexoid_controller_plugin.so").string();
 }
 
 std::string selfPath() {
@@ -88,6 +103,7 @@ int cmdExperiment(int argc, char** argv) {
   args.option("scenario").option("out").option("controller-config", config + "/controller.yaml");
   args.option("sensors", config + "/sensors.yaml").option("model", config + "/exo.urdf");
   args.option("mjcf", config + "/exo.xml").option("seed", "1").option("moves", "0");
+  args.option("controller", "plugin").option("controller-plugin", pluginPath());
   args.flag("realtime").flag("no-pin").flag("help");
   std::string err;
   if (!args.parse(argc, argv, 2, &err)) return fail(err);
@@ -95,6 +111,11 @@ int cmdExperiment(int argc, char** argv) {
   if (!args.has("scenario") || !args.has("out")) return fail("--scenario and --out are required (exoid experiment --help)");
   for (const char* f : {"scenario", "controller-config", "sensors", "model", "mjcf"})
     if (!std::filesystem::is_regular_file(args.get(f))) return fail("--" + std::string(f) + ": no such file '" + args.get(f) + "'");
+  const bool use_plugin = args.get("controller") == "plugin";
+  if (!use_plugin && args.get("controller") != "process")
+    return fail("--controller: expected plugin or process, got '" + args.get("controller") + "'");
+  if (use_plugin && !std::filesystem::is_regular_file(args.get("controller-plugin")))
+    return fail("--controller-plugin: no such file '" + args.get("controller-plugin") + "'");
   long seed = 0, moves = 0;
   if (!args.getInt("seed", seed, &err) || !args.getInt("moves", moves, &err)) return fail(err);
   controller::ControllerConfig cc;
@@ -138,26 +159,34 @@ int cmdExperiment(int argc, char** argv) {
                               (out / "logger.log").string(), &err);
   if (logger < 0) return fail(err);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  pid_t ctrl = tools::spawn({bin + "/exo_controller", "--model", args.get("model"), "--config", args.get("controller-config"),
+  pid_t ctrl = use_plugin ? 0 : tools::spawn({bin + "/exo_controller", "--model", args.get("model"), "--config", args.get("controller-config"),
                              "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
                             (out / "controller.log").string(), &err, args.has("realtime") ? -1 : loop_cpu);
   if (ctrl < 0) return tools::stop(logger, SIGINT, 2000), fail(err);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  if (!use_plugin) std::this_thread::sleep_for(std::chrono::milliseconds(300));
   char dur[32];
   std::snprintf(dur, sizeof dur, "%.3f", duration);
-  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s -> %s\n", moves, duration,
-              args.get("scenario").c_str(), out.c_str());
+  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s\n", moves,
+              duration, args.get("scenario").c_str(), args.get("controller").c_str(), out.c_str());
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
-  pid_t sim = tools::spawn({bin + "/exo_sim", "--model", args.get("mjcf"), "--sensors", args.get("sensors"), "--scenario",
-                            args.get("scenario"), "--mode", args.has("realtime") ? "realtime" : "lockstep",
-                            "--duration", dur, "--lcm-url", url},
-                           "", &err, args.has("realtime") ? -1 : loop_cpu);
-  if (sim < 0) return tools::stop(ctrl, SIGTERM, 2000), tools::stop(logger, SIGINT, 2000), fail(err);
-  int sim_code = -1, ctrl_code = -1;
+  std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", args.get("mjcf"), "--sensors", args.get("sensors"),
+                                       "--scenario", args.get("scenario"), "--mode",
+                                       args.has("realtime") ? "realtime" : "lockstep", "--duration", dur, "--lcm-url", url};
+  if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
+    sim_args.insert(sim_args.end(), {"--controller-plugin", args.get("controller-plugin"), "--controller-model",
+                                     args.get("model"), "--controller-config", args.get("controller-config"),
+                                     "--controller-seed", std::to_string(seed), "--controller-moves", std::to_string(moves)});
+  pid_t sim = tools::spawn(sim_args, "", &err, args.has("realtime") ? -1 : loop_cpu);
+  if (sim < 0) {
+    if (ctrl > 0) tools::stop(ctrl, SIGTERM, 2000);
+    tools::stop(logger, SIGINT, 2000);
+    return fail(err);
+  }
+  int sim_code = -1, ctrl_code = 0;
   tools::waitFor(sim, -1, &sim_code);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (!tools::waitFor(ctrl, 5000, &ctrl_code)) ctrl_code = tools::stop(ctrl, SIGTERM, 2000);
+  if (ctrl > 0 && !tools::waitFor(ctrl, 5000, &ctrl_code)) ctrl_code = tools::stop(ctrl, SIGTERM, 2000);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger drain its socket
   tools::stop(logger, SIGINT, 5000);
   if (sim_code != 0) return fail("exo_sim exited with code " + std::to_string(sim_code));

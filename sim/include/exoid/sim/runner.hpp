@@ -11,6 +11,7 @@
 
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/sim/command.hpp"
+#include "exoid/sim/controller_plugin.hpp"
 #include "exoid/sim/sim.hpp"
 
 namespace exoid::sim {
@@ -23,6 +24,9 @@ struct RunOptions {
   double start_timeout_s = 5.0;   ///< lockstep: wait this long for the first command (re-sending tick 0)
   bool quiet = false;             ///< no progress lines
   std::FILE* log = stdout;        ///< progress and summary
+  /// In-loop controller (exo_sim --controller-plugin, docs/plugin.md): runs after each step instead of
+  /// waiting for EXO_COMMAND; the loop publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS.
+  ControllerPlugin* plugin = nullptr;
 };
 
 struct RunSummary {
