@@ -70,6 +70,8 @@ void printHelp() {
       "                           (default: none in lockstep, which stays deterministic; half the controller\n"
       "                           period in realtime)\n"
       "  --plugin-hold-ticks N    fallback: controller ticks on the last good torque before damping (default 20)\n"
+      "  --no-estimate            do not subscribe to EXO_ESTIMATE (no estimator running: the loop then reads\n"
+      "                           nothing back from LCM, which saves a receive per published message)\n"
       "  --help                   this text\n"
       "\n"
       "channels (LCM, package exoid_lcm, SI units, docs/lcm.md):\n"
@@ -141,6 +143,10 @@ int main(int argc, char** argv) {
     }
     if (arg == "--quiet") {
       opt.quiet = true;
+      continue;
+    }
+    if (arg == "--no-estimate") {
+      plugin_opt.listen_estimate = false;
       continue;
     }
     const size_t eq = arg.find('=');

@@ -13,7 +13,7 @@ PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vec
   ep_.reserve(static_cast<size_t>(std::max(command_msg_.getEncodedSize(), status_msg_.getEncodedSize())) + 1024);
   // EXO_ESTIMATE names the model's parameters: without the plugin's URDF there is nothing to check them against.
   Model model;
-  if (!plugin_.options().model_path.empty() &&
+  if (plugin_.options().listen_estimate && !plugin_.options().model_path.empty() &&
       buildModelFromUrdfFile(plugin_.options().model_path, true, model, nullptr)) {
     param_names_ = model.paramNames();
     estimate_.params = Eigen::VectorXd::Zero(model.nparams());

@@ -24,6 +24,8 @@ class PluginLink {
   /// After simStep of tick k: plugin stage, publishing, arbiterOffer(command for k + 1). False on an LCM
   /// failure (*err).
   bool afterStep(const RobotStateSample& state, CommandArbiter& arb, std::string* err);
+  /// Subscribed to EXO_ESTIMATE (else the loop has nothing to receive).
+  bool listening() const { return subscription_ > 0; }
 
  private:
   ControllerPlugin& plugin_;

@@ -118,8 +118,8 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
         }
         if (!arbiterHasFresh(arb, k)) ++s.timeouts;
       }
-    } else if (ep.handleAvailable(1000, err) < 0) {
-      ok = false;
+    } else if ((!plugin_link || plugin_link->listening()) && ep.handleAvailable(1000, err) < 0) {
+      ok = false;  // (a plugin loop that listens to nothing never touches LCM's receive side: no receive thread)
       break;
     }
 
@@ -145,6 +145,9 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       const int64_t next = t0 + (k + 1) * 1000000;
       if (monoNs() > next) {
         ++s.overruns;
+      } else if (plugin_link && !plugin_link->listening()) {  // nothing to receive: sleep to the deadline
+        const timespec ts{static_cast<time_t>(next / 1000000000), static_cast<long>(next % 1000000000)};
+        clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
       } else if (serviceUntil(ep, next, [] { return false; }, stop, err) < 0) {
         ok = false;
       }

@@ -176,7 +176,8 @@ int cmdExperiment(int argc, char** argv) {
   if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
     sim_args.insert(sim_args.end(), {"--controller-plugin", args.get("controller-plugin"), "--controller-model",
                                      args.get("model"), "--controller-config", args.get("controller-config"),
-                                     "--controller-seed", std::to_string(seed), "--controller-moves", std::to_string(moves)});
+                                     "--controller-seed", std::to_string(seed), "--controller-moves", std::to_string(moves),
+                                     "--no-estimate"});  // no estimator runs: the loop need not receive at all
   pid_t sim = tools::spawn(sim_args, "", &err, args.has("realtime") ? -1 : loop_cpu);
   if (sim < 0) {
     if (ctrl > 0) tools::stop(ctrl, SIGTERM, 2000);

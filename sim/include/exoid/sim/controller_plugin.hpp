@@ -29,6 +29,7 @@ struct PluginOptions {
   int divisor = 1;          ///< the plugin runs every `divisor` physics ticks: 1000 / divisor Hz
   double budget_us = 0.0;   ///< > 0: a call longer than this (wall clock) is discarded and counted
   int hold_ticks = 20;      ///< fallback: controller ticks on the last good torque before damping
+  bool listen_estimate = true;  ///< feed EXO_ESTIMATE's feedforward to the plugin (the runner subscribes)
 };
 
 struct PluginStats {
