@@ -1,6 +1,9 @@
 // exo_sim: the simulated exoskeleton on two force plates, as an LCM process (docs/sim.md).
-#include <cerrno>
+#include <sched.h>
+#include <sys/mman.h>
+
 #include <csignal>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +26,9 @@ namespace {
 constexpr int kExitOk = 0;
 constexpr int kExitRuntime = 1;
 constexpr int kExitBadInput = 2;
+constexpr int kExitFell = 3;
+constexpr int kExitControllerLost = 4;
+constexpr int kExitInterrupted = 5;
 
 volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
@@ -51,7 +57,15 @@ void printHelp() {
       "                           every such tick is counted\n"
       "  --start-timeout-s S      lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
       "                           for a late controller; if none comes, run open loop without waiting (default 5)\n"
+      "  --max-missing-commands N once a controller has answered: end the run (exit 4) when N consecutive\n"
+      "                           commands are missing (lockstep: each after a --command-timeout-ms wait, so\n"
+      "                           at most N x that; realtime: N x --command-timeout-ms ms without a fresh\n"
+      "                           command); 0 never gives up (default 10)\n"
+      "  --result FILE            write the summary as JSON to FILE at the end (outcome, fall tick, fallback\n"
+      "                           ticks, ...; `exoid experiment` reads it)\n"
       "  --quiet                  no progress line (the summary line is always printed)\n"
+      "  --rt-priority N          realtime: lock memory (mlockall) and run the loop under SCHED_FIFO priority N\n"
+      "                           (1..99; needs root or CAP_SYS_NICE, else a warning and normal scheduling)\n"
       "\n"
       "in-loop controller (docs/plugin.md; without --controller-plugin a controller process answers EXO_COMMAND):\n"
       "  --controller-plugin LIB  load the controller plugin LIB (e.g. build/lib/libexoid_controller_plugin.so)\n"
@@ -90,12 +104,14 @@ void printHelp() {
       "\n"
       "output: a progress line per simulated second (unless --quiet), then one summary line: ticks, realtime\n"
       "factor, accepted/rejected commands by reason, fallback ticks (held, zero, timeouts), clamped commands,\n"
-      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m); with a plugin a second\n"
-      "line: calls, good answers, failures by kind, over-budget calls, fallback ticks, call time.\n"
+      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m). A fall ends the run at\n"
+      "the fall tick (nothing after it is worth simulating; docs/sim.md). With a plugin a second line: calls,\n"
+      "good answers, failures by kind, over-budget calls, fallback ticks, call time.\n"
       "\n"
-      "exit codes: 0 run completed (also when interrupted by SIGINT/SIGTERM or when the robot fell),\n"
-      "            1 runtime failure (LCM), 2 bad input (options, MJCF, sensors or scenario file; a plugin that\n"
-      "            does not load, has another ABI version or fails to create).\n",
+      "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM), 2 bad input (options,\n"
+      "            MJCF, sensors or scenario file; a plugin that does not load, has another ABI version or fails\n"
+      "            to create), 3 the robot fell (run ended at the fall tick, printed),\n"
+      "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).\n",
       EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR,
       exoid::channels::kDefaultUrl);
 }
@@ -134,6 +150,8 @@ int main(int argc, char** argv) {
   plugin_opt.model_path = config + "/exo.urdf";
   plugin_opt.config_path = config + "/controller.yaml";
   double plugin_budget_us = -1.0;  // < 0: the mode's default
+  long rt_priority = 0;
+  std::string result_path;
 
   for (int i = 1; i < argc; ++i) {
     std::string arg = argv[i], value;
@@ -188,10 +206,20 @@ int main(int argc, char** argv) {
       if (!parseInt(value, &n) || n < 0 || n > 1000000000)
         return badInput("--hold-ticks: expected a tick count >= 0, got '" + value + "'");
       opt.hold_ticks = static_cast<int>(n);
+    } else if (arg == "--max-missing-commands") {
+      if (!parseInt(value, &n) || n < 0 || n > 1000000000)
+        return badInput("--max-missing-commands: expected a count >= 0, got '" + value + "'");
+      opt.max_missing_commands = static_cast<int>(n);
+    } else if (arg == "--result") {
+      result_path = value;
     } else if (arg == "--start-timeout-s") {
       if (!parseDouble(value, &d) || d < 0.0 || d > 3600.0)
         return badInput("--start-timeout-s: expected seconds in [0, 3600], got '" + value + "'");
       opt.start_timeout_s = d;
+    } else if (arg == "--rt-priority") {
+      if (!parseInt(value, &n) || n < 1 || n > 99)
+        return badInput("--rt-priority: expected 1..99, got '" + value + "'");
+      rt_priority = n;
     } else if (arg == "--controller-plugin") {
       plugin_opt.path = value;
     } else if (arg == "--controller-model") {
@@ -254,6 +282,13 @@ int main(int argc, char** argv) {
     return kExitRuntime;
   }
 
+  if (rt_priority > 0) {  // no page faults and no time-sharing preemption inside the 1 kHz loop
+    sched_param sp{};
+    sp.sched_priority = static_cast<int>(rt_priority);
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 || sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+      std::fprintf(stderr, "exo_sim: warning: --rt-priority %ld: %s (running with normal scheduling)\n", rt_priority,
+                   std::strerror(errno));
+  }
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   if (!opt.quiet) {
@@ -271,9 +306,24 @@ int main(int argc, char** argv) {
   std::printf("%s\n", formatSummary(summary).c_str());
   if (plugin) std::printf("%s\n", plugin->formatStats().c_str());
   std::fflush(stdout);
+  if (!result_path.empty()) {
+    std::FILE* f = std::fopen(result_path.c_str(), "w");
+    const std::string json = runSummaryJson(summary);
+    if (!f || std::fputs(json.c_str(), f) < 0 || std::fclose(f) != 0) {
+      std::fprintf(stderr, "exo_sim: cannot write --result '%s': %s\n", result_path.c_str(), std::strerror(errno));
+      return kExitRuntime;
+    }
+  }
   if (!ok) {
     std::fprintf(stderr, "exo_sim: %s\n", err.c_str());
     return kExitRuntime;
   }
-  return kExitOk;
+  switch (summary.outcome) {
+    case RunOutcome::Completed: return kExitOk;
+    case RunOutcome::Fell: return kExitFell;
+    case RunOutcome::ControllerLost: return kExitControllerLost;
+    case RunOutcome::Interrupted: return kExitInterrupted;
+    case RunOutcome::LcmFailure: return kExitRuntime;
+  }
+  return kExitRuntime;
 }

@@ -55,7 +55,8 @@ constexpr char kHelp[] =
     "                           build/lib/libexoid_controller_plugin.so (docs/plugin.md), no controller process;\n"
     "                           process: exo_controller as its own process over LCM. Same commands tick by tick\n"
     "  --controller-plugin LIB  plugin mode: another controller plugin library\n"
-    "  --realtime               run the sim at wall-clock 1 kHz instead of lockstep\n"
+    "  --realtime               run the sim at wall-clock 1 kHz instead of lockstep (exo_sim --rt-priority 50:\n"
+    "                           SCHED_FIFO and locked memory where allowed)\n"
     "  --no-pin                 do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
     "                           controller share the first allowed CPU; the logger is never pinned)\n"
     "  --help                   this text\n\n"
@@ -173,6 +174,7 @@ int cmdExperiment(int argc, char** argv) {
   std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", args.get("mjcf"), "--sensors", args.get("sensors"),
                                        "--scenario", args.get("scenario"), "--mode",
                                        args.has("realtime") ? "realtime" : "lockstep", "--duration", dur, "--lcm-url", url};
+  if (args.has("realtime")) sim_args.insert(sim_args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
   if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
     sim_args.insert(sim_args.end(), {"--controller-plugin", args.get("controller-plugin"), "--controller-model",
                                      args.get("model"), "--controller-config", args.get("controller-config"),
