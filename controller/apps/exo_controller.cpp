@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/controller/run_options.hpp"
 #include "exoid/model/urdf.hpp"
 
 namespace {
@@ -125,6 +126,7 @@ int main(int argc, char** argv) {
   long long idle_timeout_ms = kDefaultIdleTimeoutMs;
   bool use_estimate = true, quiet = false, print_duration = false;
   long long moves = 0;  // 0: the configuration's
+  std::string err;
 
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -145,11 +147,14 @@ int main(int argc, char** argv) {
       if (!v) return badInput("--config needs a path");
       config_path = v;
     } else if (a == "--seed") {
-      long long s = 0;
-      if (!parseInt(value("--seed"), 0, INT64_MAX, &s)) return badInput("--seed needs an unsigned integer");
+      long long s = -1;
+      const char* v = value("--seed");
+      if (!parseInt(v, INT64_MIN, INT64_MAX, &s)) return badInput("--seed needs an unsigned integer");
+      if (!checkSeed(s, &err)) return badInput(err);
       seed = static_cast<unsigned long long>(s);
     } else if (a == "--moves") {
-      if (!parseInt(value("--moves"), 1, 1000, &moves)) return badInput("--moves needs an integer in 1..1000");
+      if (!parseInt(value("--moves"), INT64_MIN, INT64_MAX, &moves)) return badInput("--moves needs an integer in 1..1000");
+      if (!checkMoves(moves, &err)) return badInput(err);
     } else if (a == "--lcm-url") {
       const char* v = value("--lcm-url");
       if (!v) return badInput("--lcm-url needs a URL");
@@ -170,7 +175,6 @@ int main(int argc, char** argv) {
 
   // ---- setup (allocations allowed) ---------------------------------------------------------------------
   Model model;
-  std::string err;
   if (!buildModelFromUrdfFile(model_path, true, model, &err)) return badInput("--model " + model_path + ": " + err);
   ControllerConfig cfg;
   if (!loadControllerConfig(config_path, cfg, &err)) return badInput(err);

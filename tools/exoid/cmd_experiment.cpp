@@ -1,22 +1,28 @@
 // exoid experiment: sim + controller (+ estimator once it exists) over LCM udpm:// inside a private network
 // namespace, in lockstep, logged by exoid_logger, summarised from the log. The controller runs inside the
 // sim's loop as a plugin (default) or as its own process.
+#include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "commands.hpp"
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/config.hpp"
+#include "exoid/controller/run_options.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/sim/config.hpp"
+#include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
 #include "exoid/tools/args.hpp"
 #include "exoid/tools/experiment_summary.hpp"
@@ -34,22 +40,27 @@ constexpr char kHelp[] =
     "moves, either inside the sim's loop as a plugin (default) or as the separate exo_controller process; every\n"
     "channel goes over LCM udpm:// with ttl=0 inside a private network namespace (unshare -n; multicast routed\n"
     "on its loopback only), recorded without loss. Writes\n"
-    "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger)\n"
-    "  DIR/summary.json     moves_done, fell, com_rmse_m, max_foot_slip_m, qp_solve_us_p50/p99, fallbacks,\n"
-    "                       realtime_factor, missing_ticks, eom_residual_max_rel, ...\n"
+    "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger);\n"
+    "                       kept, as far as it got, when a run fails\n"
+    "  DIR/summary.json     outcome, failures, moves_done, fell (tick, time, move), com_rmse_m,\n"
+    "                       max_foot_slip_m, fallbacks of controller and sim, realtime_factor, ticks planned /\n"
+    "                       simulated / logged, missing_ticks, log_complete, eom_residual_max_rel, ...\n"
     "  DIR/summary.md       the same as a table (also printed)\n"
-    "  DIR/controller.log, DIR/logger.log   process output (the sim's progress is printed; controller.log only\n"
-    "                       with --controller process)\n\n"
+    "  DIR/sim.log, DIR/sim_result.json, DIR/controller.log, DIR/logger.log   process output (the sim's\n"
+    "                       progress is also printed; controller.log only with --controller process)\n\n"
+    "A run ends when the sim has simulated the planned time, or early: the robot fell (the sim stops at the\n"
+    "fall), a process died or stopped answering (the others are stopped within seconds and reaped), the\n"
+    "watchdog expired, or SIGINT/SIGTERM. The summary is written in every case and names what failed.\n\n"
     "options:\n"
     "  --scenario FILE          sim scenario (config/scenarios/*.yaml): noise, undeclared effects\n"
-    "  --out DIR                output directory (created)\n"
+    "  --out DIR                output directory (created; must be a directory we can write)\n"
     "  --controller-config FILE controller configuration (default config/controller.yaml)\n"
     "  --sensors FILE           sensor noise configuration (default config/sensors.yaml)\n"
     "  --model URDF             controller's model (default config/exo.urdf)\n"
     "  --mjcf FILE              simulated robot (default config/exo.xml)\n"
-    "  --seed N                 CoM move sequence seed (default 1; use different seeds for training and\n"
-    "                           validation runs)\n"
-    "  --moves N                number of CoM moves (default: the controller configuration's, 20)\n"
+    "  --seed N                 CoM move sequence seed, 0..2^63-1 (default 1; use different seeds for\n"
+    "                           training and validation runs)\n"
+    "  --moves N                number of CoM moves, 1..1000 (default: the controller configuration's, 20)\n"
     "  --controller plugin|process\n"
     "                           plugin (default): the balance controller runs inside exo_sim's loop as\n"
     "                           build/lib/libexoid_controller_plugin.so (docs/plugin.md), no controller process;\n"
@@ -59,20 +70,30 @@ constexpr char kHelp[] =
     "                           SCHED_FIFO and locked memory where allowed)\n"
     "  --no-pin                 do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
     "                           controller share the first allowed CPU; the logger is never pinned)\n"
+    "  --max-missing-commands N the sim ends the run when N consecutive commands are missing (default 10,\n"
+    "                           i.e. 1 s at its 100 ms command timeout; exo_sim --help)\n"
+    "  --watchdog-factor F      the run is stopped as failed after F x the planned simulated time plus the\n"
+    "  --watchdog-margin-s S    margin, of wall time (defaults 3 and 60: a 20-move run, 62.2 s simulated,\n"
+    "                           gets 247 s; lockstep normally takes a fifth of the simulated time)\n"
+    "  --inject ACTION:PROCESS:SECONDS\n"
+    "                           testing only: once the sim reports SECONDS simulated (its progress lines, 1 s\n"
+    "                           apart), send PROCESS (sim, controller or logger) SIGKILL (ACTION kill) or\n"
+    "                           SIGSTOP (ACTION stop: it hangs); controller only with --controller process\n"
     "  --help                   this text\n\n"
     "needs: root (or unprivileged user namespaces) for unshare, iproute2.\n"
-    "exit codes: 0 run completed (see summary for pass/fail of the targets), 2 bad input or a process failed.\n";
+    "exit codes: 0 run completed (every planned tick, nothing failed; the summary says whether the targets\n"
+    "              were met)\n"
+    "            1 run failed: a process died, exited early or stopped answering, the watchdog expired, or\n"
+    "              the log is incomplete or damaged (summary names it; partial log kept)\n"
+    "            2 bad input (options, files, output directory), before any process starts\n"
+    "            3 the robot fell (the run ended at the fall; the summary says when and during which move)\n"
+    "            4 interrupted by SIGINT or SIGTERM (processes stopped, summary of the partial run written)\n";
+
+constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2, kExitFell = 3, kExitInterrupted = 4;
 
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid experiment: error: %s\n", msg.c_str());
-  return 2;
-}
-
-std::string selfPath();
-
-/// build/lib/libexoid_controller_plugin.so next to this binary's build/bin.
-std::string pluginPath() {
-  return (std::filesystem::path(selfPath()).parent_path().parent_path() / "lib" / "libexoid_controller_plugin.so").string();
+  return kExitBadInput;
 }
 
 std::string selfPath() {
@@ -96,6 +117,94 @@ int reexecInPrivateNetns(int argc, char** argv) {
   ::execvp("unshare", c.data());
   return fail("cannot run 'unshare' (util-linux) to create a private network namespace");
 }
+
+/// DIR exists as a directory (created if needed) in which we can create files; else a one-line *error.
+bool prepareOutDir(const std::filesystem::path& dir, std::string* error) {
+  std::error_code ec;
+  if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec)) {
+    *error = "--out '" + dir.string() + "' exists and is not a directory";
+    return false;
+  }
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    *error = "--out '" + dir.string() + "': cannot create the directory: " + ec.message();
+    return false;
+  }
+  const std::string probe = (dir / ".exoid_write_test").string();
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) {
+    *error = "--out '" + dir.string() + "': cannot write there: " + std::strerror(errno);
+    return false;
+  }
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return true;
+}
+
+/// A fault to inject (testing): `action` to `process` at `at_s` seconds after the sim started.
+struct Injection {
+  std::string action, process;
+  double at_s = -1.0;
+  bool done = false;
+};
+
+bool parseInjection(const std::string& text, Injection* inj, std::string* error) {
+  std::stringstream ss(text);
+  std::string seconds;
+  std::getline(ss, inj->action, ':');
+  std::getline(ss, inj->process, ':');
+  std::getline(ss, seconds);
+  char* end = nullptr;
+  inj->at_s = std::strtod(seconds.c_str(), &end);
+  if ((inj->action != "kill" && inj->action != "stop") ||
+      (inj->process != "sim" && inj->process != "controller" && inj->process != "logger") || seconds.empty() ||
+      *end != '\0' || !(inj->at_s >= 0.0 && inj->at_s < 1e6)) {
+    *error = "--inject: expected kill|stop:sim|controller|logger:SECONDS, got '" + text + "'";
+    return false;
+  }
+  return true;
+}
+
+volatile sig_atomic_t g_signal = 0;
+void onSignal(int sig) { g_signal = sig; }
+
+/// A child of the run and how it ended.
+struct Child {
+  const char* name;
+  pid_t pid = -1;
+  bool running = false;
+  int code = -1;
+  double ended_at_s = -1.0;  ///< wall seconds after the sim started
+};
+
+/// build/lib/libexoid_controller_plugin.so next to this binary's build/bin.
+std::string pluginPath() {
+  return (std::filesystem::path(selfPath()).parent_path().parent_path() / "lib" / "libexoid_controller_plugin.so").string();
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Copies the complete lines the sim appended to its log since the last call to stdout; *sim_time_s: the
+/// simulated time of its latest progress line ("exo_sim: t 3.0 s ...", one per simulated second).
+void echoNewLines(const std::string& path, std::streamoff* offset, double* sim_time_s) {
+  std::ifstream in(path);
+  if (!in) return;
+  in.seekg(*offset);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (in.eof()) break;  // an incomplete last line: next time
+    std::printf("%s\n", line.c_str());
+    double t = 0.0;
+    if (std::sscanf(line.c_str(), "exo_sim: t %lf s", &t) == 1) *sim_time_s = t;
+    *offset = in.tellg();
+  }
+  std::fflush(stdout);
+}
 }  // namespace
 
 int cmdExperiment(int argc, char** argv) {
@@ -104,7 +213,8 @@ int cmdExperiment(int argc, char** argv) {
   args.option("scenario").option("out").option("controller-config", config + "/controller.yaml");
   args.option("sensors", config + "/sensors.yaml").option("model", config + "/exo.urdf");
   args.option("mjcf", config + "/exo.xml").option("seed", "1").option("moves", "0");
-  args.option("controller", "plugin").option("controller-plugin", pluginPath());
+  args.option("max-missing-commands", "10").option("watchdog-factor", "3").option("watchdog-margin-s", "60");
+  args.option("inject").option("controller", "plugin").option("controller-plugin", pluginPath());
   args.flag("realtime").flag("no-pin").flag("help");
   std::string err;
   if (!args.parse(argc, argv, 2, &err)) return fail(err);
@@ -112,22 +222,42 @@ int cmdExperiment(int argc, char** argv) {
   if (!args.has("scenario") || !args.has("out")) return fail("--scenario and --out are required (exoid experiment --help)");
   for (const char* f : {"scenario", "controller-config", "sensors", "model", "mjcf"})
     if (!std::filesystem::is_regular_file(args.get(f))) return fail("--" + std::string(f) + ": no such file '" + args.get(f) + "'");
+  long seed = 0, moves = 0, max_missing = 0;
+  double watchdog_factor = 0.0, watchdog_margin = 0.0;
+  if (!args.getInt("seed", seed, &err) || !args.getInt("moves", moves, &err) ||
+      !args.getInt("max-missing-commands", max_missing, &err) || !args.getDouble("watchdog-factor", watchdog_factor, &err) ||
+      !args.getDouble("watchdog-margin-s", watchdog_margin, &err))
+    return fail(err);
+  // The controller's own limits, checked by the same functions it uses: a refused option would otherwise
+  // leave the sim running open loop.
+  if (!controller::checkSeed(seed, &err)) return fail(err);
+  if (args.has("moves") && !controller::checkMoves(moves, &err)) return fail(err);
+  if (max_missing < 0 || max_missing > 1000000) return fail("--max-missing-commands: expected a count in 0..1000000");
+  if (!(watchdog_factor > 0.0) || !(watchdog_margin >= 0.0)) return fail("--watchdog-factor must be > 0 and --watchdog-margin-s >= 0");
+  Injection inject;
+  if (args.has("inject") && !parseInjection(args.get("inject"), &inject, &err)) return fail(err);
   const bool use_plugin = args.get("controller") == "plugin";
   if (!use_plugin && args.get("controller") != "process")
     return fail("--controller: expected plugin or process, got '" + args.get("controller") + "'");
   if (use_plugin && !std::filesystem::is_regular_file(args.get("controller-plugin")))
     return fail("--controller-plugin: no such file '" + args.get("controller-plugin") + "'");
-  long seed = 0, moves = 0;
-  if (!args.getInt("seed", seed, &err) || !args.getInt("moves", moves, &err)) return fail(err);
+  if (use_plugin && inject.process == "controller")
+    return fail("--inject: there is no controller process with --controller plugin");
   controller::ControllerConfig cc;
   if (!controller::loadControllerConfig(args.get("controller-config"), cc, &err)) return fail(err);
-  if (moves < 0) return fail("--moves must be >= 0");
   if (moves == 0) moves = cc.trajectory.moves;
   cc.trajectory.moves = static_cast<int>(moves);
   // The sim runs exactly as long as the controller plans to (start-up latch, moves, holds): a sim that
   // outlives the controller would apply zero torque at the end.
   const double duration = controller::plannedRunDuration(cc);
+  const bool lockstep = !args.has("realtime");
 
+  Model model;
+  if (!buildModelFromUrdfFile(args.get("model"), true, model, &err)) return fail("--model " + args.get("model") + ": " + err);
+  {  // What exo_controller checks at start-up (configuration against the model, move sequence), here.
+    controller::BalanceController probe(model, cc, static_cast<uint64_t>(seed));
+    if (!probe.ok()) return fail(args.get("controller-config") + ": " + probe.error());
+  }
   {  // Validate the sim's inputs here, before any process starts, so that errors name the file and key.
     sim::SensorConfig realistic, noise;
     sim::Scenario scenario;
@@ -136,79 +266,185 @@ int cmdExperiment(int argc, char** argv) {
         !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(args.get("mjcf"), noise, scenario, probe, &err))
       return fail(err);
   }
+  const std::filesystem::path out = args.get("out");
+  if (!prepareOutDir(out, &err)) return fail(err);
   if (!std::getenv(kNetnsEnv)) return reexecInPrivateNetns(argc, argv);
   // Inside the namespace: loopback up, multicast routed to it; nothing can leave this namespace.
   if (std::system("ip link set lo up") != 0 || std::system("ip route add 224.0.0.0/4 dev lo") != 0)
     return fail("cannot configure the private network namespace (ip link/route failed; is iproute2 installed?)");
 
-  const std::filesystem::path out = args.get("out");
-  std::filesystem::create_directories(out);
-  const std::string log_path = (out / "run.lcmlog").string();
-  for (const char* f : {"run.lcmlog", "logger.log", "controller.log", "summary.json", "summary.md"})
-    std::filesystem::remove(out / f);
+  const std::string log_path = (out / "run.lcmlog").string(), sim_log = (out / "sim.log").string();
+  const std::string sim_result = (out / "sim_result.json").string();
+  std::error_code ec;
+  for (const char* f : {"run.lcmlog", "logger.log", "controller.log", "sim.log", "sim_result.json", "summary.json", "summary.md"})
+    std::filesystem::remove(out / f, ec);
   const std::string url = channels::kDefaultUrl;
   const std::string bin = std::filesystem::path(selfPath()).parent_path().string();
   ::setenv("LCM_DEFAULT_URL", url.c_str(), 1);
   // Lockstep sim and controller take turns, so they share one CPU (cheap hand-overs: 6x real time against
   // 4.5x unpinned on 2 cores); the logger stays free to use every CPU.
   const std::vector<int> cpus = tools::allowedCpus();
-  const int loop_cpu = (!args.has("no-pin") && cpus.size() >= 2) ? cpus.front() : -1;
+  const int loop_cpu = (!args.has("no-pin") && cpus.size() >= 2 && lockstep) ? cpus.front() : -1;
+  struct sigaction sa {};
+  sa.sa_handler = onSignal;
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
 
   // exoid_logger, not Debian's lcm-logger: the latter drops bursts in LCM's user-space receive ring at the
   // lockstep rate (~30k messages/s) although the kernel delivers every datagram (docs/lcm.md).
-  pid_t logger = tools::spawn({bin + "/exoid_logger", "--lcm-url", url, "--force", "--out", log_path},
-                              (out / "logger.log").string(), &err);
-  if (logger < 0) return fail(err);
+  Child logger{"exoid_logger"}, ctrl{"exo_controller"}, sim{"exo_sim"};
+  logger.pid = tools::spawn({bin + "/exoid_logger", "--lcm-url", url, "--force", "--out", log_path},
+                            (out / "logger.log").string(), &err);
+  if (logger.pid < 0) return fail(err);
+  logger.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  pid_t ctrl = use_plugin ? 0 : tools::spawn({bin + "/exo_controller", "--model", args.get("model"), "--config", args.get("controller-config"),
+  if (!use_plugin) {
+    ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", args.get("model"), "--config", args.get("controller-config"),
                              "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
-                            (out / "controller.log").string(), &err, args.has("realtime") ? -1 : loop_cpu);
-  if (ctrl < 0) return tools::stop(logger, SIGINT, 2000), fail(err);
-  if (!use_plugin) std::this_thread::sleep_for(std::chrono::milliseconds(300));
+                            (out / "controller.log").string(), &err, loop_cpu);
+    if (ctrl.pid < 0) return tools::stop(logger.pid, SIGINT, 2000), fail(err);
+    ctrl.running = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
   char dur[32];
   std::snprintf(dur, sizeof dur, "%.3f", duration);
-  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s\n", moves,
-              duration, args.get("scenario").c_str(), args.get("controller").c_str(), out.c_str());
+  const double watchdog_s = duration * watchdog_factor + watchdog_margin;
+  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s (watchdog %.0f s)\n",
+              moves, duration, args.get("scenario").c_str(), args.get("controller").c_str(), out.c_str(), watchdog_s);
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", args.get("mjcf"), "--sensors", args.get("sensors"),
-                                       "--scenario", args.get("scenario"), "--mode",
-                                       args.has("realtime") ? "realtime" : "lockstep", "--duration", dur, "--lcm-url", url};
-  if (args.has("realtime")) sim_args.insert(sim_args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
+                                       "--scenario", args.get("scenario"), "--mode", lockstep ? "lockstep" : "realtime",
+                                       "--duration", dur, "--max-missing-commands", std::to_string(max_missing),
+                                       "--result", sim_result, "--lcm-url", url};
+  if (!lockstep) sim_args.insert(sim_args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
   if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
     sim_args.insert(sim_args.end(), {"--controller-plugin", args.get("controller-plugin"), "--controller-model",
                                      args.get("model"), "--controller-config", args.get("controller-config"),
                                      "--controller-seed", std::to_string(seed), "--controller-moves", std::to_string(moves),
                                      "--no-estimate"});  // no estimator runs: the loop need not receive at all
-  pid_t sim = tools::spawn(sim_args, "", &err, args.has("realtime") ? -1 : loop_cpu);
-  if (sim < 0) {
-    if (ctrl > 0) tools::stop(ctrl, SIGTERM, 2000);
-    tools::stop(logger, SIGINT, 2000);
+  sim.pid = tools::spawn(sim_args, sim_log, &err, loop_cpu);
+  if (sim.pid < 0) {
+    if (ctrl.running) tools::stop(ctrl.pid, SIGTERM, 2000);
+    tools::stop(logger.pid, SIGINT, 2000);
     return fail(err);
   }
-  int sim_code = -1, ctrl_code = 0;
-  tools::waitFor(sim, -1, &sim_code);
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (ctrl > 0 && !tools::waitFor(ctrl, 5000, &ctrl_code)) ctrl_code = tools::stop(ctrl, SIGTERM, 2000);
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger drain its socket
-  tools::stop(logger, SIGINT, 5000);
-  if (sim_code != 0) return fail("exo_sim exited with code " + std::to_string(sim_code));
-  if (ctrl_code != 0)
-    std::fprintf(stderr, "exoid experiment: warning: exo_controller exited with code %d (see %s)\n", ctrl_code,
-                 (out / "controller.log").c_str());
+  sim.running = true;
 
-  Model model;
-  if (!buildModelFromUrdfFile(args.get("model"), true, model, &err)) return fail(err);
+  // Supervise: the first of {sim done, a process ended early, watchdog, signal} ends the run.
+  tools::RunFacts facts;
+  auto since = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  auto reap = [&](Child& c) {
+    if (c.running && tools::waitFor(c.pid, 0, &c.code)) c.running = false, c.ended_at_s = since();
+    return !c.running;
+  };
+  std::streamoff echoed = 0;
+  double sim_time = 0.0;
+  for (;;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    echoNewLines(sim_log, &echoed, &sim_time);
+    if (inject.at_s >= 0.0 && !inject.done && sim_time >= inject.at_s) {
+      Child& target = inject.process == "sim" ? sim : inject.process == "controller" ? ctrl : logger;
+      ::kill(target.pid, inject.action == "kill" ? SIGKILL : SIGSTOP);
+      inject.done = true;
+    }
+    if (reap(sim)) break;
+    if (g_signal) {
+      facts.interrupted = true;
+      char buf[80];
+      std::snprintf(buf, sizeof buf, "interrupted by %s at %.1f s", g_signal == SIGINT ? "SIGINT" : "SIGTERM", since());
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (since() > watchdog_s) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "watchdog: the run was still going after %.1f s (limit %.0f x %.1f s + %.0f s)",
+                    since(), watchdog_factor, duration, watchdog_margin);
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (reap(logger)) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "exoid_logger %s at %.1f s: the log ends there (see %s)",
+                    tools::describeExit(logger.code).c_str(), logger.ended_at_s, (out / "logger.log").c_str());
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (!use_plugin && reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 3.0)) {
+      char buf[240];
+      if (ctrl.code != 0)
+        std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over (see %s)",
+                      tools::describeExit(ctrl.code).c_str(), ctrl.ended_at_s, (out / "controller.log").c_str());
+      else
+        std::snprintf(buf, sizeof buf, "exo_sim did not finish within 3 s of exo_controller completing its moves");
+      facts.failures.push_back(buf);
+      break;
+    }
+  }
+  const double wall = since();
+
+  // Stop whatever still runs: sim and controller first, the logger last (it drains what was sent).
+  const bool sim_finished = !sim.running;
+  if (sim.running) sim.code = tools::stop(sim.pid, SIGTERM, 3000), sim.running = false;
+  if (ctrl.running) {
+    if (!(sim_finished && sim.code == 0 && tools::waitFor(ctrl.pid, 5000, &ctrl.code)))
+      ctrl.code = tools::stop(ctrl.pid, SIGTERM, 2000);
+    ctrl.running = false;
+    if (sim_finished && sim.code == 0 && ctrl.code != 0)
+      facts.failures.push_back("exo_controller " + tools::describeExit(ctrl.code) + " at the end of the run (see " +
+                               (out / "controller.log").string() + ")");
+  }
+  if (logger.running) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger drain its socket
+    logger.code = tools::stop(logger.pid, SIGINT, 5000);
+    logger.running = false;
+    if (logger.code != 0)
+      facts.failures.push_back("exoid_logger " + tools::describeExit(logger.code) + " when stopped (see " +
+                               (out / "logger.log").string() + ")");
+  }
+  echoNewLines(sim_log, &echoed, &sim_time);
+
+  // The sim's own report: outcome, fall tick, fallbacks, real-time factor (independent of the log).
+  sim::RunSummary sr;
+  if (sim::parseRunSummaryJson(slurp(sim_result), &sr, &err)) {
+    facts.sim_reported = true;
+    facts.sim_outcome = sim::outcomeName(sr.outcome);
+    facts.sim_ticks = sr.ticks;
+    facts.sim_fall_tick = sr.fall_tick;
+    facts.sim_held_ticks = sr.held_ticks;
+    facts.sim_zero_ticks = sr.zero_ticks;
+    facts.sim_timeouts = sr.timeouts;
+    facts.sim_realtime_factor = sr.realtime_factor;
+    facts.sim_wall_s = sr.wall_time_s;
+    if (sr.outcome == sim::RunOutcome::ControllerLost)
+      facts.failures.push_back("exo_controller stopped answering: exo_sim ended the run after " +
+                               std::to_string(sr.missing_commands) + " consecutive missing commands (last command for tick " +
+                               std::to_string(sr.last_fresh_tick) + ")");
+    else if (sr.outcome == sim::RunOutcome::LcmFailure)
+      facts.failures.push_back("exo_sim: LCM failure (see " + sim_log + ")");
+    else if (sr.outcome == sim::RunOutcome::Interrupted && sim_finished)
+      facts.failures.push_back("exo_sim was interrupted (see " + sim_log + ")");
+  } else if (sim_finished) {
+    facts.failures.push_back("exo_sim " + tools::describeExit(sim.code) + " without a result (see " + sim_log + ")");
+  }
+
+  facts.moves_planned = static_cast<int>(moves);
+  facts.ticks_planned = std::llround(duration * 1000.0);
+  facts.lockstep = lockstep;
   tools::RunLog log;
-  if (!tools::readRunLog(log_path, model.joint_names, log, &err)) return fail(err);
-  tools::ExperimentSummary s;
-  if (!tools::summarizeExperiment(model, log, static_cast<int>(moves), wall, s, &err)) return fail(err);
+  facts.log_readable = tools::readRunLog(log_path, model.joint_names, log, &facts.log_error);
+  const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
   const std::string table = tools::summaryTable(s);
   std::ofstream(out / "summary.json") << tools::summaryJson(s);
   std::ofstream(out / "summary.md") << "# Experiment " << args.get("scenario") << " (seed " << seed << ")\n\n" << table;
-  std::printf("\n%s\nwritten: %s, %s, %s\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
-              (out / "summary.md").c_str());
-  return 0;
+  std::printf("\n%s\nwritten: %s, %s, %s (%.1f s wall)\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
+              (out / "summary.md").c_str(), wall);
+  if (s.outcome == "interrupted") return kExitInterrupted;
+  if (s.outcome == "failed") {
+    for (const std::string& f : s.failures) std::fprintf(stderr, "exoid experiment: run failed: %s\n", f.c_str());
+    return kExitFailed;
+  }
+  return s.outcome == "fell" ? kExitFell : kExitOk;
 }
 
 }  // namespace exoid::cli

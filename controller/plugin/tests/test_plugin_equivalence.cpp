@@ -61,7 +61,8 @@ TEST(PluginVsProcess, SameCommandsTickByTick) {
     ASSERT_TRUE(sameBits(proc.truth[i].q, plug.truth[i].q) && proc.truth[i].base_position == plug.truth[i].base_position)
         << "truth " << i;
   // Summary: every figure but the timings is the same.
-  for (const char* key : {"\"moves_done\": 1", "\"fell\": false", "\"missing_ticks\": 0", "\"fallbacks\": 0"})
+  for (const char* key : {"\"outcome\": \"completed\"", "\"moves_done\": 1", "\"fell\": false", "\"missing_ticks\": 0",
+                          "\"controller_fallbacks\": 0", "\"sim_held_ticks\": 0", "\"sim_zero_ticks\": 0"})
     for (int m = 0; m < 2; ++m) EXPECT_NE(summaries[m].find(key), std::string::npos) << modes[m] << ": " << key;
   auto field = [](const std::string& json, const std::string& key) {
     const size_t p = json.find("\"" + key + "\": ");
