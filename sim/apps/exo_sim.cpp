@@ -1,6 +1,7 @@
 // exo_sim: the simulated exoskeleton on two force plates, as an LCM process (docs/sim.md).
 #include <sched.h>
 #include <sys/mman.h>
+#include <sys/resource.h>
 
 #include <csignal>
 #include <cerrno>
@@ -106,7 +107,8 @@ void printHelp() {
       "factor, accepted/rejected commands by reason, fallback ticks (held, zero, timeouts), clamped commands,\n"
       "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m). A fall ends the run at\n"
       "the fall tick (nothing after it is worth simulating; docs/sim.md). With a plugin a second line: calls,\n"
-      "good answers, failures by kind, over-budget calls, fallback ticks, call time.\n"
+      "good answers, failures by kind, over-budget calls, fallback ticks, call time. Last, the process's CPU\n"
+      "time (user, system) and simulated seconds per CPU second (the real-time factor with a core of its own).\n"
       "\n"
       "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM), 2 bad input (options,\n"
       "            MJCF, sensors or scenario file; a plugin that does not load, has another ABI version or fails\n"
@@ -305,6 +307,13 @@ int main(int argc, char** argv) {
   const bool ok = runSim(model, data, *endpoint, opt, &summary, &err, &g_stop);
   std::printf("%s\n", formatSummary(summary).c_str());
   if (plugin) std::printf("%s\n", plugin->formatStats().c_str());
+  {  // CPU time: what the loop costs, whatever else the machine runs (wall time counts waiting for the CPU)
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const double user = ru.ru_utime.tv_sec + 1e-6 * ru.ru_utime.tv_usec, sys = ru.ru_stime.tv_sec + 1e-6 * ru.ru_stime.tv_usec;
+    std::printf("exo_sim: cpu user %.3f s, system %.3f s: %.2f simulated s per cpu s\n", user, sys,
+                user + sys > 0 ? summary.sim_time_s / (user + sys) : 0.0);
+  }
   std::fflush(stdout);
   if (!result_path.empty()) {
     std::FILE* f = std::fopen(result_path.c_str(), "w");

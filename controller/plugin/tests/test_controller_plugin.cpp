@@ -16,12 +16,16 @@
 #include <string>
 
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/lcm/adapters.hpp"
+#include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/controller_plugin.hpp"
+#include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
 #include "support/alloc_counter.hpp"
 #include "support/paths.hpp"
+#include "support/run_command.hpp"
 
 namespace exoid {
 namespace {
@@ -343,6 +347,99 @@ TEST(PluginFaultsInTheLoop, NanTorqueNeverReachesMujoco) {
   EXPECT_EQ(plugin->stats().hold_ticks, 20);
   EXPECT_EQ(plugin->stats().damping_ticks, 430);
   EXPECT_TRUE(std::isfinite(exo.data.truth.base_position.z()));
+}
+
+// The loop with the plugin, on memq://: every tick it publishes the plugin's command (tick k + 1, the exact
+// torque then applied at tick k + 1, as the truth shows) and status; an EXO_ESTIMATE reaches the plugin.
+TEST(PluginInTheLoop, PublishesCommandAndStatusAndTakesTheEstimate) {
+  Exo exo;
+  std::string err;
+  sim::PluginOptions o = balanceOptions();
+  auto plugin = load(o, exo, &err);
+  ASSERT_TRUE(plugin) << err;
+  Model model;
+  ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
+  LcmEndpoint ep("memq://");
+  constexpr int kTicks = 400;
+  std::vector<Eigen::VectorXd> commanded(kTicks + 1), applied(kTicks);
+  int commands = 0, statuses = 0, wrong_stamp = 0;
+  ep.subscribe<exoid_lcm::joint_command_t>(channels::kCommand, [&](const char*, const exoid_lcm::joint_command_t& c) {
+    ++commands;
+    wrong_stamp += c.tick == c.source_tick + 1 && c.tick == commands ? 0 : 1;
+    if (c.tick <= kTicks) commanded[static_cast<size_t>(c.tick)] = Eigen::Map<const Eigen::VectorXd>(c.tau.data(), c.num_joints);
+  });
+  ep.subscribe<exoid_lcm::controller_status_t>(channels::kControllerStatus,
+                                               [&](const char*, const exoid_lcm::controller_status_t&) { ++statuses; });
+  ep.subscribe<exoid_lcm::ground_truth_t>(channels::kTruth, [&](const char*, const exoid_lcm::ground_truth_t& t) {
+    applied[static_cast<size_t>(t.tick)] = Eigen::Map<const Eigen::VectorXd>(t.tau_applied.data(), t.num_joints);
+  });
+  EstimatorOutputSample est;
+  est.valid = true;
+  est.params = model.phi;
+  est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
+  est.tau_ff = Eigen::VectorXd::Zero(model.njoints);
+  exoid_lcm::estimator_output_t est_msg;
+  ep.subscribe<exoid_lcm::robot_state_t>(channels::kState, [&](const char*, const exoid_lcm::robot_state_t& s) {
+    if (s.tick != 300 && s.tick != 301) return;
+    est.tick = s.tick;
+    est.tau_ff[2] = s.tick == 300 ? 0.5 : NAN;  // the second one is rejected by the gate
+    toLcm(est, model.paramNames(), model.joint_names, est_msg);
+    ep.publish(channels::kEstimate, est_msg);
+  });
+  sim::RunOptions opt;
+  opt.duration_s = kTicks * 1e-3;
+  opt.quiet = true;
+  opt.plugin = plugin.get();
+  sim::RunSummary sum;
+  ASSERT_TRUE(sim::runSim(exo.model, exo.data, ep, opt, &sum, &err)) << err;
+  ep.handleAvailable();
+  EXPECT_EQ(sum.ticks, kTicks);
+  EXPECT_EQ(commands, kTicks);
+  EXPECT_EQ(statuses, kTicks);
+  EXPECT_EQ(wrong_stamp, 0);
+  EXPECT_EQ(sum.fresh_ticks, kTicks - 1);  // tick 0 applies the initial zero command
+  EXPECT_EQ(sum.fallbackTicks(), 0);
+  // Torque applied at tick k = the command published for tick k (actuated joints; motors have gear 1).
+  double max_diff = 0.0;
+  for (int k = 1; k < kTicks; ++k)
+    for (int j = 0; j < model.njoints; ++j)
+      if (model.joint_names[static_cast<size_t>(j)].find("_ie") == std::string::npos)
+        max_diff = std::max(max_diff, std::abs(applied[static_cast<size_t>(k)][j] - commanded[static_cast<size_t>(k)][j]));
+  EXPECT_LE(max_diff, 1e-12);
+  EXPECT_EQ(plugin->stats().feedforward_accepted, 1);
+  EXPECT_EQ(plugin->stats().calls, kTicks);
+}
+
+// exo_sim's command line with a plugin: one-line errors with exit code 2, the options in --help.
+TEST(PluginCli, BadPluginsExitTwoWithOneLineAndHelpListsTheOptions) {
+  test::TempDir dir("plugin_cli");
+  const std::string sim = std::string(EXOID_BIN_DIR) + "/exo_sim --quiet --duration 0.01 --lcm-url memq:// ";
+  struct Case {
+    std::string args, expect;
+  } cases[] = {
+      {"--controller-plugin /nonexistent/lib.so", "--controller-plugin /nonexistent/lib.so: cannot load"},
+      {"--controller-plugin " + pluginLib("exoid_fault_plugin_abi2"), "ABI version 2, this exo_sim needs 1"},
+      {"--controller-plugin " + pluginLib("exoid_not_a_plugin"), "not a controller plugin"},
+      {"--controller-plugin " + pluginLib("exoid_controller_plugin") + " --controller-config /nonexistent.yaml",
+       "/nonexistent.yaml"},
+      {"--controller-plugin " + pluginLib("exoid_joint_pd_plugin") + " --controller-rate-hz 300",
+       "--controller-rate-hz: expected a divisor of 1000"},
+  };
+  for (const Case& c : cases) {
+    const auto r = test::runCommand(sim + c.args, dir.path);
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  // A working plugin: the run completes and the plugin's line follows the summary.
+  auto r = test::runCommand(sim + "--controller-plugin " + pluginLib("exoid_joint_pd_plugin"), dir.path);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("plugin 'joint PD holding the standing pose': calls 10, good 10"), std::string::npos) << r.out;
+  r = test::runCommand(std::string(EXOID_BIN_DIR) + "/exo_sim --help", dir.path);
+  for (const char* o : {"--controller-plugin", "--controller-model", "--controller-config", "--controller-seed",
+                        "--controller-moves", "--controller-rate-hz", "--plugin-budget-us", "--plugin-hold-ticks",
+                        "--no-estimate", "--rt-priority", "EXO_ESTIMATE"})
+    EXPECT_NE(r.out.find(o), std::string::npos) << o;
 }
 
 }  // namespace
