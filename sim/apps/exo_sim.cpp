@@ -3,8 +3,8 @@
 #include <sys/mman.h>
 #include <sys/resource.h>
 
-#include <csignal>
 #include <cerrno>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "exoid/common/cli.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/sim/config.hpp"
@@ -24,9 +25,9 @@ namespace {
 #define EXOID_CONFIG_DIR "config"
 #endif
 
-constexpr int kExitOk = 0;
-constexpr int kExitRuntime = 1;
-constexpr int kExitBadInput = 2;
+using exoid::common::kExitBadInput;
+using exoid::common::kExitOk;
+using exoid::common::kExitRuntime;
 constexpr int kExitFell = 3;
 constexpr int kExitControllerLost = 4;
 constexpr int kExitInterrupted = 5;
@@ -34,61 +35,111 @@ constexpr int kExitInterrupted = 5;
 volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
 
-void printHelp() {
-  std::printf(
-      "usage: exo_sim [options]\n"
-      "\n"
+int badInput(const std::string& msg) {
+  std::fprintf(stderr, "exo_sim: %s\n", msg.c_str());
+  return kExitBadInput;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace exoid;
+  using namespace exoid::sim;
+  const std::string config = EXOID_CONFIG_DIR;
+  std::string model_path = config + "/exo.xml";
+  std::string sensors_path = config + "/sensors.yaml";
+  std::string scenario_path = config + "/scenarios/nominal.yaml";
+  std::string url = LcmEndpoint::defaultUrl();
+  RunOptions opt;
+  std::string result_path;
+  PluginOptions plugin_opt;
+  plugin_opt.model_path = config + "/exo.urdf";
+  plugin_opt.config_path = config + "/controller.yaml";
+  double plugin_budget_us = -1.0;  // < 0: the mode's default
+  int rate_hz = 1000, rt_priority = 0;
+  bool no_estimate = false;
+
+  CLI::App app{
       "Simulates the exoskeleton standing on two force plates (MuJoCo 2.2, 1 kHz: one 1 ms step per control\n"
       "tick) and talks LCM. Every tick k it applies the command for tick k, then publishes the samples of\n"
-      "tick k (utime = k * 1000, simulated microseconds). See docs/sim.md.\n"
-      "\n"
-      "options:\n"
-      "  --model FILE             MJCF of the robot and plates (default %s/exo.xml)\n"
-      "  --sensors FILE           realistic sensor noise (default %s/sensors.yaml)\n"
-      "  --scenario FILE          scenario: seed, noise (realistic|off|FILE), undeclared effects, initial state\n"
-      "                           (default %s/scenarios/nominal.yaml)\n"
-      "  --mode lockstep|realtime lockstep (default): wait (bounded) for the command of each tick, run as fast as\n"
-      "                           the CPU allows, deterministic; realtime: 1 kHz wall clock, apply the latest\n"
-      "                           valid command, count stale ticks and missed deadlines\n"
-      "  --duration SECONDS       simulated time (default 10)\n"
-      "  --lcm-url URL            LCM URL (default $LCM_DEFAULT_URL, else %s); a udpm URL must have ttl=0\n"
-      "  --command-timeout-ms MS  lockstep: how long to wait for the command of tick k (default 100)\n"
-      "  --hold-ticks N           fallback when the command of a tick is missing: hold the last valid command for\n"
-      "                           N ticks, then apply zero torque until a fresh command arrives (default 50);\n"
-      "                           every such tick is counted\n"
-      "  --start-timeout-s S      lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
-      "                           for a late controller; if none comes, run open loop without waiting (default 5)\n"
-      "  --max-missing-commands N once a controller has answered: end the run (exit 4) when N consecutive\n"
-      "                           commands are missing (lockstep: each after a --command-timeout-ms wait, so\n"
-      "                           at most N x that; realtime: N x --command-timeout-ms ms without a fresh\n"
-      "                           command); 0 never gives up (default 10)\n"
-      "  --result FILE            write the summary as JSON to FILE at the end (outcome, fall tick, fallback\n"
-      "                           ticks, ...; `exoid experiment` reads it)\n"
-      "  --quiet                  no progress line (the summary line is always printed)\n"
-      "  --rt-priority N          realtime: lock memory (mlockall) and run the loop under SCHED_FIFO priority N\n"
-      "                           (1..99; needs root or CAP_SYS_NICE, else a warning and normal scheduling)\n"
-      "\n"
-      "in-loop controller (docs/plugin.md; without --controller-plugin a controller process answers EXO_COMMAND):\n"
-      "  --controller-plugin LIB  load the controller plugin LIB (e.g. build/lib/libexoid_controller_plugin.so)\n"
-      "                           and call it from the loop after each step: state of tick k in, command for\n"
-      "                           tick k+1 out (the same one-tick delay as a controller process); the loop\n"
-      "                           publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS and feeds EXO_ESTIMATE's\n"
-      "                           feedforward to it. A failed, non-finite, malformed or over-budget answer is\n"
-      "                           replaced by a counted fallback: hold the last good torque, then damping\n"
-      "  --controller-model URDF  robot model given to the plugin (default %s/exo.urdf)\n"
-      "  --controller-config FILE the plugin's configuration (default %s/controller.yaml)\n"
-      "  --controller-seed N      seed given to the plugin: the CoM move sequence (default 1)\n"
-      "  --controller-moves N     CoM moves (default 0: the configuration's)\n"
-      "  --controller-rate-hz HZ  plugin rate, a divisor of the 1000 Hz physics rate (default 1000); the command\n"
-      "                           is held between calls\n"
-      "  --plugin-budget-us US    a call longer than US microseconds (wall clock) is discarded and counted\n"
-      "                           (default: none in lockstep, which stays deterministic; half the controller\n"
-      "                           period in realtime)\n"
-      "  --plugin-hold-ticks N    fallback: controller ticks on the last good torque before damping (default 20)\n"
-      "  --no-estimate            do not subscribe to EXO_ESTIMATE (no estimator running: the loop then reads\n"
-      "                           nothing back from LCM, which saves a receive per published message)\n"
-      "  --help                   this text\n"
-      "\n"
+      "tick k (utime = k * 1000, simulated microseconds). See docs/sim.md.",
+      "exo_sim"};
+  common::configureCli(app);
+  std::string mode = "lockstep";
+  app.add_option("--model", model_path, "MJCF of the robot and plates")->type_name("FILE");
+  app.add_option("--sensors", sensors_path, "realistic sensor noise")->type_name("FILE");
+  app.add_option("--scenario", scenario_path,
+                 "scenario: seed, noise (realistic|off|FILE), undeclared effects, initial state")
+      ->type_name("FILE");
+  app.add_option("--mode", mode,
+                 "lockstep: wait (bounded) for the command of each tick, run as fast as the CPU\n"
+                 "allows, deterministic; realtime: 1 kHz wall clock, apply the latest valid command,\n"
+                 "count stale ticks and missed deadlines")
+      ->check(CLI::IsMember({"lockstep", "realtime"}))->type_name("lockstep|realtime");
+  app.add_option("--duration", opt.duration_s, "simulated time in seconds")
+      ->transform(common::strictNumber(1e-3, 1e7))->type_name("SECONDS");
+  app.add_option("--lcm-url", url, "LCM URL; a udpm URL must have ttl=0; the default is $LCM_DEFAULT_URL when set")
+      ->type_name("URL");
+  app.add_option("--command-timeout-ms", opt.command_timeout_ms, "lockstep: how long to wait for the command of tick k")
+      ->transform(common::strictInteger(0, 3600000))->type_name("MS");
+  app.add_option("--hold-ticks", opt.hold_ticks,
+                 "fallback when the command of a tick is missing: hold the last valid command for\n"
+                 "N ticks, then apply zero torque until a fresh command arrives; every such tick is counted")
+      ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_option("--start-timeout-s", opt.start_timeout_s,
+                 "lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
+                 "for a late controller; if none comes, run open loop without waiting")
+      ->transform(common::strictNumber(0.0, 3600.0))->type_name("S");
+  app.add_option("--max-missing-commands", opt.max_missing_commands,
+                 "once a controller has answered: end the run (exit 4) when N consecutive\n"
+                 "commands are missing (lockstep: each after a --command-timeout-ms wait, so\n"
+                 "at most N x that; realtime: N x --command-timeout-ms ms without a fresh\n"
+                 "command); 0 never gives up (default 10)")
+      ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_option("--result", result_path,
+                 "write the summary as JSON to FILE at the end (outcome, fall tick, fallback\n"
+                 "ticks, ...; `exoid experiment` reads it)")
+      ->type_name("FILE");
+  app.add_flag("--quiet", opt.quiet, "no progress line (the summary line is always printed)");
+  app.add_option("--rt-priority", rt_priority,
+                 "realtime: lock memory (mlockall) and run the loop under SCHED_FIFO priority N\n"
+                 "(needs root or CAP_SYS_NICE, else a warning and normal scheduling)")
+      ->transform(common::strictInteger(1, 99))->type_name("N");
+  // In-loop controller (docs/plugin.md); without --controller-plugin a controller process answers EXO_COMMAND.
+  app.add_option("--controller-plugin", plugin_opt.path,
+                 "in-loop controller: load the controller plugin LIB (e.g.\n"
+                 "build/lib/libexoid_controller_plugin.so, docs/plugin.md) and call it after each\n"
+                 "step: state of tick k in, command for tick k+1 out (the one-tick delay of a\n"
+                 "controller process); the loop publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS\n"
+                 "and feeds EXO_ESTIMATE's feedforward to it. A failed, non-finite, malformed or\n"
+                 "over-budget answer is replaced by a counted fallback: hold the last good torque,\n"
+                 "then damping")
+      ->type_name("LIB");
+  app.add_option("--controller-model", plugin_opt.model_path, "robot model given to the plugin")->type_name("URDF");
+  app.add_option("--controller-config", plugin_opt.config_path, "the plugin's configuration")->type_name("FILE");
+  app.add_option("--controller-seed", plugin_opt.seed, "seed given to the plugin: the CoM move sequence (default 1)")
+      ->transform(common::strictInteger(0))->type_name("N");
+  app.add_option("--controller-moves", plugin_opt.moves, "CoM moves given to the plugin (0: the configuration's)")
+      ->transform(common::strictInteger(0, 1000))->type_name("N");
+  app.add_option("--controller-rate-hz", rate_hz,
+                 "plugin rate, a divisor of the 1000 Hz physics rate; the command is held between\n"
+                 "calls")
+      ->transform(common::strictInteger(1, 1000))
+      ->check(CLI::Validator([](std::string& v) { return 1000 % std::stoi(v) == 0 ? std::string() : "not a divisor of 1000"; },
+                             "", "divisor of 1000"))
+      ->type_name("HZ");
+  app.add_option("--plugin-budget-us", plugin_budget_us,
+                 "a plugin call longer than US microseconds (wall clock) is discarded and counted\n"
+                 "(default: none in lockstep, which stays deterministic; half the controller period\n"
+                 "in realtime)")
+      ->transform(common::strictNumber(0.0, 1e7))->type_name("US");
+  app.add_option("--plugin-hold-ticks", plugin_opt.hold_ticks,
+                 "plugin fallback: controller ticks on the last good torque before damping")
+      ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_flag("--no-estimate", no_estimate,
+               "with a plugin: do not subscribe to EXO_ESTIMATE (no estimator running: the loop then\n"
+               "reads nothing back from LCM, which saves a receive per published message)");
+  app.footer(
       "channels (LCM, package exoid_lcm, SI units, docs/lcm.md):\n"
       "  publishes  EXO_STATE        robot_state_t    encoders rad, joint torques N m, IMU (quaternion world<-IMU\n"
       "                                               w,x,y,z, gyro rad/s, specific force m/s^2, IMU frame)\n"
@@ -112,149 +163,13 @@ void printHelp() {
       "\n"
       "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM), 2 bad input (options,\n"
       "            MJCF, sensors or scenario file; a plugin that does not load, has another ABI version or fails\n"
-      "            to create), 3 the robot fell (run ended at the fall tick, printed),\n"
-      "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).\n",
-      EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR,
-      exoid::channels::kDefaultUrl);
-}
-
-int badInput(const std::string& msg) {
-  std::fprintf(stderr, "exo_sim: %s\n", msg.c_str());
-  return kExitBadInput;
-}
-
-bool parseDouble(const std::string& s, double* out) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  *out = std::strtod(s.c_str(), &end);
-  return end && *end == '\0' && std::isfinite(*out);
-}
-
-bool parseInt(const std::string& s, long* out) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  *out = std::strtol(s.c_str(), &end, 10);
-  return end && *end == '\0';
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace exoid;
-  using namespace exoid::sim;
-  const std::string config = EXOID_CONFIG_DIR;
-  std::string model_path = config + "/exo.xml";
-  std::string sensors_path = config + "/sensors.yaml";
-  std::string scenario_path = config + "/scenarios/nominal.yaml";
-  std::string url = LcmEndpoint::defaultUrl();
-  RunOptions opt;
-  PluginOptions plugin_opt;
-  plugin_opt.model_path = config + "/exo.urdf";
-  plugin_opt.config_path = config + "/controller.yaml";
-  double plugin_budget_us = -1.0;  // < 0: the mode's default
-  long rt_priority = 0;
-  std::string result_path;
-
-  for (int i = 1; i < argc; ++i) {
-    std::string arg = argv[i], value;
-    if (arg == "--help" || arg == "-h") {
-      printHelp();
-      return kExitOk;
-    }
-    if (arg == "--quiet") {
-      opt.quiet = true;
-      continue;
-    }
-    if (arg == "--no-estimate") {
-      plugin_opt.listen_estimate = false;
-      continue;
-    }
-    const size_t eq = arg.find('=');
-    if (arg.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = arg.substr(eq + 1);
-      arg = arg.substr(0, eq);
-    } else if (i + 1 < argc) {
-      value = argv[++i];
-    } else {
-      return badInput(arg + ": missing value (see --help)");
-    }
-    double d = 0.0;
-    long n = 0;
-    if (arg == "--model") {
-      model_path = value;
-    } else if (arg == "--sensors") {
-      sensors_path = value;
-    } else if (arg == "--scenario") {
-      scenario_path = value;
-    } else if (arg == "--lcm-url") {
-      url = value;
-    } else if (arg == "--mode") {
-      if (value == "lockstep") {
-        opt.mode = SimMode::Lockstep;
-      } else if (value == "realtime") {
-        opt.mode = SimMode::Realtime;
-      } else {
-        return badInput("--mode: expected lockstep or realtime, got '" + value + "'");
-      }
-    } else if (arg == "--duration") {
-      if (!parseDouble(value, &d) || d <= 0.0 || d > 1e7)
-        return badInput("--duration: expected a positive number of seconds, got '" + value + "'");
-      opt.duration_s = d;
-    } else if (arg == "--command-timeout-ms") {
-      if (!parseInt(value, &n) || n < 0 || n > 3600000)
-        return badInput("--command-timeout-ms: expected milliseconds >= 0, got '" + value + "'");
-      opt.command_timeout_ms = static_cast<int>(n);
-    } else if (arg == "--hold-ticks") {
-      if (!parseInt(value, &n) || n < 0 || n > 1000000000)
-        return badInput("--hold-ticks: expected a tick count >= 0, got '" + value + "'");
-      opt.hold_ticks = static_cast<int>(n);
-    } else if (arg == "--max-missing-commands") {
-      if (!parseInt(value, &n) || n < 0 || n > 1000000000)
-        return badInput("--max-missing-commands: expected a count >= 0, got '" + value + "'");
-      opt.max_missing_commands = static_cast<int>(n);
-    } else if (arg == "--result") {
-      result_path = value;
-    } else if (arg == "--start-timeout-s") {
-      if (!parseDouble(value, &d) || d < 0.0 || d > 3600.0)
-        return badInput("--start-timeout-s: expected seconds in [0, 3600], got '" + value + "'");
-      opt.start_timeout_s = d;
-    } else if (arg == "--rt-priority") {
-      if (!parseInt(value, &n) || n < 1 || n > 99)
-        return badInput("--rt-priority: expected 1..99, got '" + value + "'");
-      rt_priority = n;
-    } else if (arg == "--controller-plugin") {
-      plugin_opt.path = value;
-    } else if (arg == "--controller-model") {
-      plugin_opt.model_path = value;
-    } else if (arg == "--controller-config") {
-      plugin_opt.config_path = value;
-    } else if (arg == "--controller-seed") {
-      char* end = nullptr;
-      errno = 0;
-      const unsigned long long seed = std::strtoull(value.c_str(), &end, 10);
-      if (value.empty() || value[0] == '-' || errno != 0 || *end != '\0')
-        return badInput("--controller-seed: expected an unsigned integer, got '" + value + "'");
-      plugin_opt.seed = seed;
-    } else if (arg == "--controller-moves") {
-      if (!parseInt(value, &n) || n < 0 || n > 1000)
-        return badInput("--controller-moves: expected 0..1000, got '" + value + "'");
-      plugin_opt.moves = static_cast<int>(n);
-    } else if (arg == "--controller-rate-hz") {
-      if (!parseInt(value, &n) || n < 1 || n > 1000 || 1000 % n != 0)
-        return badInput("--controller-rate-hz: expected a divisor of 1000 (1000, 500, 250, 200, ...), got '" + value + "'");
-      plugin_opt.divisor = static_cast<int>(1000 / n);
-    } else if (arg == "--plugin-budget-us") {
-      if (!parseDouble(value, &d) || d < 0.0 || d > 1e7)
-        return badInput("--plugin-budget-us: expected microseconds >= 0, got '" + value + "'");
-      plugin_budget_us = d;
-    } else if (arg == "--plugin-hold-ticks") {
-      if (!parseInt(value, &n) || n < 0 || n > 1000000000)
-        return badInput("--plugin-hold-ticks: expected a tick count >= 0, got '" + value + "'");
-      plugin_opt.hold_ticks = static_cast<int>(n);
-    } else {
-      return badInput("unknown option '" + arg + "' (see --help)");
-    }
-  }
+      "            to create; one line on stderr names the problem), 3 the robot fell (run ended at the fall\n"
+      "            tick, printed),\n"
+      "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).");
+  if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
+  opt.mode = mode == "realtime" ? SimMode::Realtime : SimMode::Lockstep;
+  plugin_opt.divisor = 1000 / rate_hz;
+  plugin_opt.listen_estimate = !no_estimate;
 
   // Inputs: every problem is one line naming the file and the field.
   std::string err;
@@ -286,9 +201,9 @@ int main(int argc, char** argv) {
 
   if (rt_priority > 0) {  // no page faults and no time-sharing preemption inside the 1 kHz loop
     sched_param sp{};
-    sp.sched_priority = static_cast<int>(rt_priority);
+    sp.sched_priority = rt_priority;
     if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 || sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
-      std::fprintf(stderr, "exo_sim: warning: --rt-priority %ld: %s (running with normal scheduling)\n", rt_priority,
+      std::fprintf(stderr, "exo_sim: warning: --rt-priority %d: %s (running with normal scheduling)\n", rt_priority,
                    std::strerror(errno));
   }
   std::signal(SIGINT, onSignal);
@@ -296,7 +211,7 @@ int main(int argc, char** argv) {
   if (!opt.quiet) {
     if (plugin)
       std::printf("exo_sim: controller plugin '%s' (%s) at %d Hz, seed %llu\n", plugin->name(), plugin_opt.path.c_str(),
-                  1000 / plugin_opt.divisor, static_cast<unsigned long long>(plugin_opt.seed));
+                  rate_hz, static_cast<unsigned long long>(plugin_opt.seed));
     std::printf("exo_sim: %s, scenario '%s' (%s), noise %s, seed %llu, %s, %.3f s, LCM %s\n", model_path.c_str(),
                 scenario.name.c_str(), scenario_path.c_str(), noise.source.empty() ? "none" : noise.source.c_str(),
                 static_cast<unsigned long long>(scenario.seed),

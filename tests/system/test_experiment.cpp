@@ -371,10 +371,10 @@ TEST_F(RunEnd, OptionsTheControllerRefusesAreRefusedBeforeAnythingStarts) {
     std::string args, expect;
   };
   const std::vector<Case> cases = {
-      {"--moves 1001", "--moves: expected an integer in 1..1000, got 1001"},
-      {"--seed -1", "--seed: expected an unsigned integer"},
+      {"--moves 1001", "--moves: '1001': out of range"},
+      {"--seed -1", "--seed: '-1': out of range"},
       {"--inject kill:everything:1", "--inject: expected"},
-      {"--watchdog-factor 0", "--watchdog-factor must be > 0"},
+      {"--watchdog-factor 0", "--watchdog-factor: '0': out of range"},
   };
   for (const Case& c : cases) {
     const auto r = test::runCommand(command(sc, c.args), dir_.path);

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "exoid/common/cli.hpp"
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/config.hpp"
 #include "exoid/controller/run_options.hpp"
@@ -24,7 +25,6 @@
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
-#include "exoid/tools/args.hpp"
 #include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/process.hpp"
 #include "exoid/tools/run_log.hpp"
@@ -34,8 +34,7 @@ namespace exoid::cli {
 namespace {
 constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
 
-constexpr char kHelp[] =
-    "usage: exoid experiment --scenario SCENARIO.yaml --out DIR [options]\n\n"
+constexpr char kDescription[] =
     "Runs the closed loop: exo_sim (MuJoCo, lockstep) with the centroidal balance QP doing the thesis's CoM\n"
     "moves, either inside the sim's loop as a plugin (default) or as the separate exo_controller process; every\n"
     "channel goes over LCM udpm:// with ttl=0 inside a private network namespace (unshare -n; multicast routed\n"
@@ -50,36 +49,9 @@ constexpr char kHelp[] =
     "                       progress is also printed; controller.log only with --controller process)\n\n"
     "A run ends when the sim has simulated the planned time, or early: the robot fell (the sim stops at the\n"
     "fall), a process died or stopped answering (the others are stopped within seconds and reaped), the\n"
-    "watchdog expired, or SIGINT/SIGTERM. The summary is written in every case and names what failed.\n\n"
-    "options:\n"
-    "  --scenario FILE          sim scenario (config/scenarios/*.yaml): noise, undeclared effects\n"
-    "  --out DIR                output directory (created; must be a directory we can write)\n"
-    "  --controller-config FILE controller configuration (default config/controller.yaml)\n"
-    "  --sensors FILE           sensor noise configuration (default config/sensors.yaml)\n"
-    "  --model URDF             controller's model (default config/exo.urdf)\n"
-    "  --mjcf FILE              simulated robot (default config/exo.xml)\n"
-    "  --seed N                 CoM move sequence seed, 0..2^63-1 (default 1; use different seeds for\n"
-    "                           training and validation runs)\n"
-    "  --moves N                number of CoM moves, 1..1000 (default: the controller configuration's, 20)\n"
-    "  --controller plugin|process\n"
-    "                           plugin (default): the balance controller runs inside exo_sim's loop as\n"
-    "                           build/lib/libexoid_controller_plugin.so (docs/plugin.md), no controller process;\n"
-    "                           process: exo_controller as its own process over LCM. Same commands tick by tick\n"
-    "  --controller-plugin LIB  plugin mode: another controller plugin library\n"
-    "  --realtime               run the sim at wall-clock 1 kHz instead of lockstep (exo_sim --rt-priority 50:\n"
-    "                           SCHED_FIFO and locked memory where allowed)\n"
-    "  --no-pin                 do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
-    "                           controller share the first allowed CPU; the logger is never pinned)\n"
-    "  --max-missing-commands N the sim ends the run when N consecutive commands are missing (default 10,\n"
-    "                           i.e. 1 s at its 100 ms command timeout; exo_sim --help)\n"
-    "  --watchdog-factor F      the run is stopped as failed after F x the planned simulated time plus the\n"
-    "  --watchdog-margin-s S    margin, of wall time (defaults 3 and 60: a 20-move run, 62.2 s simulated,\n"
-    "                           gets 247 s; lockstep normally takes a fifth of the simulated time)\n"
-    "  --inject ACTION:PROCESS:SECONDS\n"
-    "                           testing only: once the sim reports SECONDS simulated (its progress lines, 1 s\n"
-    "                           apart), send PROCESS (sim, controller or logger) SIGKILL (ACTION kill) or\n"
-    "                           SIGSTOP (ACTION stop: it hangs); controller only with --controller process\n"
-    "  --help                   this text\n\n"
+    "watchdog expired, or SIGINT/SIGTERM. The summary is written in every case and names what failed.";
+
+constexpr char kFooter[] =
     "needs: root (or unprivileged user namespaces) for unshare, iproute2.\n"
     "exit codes: 0 run completed (every planned tick, nothing failed; the summary says whether the targets\n"
     "              were met)\n"
@@ -87,7 +59,7 @@ constexpr char kHelp[] =
     "              the log is incomplete or damaged (summary names it; partial log kept)\n"
     "            2 bad input (options, files, output directory), before any process starts\n"
     "            3 the robot fell (the run ended at the fall; the summary says when and during which move)\n"
-    "            4 interrupted by SIGINT or SIGTERM (processes stopped, summary of the partial run written)\n";
+    "            4 interrupted by SIGINT or SIGTERM (processes stopped, summary of the partial run written)";
 
 constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2, kExitFell = 3, kExitInterrupted = 4;
 
@@ -209,64 +181,101 @@ void echoNewLines(const std::string& path, std::streamoff* offset, double* sim_t
 
 int cmdExperiment(int argc, char** argv) {
   const std::string config = EXOID_CONFIG_DIR;
-  tools::Args args;
-  args.option("scenario").option("out").option("controller-config", config + "/controller.yaml");
-  args.option("sensors", config + "/sensors.yaml").option("model", config + "/exo.urdf");
-  args.option("mjcf", config + "/exo.xml").option("seed", "1").option("moves", "0");
-  args.option("max-missing-commands", "10").option("watchdog-factor", "3").option("watchdog-margin-s", "60");
-  args.option("inject").option("controller", "plugin").option("controller-plugin", pluginPath());
-  args.flag("realtime").flag("no-pin").flag("help");
+  CLI::App app{kDescription, "exoid experiment"};
+  common::configureCli(app);
+  std::string scenario_path, out_dir, controller_config = config + "/controller.yaml", sensors = config + "/sensors.yaml",
+      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml", controller_mode = "plugin",
+      plugin_lib = pluginPath(), inject_text;
+  int64_t seed = 1, moves = 0, max_missing = 10;
+  double watchdog_factor = 3.0, watchdog_margin = 60.0;
+  bool realtime = false, no_pin = false;
+  app.add_option("--scenario", scenario_path, "sim scenario (config/scenarios/*.yaml): noise, undeclared effects")
+      ->required()->type_name("FILE");
+  app.add_option("--out", out_dir, "output directory (created; must be a directory we can write)")
+      ->required()->type_name("DIR");
+  app.add_option("--controller-config", controller_config, "controller configuration")->type_name("FILE");
+  app.add_option("--sensors", sensors, "sensor noise configuration")->type_name("FILE");
+  app.add_option("--model", model_path, "controller's model")->type_name("URDF");
+  app.add_option("--mjcf", mjcf, "simulated robot")->type_name("FILE");
+  // The same ranges as exo_controller's --seed and --moves, so that exoid refuses what the controller would.
+  app.add_option("--seed", seed, "CoM move sequence seed (use different seeds for training and validation runs)")
+      ->transform(common::strictInteger(controller::kMinSeed, controller::kMaxSeed))->type_name("N");
+  app.add_option("--moves", moves, "number of CoM moves (0: the controller configuration's, 20)")
+      ->transform(common::strictInteger(0, controller::kMaxMoves))->type_name("N");
+  app.add_option("--controller", controller_mode,
+                 "plugin: the balance controller runs inside exo_sim's loop as\n"
+                 "build/lib/libexoid_controller_plugin.so (docs/plugin.md), no controller process;\n"
+                 "process: exo_controller as its own process over LCM. Same commands tick by tick")
+      ->check(CLI::IsMember({"plugin", "process"}))->type_name("plugin|process");
+  app.add_option("--controller-plugin", plugin_lib, "plugin mode: the controller plugin library")->type_name("LIB");
+  app.add_flag("--realtime", realtime,
+               "run the sim at wall-clock 1 kHz instead of lockstep (exo_sim --rt-priority 50:\n"
+               "SCHED_FIFO and locked memory where allowed)");
+  app.add_flag("--no-pin", no_pin,
+               "do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
+               "controller share the first allowed CPU; the logger is never pinned)");
+  app.add_option("--max-missing-commands", max_missing,
+                 "the sim ends the run when N consecutive commands are missing (1 s at its\n"
+                 "100 ms command timeout by default; exo_sim --help)")
+      ->transform(common::strictInteger(0, 1000000))->type_name("N");
+  app.add_option("--watchdog-factor", watchdog_factor,
+                 "the run is stopped as failed after F x the planned simulated time plus\n"
+                 "--watchdog-margin-s of wall time (a 20-move run, 62.2 s simulated, gets 247 s;\n"
+                 "lockstep normally takes a fifth of the simulated time)")
+      ->transform(common::strictNumber(1e-3, 1e6))->type_name("F");
+  app.add_option("--watchdog-margin-s", watchdog_margin, "see --watchdog-factor")
+      ->transform(common::strictNumber(0.0, 1e6))->type_name("S");
+  app.add_option("--inject", inject_text,
+                 "testing only; SPEC is ACTION:PROCESS:SECONDS: once\n"
+                 "the sim reports SECONDS simulated (its progress lines, 1 s apart), send PROCESS\n"
+                 "(sim, controller or logger) SIGKILL (ACTION kill) or SIGSTOP (ACTION stop: it\n"
+                 "hangs); controller only with --controller process")
+      ->type_name("SPEC");
+  app.footer(kFooter);
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;
-  if (!args.parse(argc, argv, 2, &err)) return fail(err);
-  if (args.has("help")) return std::fputs(kHelp, stdout), 0;
-  if (!args.has("scenario") || !args.has("out")) return fail("--scenario and --out are required (exoid experiment --help)");
-  for (const char* f : {"scenario", "controller-config", "sensors", "model", "mjcf"})
-    if (!std::filesystem::is_regular_file(args.get(f))) return fail("--" + std::string(f) + ": no such file '" + args.get(f) + "'");
-  long seed = 0, moves = 0, max_missing = 0;
-  double watchdog_factor = 0.0, watchdog_margin = 0.0;
-  if (!args.getInt("seed", seed, &err) || !args.getInt("moves", moves, &err) ||
-      !args.getInt("max-missing-commands", max_missing, &err) || !args.getDouble("watchdog-factor", watchdog_factor, &err) ||
-      !args.getDouble("watchdog-margin-s", watchdog_margin, &err))
-    return fail(err);
+  const std::pair<const char*, const std::string*> files[] = {{"scenario", &scenario_path},
+                                                              {"controller-config", &controller_config},
+                                                              {"sensors", &sensors},
+                                                              {"model", &model_path},
+                                                              {"mjcf", &mjcf}};
+  for (const auto& [name, file] : files)
+    if (!std::filesystem::is_regular_file(*file)) return fail("--" + std::string(name) + ": no such file '" + *file + "'");
   // The controller's own limits, checked by the same functions it uses: a refused option would otherwise
   // leave the sim running open loop.
   if (!controller::checkSeed(seed, &err)) return fail(err);
-  if (args.has("moves") && !controller::checkMoves(moves, &err)) return fail(err);
-  if (max_missing < 0 || max_missing > 1000000) return fail("--max-missing-commands: expected a count in 0..1000000");
-  if (!(watchdog_factor > 0.0) || !(watchdog_margin >= 0.0)) return fail("--watchdog-factor must be > 0 and --watchdog-margin-s >= 0");
+  if (moves != 0 && !controller::checkMoves(moves, &err)) return fail(err);
   Injection inject;
-  if (args.has("inject") && !parseInjection(args.get("inject"), &inject, &err)) return fail(err);
-  const bool use_plugin = args.get("controller") == "plugin";
-  if (!use_plugin && args.get("controller") != "process")
-    return fail("--controller: expected plugin or process, got '" + args.get("controller") + "'");
-  if (use_plugin && !std::filesystem::is_regular_file(args.get("controller-plugin")))
-    return fail("--controller-plugin: no such file '" + args.get("controller-plugin") + "'");
+  if (!inject_text.empty() && !parseInjection(inject_text, &inject, &err)) return fail(err);
+  const bool use_plugin = controller_mode == "plugin";
+  if (use_plugin && !std::filesystem::is_regular_file(plugin_lib))
+    return fail("--controller-plugin: no such file '" + plugin_lib + "'");
   if (use_plugin && inject.process == "controller")
     return fail("--inject: there is no controller process with --controller plugin");
   controller::ControllerConfig cc;
-  if (!controller::loadControllerConfig(args.get("controller-config"), cc, &err)) return fail(err);
+  if (!controller::loadControllerConfig(controller_config, cc, &err)) return fail(err);
   if (moves == 0) moves = cc.trajectory.moves;
   cc.trajectory.moves = static_cast<int>(moves);
   // The sim runs exactly as long as the controller plans to (start-up latch, moves, holds): a sim that
   // outlives the controller would apply zero torque at the end.
   const double duration = controller::plannedRunDuration(cc);
-  const bool lockstep = !args.has("realtime");
+  const bool lockstep = !realtime;
 
   Model model;
-  if (!buildModelFromUrdfFile(args.get("model"), true, model, &err)) return fail("--model " + args.get("model") + ": " + err);
+  if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail("--model " + model_path + ": " + err);
   {  // What exo_controller checks at start-up (configuration against the model, move sequence), here.
     controller::BalanceController probe(model, cc, static_cast<uint64_t>(seed));
-    if (!probe.ok()) return fail(args.get("controller-config") + ": " + probe.error());
+    if (!probe.ok()) return fail(controller_config + ": " + probe.error());
   }
   {  // Validate the sim's inputs here, before any process starts, so that errors name the file and key.
     sim::SensorConfig realistic, noise;
     sim::Scenario scenario;
     sim::SimModel probe;
-    if (!sim::loadSensorConfig(args.get("sensors"), &realistic, &err) || !sim::loadScenario(args.get("scenario"), &scenario, &err) ||
-        !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(args.get("mjcf"), noise, scenario, probe, &err))
+    if (!sim::loadSensorConfig(sensors, &realistic, &err) || !sim::loadScenario(scenario_path, &scenario, &err) ||
+        !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(mjcf, noise, scenario, probe, &err))
       return fail(err);
   }
-  const std::filesystem::path out = args.get("out");
+  const std::filesystem::path out = out_dir;
   if (!prepareOutDir(out, &err)) return fail(err);
   if (!std::getenv(kNetnsEnv)) return reexecInPrivateNetns(argc, argv);
   // Inside the namespace: loopback up, multicast routed to it; nothing can leave this namespace.
@@ -284,7 +293,7 @@ int cmdExperiment(int argc, char** argv) {
   // Lockstep sim and controller take turns, so they share one CPU (cheap hand-overs: 6x real time against
   // 4.5x unpinned on 2 cores); the logger stays free to use every CPU.
   const std::vector<int> cpus = tools::allowedCpus();
-  const int loop_cpu = (!args.has("no-pin") && cpus.size() >= 2 && lockstep) ? cpus.front() : -1;
+  const int loop_cpu = (!no_pin && cpus.size() >= 2 && lockstep) ? cpus.front() : -1;
   struct sigaction sa {};
   sa.sa_handler = onSignal;
   ::sigaction(SIGINT, &sa, nullptr);
@@ -299,7 +308,7 @@ int cmdExperiment(int argc, char** argv) {
   logger.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   if (!use_plugin) {
-    ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", args.get("model"), "--config", args.get("controller-config"),
+    ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", model_path, "--config", controller_config,
                              "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
                             (out / "controller.log").string(), &err, loop_cpu);
     if (ctrl.pid < 0) return tools::stop(logger.pid, SIGINT, 2000), fail(err);
@@ -309,18 +318,18 @@ int cmdExperiment(int argc, char** argv) {
   char dur[32];
   std::snprintf(dur, sizeof dur, "%.3f", duration);
   const double watchdog_s = duration * watchdog_factor + watchdog_margin;
-  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s (watchdog %.0f s)\n",
-              moves, duration, args.get("scenario").c_str(), args.get("controller").c_str(), out.c_str(), watchdog_s);
+  std::printf("exoid experiment: %lld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s (watchdog %.0f s)\n",
+              static_cast<long long>(moves), duration, scenario_path.c_str(), controller_mode.c_str(), out.c_str(), watchdog_s);
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", args.get("mjcf"), "--sensors", args.get("sensors"),
-                                       "--scenario", args.get("scenario"), "--mode", lockstep ? "lockstep" : "realtime",
+  std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", mjcf, "--sensors", sensors,
+                                       "--scenario", scenario_path, "--mode", lockstep ? "lockstep" : "realtime",
                                        "--duration", dur, "--max-missing-commands", std::to_string(max_missing),
                                        "--result", sim_result, "--lcm-url", url};
   if (!lockstep) sim_args.insert(sim_args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
   if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
-    sim_args.insert(sim_args.end(), {"--controller-plugin", args.get("controller-plugin"), "--controller-model",
-                                     args.get("model"), "--controller-config", args.get("controller-config"),
+    sim_args.insert(sim_args.end(), {"--controller-plugin", plugin_lib, "--controller-model",
+                                     model_path, "--controller-config", controller_config,
                                      "--controller-seed", std::to_string(seed), "--controller-moves", std::to_string(moves),
                                      "--no-estimate"});  // no estimator runs: the loop need not receive at all
   sim.pid = tools::spawn(sim_args, sim_log, &err, loop_cpu);
@@ -436,7 +445,7 @@ int cmdExperiment(int argc, char** argv) {
   const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
   const std::string table = tools::summaryTable(s);
   std::ofstream(out / "summary.json") << tools::summaryJson(s);
-  std::ofstream(out / "summary.md") << "# Experiment " << args.get("scenario") << " (seed " << seed << ")\n\n" << table;
+  std::ofstream(out / "summary.md") << "# Experiment " << scenario_path << " (seed " << seed << ")\n\n" << table;
   std::printf("\n%s\nwritten: %s, %s, %s (%.1f s wall)\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
               (out / "summary.md").c_str(), wall);
   if (s.outcome == "interrupted") return kExitInterrupted;

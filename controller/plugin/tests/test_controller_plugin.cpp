@@ -423,7 +423,7 @@ TEST(PluginCli, BadPluginsExitTwoWithOneLineAndHelpListsTheOptions) {
       {"--controller-plugin " + pluginLib("exoid_controller_plugin") + " --controller-config /nonexistent.yaml",
        "/nonexistent.yaml"},
       {"--controller-plugin " + pluginLib("exoid_joint_pd_plugin") + " --controller-rate-hz 300",
-       "--controller-rate-hz: expected a divisor of 1000"},
+       "--controller-rate-hz: not a divisor of 1000"},
   };
   for (const Case& c : cases) {
     const auto r = test::runCommand(sim + c.args, dir.path);
