@@ -92,9 +92,9 @@ int main(int argc, char** argv) {
       ->transform(common::strictNumber(0.0, 3600.0))->type_name("S");
   app.add_option("--max-missing-commands", opt.max_missing_commands,
                  "once a controller has answered: end the run (exit 4) when N consecutive\n"
-                 "commands are missing (lockstep: each after a --command-timeout-ms wait, so\n"
-                 "at most N x that; realtime: N x --command-timeout-ms ms without a fresh\n"
-                 "command); 0 never gives up (default 10)")
+                 "commands are missing (lockstep: each after a --command-timeout-ms wait, so at most\n"
+                 "N x that; realtime: N x --command-timeout-ms ms without a fresh command); 0 never\n"
+                 "gives up")
       ->transform(common::strictInteger(0, 1000000000))->type_name("N");
   app.add_option("--result", result_path,
                  "write the summary as JSON to FILE at the end (outcome, fall tick, fallback\n"
@@ -161,10 +161,10 @@ int main(int argc, char** argv) {
       "good answers, failures by kind, over-budget calls, fallback ticks, call time. Last, the process's CPU\n"
       "time (user, system) and simulated seconds per CPU second (the real-time factor with a core of its own).\n"
       "\n"
-      "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM), 2 bad input (options,\n"
-      "            MJCF, sensors or scenario file; a plugin that does not load, has another ABI version or fails\n"
-      "            to create; one line on stderr names the problem), 3 the robot fell (run ended at the fall\n"
-      "            tick, printed),\n"
+      "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM, --result unwritable),\n"
+      "            2 bad input (options, MJCF, sensors or scenario file; a plugin that does not load, has another\n"
+      "            ABI version or fails to create; one line on stderr names the problem),\n"
+      "            3 the robot fell (run ended at the fall tick, printed),\n"
       "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).");
   if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
   opt.mode = mode == "realtime" ? SimMode::Realtime : SimMode::Lockstep;

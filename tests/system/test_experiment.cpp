@@ -313,6 +313,16 @@ TEST_F(RunEnd, AHungControllerEndsTheRunAfterTheMissingCommandLimit) {
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
 
+// A hung sim (SIGSTOP): the controller's idle timeout (5 s without a state) ends it, the run stops.
+TEST_F(RunEnd, AHungSimIsDetectedThroughTheControllersIdleTimeout) {
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject stop:sim:2");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  EXPECT_NE(r.summary["failures"].dump().find("exo_sim stopped publishing"), std::string::npos) << r.summary;
+  EXPECT_LT(r.wall_s, 30.0);
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
 // Observed: killing exoid_logger gave exit 0 and "moves done 9/20, real-time factor 3.7x, missing ticks -2".
 TEST_F(RunEnd, AKilledLoggerIsReportedAndTheLogMarkedIncomplete) {
   const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject kill:logger:2");
@@ -341,39 +351,45 @@ TEST_F(RunEnd, TheWatchdogBoundsTheRun) {
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
 
-TEST_F(RunEnd, SigintStopsEverythingCleanly) {
-  std::string err;
-  std::vector<std::string> argv;
-  std::istringstream words(command(test::configPath("scenarios/ideal.yaml"), ""));
-  for (std::string w; words >> w;) argv.push_back(w);
-  const pid_t pid = tools::spawn(argv, dir_.file("sigint.log"), &err);
-  ASSERT_GT(pid, 0) << err;
-  // Wait for the sim to be running (its progress in sim.log), then interrupt.
-  for (int i = 0; i < 400 && test::slurp(dir_.file("run/sim.log")).find("exo_sim: t 1.0 s") == std::string::npos; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(25));
-  // pid is exoid itself (it re-executes itself through unshare, keeping its pid).
-  ASSERT_EQ(::kill(pid, SIGINT), 0);
-  int code = -1;
-  ASSERT_TRUE(tools::waitFor(pid, 20000, &code)) << "exoid experiment did not stop within 20 s of SIGINT";
-  EXPECT_EQ(code, 4) << test::slurp(dir_.file("sigint.log"));
-  const auto summary = nlohmann::json::parse(test::slurp(dir_.file("run/summary.json")), nullptr, false);
-  ASSERT_TRUE(summary.is_object()) << test::slurp(dir_.file("sigint.log"));
-  EXPECT_EQ(summary["outcome"], "interrupted");
-  EXPECT_NE(summary["failures"].dump().find("interrupted by SIGINT"), std::string::npos) << summary;
-  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+TEST_F(RunEnd, SigintAndSigtermStopEverythingCleanly) {
+  for (const int sig : {SIGINT, SIGTERM}) {
+    const std::string name = sig == SIGINT ? "SIGINT" : "SIGTERM";
+    std::filesystem::remove_all(dir_.file("run"));
+    std::string err;
+    std::vector<std::string> argv;
+    std::istringstream words(command(test::configPath("scenarios/ideal.yaml"), ""));
+    for (std::string w; words >> w;) argv.push_back(w);
+    const pid_t pid = tools::spawn(argv, dir_.file("signal.log"), &err);
+    ASSERT_GT(pid, 0) << err;
+    // Wait for the sim to be running (its progress in sim.log), then interrupt.
+    for (int i = 0; i < 400 && test::slurp(dir_.file("run/sim.log")).find("exo_sim: t 1.0 s") == std::string::npos; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    // pid is exoid itself (it re-executes itself through unshare, keeping its pid).
+    ASSERT_EQ(::kill(pid, sig), 0);
+    int code = -1;
+    ASSERT_TRUE(tools::waitFor(pid, 20000, &code)) << "exoid experiment did not stop within 20 s of " << name;
+    EXPECT_EQ(code, 4) << name << test::slurp(dir_.file("signal.log"));
+    const auto summary = nlohmann::json::parse(test::slurp(dir_.file("run/summary.json")), nullptr, false);
+    ASSERT_TRUE(summary.is_object()) << test::slurp(dir_.file("signal.log"));
+    EXPECT_EQ(summary["outcome"], "interrupted");
+    EXPECT_NE(summary["failures"].dump().find("interrupted by " + name), std::string::npos) << summary;
+    EXPECT_LT(summary["ticks_simulated"].get<long>(), summary["ticks_planned"].get<long>());
+    EXPECT_EQ(summary["log_complete"], true) << summary;  // the logger was stopped last and drained
+    EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+  }
 }
 
 // Options the controller would refuse are refused before anything starts (observed: --moves 1001 ran the sim
-// open loop for minutes and wrote 5 GB); the same limits in both (controller::checkMoves/checkSeed).
+// open loop for minutes and wrote 5 GB); the same limits in both (controller/run_options.hpp).
 TEST_F(RunEnd, OptionsTheControllerRefusesAreRefusedBeforeAnythingStarts) {
   const std::string sc = test::configPath("scenarios/ideal.yaml");
   struct Case {
     std::string args, expect;
   };
   const std::vector<Case> cases = {
-      {"--moves 1001", "--moves: '1001': out of range"},
-      {"--seed -1", "--seed: '-1': out of range"},
-      {"--inject kill:everything:1", "--inject: expected"},
+      {"--moves 1001", "--moves: '1001': out of range, expected an integer in [0, 1000]"},
+      {"--seed -1", "--seed: '-1': out of range, expected an integer >= 0"},
+      {"--inject kill:everything:1", "--inject: expected kill|stop:sim|controller|logger:SECONDS"},
       {"--watchdog-factor 0", "--watchdog-factor: '0': out of range"},
   };
   for (const Case& c : cases) {
@@ -383,9 +399,10 @@ TEST_F(RunEnd, OptionsTheControllerRefusesAreRefusedBeforeAnythingStarts) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir_.file("run"))) << c.args;
   }
-  for (const char* a : {"--moves 1001", "--seed -1"}) {
-    const auto r = test::runCommand(std::string(EXOID_BIN_DIR) + "/exo_controller --print-duration " + a, dir_.path);
-    EXPECT_EQ(r.exit_code, 2) << a;
+  for (const Case& c : {cases[0], cases[1]}) {  // the same words from the controller: the same limits
+    const auto r = test::runCommand(std::string(EXOID_BIN_DIR) + "/exo_controller --print-duration " + c.args, dir_.path);
+    EXPECT_EQ(r.exit_code, 2) << c.args;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << r.err;
   }
 }
 

@@ -154,6 +154,10 @@ std::string pluginPath() {
   return (std::filesystem::path(selfPath()).parent_path().parent_path() / "lib" / "libexoid_controller_plugin.so").string();
 }
 
+/// Plugin mode: wall seconds without a new progress line of the sim before the run counts as hung (the sim
+/// loads MuJoCo and the plugin within ~1 s and prints a line per simulated second, at >= 1x real time).
+constexpr double kSimStallS = 10.0;
+
 std::string slurp(const std::string& path) {
   std::ifstream in(path);
   std::stringstream ss;
@@ -184,21 +188,22 @@ int cmdExperiment(int argc, char** argv) {
   CLI::App app{kDescription, "exoid experiment"};
   common::configureCli(app);
   std::string scenario_path, out_dir, controller_config = config + "/controller.yaml", sensors = config + "/sensors.yaml",
-      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml", controller_mode = "plugin",
-      plugin_lib = pluginPath(), inject_text;
+      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml", inject_text, controller_mode = "plugin",
+      plugin_lib = pluginPath();
   int64_t seed = 1, moves = 0, max_missing = 10;
   double watchdog_factor = 3.0, watchdog_margin = 60.0;
   bool realtime = false, no_pin = false;
   app.add_option("--scenario", scenario_path, "sim scenario (config/scenarios/*.yaml): noise, undeclared effects")
       ->required()->type_name("FILE");
-  app.add_option("--out", out_dir, "output directory (created; must be a directory we can write)")
-      ->required()->type_name("DIR");
+  app.add_option("--out", out_dir, "output directory (created; must be a directory we can write)")->required()->type_name("DIR");
   app.add_option("--controller-config", controller_config, "controller configuration")->type_name("FILE");
   app.add_option("--sensors", sensors, "sensor noise configuration")->type_name("FILE");
   app.add_option("--model", model_path, "controller's model")->type_name("URDF");
   app.add_option("--mjcf", mjcf, "simulated robot")->type_name("FILE");
-  // The same ranges as exo_controller's --seed and --moves, so that exoid refuses what the controller would.
-  app.add_option("--seed", seed, "CoM move sequence seed (use different seeds for training and validation runs)")
+  // exo_controller's own limits (controller/run_options.hpp): exoid refuses what the controller would, before
+  // anything starts (a refused controller left the sim running open loop for minutes).
+  app.add_option("--seed", seed,
+                 "CoM move sequence seed (use different seeds for training and validation runs)")
       ->transform(common::strictInteger(controller::kMinSeed, controller::kMaxSeed))->type_name("N");
   app.add_option("--moves", moves, "number of CoM moves (0: the controller configuration's, 20)")
       ->transform(common::strictInteger(0, controller::kMaxMoves))->type_name("N");
@@ -216,20 +221,21 @@ int cmdExperiment(int argc, char** argv) {
                "controller share the first allowed CPU; the logger is never pinned)");
   app.add_option("--max-missing-commands", max_missing,
                  "the sim ends the run when N consecutive commands are missing (1 s at its\n"
-                 "100 ms command timeout by default; exo_sim --help)")
+                 "100 ms command timeout; exo_sim --help)")
       ->transform(common::strictInteger(0, 1000000))->type_name("N");
   app.add_option("--watchdog-factor", watchdog_factor,
-                 "the run is stopped as failed after F x the planned simulated time plus\n"
-                 "--watchdog-margin-s of wall time (a 20-move run, 62.2 s simulated, gets 247 s;\n"
-                 "lockstep normally takes a fifth of the simulated time)")
-      ->transform(common::strictNumber(1e-3, 1e6))->type_name("F");
-  app.add_option("--watchdog-margin-s", watchdog_margin, "see --watchdog-factor")
-      ->transform(common::strictNumber(0.0, 1e6))->type_name("S");
+                 "watchdog: the run is stopped as failed after F x the planned simulated time\n"
+                 "plus --watchdog-margin-s of wall time (a 20-move run, 62.2 s simulated, gets\n"
+                 "247 s; lockstep normally takes a fifth of the simulated time)")
+      ->transform(common::strictNumber(1e-6, 1e6))->type_name("F");
+  app.add_option("--watchdog-margin-s", watchdog_margin, "watchdog margin, seconds")
+      ->transform(common::strictNumber(0.0, 1e7))->type_name("S");
   app.add_option("--inject", inject_text,
-                 "testing only; SPEC is ACTION:PROCESS:SECONDS: once\n"
-                 "the sim reports SECONDS simulated (its progress lines, 1 s apart), send PROCESS\n"
-                 "(sim, controller or logger) SIGKILL (ACTION kill) or SIGSTOP (ACTION stop: it\n"
-                 "hangs); controller only with --controller process")
+                 "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"
+                 "once the sim reports SECONDS simulated (its progress lines, 1 s apart), send\n"
+                 "PROCESS (sim, controller or logger) SIGKILL (ACTION kill) or SIGSTOP (ACTION\n"
+                 "stop: it hangs), e.g. --inject kill:controller:2 (controller only with\n"
+                 "--controller process)")
       ->type_name("SPEC");
   app.footer(kFooter);
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
@@ -241,10 +247,6 @@ int cmdExperiment(int argc, char** argv) {
                                                               {"mjcf", &mjcf}};
   for (const auto& [name, file] : files)
     if (!std::filesystem::is_regular_file(*file)) return fail("--" + std::string(name) + ": no such file '" + *file + "'");
-  // The controller's own limits, checked by the same functions it uses: a refused option would otherwise
-  // leave the sim running open loop.
-  if (!controller::checkSeed(seed, &err)) return fail(err);
-  if (moves != 0 && !controller::checkMoves(moves, &err)) return fail(err);
   Injection inject;
   if (!inject_text.empty() && !parseInjection(inject_text, &inject, &err)) return fail(err);
   const bool use_plugin = controller_mode == "plugin";
@@ -318,19 +320,19 @@ int cmdExperiment(int argc, char** argv) {
   char dur[32];
   std::snprintf(dur, sizeof dur, "%.3f", duration);
   const double watchdog_s = duration * watchdog_factor + watchdog_margin;
-  std::printf("exoid experiment: %lld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s (watchdog %.0f s)\n",
-              static_cast<long long>(moves), duration, scenario_path.c_str(), controller_mode.c_str(), out.c_str(), watchdog_s);
+  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s (watchdog %.0f s)\n",
+              static_cast<long>(moves), duration, scenario_path.c_str(), controller_mode.c_str(), out.c_str(), watchdog_s);
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", mjcf, "--sensors", sensors,
-                                       "--scenario", scenario_path, "--mode", lockstep ? "lockstep" : "realtime",
-                                       "--duration", dur, "--max-missing-commands", std::to_string(max_missing),
-                                       "--result", sim_result, "--lcm-url", url};
+  std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", mjcf, "--sensors", sensors, "--scenario",
+                                       scenario_path, "--mode", lockstep ? "lockstep" : "realtime", "--duration", dur,
+                                       "--max-missing-commands", std::to_string(max_missing), "--result", sim_result,
+                                       "--lcm-url", url};
   if (!lockstep) sim_args.insert(sim_args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
   if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
-    sim_args.insert(sim_args.end(), {"--controller-plugin", plugin_lib, "--controller-model",
-                                     model_path, "--controller-config", controller_config,
-                                     "--controller-seed", std::to_string(seed), "--controller-moves", std::to_string(moves),
+    sim_args.insert(sim_args.end(), {"--controller-plugin", plugin_lib, "--controller-model", model_path,
+                                     "--controller-config", controller_config, "--controller-seed", std::to_string(seed),
+                                     "--controller-moves", std::to_string(moves),
                                      "--no-estimate"});  // no estimator runs: the loop need not receive at all
   sim.pid = tools::spawn(sim_args, sim_log, &err, loop_cpu);
   if (sim.pid < 0) {
@@ -348,10 +350,11 @@ int cmdExperiment(int argc, char** argv) {
     return !c.running;
   };
   std::streamoff echoed = 0;
-  double sim_time = 0.0;
+  double sim_time = 0.0, progress_sim_time = 0.0, progress_at_s = 0.0;
   for (;;) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     echoNewLines(sim_log, &echoed, &sim_time);
+    if (sim_time != progress_sim_time) progress_sim_time = sim_time, progress_at_s = since();
     if (inject.at_s >= 0.0 && !inject.done && sim_time >= inject.at_s) {
       Child& target = inject.process == "sim" ? sim : inject.process == "controller" ? ctrl : logger;
       ::kill(target.pid, inject.action == "kill" ? SIGKILL : SIGSTOP);
@@ -379,13 +382,24 @@ int cmdExperiment(int argc, char** argv) {
       facts.failures.push_back(buf);
       break;
     }
-    if (!use_plugin && reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 3.0)) {
+    // With the controller in the sim there is no controller process whose idle timeout notices a hung sim:
+    // the sim's own progress lines (one per simulated second, or per wall second in realtime) stand in.
+    if (use_plugin && since() > progress_at_s + kSimStallS) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "exo_sim stopped publishing: no progress for %.0f s (last at %.0f s simulated)",
+                    kSimStallS, sim_time);
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (!use_plugin && reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 10.0)) {
       char buf[240];
       if (ctrl.code != 0)
-        std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over (see %s)",
-                      tools::describeExit(ctrl.code).c_str(), ctrl.ended_at_s, (out / "controller.log").c_str());
+        std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over%s (see %s)",
+                      tools::describeExit(ctrl.code).c_str(), ctrl.ended_at_s,
+                      ctrl.code == 3 ? ": no robot state for its idle timeout, exo_sim stopped publishing" : "",
+                      (out / "controller.log").c_str());
       else
-        std::snprintf(buf, sizeof buf, "exo_sim did not finish within 3 s of exo_controller completing its moves");
+        std::snprintf(buf, sizeof buf, "exo_sim did not finish within 10 s of exo_controller completing its moves");
       facts.failures.push_back(buf);
       break;
     }
@@ -444,9 +458,17 @@ int cmdExperiment(int argc, char** argv) {
   facts.log_readable = tools::readRunLog(log_path, model.joint_names, log, &facts.log_error);
   const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
   const std::string table = tools::summaryTable(s);
-  std::ofstream(out / "summary.json") << tools::summaryJson(s);
-  std::ofstream(out / "summary.md") << "# Experiment " << scenario_path << " (seed " << seed << ")\n\n" << table;
-  std::printf("\n%s\nwritten: %s, %s, %s (%.1f s wall)\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
+  std::printf("\n%s\n", table.c_str());
+  for (const auto& [file, text] : {std::pair<std::string, std::string>{"summary.json", tools::summaryJson(s)},
+                                   {"summary.md", "# Experiment " + scenario_path + " (seed " + std::to_string(seed) +
+                                                      ")\n\n" + table}}) {
+    std::ofstream f(out / file);
+    if (!(f << text) || (f.close(), f.fail())) {
+      std::fprintf(stderr, "exoid experiment: error: cannot write '%s'\n", (out / file).c_str());
+      return kExitFailed;
+    }
+  }
+  std::printf("written: %s, %s, %s (%.1f s wall)\n", log_path.c_str(), (out / "summary.json").c_str(),
               (out / "summary.md").c_str(), wall);
   if (s.outcome == "interrupted") return kExitInterrupted;
   if (s.outcome == "failed") {

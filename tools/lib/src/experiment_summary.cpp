@@ -71,6 +71,7 @@ ExperimentSummary summarizeExperiment(const Model& model, const RunLog& log, con
   s.moves_planned = f.moves_planned;
   s.lockstep = f.lockstep;
   s.ticks_planned = f.ticks_planned;
+  s.sim_reported = f.sim_reported;
   s.ticks_simulated = f.sim_reported ? f.sim_ticks : f.ticks_planned;
   s.sim_seconds = s.ticks_simulated * 1e-3;
   s.realtime_factor = f.sim_reported ? f.sim_realtime_factor : 0.0;
@@ -122,12 +123,13 @@ ExperimentSummary summarizeExperiment(const Model& model, const RunLog& log, con
     s.failures.push_back("the log could not be read: " + f.log_error);
   } else {
     if (s.missing_ticks > 0) {
-      char buf[256];
+      char buf[300];
       std::snprintf(buf, sizeof buf,
-                    "log incomplete: %ld of %lld sim-channel ticks missing (the sim ran %lld ticks; the log's truth "
-                    "channel holds %lld, up to tick %lld)",
-                    s.missing_ticks, 4LL * static_cast<long long>(n), static_cast<long long>(n),
-                    static_cast<long long>(s.ticks_logged),
+                    "log incomplete: %ld of %lld sim-channel ticks missing (%s %lld ticks; the log's truth channel "
+                    "holds %lld, up to tick %lld)",
+                    s.missing_ticks, 4LL * static_cast<long long>(n),
+                    f.sim_reported ? "the sim ran" : "the sim did not report its count; planned",
+                    static_cast<long long>(n), static_cast<long long>(s.ticks_logged),
                     static_cast<long long>(log.truth.empty() ? -1 : log.truth.back().tick));
       s.failures.push_back(buf);
     }
@@ -167,6 +169,7 @@ std::string summaryJson(const ExperimentSummary& s) {
   j["mode"] = s.lockstep ? "lockstep" : "realtime";
   j["sim_seconds"] = s.sim_seconds;
   j["ticks_planned"] = s.ticks_planned;
+  j["sim_reported"] = s.sim_reported;
   j["ticks_simulated"] = s.ticks_simulated;
   j["ticks_logged"] = s.ticks_logged;
   j["missing_ticks"] = s.missing_ticks;
@@ -208,14 +211,15 @@ std::string summaryTable(const ExperimentSummary& s) {
                 "| fallback ticks (controller) | %ld | 0 |\n| fallback ticks (sim) | %s | 0 |\n"
                 "| rejected inputs (controller) | %ld | 0 |\n"
                 "| real-time factor | %s | %s |\n"
-                "| ticks simulated / planned | %lld / %lld | all |\n"
+                "| ticks simulated / planned | %s / %lld | all |\n"
                 "| missing ticks (4 sim channels, of the simulated ticks) | %ld | 0 |\n"
                 "| log | %s | complete |\n"
                 "| EoM residual max rel (W phi_model - y) | %.2g | <= 1e-8 without noise/effects |\n",
                 s.outcome.c_str(), s.moves_done, s.moves_planned, fall, 1e3 * s.com_rmse_m, 1e3 * s.com_max_error_m,
                 1e3 * s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99,
                 s.controller_fallbacks, sim_fb, s.controller_rejected, rtf, s.lockstep ? ">= 5x (lockstep)" : "",
-                static_cast<long long>(s.ticks_simulated), static_cast<long long>(s.ticks_planned), s.missing_ticks,
+                s.sim_reported ? std::to_string(s.ticks_simulated).c_str() : "unknown (no sim report)",
+                static_cast<long long>(s.ticks_planned), s.missing_ticks,
                 s.log_complete ? "complete" : ("INCOMPLETE" + (s.log_damage.empty() ? "" : ": " + s.log_damage)).c_str(),
                 s.eom_residual_max_rel);
   std::string out = buf;

@@ -59,6 +59,22 @@ size_t nextValidEvent(const uint8_t* b, size_t size, size_t from) {
   return size;
 }
 
+// A reason quotes bytes from the (possibly damaged) message: keep the report one line of plain text.
+std::string printable(const std::string& text) {
+  std::string out;
+  static const char hex[] = "0123456789abcdef";
+  for (const unsigned char c : text) {
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+    } else {
+      out += "\\x";
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    }
+  }
+  return out;
+}
+
 template <class Msg, class Sample, class Convert>
 void take(const Event& e, const std::string& channel, std::vector<Sample>& out, RunLog& log, Convert convert) {
   Msg msg;
@@ -72,7 +88,7 @@ void take(const Event& e, const std::string& channel, std::vector<Sample>& out, 
     return;
   }
   ++log.rejected;
-  if (log.first_rejection.empty()) log.first_rejection = channel + ": " + why;
+  if (log.first_rejection.empty()) log.first_rejection = printable(channel + ": " + why);
 }
 
 void dispatch(const Event& e, const std::vector<std::string>& joints, RunLog& log) {

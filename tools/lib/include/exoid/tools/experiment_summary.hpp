@@ -50,6 +50,7 @@ struct ExperimentSummary {
   bool lockstep = true;            ///< the >= 5x target applies
   double sim_seconds = 0.0;        ///< simulated time (ticks_simulated / 1000)
   int64_t ticks_planned = 0;
+  bool sim_reported = false;       ///< the sim wrote its result (else its figures are unknown)
   int64_t ticks_simulated = 0;     ///< the sim's count; the planned count when the sim did not report
   int64_t ticks_logged = 0;        ///< ticks in the log's truth channel
   long missing_ticks = 0;          ///< ticks of [0, ticks_simulated) absent from a sim channel, summed over the 4
