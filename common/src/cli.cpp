@@ -82,23 +82,26 @@ int parseCli(CLI::App& app, int argc, const char* const* argv) {
   }
 }
 
-CLI::Validator strictNumber(double lo, double hi) {
+CLI::Validator strictNumber(double lo, double hi, bool open) {
   std::string desc = "NUMBER";
   if (lo != std::numeric_limits<double>::lowest() || hi != std::numeric_limits<double>::max()) {
     char buf[96];
     if (hi == std::numeric_limits<double>::max())
-      std::snprintf(buf, sizeof buf, " >= %g", lo);
+      std::snprintf(buf, sizeof buf, open ? " > %g" : " >= %g", lo);
     else if (lo == std::numeric_limits<double>::lowest())
-      std::snprintf(buf, sizeof buf, " <= %g", hi);
+      std::snprintf(buf, sizeof buf, open ? " < %g" : " <= %g", hi);
     else
-      std::snprintf(buf, sizeof buf, " in [%g, %g]", lo, hi);
+      std::snprintf(buf, sizeof buf, open ? " in (%g, %g)" : " in [%g, %g]", lo, hi);
     desc += buf;
   }
   return CLI::Validator(
-      [lo, hi](std::string& s) -> std::string {
+      [lo, hi, open, desc](std::string& s) -> std::string {
         double v = 0.0;
         std::string why;
-        if (!parseDouble(s, lo, hi, v, &why)) return quoteValue(s) + ": " + why;
+        if (!parseDouble(s, open ? std::numeric_limits<double>::lowest() : lo,
+                         open ? std::numeric_limits<double>::max() : hi, v, &why))
+          return quoteValue(s) + ": " + why;
+        if (open && (v <= lo || v >= hi)) return quoteValue(s) + ": out of range, expected" + desc.substr(6);
         char buf[40];
         std::snprintf(buf, sizeof buf, "%.17g", v);  // what CLI11 converts next: exact and never hex/octal
         s = buf;

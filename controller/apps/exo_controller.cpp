@@ -48,7 +48,7 @@ std::string defaultPath(const char* file) {
 }
 
 int badInput(const std::string& message) {
-  std::fprintf(stderr, "exo_controller: %s\n", message.c_str());
+  std::fprintf(stderr, "exo_controller: error: %s\n", message.c_str());
   return kExitBadInput;
 }
 

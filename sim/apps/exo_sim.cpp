@@ -36,7 +36,7 @@ volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
 
 int badInput(const std::string& msg) {
-  std::fprintf(stderr, "exo_sim: %s\n", msg.c_str());
+  std::fprintf(stderr, "exo_sim: error: %s\n", msg.c_str());
   return kExitBadInput;
 }
 

@@ -263,6 +263,12 @@ TEST(ExoSimCli, HelpListsEveryOptionChannelAndExitCode) {
 TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
   const std::string bad_scenario = writeFile("bad.yaml", "name: x\nseed: 1\nnoise: off\neffects: {dampin: {all: 1}}\n");
   const std::string bad_mjcf = writeFile("bad.xml", "<mujoco><worldbody><body></mujoco>");
+  std::ifstream in(cfg("exo.xml"));
+  std::string mjcf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  mjcf.replace(mjcf.find("mass=\""), mjcf.find('"', mjcf.find("mass=\"") + 6) - mjcf.find("mass=\"") + 1, "mass=\"nan\"");
+  const std::string nan_mjcf = writeFile("nan.xml", mjcf);  // MuJoCo 2.2 alone accepts it with a warning
+  mjcf.replace(mjcf.find("mass=\"nan\""), 10, "mass=\"inf\"");
+  const std::string inf_mjcf = writeFile("inf.xml", mjcf);  // and this one silently
   const std::string unknown_joint =
       writeFile("joint.yaml", "name: x\nseed: 1\nnoise: off\neffects: {joint_damping: {knee: 1}}\n");
   struct Case {
@@ -281,6 +287,8 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
       {"--scenario " + bad_scenario, bad_scenario + ": effects.dampin: unknown key"},
       {"--scenario " + unknown_joint, unknown_joint + ": effects.joint_damping.knee: unknown joint 'knee'"},
       {"--model " + bad_mjcf, bad_mjcf + ": MuJoCo cannot load the model"},
+      {"--model " + nan_mjcf, nan_mjcf + ": body 'right_plate' <inertial mass='nan'> (line 14): not finite"},
+      {"--model " + inf_mjcf, inf_mjcf + ": body 'right_plate' <inertial mass='inf'> (line 14): not finite"},
       {"--sensors /nonexistent/s.yaml", "/nonexistent/s.yaml: cannot open file"},
       {"--lcm-url udpm://239.255.76.67:7667?ttl=1", "--lcm-url: "},
   };

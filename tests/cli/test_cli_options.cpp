@@ -77,13 +77,21 @@ TEST_F(CliOptions, ExperimentRefusesWhatTheControllerWouldBeforeStarting) {
   expectError(base + " --seed -1", "--seed: '-1': out of range, expected an integer >= 0");
   expectError(base + " --seed 99999999999999999999", "--seed: '99999999999999999999': integer too large");
   expectError(base + " --seed 1.5", "--seed: '1.5': not an integer");
+  // A controller model with a mass of "13,5" used to load as 0 kg and the robot fell during the run.
+  std::string urdf = test::slurp(test::configPath("exo.urdf"));
+  const size_t mass = urdf.find("<mass value=\"");
+  ASSERT_NE(mass, std::string::npos);
+  urdf.replace(mass, urdf.find('"', mass + 13) - mass + 1, "<mass value=\"13,5\"");
+  std::ofstream(dir_.file("comma.urdf")) << urdf;
+  expectError(base + " --model " + dir_.file("comma.urdf"), "comma.urdf': link '");
+  expectError(base + " --model " + dir_.file("comma.urdf"), "<mass value='13,5'>");
   EXPECT_FALSE(std::filesystem::exists(dir_.file("out"))) << "nothing started";
 }
 
 TEST_F(CliOptions, BaseParamsRefusesImpossibleRequests) {
   const std::string base = bin("exoid") + " base-params --model " + test::configPath("exo.urdf") + " --floating-base";
   // --tolerance 1 used to keep no pivot and segfault on the empty combination matrix.
-  expectError(base + " --tolerance 1", "--tolerance: '1': out of range, expected 0 < T < 1");
+  expectError(base + " --tolerance 1", "--tolerance: '1': out of range, expected in (0, 1)");
   expectError(base + " --tolerance 0", "--tolerance: '0': out of range");
   expectError(base + " --tolerance -1e-9", "--tolerance: '-1e-9': out of range");
   // --samples 1 stacked 16 rows for 130 parameters and reported rank 16 as if it were the answer.

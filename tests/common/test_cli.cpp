@@ -10,7 +10,7 @@ namespace {
 struct Parsed {
   int code = -1;
   std::string out, err;
-  double gain = 1.5;
+  double gain = 1.5, ratio = 0.5;
   int64_t count = 3;
   std::string file;
   bool quiet = false;
@@ -21,6 +21,7 @@ Parsed parse(std::vector<std::string> args) {
   CLI::App app{"A test program.", "prog"};
   configureCli(app);
   app.add_option("--gain", p.gain, "a gain")->transform(strictNumber(0.0, 10.0));
+  app.add_option("--ratio", p.ratio, "a ratio")->transform(strictNumber(0.0, 1.0, true));
   app.add_option("--count", p.count, "a count")->transform(strictInteger(1, 1000));
   app.add_option("--file", p.file, "a file");
   app.add_flag("--quiet", p.quiet, "no output");
@@ -81,6 +82,10 @@ TEST(Cli, OneLineErrors) {
   expectError({"--gain", "13,5"}, "--gain: '13,5': not a number");
   expectError({"--gain", "1e400"}, "too large");
   expectError({"--gain", "11"}, "out of range, expected in [0, 10]");
+  expectError({"--ratio", "1"}, "--ratio: '1': out of range, expected in (0, 1)");
+  expectError({"--ratio", "0"}, "--ratio: '0': out of range, expected in (0, 1)");
+  expectError({"--ratio", "-1e-9"}, "--ratio: '-1e-9': out of range");
+  EXPECT_EQ(parse({"--ratio", "1e-300"}).ratio, 1e-300);
   expectError({"--count", "1.5"}, "--count: '1.5': not an integer");
   expectError({"--count", "0"}, "expected an integer in [1, 1000]");
   expectError({"--count", "99999999999999999999"}, "integer too large");

@@ -36,13 +36,10 @@ int cmdBaseParams(int argc, char** argv) {
                  "of parameters, and the stacked regressor must fit in 2 GiB")
       ->transform(common::strictInteger(1, 100000000))->type_name("N");
   app.add_option("--seed", seed, "random seed")->transform(common::strictInteger(0))->type_name("S");
-  app.add_option("--tolerance", opt.tolerance, "pivots below T times the largest count as zero; 0 < T < 1")
-      ->transform(common::strictNumber(0.0, 1.0))->type_name("T");
+  app.add_option("--tolerance", opt.tolerance, "pivots below T times the largest count as zero")
+      ->transform(common::strictNumber(0.0, 1.0, true))->type_name("T");
   app.footer("exit codes: 0 success, 2 bad input.");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
-  if (opt.tolerance <= 0.0 || opt.tolerance >= 1.0)
-    return fail("--tolerance: '" + app.get_option("--tolerance")->as<std::string>() +
-                "': out of range, expected 0 < T < 1");
   std::string err;
   Model model;
   if (!buildModelFromUrdfFile(path, floating_base, model, &err)) return fail(err);

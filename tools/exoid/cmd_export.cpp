@@ -33,8 +33,9 @@ int cmdExport(int argc, char** argv) {
   app.add_flag("--truth", opt.truth,
                              "export the simulator's ground-truth channel (EXO_TRUTH) instead of the sensors;\n"
                "for validation only");
-  app.add_option("--filter", opt.filter_hz, "sensors only: add the derivative columns, Butterworth cutoff HZ (e.g. 50)")
-      ->transform(common::strictNumber(1e-6, 1e6))->type_name("HZ");
+  app.add_option("--filter", opt.filter_hz, "sensors only: add the derivative columns, Butterworth cutoff HZ (e.g. 50);\n"
+                 "below the Nyquist frequency, 500 Hz; absent: no derivative columns")
+      ->transform(common::strictNumber(1e-6, 1e6))->type_name("HZ")->default_str("");
   app.add_option("--model", model_path, "robot model naming the joints")->type_name("URDF");
   bool allow_partial = false;
   app.add_flag("--allow-partial", allow_partial, "export what is readable from a damaged log (the damage is still reported)");

@@ -20,8 +20,9 @@ void configureCli(CLI::App& app);
 int parseCli(CLI::App& app, int argc, const char* const* argv);
 
 /// Transformer (use with ->transform: it rewrites the value CLI11 then converts) of a real-valued option: whole token, finite, lo <= value <= hi.
+/// open: lo < value < hi instead.
 CLI::Validator strictNumber(double lo = std::numeric_limits<double>::lowest(),
-                            double hi = std::numeric_limits<double>::max());
+                            double hi = std::numeric_limits<double>::max(), bool open = false);
 
 /// Transformer (->transform) of an integer option: decimal digits only, lo <= value <= hi.
 CLI::Validator strictInteger(int64_t lo = std::numeric_limits<int64_t>::min(),
