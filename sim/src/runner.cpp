@@ -15,6 +15,7 @@
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/message_gate.hpp"
+#include "plugin_link.hpp"
 
 namespace exoid::sim {
 namespace {
@@ -59,7 +60,10 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
   std::string why;
   why.reserve(1024);  // rejection reasons fit without reallocating
   int reasons_logged = 0;
-  const int subscription = ep.subscribeRaw(channels::kCommand, [&](const char*, const void* bytes, int size, int64_t) {
+  // With an in-loop controller plugin the loop itself publishes EXO_COMMAND: it must not read it back.
+  std::unique_ptr<PluginLink> plugin_link;
+  if (opt.plugin) plugin_link = std::make_unique<PluginLink>(*opt.plugin, ep, sm.joint_names);
+  const int subscription = opt.plugin ? 0 : ep.subscribeRaw(channels::kCommand, [&](const char*, const void* bytes, int size, int64_t) {
     if (gate.admitEncoded(0, bytes, size, scratch, incoming, &why, sm.joint_names)) {
       arbiterOffer(arb, incoming);
     } else if (reasons_logged < 5) {  // the first few reasons help debugging a controller; then only counts
@@ -102,7 +106,7 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       break;
     }
     int r = 0;
-    if (opt.mode == SimMode::Lockstep) {
+    if (opt.mode == SimMode::Lockstep && !opt.plugin) {
       if (k >= 1 && !arbiterHasFresh(arb, k)) {
         auto fresh = [&] { return arbiterHasFresh(arb, k); };
         if (arb.received == 0 && k == 1 && opt.start_timeout_s > 0.0) {
@@ -125,8 +129,8 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
           break;
         }
       }
-    } else if (ep.handleAvailable(1000, err) < 0) {
-      ok = false;
+    } else if ((!plugin_link || plugin_link->listening()) && ep.handleAvailable(1000, err) < 0) {
+      ok = false;  // (a plugin loop that listens to nothing never touches LCM's receive side: no receive thread)
       break;
     }
     if (k >= 1 && arb.received > 0) {
@@ -144,7 +148,7 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       s.fell = true;
       s.fall_tick = k;
     }
-    if (!publishAll()) {
+    if (!publishAll() || (plugin_link && !plugin_link->afterStep(sd.state, arb, err))) {
       ok = false;
       break;
     }
@@ -168,13 +172,17 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       const int64_t next = t0 + (k + 1) * 1000000;
       if (monoNs() > next) {
         ++s.overruns;
+      } else if (plugin_link && !plugin_link->listening()) {  // nothing to receive: sleep to the deadline
+        const timespec ts{static_cast<time_t>(next / 1000000000), static_cast<long>(next % 1000000000)};
+        clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
       } else if (serviceUntil(ep, next, [] { return false; }, stop, err) < 0) {
         ok = false;
       }
     }
   }
 
-  ep.unsubscribe(subscription);  // the handler refers to this frame's locals
+  if (subscription > 0) ep.unsubscribe(subscription);  // the handler refers to this frame's locals
+  plugin_link.reset();
   s.wall_time_s = (monoNs() - t0) * 1e-9;
   s.sim_time_s = s.ticks * 1e-3;
   s.realtime_factor = s.wall_time_s > 0 ? s.sim_time_s / s.wall_time_s : 0.0;

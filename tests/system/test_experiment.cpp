@@ -264,7 +264,7 @@ TEST_F(RunEnd, AFallEndsTheRunAtOnceAndTheSummarySaysWhenAndAfterWhichMove) {
 // Observed: a killed controller left the sim waiting 100 ms on every remaining tick (an hour for 20 moves)
 // and a zombie behind. Now the run stops at once, names the controller, keeps the partial log.
 TEST_F(RunEnd, AKilledControllerEndsTheRunAndIsNamed) {
-  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject kill:controller:2");
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--controller process --inject kill:controller:2");
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
   ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
   EXPECT_EQ(r.summary["outcome"], "failed");
@@ -284,7 +284,7 @@ TEST_F(RunEnd, AKilledControllerEndsTheRunAndIsNamed) {
 // 100 rad, exit code 2) is the same failure.
 TEST_F(RunEnd, AControllerThatExitsEarlyEndsTheRun) {
   const std::string sc = writeScenario("knee.yaml", "name: knee\nseed: 1\nnoise: off\ninitial_state: {joints: {right_knee: 100.0}}\n");
-  const Result r = run(sc, "");
+  const Result r = run(sc, "--controller process");
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
   ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
   EXPECT_NE(r.summary["failures"].dump().find("exo_controller exited with code 2"), std::string::npos) << r.summary;
@@ -294,7 +294,7 @@ TEST_F(RunEnd, AControllerThatExitsEarlyEndsTheRun) {
 
 // A hung controller (SIGSTOP): the sim gives up after --max-missing-commands, the controller is stopped.
 TEST_F(RunEnd, AHungControllerEndsTheRunAfterTheMissingCommandLimit) {
-  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject stop:controller:2 --max-missing-commands 5");
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--controller process --inject stop:controller:2 --max-missing-commands 5");
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
   ASSERT_TRUE(r.summary.is_object() && r.sim.is_object()) << r.cmd.out;
   EXPECT_EQ(r.sim["outcome"], "controller_lost");

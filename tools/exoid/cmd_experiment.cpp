@@ -1,5 +1,6 @@
-// exoid experiment: sim + controller (+ estimator once it exists) as separate processes over LCM udpm://
-// inside a private network namespace, in lockstep, logged by exoid_logger, summarised from the log.
+// exoid experiment: sim + controller (+ estimator once it exists) over LCM udpm:// inside a private network
+// namespace, in lockstep, logged by exoid_logger, summarised from the log. The controller runs inside the
+// sim's loop as a plugin (default) or as its own process.
 #include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
@@ -34,9 +35,10 @@ namespace {
 constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
 
 constexpr char kDescription[] =
-    "Runs the closed loop: exo_sim (MuJoCo, lockstep) and exo_controller (centroidal balance QP doing the\n"
-    "thesis's CoM moves) as separate processes talking LCM over udpm:// with ttl=0 inside a private network\n"
-    "namespace (unshare -n; multicast routed on its loopback only), recorded without loss. Writes\n"
+    "Runs the closed loop: exo_sim (MuJoCo, lockstep) with the centroidal balance QP doing the thesis's CoM\n"
+    "moves, either inside the sim's loop as a plugin (default) or as the separate exo_controller process; every\n"
+    "channel goes over LCM udpm:// with ttl=0 inside a private network namespace (unshare -n; multicast routed\n"
+    "on its loopback only), recorded without loss. Writes\n"
     "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger);\n"
     "                       kept, as far as it got, when a run fails\n"
     "  DIR/summary.json     outcome, failures, moves_done, fell (tick, time, move), com_rmse_m,\n"
@@ -44,7 +46,7 @@ constexpr char kDescription[] =
     "                       simulated / logged, missing_ticks, log_complete, eom_residual_max_rel, ...\n"
     "  DIR/summary.md       the same as a table (also printed)\n"
     "  DIR/sim.log, DIR/sim_result.json, DIR/controller.log, DIR/logger.log   process output (the sim's\n"
-    "                       progress is also printed)\n\n"
+    "                       progress is also printed; controller.log only with --controller process)\n\n"
     "A run ends when the sim has simulated the planned time, or early: the robot fell (the sim stops at the\n"
     "fall), a process died or stopped answering (the others are stopped within seconds and reaped), the\n"
     "watchdog expired, or SIGINT/SIGTERM. The summary is written in every case and names what failed.";
@@ -147,6 +149,15 @@ struct Child {
   double ended_at_s = -1.0;  ///< wall seconds after the sim started
 };
 
+/// build/lib/libexoid_controller_plugin.so next to this binary's build/bin.
+std::string pluginPath() {
+  return (std::filesystem::path(selfPath()).parent_path().parent_path() / "lib" / "libexoid_controller_plugin.so").string();
+}
+
+/// Plugin mode: wall seconds without a new progress line of the sim before the run counts as hung (the sim
+/// loads MuJoCo and the plugin within ~1 s and prints a line per simulated second, at >= 1x real time).
+constexpr double kSimStallS = 10.0;
+
 std::string slurp(const std::string& path) {
   std::ifstream in(path);
   std::stringstream ss;
@@ -177,7 +188,8 @@ int cmdExperiment(int argc, char** argv) {
   CLI::App app{kDescription, "exoid experiment"};
   common::configureCli(app);
   std::string scenario_path, out_dir, controller_config = config + "/controller.yaml", sensors = config + "/sensors.yaml",
-      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml", inject_text;
+      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml", inject_text, controller_mode = "plugin",
+      plugin_lib = pluginPath();
   int64_t seed = 1, moves = 0, max_missing = 10;
   double watchdog_factor = 3.0, watchdog_margin = 60.0;
   bool realtime = false, no_pin = false;
@@ -195,7 +207,15 @@ int cmdExperiment(int argc, char** argv) {
       ->transform(common::strictInteger(controller::kMinSeed, controller::kMaxSeed))->type_name("N");
   app.add_option("--moves", moves, "number of CoM moves (0: the controller configuration's, 20)")
       ->transform(common::strictInteger(0, controller::kMaxMoves))->type_name("N");
-  app.add_flag("--realtime", realtime, "run the sim at wall-clock 1 kHz instead of lockstep");
+  app.add_option("--controller", controller_mode,
+                 "plugin: the balance controller runs inside exo_sim's loop as\n"
+                 "build/lib/libexoid_controller_plugin.so (docs/plugin.md), no controller process;\n"
+                 "process: exo_controller as its own process over LCM. Same commands tick by tick")
+      ->check(CLI::IsMember({"plugin", "process"}))->type_name("plugin|process");
+  app.add_option("--controller-plugin", plugin_lib, "plugin mode: the controller plugin library")->type_name("LIB");
+  app.add_flag("--realtime", realtime,
+               "run the sim at wall-clock 1 kHz instead of lockstep (exo_sim --rt-priority 50:\n"
+               "SCHED_FIFO and locked memory where allowed)");
   app.add_flag("--no-pin", no_pin,
                "do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
                "controller share the first allowed CPU; the logger is never pinned)");
@@ -214,7 +234,8 @@ int cmdExperiment(int argc, char** argv) {
                  "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"
                  "once the sim reports SECONDS simulated (its progress lines, 1 s apart), send\n"
                  "PROCESS (sim, controller or logger) SIGKILL (ACTION kill) or SIGSTOP (ACTION\n"
-                 "stop: it hangs), e.g. --inject kill:controller:2")
+                 "stop: it hangs), e.g. --inject kill:controller:2 (controller only with\n"
+                 "--controller process)")
       ->type_name("SPEC");
   app.footer(kFooter);
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
@@ -229,6 +250,11 @@ int cmdExperiment(int argc, char** argv) {
       return fail("--" + std::string(name) + ": no such file '" + *file + "'" + (ec ? " (" + ec.message() + ")" : ""));
   Injection inject;
   if (!inject_text.empty() && !parseInjection(inject_text, &inject, &err)) return fail(err);
+  const bool use_plugin = controller_mode == "plugin";
+  if (std::error_code ec; use_plugin && !std::filesystem::is_regular_file(plugin_lib, ec))
+    return fail("--controller-plugin: no such file '" + plugin_lib + "'" + (ec ? " (" + ec.message() + ")" : ""));
+  if (use_plugin && inject.process == "controller")
+    return fail("--inject: there is no controller process with --controller plugin");
   controller::ControllerConfig cc;
   if (!controller::loadControllerConfig(controller_config, cc, &err)) return fail(err);
   if (moves == 0) moves = cc.trajectory.moves;
@@ -284,24 +310,37 @@ int cmdExperiment(int argc, char** argv) {
   if (logger.pid < 0) return fail(err);
   logger.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", model_path, "--config", controller_config,
-                           "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
-                          (out / "controller.log").string(), &err, loop_cpu);
-  if (ctrl.pid < 0) return tools::stop(logger.pid, SIGINT, 2000), fail(err);
-  ctrl.running = true;
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  if (!use_plugin) {
+    ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", model_path, "--config", controller_config,
+                             "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
+                            (out / "controller.log").string(), &err, loop_cpu);
+    if (ctrl.pid < 0) return tools::stop(logger.pid, SIGINT, 2000), fail(err);
+    ctrl.running = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
   char dur[32];
   std::snprintf(dur, sizeof dur, "%.3f", duration);
   const double watchdog_s = duration * watchdog_factor + watchdog_margin;
-  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s -> %s (watchdog %.0f s)\n", moves,
-              duration, scenario_path.c_str(), out.c_str(), watchdog_s);
+  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s (watchdog %.0f s)\n",
+              static_cast<long>(moves), duration, scenario_path.c_str(), controller_mode.c_str(), out.c_str(), watchdog_s);
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
-  sim.pid = tools::spawn({bin + "/exo_sim", "--model", mjcf, "--sensors", sensors, "--scenario",
-                          scenario_path, "--mode", lockstep ? "lockstep" : "realtime", "--duration", dur,
-                          "--max-missing-commands", std::to_string(max_missing), "--result", sim_result, "--lcm-url", url},
-                         sim_log, &err, loop_cpu);
-  if (sim.pid < 0) return tools::stop(ctrl.pid, SIGTERM, 2000), tools::stop(logger.pid, SIGINT, 2000), fail(err);
+  std::vector<std::string> sim_args = {bin + "/exo_sim", "--model", mjcf, "--sensors", sensors, "--scenario",
+                                       scenario_path, "--mode", lockstep ? "lockstep" : "realtime", "--duration", dur,
+                                       "--max-missing-commands", std::to_string(max_missing), "--result", sim_result,
+                                       "--lcm-url", url};
+  if (!lockstep) sim_args.insert(sim_args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
+  if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
+    sim_args.insert(sim_args.end(), {"--controller-plugin", plugin_lib, "--controller-model", model_path,
+                                     "--controller-config", controller_config, "--controller-seed", std::to_string(seed),
+                                     "--controller-moves", std::to_string(moves),
+                                     "--no-estimate"});  // no estimator runs: the loop need not receive at all
+  sim.pid = tools::spawn(sim_args, sim_log, &err, loop_cpu);
+  if (sim.pid < 0) {
+    if (ctrl.running) tools::stop(ctrl.pid, SIGTERM, 2000);
+    tools::stop(logger.pid, SIGINT, 2000);
+    return fail(err);
+  }
   sim.running = true;
 
   // Supervise: the first of {sim done, a process ended early, watchdog, signal} ends the run.
@@ -313,10 +352,11 @@ int cmdExperiment(int argc, char** argv) {
     return c.pid > 0 && !c.running;
   };
   std::streamoff echoed = 0;
-  double sim_time = 0.0;
+  double sim_time = 0.0, progress_sim_time = 0.0, progress_at_s = 0.0;
   for (;;) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     echoNewLines(sim_log, &echoed, &sim_time);
+    if (sim_time != progress_sim_time) progress_sim_time = sim_time, progress_at_s = since();
     if (inject.at_s >= 0.0 && !inject.done && sim_time >= inject.at_s) {
       Child& target = inject.process == "sim" ? sim : inject.process == "controller" ? ctrl : logger;
       if (target.pid > 0) ::kill(target.pid, inject.action == "kill" ? SIGKILL : SIGSTOP);  // never kill(-1, ...)
@@ -344,7 +384,16 @@ int cmdExperiment(int argc, char** argv) {
       facts.failures.push_back(buf);
       break;
     }
-    if (reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 10.0)) {
+    // With the controller in the sim there is no controller process whose idle timeout notices a hung sim:
+    // the sim's own progress lines (one per simulated second, or per wall second in realtime) stand in.
+    if (use_plugin && since() > progress_at_s + kSimStallS) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "exo_sim stopped publishing: no progress for %.0f s (last at %.0f s simulated)",
+                    kSimStallS, sim_time);
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (!use_plugin && reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 10.0)) {
       char buf[240];
       if (ctrl.code != 0)
         std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over%s (see %s)",

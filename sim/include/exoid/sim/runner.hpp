@@ -13,6 +13,7 @@
 
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/sim/command.hpp"
+#include "exoid/sim/controller_plugin.hpp"
 #include "exoid/sim/sim.hpp"
 
 namespace exoid::sim {
@@ -31,6 +32,9 @@ struct RunOptions {
   bool stop_on_fall = true;       ///< end the run at the tick the robot fell (Fell)
   bool quiet = false;             ///< no progress lines
   std::FILE* log = stdout;        ///< progress and summary
+  /// In-loop controller (exo_sim --controller-plugin, docs/plugin.md): runs after each step instead of
+  /// waiting for EXO_COMMAND; the loop publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS.
+  ControllerPlugin* plugin = nullptr;
 };
 
 /// How a run ended (exo_sim's exit code follows it, docs/sim.md).
