@@ -42,6 +42,7 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
       contact_right_(config.contact, BaseStateEstimator::kRight),
       contact_left_(config.contact, BaseStateEstimator::kLeft),
       formulation_(model, config.contact, config.torque),
+      disturbance_(config.disturbance, config.loop.period, model.nv),
       solver_(std::move(solver)),
       dyn_(model) {
   std::string why;
@@ -143,7 +144,6 @@ void BalanceController::startTrajectory(int64_t tick) {
 }
 
 bool BalanceController::runQp() {
-  computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
   momentum_.compute(ref_, dyn_, rate_desired_);
   posture_.compute(estimator_->state(), dnu_desired_, dnu_weights_);
   formulation_.build(dyn_, rate_desired_, momentum_.weights(), dnu_desired_, dnu_weights_, contact_right_,
@@ -189,6 +189,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     ++rejected_;
   } else {
     const int64_t gap = has_last_tick_ ? in.tick - last_tick_ : 1;
+    gap_ = gap;
     if (gap > 1) stale_ += static_cast<int32_t>(gap - 1);
     const bool was_latched = estimator_->latched();
     estimator_->update(in, gap);
@@ -217,11 +218,17 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
       contact_left_.setReference(estimator_->solePosition(1), estimator_->soleRotation(1));
       posture_.setReference(estimator_->initialPosture());
     }
-    // Feedforward from the estimator enters the dynamics (h + tau_ff), zero when absent or too old.
+    computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+    // Feedforward from the estimator enters the dynamics (h + tau_ff), zero when absent or too old; the
+    // disturbance observer's estimate of what the model still misses is added to it.
     const bool use_ff = cfg_.feedforward.enabled && has_feedforward_ &&
                         in.tick - feedforward_tick_ <= cfg_.feedforward.max_age_ticks;
     if (use_ff) dyn_.tau_ff = ff_input_;
     else dyn_.tau_ff.setZero();
+    if (cfg_.disturbance.enabled) {
+      disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_);
+      dyn_.tau_ff += disturbance_.estimate();
+    }
 
     const bool qp_ok = runQp();
     st.qp_status = result_.status;
@@ -235,8 +242,9 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
       for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j)
         tau_cmd_[j] = joint_actuated_[j] ? clampAbs(tau_gen_[6 + j], joint_limit_[j]) : 0.0;
       if (!tau_cmd_.allFinite() && reason == FallbackReason::None) reason = FallbackReason::NonFiniteTorque;
+      // command.tau_ff reports the estimator's feedforward only (not the disturbance observer's estimate).
       for (Eigen::Index j = 0; j < tau_ff_joint_.size(); ++j)
-        tau_ff_joint_[j] = joint_actuated_[j] ? dyn_.tau_ff[6 + j] : 0.0;
+        tau_ff_joint_[j] = joint_actuated_[j] && use_ff ? ff_input_[6 + j] : 0.0;
     }
     // Status: estimate, reference, momentum and the QP's wrenches.
     st.com_ref = ref_.position;
@@ -269,6 +277,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   }
   if (good) {
     out.mode = CommandMode::Torque;
+    disturbance_.setPlanned(result_.x.head(model_.nv));
     tau_last_safe_ = tau_cmd_;
     has_last_safe_ = true;
     bad_streak_ = 0;
@@ -279,6 +288,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
       good_streak_ = 0;
     }
     ++fallbacks_;
+    disturbance_.clearPlanned();
     fallbackTorque(out);
     tau_ff_joint_.setZero();
   }

@@ -13,6 +13,7 @@
 #include "exoid/controller/base_state_estimator.hpp"
 #include "exoid/controller/com_trajectory.hpp"
 #include "exoid/controller/config.hpp"
+#include "exoid/controller/disturbance_observer.hpp"
 #include "exoid/controller/formulation.hpp"
 #include "exoid/controller/qp_solver.hpp"
 #include "exoid/controller/robot_dynamics.hpp"
@@ -77,6 +78,7 @@ class BalanceController {
   const QpResult& result() const { return result_; }
   const CoMReference& reference() const { return ref_; }
   const Vector6d& desiredMomentumRate() const { return rate_desired_; }
+  const DisturbanceObserver& disturbanceObserver() const { return disturbance_; }
   /// Trajectory duration (s), known once the trajectory is generated (at the end of the start-up latch).
   double trajectoryDuration() const { return trajectory_.ready() ? trajectory_.duration() : 0.0; }
   const std::array<SoleFrame, 2>& soles() const { return soles_; }
@@ -101,6 +103,7 @@ class BalanceController {
   PostureRegularization posture_;
   ContactSixD contact_right_, contact_left_;
   BalanceFormulation formulation_;
+  DisturbanceObserver disturbance_;
   std::unique_ptr<QpSolver> solver_;
   RobotDynamicsData dyn_;
   QpProblem qp_;
@@ -119,6 +122,7 @@ class BalanceController {
 
   bool has_last_tick_ = false;
   int64_t last_tick_ = 0;
+  int64_t gap_ = 1;  // ticks since the previous good state
   int64_t trajectory_start_tick_ = 0;
   bool has_last_safe_ = false;
   bool has_feedforward_ = false;
