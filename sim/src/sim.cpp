@@ -349,6 +349,7 @@ void stageRecordState(const SimModel& sm, SimData& sd) {
   const Eigen::Matrix3d R = t.base_orientation.toRotationMatrix();  // world <- base
   t.base_velocity = R.transpose() * Eigen::Vector3d(v[0], v[1], v[2]);  // qvel[0:3] is in the world frame
   t.base_omega = Eigen::Vector3d(v[3], v[4], v[5]);                     // qvel[3:6] is in the body frame
+  t.com = Eigen::Vector3d(d->subtree_com + 3 * sm.base_body);  // mj_step1's CoM stage, undeclared payloads included
   for (int j = 0; j < sm.nj; ++j) {
     t.q[j] = d->qpos[sm.qpos_adr[static_cast<size_t>(j)]];
     t.v[j] = d->qvel[sm.dof_adr[static_cast<size_t>(j)]];

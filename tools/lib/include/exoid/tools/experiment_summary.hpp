@@ -12,8 +12,10 @@ struct ExperimentSummary {
   int moves_planned = 0;
   int moves_done = 0;
   bool fell = false;               ///< the true base height dropped > 0.25 m below its start
-  double com_rmse_m = 0.0;         ///< true CoM (from the exact state and the model) vs the CoM reference
+  double com_rmse_m = 0.0;         ///< model CoM (the URDF model at the exact state) vs the CoM reference
   double com_max_error_m = 0.0;
+  double true_com_rmse_m = 0.0;    ///< the simulated robot's CoM (undeclared payloads included) vs the reference
+  double true_com_max_error_m = 0.0;
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
   double qp_solve_us_p50 = 0.0, qp_solve_us_p99 = 0.0;
   double tick_us_p50 = 0.0, tick_us_p99 = 0.0;
