@@ -82,6 +82,8 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
   tau_cmd_ = Eigen::VectorXd::Zero(model.njoints);
   tau_last_safe_ = Eigen::VectorXd::Zero(model.njoints);
   tau_ff_joint_ = Eigen::VectorXd::Zero(model.njoints);
+  wrench_residual_ = Eigen::VectorXd::Zero(model.nv);
+  planned_tick_.fill(-1);
   ff_input_ = Eigen::VectorXd::Zero(model.nv);
   joint_actuated_ = Eigen::VectorXi::Zero(model.njoints);
   joint_limit_ = Eigen::VectorXd::Zero(model.njoints);
@@ -120,6 +122,37 @@ bool BalanceController::setFeedforward(const Eigen::Ref<const Eigen::VectorXd>& 
 void BalanceController::clearFeedforward() {
   has_feedforward_ = false;
   ff_input_.setZero();
+}
+
+bool BalanceController::setForcePlate(const ForcePlateSample& p) {
+  if (p.plate < 0 || p.plate > 1 || !p.force.allFinite() || !p.moment.allFinite() ||
+      !p.plate_position.allFinite() || !p.plate_orientation.coeffs().allFinite())
+    return false;
+  const size_t i = static_cast<size_t>(p.plate);
+  const Eigen::Matrix3d R = p.plate_orientation.normalized().toRotationMatrix();
+  const Eigen::Vector3d F_plate = R * p.force;
+  plate_force_[i] = -F_plate;  // ON the foot
+  plate_moment_[i] = -(R * p.moment + p.plate_position.cross(F_plate));
+  plate_tick_[i] = p.tick;
+  return true;
+}
+
+bool BalanceController::plateResidual() {
+  // Both plates of the same tick j, recent, and the wrench planned for the command applied at tick j.
+  if (plate_tick_[0] < 0 || plate_tick_[0] != plate_tick_[1] ||
+      last_tick_ - plate_tick_[0] > cfg_.disturbance.max_plate_age_ticks)
+    return false;
+  const size_t slot = static_cast<size_t>(plate_tick_[0] % kPlanRing);
+  if (planned_tick_[slot] != plate_tick_[0]) return false;
+  wrench_residual_.setZero();
+  for (size_t i = 0; i < 2; ++i) {
+    Vector6d f;  // measured, the formulation's convention: world, moment about the sole origin
+    f.head<3>() = plate_force_[i];
+    f.tail<3>() = plate_moment_[i] - dyn_.foot_position[i].cross(plate_force_[i]);
+    f -= planned_wrench_[slot].segment<6>(6 * static_cast<Eigen::Index>(i));
+    wrench_residual_.noalias() += dyn_.Jc[i].transpose() * f;
+  }
+  return true;
 }
 
 bool BalanceController::inputValid(const RobotStateSample& in) const {
@@ -226,7 +259,8 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     if (use_ff) dyn_.tau_ff = ff_input_;
     else dyn_.tau_ff.setZero();
     if (cfg_.disturbance.enabled) {
-      disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_);
+      const bool plates = cfg_.disturbance.force_plates && plateResidual();
+      disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_, plates ? &wrench_residual_ : nullptr);
       dyn_.tau_ff += disturbance_.estimate();
     }
 
@@ -278,6 +312,9 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   if (good) {
     out.mode = CommandMode::Torque;
     disturbance_.setPlanned(result_.x.head(model_.nv));
+    const size_t slot = static_cast<size_t>(out.tick % kPlanRing);
+    planned_wrench_[slot] = result_.x.segment<12>(model_.nv);
+    planned_tick_[slot] = out.tick;
     tau_last_safe_ = tau_cmd_;
     has_last_safe_ = true;
     bad_streak_ = 0;
@@ -289,6 +326,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     }
     ++fallbacks_;
     disturbance_.clearPlanned();
+    planned_tick_[static_cast<size_t>(out.tick % kPlanRing)] = -1;
     fallbackTorque(out);
     tau_ff_joint_.setZero();
   }

@@ -18,7 +18,8 @@ void DisturbanceObserver::reset() {
   has_prev_ = has_planned_ = false;
 }
 
-void DisturbanceObserver::update(const Eigen::MatrixXd& M, const Eigen::VectorXd& nu, int64_t ticks_since_last) {
+void DisturbanceObserver::update(const Eigen::MatrixXd& M, const Eigen::VectorXd& nu, int64_t ticks_since_last,
+                                 const Eigen::VectorXd* wrench_residual) {
   if (has_prev_ && has_planned_ && ticks_since_last >= 1) {
     const double dt = static_cast<double>(ticks_since_last) * period_;
     acc_ = (nu - nu_prev_) / dt;
@@ -26,6 +27,7 @@ void DisturbanceObserver::update(const Eigen::MatrixXd& M, const Eigen::VectorXd
     acc_.segment<3>(3) += nu.head<3>().cross(nu.segment<3>(3));
     err_ = planned_ - acc_;
     d_.noalias() += (period_ / cfg_.time_constant) * (M * err_);
+    if (wrench_residual) d_ += (period_ / cfg_.time_constant) * *wrench_residual;
     d_ = d_.cwiseMax(-cfg_.max_abs).cwiseMin(cfg_.max_abs);
   }
   nu_prev_ = nu;

@@ -59,16 +59,16 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
     return m;
   }
   m.loaded = true;
-  const mjModel* mm = sm.m;
   int sole_geom[2] = {sm.foot_geom[0], sm.foot_geom[1]};
   JointCommandSample cmd = sim::simZeroCommand(sm);
   ControllerStatus st;
-  Eigen::Vector3d sole0[2];
+  Eigen::Vector3d sole0[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   double se_model = 0.0, se_true = 0.0;
   long n = 0;
   const long ticks = static_cast<long>((plannedRunDuration(cfg) + 0.5) / cfg.loop.period);
   for (long k = 0; k < ticks; ++k) {
     sim::simStep(sm, sd, cmd);
+    for (const ForcePlateSample& p : sd.plates) ctrl.setForcePlate(p);
     ctrl.tick(sd.state, cmd, st);
     observe(k, sm, sd, ctrl, st);
     const mjData* d = sd.d;
@@ -92,7 +92,6 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
       break;
     }
   }
-  (void)mm;
   if (n > 0) {
     m.model_com_rmse = std::sqrt(se_model / static_cast<double>(n));
     m.true_com_rmse = std::sqrt(se_true / static_cast<double>(n));

@@ -104,6 +104,8 @@ struct DisturbanceConfig {
   bool enabled = false;        ///< add the estimate to the dynamics of the QP (h + d)
   double time_constant = 0.0;  ///< s, time constant of the estimate's convergence
   double max_abs = 0.0;        ///< N, N m: bound of each component of the estimate
+  bool force_plates = false;   ///< also compare the measured contact wrenches (force plates) with the planned
+  int max_plate_age_ticks = 0; ///< a plate sample older than this many ticks is not used
 };
 
 struct ControllerConfig {
