@@ -19,7 +19,7 @@ uint64_t envOr(const char* name, uint64_t fallback) {
 /// One random scenario: each kind of effect present with probability 1/2 (at least one; so single effects and
 /// combinations), values uniform in the ranges: payload <= 4 kg on any link with its CoM anywhere within 0.15 m of the link frame origin; viscous
 /// damping <= 3 N m s/rad and dry friction <= 3 N m on a random subset of joints; armature <= 0.1 kg m^2;
-/// torque sensor offsets <= 1 N m and gain errors <= 10 %.
+/// torque sensor offsets <= 1 N m and gain errors <= 10 %, with the drives closing their loop on them.
 sim::Scenario drawScenario(const Model& model, std::mt19937_64& rng, std::string* description) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   sim::Scenario s;
@@ -58,7 +58,8 @@ sim::Scenario drawScenario(const Model& model, std::mt19937_64& rng, std::string
       *description += "}; ";
     }
     if (u(rng) < 0.5) {
-      *description += "torque sensors {";
+      e.drive_loop_on_sensor = true;  // the drives close their loop on them: actuation errors
+      *description += "torque sensors (drive loop on them) {";
       for (int j = 0; j < model.njoints; ++j) {
         if (model.effort_limit[j] <= 0.0) continue;  // passive joints have no sensor
         sim::TorqueSensorError t{model.joint_names[static_cast<size_t>(j)], 2.0 * u(rng) - 1.0,

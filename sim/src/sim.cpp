@@ -373,7 +373,15 @@ bool stageControl(const SimModel& sm, SimData& sd, const JointCommandSample& cmd
     if (a < 0) continue;  // unactuated joint: its entry is ignored
     double u = 0.0;
     switch (cmd.mode) {
-      case CommandMode::Torque: u = cmd.tau[j] / sm.gear[static_cast<size_t>(j)]; break;
+      case CommandMode::Torque: {
+        const size_t jj = static_cast<size_t>(j);
+        // A drive closing its loop on its torque sensor applies what makes the sensor read the command.
+        const double tau = sm.scenario.effects.drive_loop_on_sensor
+                               ? (cmd.tau[j] - sm.torque_offset[jj]) / sm.torque_gain[jj]
+                               : cmd.tau[j];
+        u = tau / sm.gear[jj];
+        break;
+      }
       case CommandMode::HoldLastSafe: u = sd.ctrl_prev[static_cast<size_t>(a)]; break;
       case CommandMode::Damping:
         u = -sm.options.damping_gain * d->qvel[sm.dof_adr[static_cast<size_t>(j)]] / sm.gear[static_cast<size_t>(j)];

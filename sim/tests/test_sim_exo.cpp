@@ -272,6 +272,28 @@ TEST_F(SimExo, TruthCoMIncludesUndeclaredPayloads) {
   EXPECT_GT((sd.truth.com - c_model).norm(), 5e-3);  // the payload moved it
 }
 
+// drive_torque_loop: sensor turns the torque-sensor errors into actuation errors: the drive applies
+// (command - offset) / gain, which its sensor reads as the command; ideal applies the command.
+TEST_F(SimExo, DriveTorqueLoopOnTheSensorAppliesTheSensorsError) {
+  for (const bool on_sensor : {false, true}) {
+    Scenario sc = makeScenario(NoiseMode::Off);
+    sc.effects.torque_sensor = {{"all", 0.7, 1.08}, {"left_knee", -0.9, 0.93}};
+    sc.effects.drive_loop_on_sensor = on_sensor;
+    load(sc);
+    JointCommandSample cmd = simZeroCommand(sm);
+    for (int j = 0; j < sm.nj; ++j) cmd.tau[j] = 2.0 + 0.5 * j;
+    simStep(sm, sd, cmd);
+    for (int j = 0; j < sm.nj; ++j) {
+      if (sm.actuator[static_cast<size_t>(j)] < 0) continue;
+      const double gain = sm.torque_gain[static_cast<size_t>(j)], offset = sm.torque_offset[static_cast<size_t>(j)];
+      const double applied = on_sensor ? (cmd.tau[j] - offset) / gain : cmd.tau[j];
+      EXPECT_NEAR(sd.truth.tau_applied[j], applied, 1e-12) << sm.joint_names[j];
+      EXPECT_NEAR(sd.state.tau[j], gain * applied + offset, 1e-9) << sm.joint_names[j];
+    }
+    EXPECT_DOUBLE_EQ(sm.torque_offset[static_cast<size_t>(model.jointIndex("left_knee"))], -0.9);
+  }
+}
+
 // Every shipped scenario loads against the real model, and the realistic sensors file is complete.
 TEST_F(SimExo, ShippedScenariosLoad) {
   const SensorConfig realistic = realisticSensors();
