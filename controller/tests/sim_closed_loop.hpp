@@ -68,8 +68,9 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
   const long ticks = static_cast<long>((plannedRunDuration(cfg) + 0.5) / cfg.loop.period);
   for (long k = 0; k < ticks; ++k) {
     sim::simStep(sm, sd, cmd);
-    for (const ForcePlateSample& p : sd.plates) ctrl.setForcePlate(p);
     ctrl.tick(sd.state, cmd, st);
+    // As over LCM: the plates of tick k reach the controller after its answer to the state of tick k.
+    for (const ForcePlateSample& p : sd.plates) ctrl.setForcePlate(p);
     observe(k, sm, sd, ctrl, st);
     const mjData* d = sd.d;
     for (int i = 0; i < 2; ++i) {
