@@ -98,6 +98,10 @@ int main(int argc, char** argv) {
       "              EXO_ESTIMATE           exoid_lcm.estimator_output_t optional: tau_ff [N m] enters the QP's\n"
       "                                                                  dynamics while younger than\n"
       "                                                                  feedforward.max_age_ticks\n"
+      "              EXO_PLATE_RIGHT/LEFT   exoid_lcm.force_plate_t      force plates (N, N m ON the plate, plate\n"
+      "                                                                  frame): the disturbance observer's\n"
+      "                                                                  measured contact wrenches when\n"
+      "                                                                  disturbance.force_plates\n"
       "  publishes   EXO_COMMAND            exoid_lcm.joint_command_t    tick k+1, source_tick k; tau [N m]\n"
       "                                                                  (0 on the passive ankle in/eversion),\n"
       "                                                                  tau_ff [N m], mode 0 torque / 1 hold\n"
@@ -144,9 +148,10 @@ int main(int argc, char** argv) {
 
   const std::vector<std::string>& joint_names = model.joint_names;
   const std::vector<std::string> param_names = model.paramNames();
-  MessageGate gate({channels::kState, channels::kEstimate});
+  MessageGate gate({channels::kState, channels::kEstimate, channels::kPlateRight, channels::kPlateLeft});
   const int ch_state = gate.channelIndex(channels::kState);
   const int ch_estimate = gate.channelIndex(channels::kEstimate);
+  const int ch_plate[2] = {gate.channelIndex(channels::kPlateRight), gate.channelIndex(channels::kPlateLeft)};
 
   RobotStateSample state, bad_state;
   state.q = Eigen::VectorXd::Zero(model.njoints);
@@ -158,6 +163,8 @@ int main(int argc, char** argv) {
   estimate.params = Eigen::VectorXd::Zero(model.nparams());
   estimate.param_stddev = Eigen::VectorXd::Zero(model.nparams());
   estimate.tau_ff = Eigen::VectorXd::Zero(model.njoints);
+  ForcePlateSample plate;
+  exoid_lcm::force_plate_t plate_msg;
   exoid_lcm::robot_state_t state_msg;
   exoid_lcm::estimator_output_t estimate_msg;
   exoid_lcm::joint_command_t command_msg;
@@ -223,6 +230,16 @@ int main(int argc, char** argv) {
       ++unanswered;
     }
   });
+  if (cfg.disturbance.enabled && cfg.disturbance.force_plates) {
+    // The plates of tick k arrive after the state of tick k: the observer pairs them with the wrench it planned
+    // for that tick, so they are used one tick later.
+    for (int i = 0; i < 2; ++i) {
+      const char* channel = i == 0 ? channels::kPlateRight : channels::kPlateLeft;
+      lcm->subscribeRaw(channel, [&, i](const char*, const void* data, int size, int64_t) {
+        if (gate.admitEncoded(ch_plate[i], data, size, plate_msg, plate, nullptr, i)) ctrl.setForcePlate(plate);
+      });
+    }
+  }
   if (use_estimate) {
     lcm->subscribeRaw(channels::kEstimate, [&](const char*, const void* data, int size, int64_t) {
       if (gate.admitEncoded(ch_estimate, data, size, estimate_msg, estimate, nullptr, param_names, joint_names) &&

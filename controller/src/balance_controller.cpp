@@ -42,6 +42,7 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
       contact_right_(config.contact, BaseStateEstimator::kRight),
       contact_left_(config.contact, BaseStateEstimator::kLeft),
       formulation_(model, config.contact, config.torque),
+      disturbance_(config.disturbance, config.loop.period, model.nv),
       solver_(std::move(solver)),
       dyn_(model) {
   std::string why;
@@ -81,6 +82,8 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
   tau_cmd_ = Eigen::VectorXd::Zero(model.njoints);
   tau_last_safe_ = Eigen::VectorXd::Zero(model.njoints);
   tau_ff_joint_ = Eigen::VectorXd::Zero(model.njoints);
+  wrench_residual_ = Eigen::VectorXd::Zero(model.nv);
+  planned_tick_.fill(-1);
   ff_input_ = Eigen::VectorXd::Zero(model.nv);
   joint_actuated_ = Eigen::VectorXi::Zero(model.njoints);
   joint_limit_ = Eigen::VectorXd::Zero(model.njoints);
@@ -121,6 +124,37 @@ void BalanceController::clearFeedforward() {
   ff_input_.setZero();
 }
 
+bool BalanceController::setForcePlate(const ForcePlateSample& p) {
+  if (p.plate < 0 || p.plate > 1 || !p.force.allFinite() || !p.moment.allFinite() ||
+      !p.plate_position.allFinite() || !p.plate_orientation.coeffs().allFinite())
+    return false;
+  const size_t i = static_cast<size_t>(p.plate);
+  const Eigen::Matrix3d R = p.plate_orientation.normalized().toRotationMatrix();
+  const Eigen::Vector3d F_plate = R * p.force;
+  plate_force_[i] = -F_plate;  // ON the foot
+  plate_moment_[i] = -(R * p.moment + p.plate_position.cross(F_plate));
+  plate_tick_[i] = p.tick;
+  return true;
+}
+
+bool BalanceController::plateResidual() {
+  // Both plates of the same tick j, recent, and the wrench planned for the command applied at tick j.
+  if (plate_tick_[0] < 0 || plate_tick_[0] != plate_tick_[1] ||
+      last_tick_ - plate_tick_[0] > cfg_.disturbance.max_plate_age_ticks)
+    return false;
+  const size_t slot = static_cast<size_t>(plate_tick_[0] % kPlanRing);
+  if (planned_tick_[slot] != plate_tick_[0]) return false;
+  wrench_residual_.setZero();
+  for (size_t i = 0; i < 2; ++i) {
+    Vector6d f;  // measured, the formulation's convention: world, moment about the sole origin
+    f.head<3>() = plate_force_[i];
+    f.tail<3>() = plate_moment_[i] - dyn_.foot_position[i].cross(plate_force_[i]);
+    f -= planned_wrench_[slot].segment<6>(6 * static_cast<Eigen::Index>(i));
+    wrench_residual_.noalias() += dyn_.Jc[i].transpose() * f;
+  }
+  return true;
+}
+
 bool BalanceController::inputValid(const RobotStateSample& in) const {
   if (in.q.size() != model_.njoints || !in.q.allFinite()) return false;
   if (!in.imu_gyro.allFinite() || !in.imu_orientation.coeffs().allFinite()) return false;
@@ -143,7 +177,6 @@ void BalanceController::startTrajectory(int64_t tick) {
 }
 
 bool BalanceController::runQp() {
-  computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
   momentum_.compute(ref_, dyn_, rate_desired_);
   posture_.compute(estimator_->state(), dnu_desired_, dnu_weights_);
   formulation_.build(dyn_, rate_desired_, momentum_.weights(), dnu_desired_, dnu_weights_, contact_right_,
@@ -189,6 +222,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     ++rejected_;
   } else {
     const int64_t gap = has_last_tick_ ? in.tick - last_tick_ : 1;
+    gap_ = gap;
     if (gap > 1) stale_ += static_cast<int32_t>(gap - 1);
     const bool was_latched = estimator_->latched();
     estimator_->update(in, gap);
@@ -217,11 +251,18 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
       contact_left_.setReference(estimator_->solePosition(1), estimator_->soleRotation(1));
       posture_.setReference(estimator_->initialPosture());
     }
-    // Feedforward from the estimator enters the dynamics (h + tau_ff), zero when absent or too old.
+    computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+    // Feedforward from the estimator enters the dynamics (h + tau_ff), zero when absent or too old; the
+    // disturbance observer's estimate of what the model still misses is added to it.
     const bool use_ff = cfg_.feedforward.enabled && has_feedforward_ &&
                         in.tick - feedforward_tick_ <= cfg_.feedforward.max_age_ticks;
     if (use_ff) dyn_.tau_ff = ff_input_;
     else dyn_.tau_ff.setZero();
+    if (cfg_.disturbance.enabled) {
+      const bool plates = cfg_.disturbance.force_plates && plateResidual();
+      disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_, plates ? &wrench_residual_ : nullptr);
+      dyn_.tau_ff += disturbance_.estimate();
+    }
 
     const bool qp_ok = runQp();
     st.qp_status = result_.status;
@@ -235,8 +276,9 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
       for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j)
         tau_cmd_[j] = joint_actuated_[j] ? clampAbs(tau_gen_[6 + j], joint_limit_[j]) : 0.0;
       if (!tau_cmd_.allFinite() && reason == FallbackReason::None) reason = FallbackReason::NonFiniteTorque;
+      // command.tau_ff reports the estimator's feedforward only (not the disturbance observer's estimate).
       for (Eigen::Index j = 0; j < tau_ff_joint_.size(); ++j)
-        tau_ff_joint_[j] = joint_actuated_[j] ? dyn_.tau_ff[6 + j] : 0.0;
+        tau_ff_joint_[j] = joint_actuated_[j] && use_ff ? ff_input_[6 + j] : 0.0;
     }
     // Status: estimate, reference, momentum and the QP's wrenches.
     st.com_ref = ref_.position;
@@ -269,6 +311,10 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   }
   if (good) {
     out.mode = CommandMode::Torque;
+    disturbance_.setPlanned(result_.x.head(model_.nv));
+    const size_t slot = static_cast<size_t>(out.tick % kPlanRing);
+    planned_wrench_[slot] = result_.x.segment<12>(model_.nv);
+    planned_tick_[slot] = out.tick;
     tau_last_safe_ = tau_cmd_;
     has_last_safe_ = true;
     bad_streak_ = 0;
@@ -279,6 +325,8 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
       good_streak_ = 0;
     }
     ++fallbacks_;
+    disturbance_.clearPlanned();
+    planned_tick_[static_cast<size_t>(out.tick % kPlanRing)] = -1;
     fallbackTorque(out);
     tau_ff_joint_.setZero();
   }

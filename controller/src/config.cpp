@@ -181,7 +181,7 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
   Reader r(source, error);
   try {
     r.checkKeys(root, "", {"loop", "trajectory", "estimator", "momentum", "posture", "contact", "torque", "solver",
-                           "fallback", "feedforward"});
+                           "fallback", "feedforward", "disturbance"});
     {
       const auto s = r.section(root, "loop", {"period"});
       r.number(s, "loop", "period", c.loop.period);
@@ -285,6 +285,16 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
       r.number(s, n, "max_abs", c.feedforward.max_abs);
       r.integer(s, n, "max_age_ticks", c.feedforward.max_age_ticks);
     }
+    {
+      const char* n = "disturbance";
+      const auto s =
+          r.section(root, n, {"enabled", "time_constant", "max_abs", "force_plates", "max_plate_age_ticks"});
+      r.boolean(s, n, "enabled", c.disturbance.enabled);
+      r.number(s, n, "time_constant", c.disturbance.time_constant);
+      r.number(s, n, "max_abs", c.disturbance.max_abs);
+      r.boolean(s, n, "force_plates", c.disturbance.force_plates);
+      r.integer(s, n, "max_plate_age_ticks", c.disturbance.max_plate_age_ticks);
+    }
   } catch (const YAML::Exception& e) {
     return failWith(error, source + ": " + e.what());
   }
@@ -365,7 +375,11 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
          (f.max_missed_ticks >= 0 ? true : failWith(error, "fallback.max_missed_ticks: must be >= 0")) &&
          positive(f.max_quaternion_norm_error, "fallback.max_quaternion_norm_error") &&
          nonneg(c.feedforward.max_abs, "feedforward.max_abs") &&
-         (c.feedforward.max_age_ticks >= 0 ? true : failWith(error, "feedforward.max_age_ticks: must be >= 0"));
+         (c.feedforward.max_age_ticks >= 0 ? true : failWith(error, "feedforward.max_age_ticks: must be >= 0")) &&
+         positive(c.disturbance.time_constant, "disturbance.time_constant") &&
+         nonneg(c.disturbance.max_abs, "disturbance.max_abs") &&
+         (c.disturbance.max_plate_age_ticks >= 0 ? true
+                                                  : failWith(error, "disturbance.max_plate_age_ticks: must be >= 0"));
 }
 
 }  // namespace exoid::controller

@@ -108,6 +108,11 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
   ctrl.prepare(pending);
   ControllerStatus st;
   Eigen::VectorXd ff = Eigen::VectorXd::Zero(model.njoints);
+  // Force plates for the disturbance observer: the wrench the controller planned last tick, as a plate at the
+  // world origin reads it (this loop's MuJoCo has no plates), stamped with the tick its command is applied at.
+  std::array<ForcePlateSample, 2> plates;
+  for (int i = 0; i < 2; ++i) plates[static_cast<size_t>(i)].plate = i;
+  ASSERT_TRUE(cfg.disturbance.enabled && cfg.disturbance.force_plates);
 
   const long latch = cfg.estimator.latch_ticks;
   // Start-up latch, initial hold and three moves with their holds (~10 s, ~10^4 ticks).
@@ -129,6 +134,15 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
     {
       NoAllocationScope scope;
       ctrl.setFeedforward(ff, tick_id);
+      for (int i = 0; i < 2; ++i) {
+        const Vector6d& w = i == 0 ? st.wrench_right : st.wrench_left;
+        const Eigen::Vector3d& p = ctrl.dynamics().foot_position[static_cast<size_t>(i)];
+        ForcePlateSample& plate = plates[static_cast<size_t>(i)];
+        plate.tick = tick_id;
+        plate.force = -w.head<3>();
+        plate.moment = -(w.tail<3>() + p.cross(w.head<3>()));
+        ctrl.setForcePlate(plate);
+      }
       ctrl.tick(state, cmd, st);
       scope.stop();
       tick_news += scope.news();

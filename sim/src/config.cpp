@@ -149,8 +149,16 @@ bool parsePayload(const Ctx& c, const YAML::Node& n, const std::string& key, Pay
 bool parseEffects(const Ctx& c, const YAML::Node& n, Effects* e) {
   const std::string key = "effects";
   if (n.IsNull()) return true;  // "effects:" with nothing = none
-  if (!checkKeys(c, n, key, {"joint_damping", "joint_frictionloss", "armature", "payload", "torque_sensor"}))
+  if (!checkKeys(c, n, key,
+                 {"joint_damping", "joint_frictionloss", "armature", "payload", "torque_sensor", "drive_torque_loop"}))
     return false;
+  if (const YAML::Node d = n["drive_torque_loop"]) {
+    std::string mode;
+    if (!toString(c, d, "effects.drive_torque_loop", &mode)) return false;
+    if (mode != "ideal" && mode != "sensor")
+      return c.fail("effects.drive_torque_loop", "expected ideal or sensor, got '" + mode + "'");
+    e->drive_loop_on_sensor = mode == "sensor";
+  }
   if (n["joint_damping"] &&
       !toJointValues(c, n["joint_damping"], "effects.joint_damping", true, true, &e->joint_damping))
     return false;

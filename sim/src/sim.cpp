@@ -352,6 +352,7 @@ void stageRecordState(const SimModel& sm, SimData& sd) {
   const Eigen::Matrix3d R = t.base_orientation.toRotationMatrix();  // world <- base
   t.base_velocity = R.transpose() * Eigen::Vector3d(v[0], v[1], v[2]);  // qvel[0:3] is in the world frame
   t.base_omega = Eigen::Vector3d(v[3], v[4], v[5]);                     // qvel[3:6] is in the body frame
+  t.com = Eigen::Vector3d(d->subtree_com + 3 * sm.base_body);  // mj_step1's CoM stage, undeclared payloads included
   for (int j = 0; j < sm.nj; ++j) {
     t.q[j] = d->qpos[sm.qpos_adr[static_cast<size_t>(j)]];
     t.v[j] = d->qvel[sm.dof_adr[static_cast<size_t>(j)]];
@@ -375,7 +376,15 @@ bool stageControl(const SimModel& sm, SimData& sd, const JointCommandSample& cmd
     if (a < 0) continue;  // unactuated joint: its entry is ignored
     double u = 0.0;
     switch (cmd.mode) {
-      case CommandMode::Torque: u = cmd.tau[j] / sm.gear[static_cast<size_t>(j)]; break;
+      case CommandMode::Torque: {
+        const size_t jj = static_cast<size_t>(j);
+        // A drive closing its loop on its torque sensor applies what makes the sensor read the command.
+        const double tau = sm.scenario.effects.drive_loop_on_sensor
+                               ? (cmd.tau[j] - sm.torque_offset[jj]) / sm.torque_gain[jj]
+                               : cmd.tau[j];
+        u = tau / sm.gear[jj];
+        break;
+      }
       case CommandMode::HoldLastSafe: u = sd.ctrl_prev[static_cast<size_t>(a)]; break;
       case CommandMode::Damping:
         u = -sm.options.damping_gain * d->qvel[sm.dof_adr[static_cast<size_t>(j)]] / sm.gear[static_cast<size_t>(j)];

@@ -88,6 +88,7 @@ effects:
   torque_sensor:
     all: {offset: 0.1, gain: 1.02}
     right_knee: {gain: 0.9}
+  drive_torque_loop: sensor
 initial_state:
   base_height_offset: 0.01
   joints: {right_knee: 0.2}
@@ -101,6 +102,7 @@ TEST(SimConfig, ScenarioParses) {
   EXPECT_EQ(s.name, "demo");
   EXPECT_EQ(s.seed, 42u);
   EXPECT_EQ(s.noise, NoiseMode::Off);
+  EXPECT_TRUE(s.effects.drive_loop_on_sensor);
   ASSERT_EQ(s.effects.joint_damping.size(), 2u);
   EXPECT_EQ(s.effects.joint_damping[1].joint, "right_knee");
   EXPECT_DOUBLE_EQ(s.effects.joint_damping[1].value, 1.0);
@@ -191,6 +193,8 @@ TEST(SimConfig, BadScenariosNameTheKey) {
       {"link: body, ", "link: body, colour: red, ", "effects.payload.colour: unknown key"},
       {"right_knee: {gain: 0.9}", "right_knee: {gain: 0}", "effects.torque_sensor.right_knee.gain: must be > 0"},
       {"right_knee: {gain: 0.9}", "right_knee: {bias: 0.9}", "effects.torque_sensor.right_knee.bias: unknown key"},
+      {"drive_torque_loop: sensor", "drive_torque_loop: motor",
+       "effects.drive_torque_loop: expected ideal or sensor, got 'motor'"},
       {"joints: {right_knee: 0.2}", "joints: {all: 0.2}", "initial_state.joints.all: 'all' is not allowed here"},
       {"base_height_offset: 0.01", "base_height: 0.01", "initial_state.base_height: unknown key"},
       {"name: demo", "name: [demo]", "name: expected a string, found a sequence"},

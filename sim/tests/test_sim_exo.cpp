@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <dirent.h>
 
+#include "exoid/model/dynamics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "sim_test_util.hpp"
@@ -237,6 +238,59 @@ TEST_F(SimExo, UndeclaredEffectsBreakTheEquationsOfMotion) {
     std::printf("[ eom ] undeclared %-18s residual: truth %.3e, plates %.3e\n", c.name, r.truth, r.plates);
     EXPECT_GT(r.truth, 1e-3) << c.name;
     EXPECT_GT(r.plates, 1e-3) << c.name;
+  }
+}
+
+// The truth's CoM is the simulated robot's, payloads included: the URDF model's CoM at the exact state plus the
+// payload at its place on the link (an independent computation with exoid's kinematics).
+TEST_F(SimExo, TruthCoMIncludesUndeclaredPayloads) {
+  Scenario sc = makeScenario(NoiseMode::Off);
+  Payload p;
+  p.link = "right_thigh";
+  p.mass = 3.0;
+  p.com = Eigen::Vector3d(0.10, 0.05, -0.08);
+  p.inertia << 0.005, 0.005, 0.005, 0.0, 0.0, 0.0;
+  sc.effects.payloads = {p};
+  sc.initial.joints = {{"right_hip_fe", 0.3}, {"right_knee", 0.5}, {"left_hip_aa", -0.1}};
+  load(sc);
+  JointCommandSample cmd = simZeroCommand(sm);
+  for (int k = 0; k < 50; ++k) simStep(sm, sd, cmd);  // moving: the truth's CoM must belong to its own tick
+  State s = State::zero(model);
+  s.base_position = sd.truth.base_position;
+  s.base_orientation = sd.truth.base_orientation;
+  s.q = sd.truth.q;
+  DynamicsData dyn(model);
+  forwardKinematics(model, dyn.kin, s);
+  centroidal(model, dyn);
+  const Eigen::Matrix3d R = s.base_orientation.toRotationMatrix();
+  const int b = model.bodyIndex("right_thigh");
+  ASSERT_GE(b, 0);
+  const Eigen::Vector3d c_model = s.base_position + R * dyn.com;
+  const Eigen::Vector3d c_payload = s.base_position + R * (dyn.kin.p[b] + dyn.kin.R[b] * p.com);
+  const Eigen::Vector3d expected = (dyn.mass * c_model + p.mass * c_payload) / (dyn.mass + p.mass);
+  EXPECT_LE((sd.truth.com - expected).norm(), 1e-9) << sd.truth.com.transpose() << " vs " << expected.transpose();
+  EXPECT_GT((sd.truth.com - c_model).norm(), 5e-3);  // the payload moved it
+}
+
+// drive_torque_loop: sensor turns the torque-sensor errors into actuation errors: the drive applies
+// (command - offset) / gain, which its sensor reads as the command; ideal applies the command.
+TEST_F(SimExo, DriveTorqueLoopOnTheSensorAppliesTheSensorsError) {
+  for (const bool on_sensor : {false, true}) {
+    Scenario sc = makeScenario(NoiseMode::Off);
+    sc.effects.torque_sensor = {{"all", 0.7, 1.08}, {"left_knee", -0.9, 0.93}};
+    sc.effects.drive_loop_on_sensor = on_sensor;
+    load(sc);
+    JointCommandSample cmd = simZeroCommand(sm);
+    for (int j = 0; j < sm.nj; ++j) cmd.tau[j] = 2.0 + 0.5 * j;
+    simStep(sm, sd, cmd);
+    for (int j = 0; j < sm.nj; ++j) {
+      if (sm.actuator[static_cast<size_t>(j)] < 0) continue;
+      const double gain = sm.torque_gain[static_cast<size_t>(j)], offset = sm.torque_offset[static_cast<size_t>(j)];
+      const double applied = on_sensor ? (cmd.tau[j] - offset) / gain : cmd.tau[j];
+      EXPECT_NEAR(sd.truth.tau_applied[j], applied, 1e-12) << sm.joint_names[j];
+      EXPECT_NEAR(sd.state.tau[j], gain * applied + offset, 1e-9) << sm.joint_names[j];
+    }
+    EXPECT_DOUBLE_EQ(sm.torque_offset[static_cast<size_t>(model.jointIndex("left_knee"))], -0.9);
   }
 }
 

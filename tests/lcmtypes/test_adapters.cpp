@@ -284,6 +284,7 @@ TEST(GroundTruthAdapter, RoundTrip) {
     EXPECT_EQ(out.foot_force[f], in.foot_force[f]) << f;
     EXPECT_EQ(out.foot_moment[f], in.foot_moment[f]) << f;
   }
+  EXPECT_EQ(out.com, in.com);
 }
 
 TEST(GroundTruthAdapter, Rejections) {
@@ -297,6 +298,9 @@ TEST(GroundTruthAdapter, Rejections) {
   msg = good;
   msg.foot_force_left[1] = kInf;
   expectRejected(msg, RejectReason::NonFinite, "foot_force_left[1]", before, jointNames());
+  msg = good;
+  msg.com[2] = kNaN;
+  expectRejected(msg, RejectReason::NonFinite, "com[2]", before, jointNames());
   msg = good;
   msg.base_orientation[0] += 1e-5;
   expectRejected(msg, RejectReason::Malformed, "base_orientation has norm", before, jointNames());

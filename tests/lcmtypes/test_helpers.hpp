@@ -99,6 +99,7 @@ inline GroundTruthSample makeTruth(int n = 10) {
   s.foot_force[1] = Eigen::Vector3d(-1, -2, 310);
   s.foot_moment[0] = Eigen::Vector3d(3, 4, 5);
   s.foot_moment[1] = Eigen::Vector3d(-3, -4, -5);
+  s.com = Eigen::Vector3d(-0.03, 0.002, 0.92);
   return s;
 }
 

@@ -311,7 +311,8 @@ bool fromLcm(const exoid_lcm::ground_truth_t& msg, const std::vector<std::string
       !c.finite(msg.v, "v") || !c.finite(msg.a, "a") || !c.finite(msg.tau_applied, "tau_applied") ||
       !c.finite(msg.foot_force_right, 3, "foot_force_right") ||
       !c.finite(msg.foot_moment_right, 3, "foot_moment_right") ||
-      !c.finite(msg.foot_force_left, 3, "foot_force_left") || !c.finite(msg.foot_moment_left, 3, "foot_moment_left"))
+      !c.finite(msg.foot_force_left, 3, "foot_force_left") || !c.finite(msg.foot_moment_left, 3, "foot_moment_left") ||
+      !c.finite(msg.com, 3, "com"))
     return false;
   if (!c.unitQuaternion(msg.base_orientation, "base_orientation")) return false;
 
@@ -331,6 +332,7 @@ bool fromLcm(const exoid_lcm::ground_truth_t& msg, const std::vector<std::string
   out.foot_moment[0] = vec3(msg.foot_moment_right);
   out.foot_force[1] = vec3(msg.foot_force_left);
   out.foot_moment[1] = vec3(msg.foot_moment_left);
+  out.com = vec3(msg.com);
   return true;
 }
 
@@ -358,6 +360,7 @@ void toLcm(const GroundTruthSample& s, const std::vector<std::string>& joint_nam
   copyFixed<3>(s.foot_moment[0], msg.foot_moment_right);
   copyFixed<3>(s.foot_force[1], msg.foot_force_left);
   copyFixed<3>(s.foot_moment[1], msg.foot_moment_left);
+  copyFixed<3>(s.com, msg.com);
 }
 
 // ======================================= controller_status_t ==========================================

@@ -131,7 +131,7 @@ bool safeDecode(const void* data, int size, exoid_lcm::ground_truth_t& msg) {
   const int32_t n = w.readCount();
   w.skipStrings(n);
   w.skipDoubles(4 * int64_t{n});
-  w.skipDoubles(3 * 4);
+  w.skipDoubles(3 * 4 + 3);  // foot wrenches, com
   return decodeChecked(w, data, size, msg);
 }
 

@@ -58,6 +58,7 @@ struct GroundTruthSample {
   Eigen::VectorXd tau_applied;   ///< [njoints] actuator torque applied this tick, N m
   std::array<Eigen::Vector3d, 2> foot_force;   ///< [right, left] contact force ON the foot, world
   std::array<Eigen::Vector3d, 2> foot_moment;  ///< [right, left] its moment about the world origin, world
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();  ///< whole-robot CoM, world (the simulated robot: with payloads)
 };
 
 }  // namespace exoid

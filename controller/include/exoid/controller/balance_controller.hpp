@@ -13,6 +13,7 @@
 #include "exoid/controller/base_state_estimator.hpp"
 #include "exoid/controller/com_trajectory.hpp"
 #include "exoid/controller/config.hpp"
+#include "exoid/controller/disturbance_observer.hpp"
 #include "exoid/controller/formulation.hpp"
 #include "exoid/controller/qp_solver.hpp"
 #include "exoid/controller/robot_dynamics.hpp"
@@ -62,6 +63,11 @@ class BalanceController {
   /// younger than max_age_ticks. Returns false (and ignores it) on a wrong size or non-finite values.
   bool setFeedforward(const Eigen::Ref<const Eigen::VectorXd>& tau_ff, int64_t tick);
   void clearFeedforward();
+  /// A force plate sample (plate 0 right, 1 left: the load cell's wrench ON the plate about its sensor origin,
+  /// plate frame, with the plate's world pose). The disturbance observer compares it with the wrench the QP
+  /// planned for the same tick when config.disturbance.force_plates. False (ignored) on a wrong plate index or
+  /// non-finite values. Allocation-free.
+  bool setForcePlate(const ForcePlateSample& plate);
 
   /// One control tick for the state of tick k: fills `out` (tick k+1) and `status`. Allocation-free.
   void tick(const RobotStateSample& in, JointCommandSample& out, ControllerStatus& status);
@@ -77,6 +83,7 @@ class BalanceController {
   const QpResult& result() const { return result_; }
   const CoMReference& reference() const { return ref_; }
   const Vector6d& desiredMomentumRate() const { return rate_desired_; }
+  const DisturbanceObserver& disturbanceObserver() const { return disturbance_; }
   /// Trajectory duration (s), known once the trajectory is generated (at the end of the start-up latch).
   double trajectoryDuration() const { return trajectory_.ready() ? trajectory_.duration() : 0.0; }
   const std::array<SoleFrame, 2>& soles() const { return soles_; }
@@ -101,6 +108,7 @@ class BalanceController {
   PostureRegularization posture_;
   ContactSixD contact_right_, contact_left_;
   BalanceFormulation formulation_;
+  DisturbanceObserver disturbance_;
   std::unique_ptr<QpSolver> solver_;
   RobotDynamicsData dyn_;
   QpProblem qp_;
@@ -119,6 +127,16 @@ class BalanceController {
 
   bool has_last_tick_ = false;
   int64_t last_tick_ = 0;
+  int64_t gap_ = 1;  // ticks since the previous good state
+  // Force plates: latest wrench ON each foot (world force, moment about the world origin) and its tick; the
+  // contact wrenches the QP planned, by the tick their command is applied at (ring buffer).
+  std::array<Eigen::Vector3d, 2> plate_force_{}, plate_moment_{};
+  std::array<int64_t, 2> plate_tick_{{-1, -1}};
+  static constexpr int kPlanRing = 16;
+  std::array<Eigen::Matrix<double, 12, 1>, kPlanRing> planned_wrench_{};
+  std::array<int64_t, kPlanRing> planned_tick_{};
+  Eigen::VectorXd wrench_residual_;  // [nv]
+  bool plateResidual();              // fills wrench_residual_; false if no usable pair
   int64_t trajectory_start_tick_ = 0;
   bool has_last_safe_ = false;
   bool has_feedforward_ = false;

@@ -99,6 +99,15 @@ struct FeedforwardConfig {
   int max_age_ticks = 0;      ///< an estimate older than this many ticks is ignored (zero feedforward)
 };
 
+/// Disturbance observer: the generalized force the model misses (docs/controller.md, "Model error").
+struct DisturbanceConfig {
+  bool enabled = false;        ///< add the estimate to the dynamics of the QP (h + d)
+  double time_constant = 0.0;  ///< s, time constant of the estimate's convergence
+  double max_abs = 0.0;        ///< N, N m: bound of each component of the estimate
+  bool force_plates = false;   ///< also compare the measured contact wrenches (force plates) with the planned
+  int max_plate_age_ticks = 0; ///< a plate sample older than this many ticks is not used
+};
+
 struct ControllerConfig {
   LoopConfig loop;
   TrajectoryConfig trajectory;
@@ -110,6 +119,7 @@ struct ControllerConfig {
   SolverConfig solver;
   FallbackConfig fallback;
   FeedforwardConfig feedforward;
+  DisturbanceConfig disturbance;
 };
 
 /// Reads and validates a controller configuration file. Returns false with a one-line message naming the

@@ -57,6 +57,10 @@ struct Effects {
   std::vector<JointValue> armature;            ///< kg m^2 (MuJoCo dof_armature: reflected rotor inertia), >= 0
   std::vector<Payload> payloads;
   std::vector<TorqueSensorError> torque_sensor;
+  /// The drives close their torque loop on their (miscalibrated) torque sensors: they apply tau such that
+  /// gain * tau + offset = the command, so the sensor errors become actuation errors. false: the drives apply
+  /// the command exactly and the errors stay in the measurements.
+  bool drive_loop_on_sensor = false;
   bool any() const {
     return !joint_damping.empty() || !joint_frictionloss.empty() || !armature.empty() || !payloads.empty() ||
            !torque_sensor.empty();

@@ -38,8 +38,10 @@ struct ExperimentSummary {
   int64_t fall_tick = -1;          ///< tick of the fall (the sim's report, else the first such tick in the log)
   double fall_time_s = -1.0;
   int fall_during_move = -1;       ///< 0-based move under way at the fall (-1: before the first move)
-  double com_rmse_m = 0.0;         ///< true CoM (from the exact state and the model) vs the CoM reference
+  double com_rmse_m = 0.0;         ///< model CoM (the URDF model at the exact state) vs the CoM reference
   double com_max_error_m = 0.0;
+  double true_com_rmse_m = 0.0;    ///< the simulated robot's CoM (undeclared payloads included) vs the reference
+  double true_com_max_error_m = 0.0;
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
   double qp_solve_us_p50 = 0.0, qp_solve_us_p99 = 0.0;
   double tick_us_p50 = 0.0, tick_us_p99 = 0.0;
