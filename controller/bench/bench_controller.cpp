@@ -45,7 +45,7 @@ const Recording& recording() {
     ctrl.prepare(pending);
     ControllerStatus st;
     const auto& t = r.config.trajectory;
-    const long n = static_cast<long>((r.config.estimator.latch_ticks * r.config.loop.period + t.initial_hold +
+    const long n = static_cast<long>((r.config.observer.latch_ticks * r.config.loop.period + t.initial_hold +
                                       3 * (t.move_duration + t.hold_duration)) / r.config.loop.period);
     r.samples.reserve(static_cast<size_t>(n));
     for (long k = 0; k < n; ++k) {

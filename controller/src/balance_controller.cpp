@@ -23,7 +23,7 @@ const char* toString(FallbackReason reason) {
 
 double plannedRunDuration(const ControllerConfig& c) {
   const TrajectoryConfig& t = c.trajectory;
-  return c.estimator.latch_ticks * c.loop.period + t.initial_hold + t.moves * (t.move_duration + t.hold_duration) +
+  return c.observer.latch_ticks * c.loop.period + t.initial_hold + t.moves * (t.move_duration + t.hold_duration) +
          t.final_hold;
 }
 
@@ -39,8 +39,8 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
       trajectory_(config.trajectory.moves),
       momentum_(config.momentum),
       posture_(config.posture, model.njoints),
-      contact_right_(config.contact, BaseStateEstimator::kRight),
-      contact_left_(config.contact, BaseStateEstimator::kLeft),
+      contact_right_(config.contact, BaseStateObserver::kRight),
+      contact_left_(config.contact, BaseStateObserver::kLeft),
       formulation_(model, config.contact, config.torque),
       disturbance_(config.disturbance, config.loop.period, model.nv),
       solver_(std::move(solver)),
@@ -66,7 +66,7 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
     error_ = "the IMU frame must be on the base body";
     return;
   }
-  estimator_ = std::make_unique<BaseStateEstimator>(model, cfg_.estimator, cfg_.loop.period, soles_, imu_);
+  observer_ = std::make_unique<BaseStateObserver>(model, cfg_.observer, cfg_.loop.period, soles_, imu_);
 
   if (!solver_) solver_ = makeProxQpSolver({cfg_.solver.eps_abs, cfg_.solver.max_iterations});
   const QpDimensions dims = formulation_.dimensions();
@@ -164,21 +164,21 @@ bool BalanceController::inputValid(const RobotStateSample& in) const {
 
 void BalanceController::startTrajectory(int64_t tick) {
   // Posture and contact references from the start-up estimate; support polygon of the latched soles.
-  posture_.setReference(estimator_->initialPosture());
-  contact_right_.setReference(estimator_->solePosition(0), estimator_->soleRotation(0));
-  contact_left_.setReference(estimator_->solePosition(1), estimator_->soleRotation(1));
-  computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+  posture_.setReference(observer_->initialPosture());
+  contact_right_.setReference(observer_->solePosition(0), observer_->soleRotation(0));
+  contact_left_.setReference(observer_->solePosition(1), observer_->soleRotation(1));
+  computeRobotDynamics(model_, soles_, dyn_, observer_->state());
   const auto yaw = [](const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); };
   const SupportPolygon polygon = SupportPolygon::fromSoles(
-      estimator_->solePosition(0).head<2>(), yaw(estimator_->soleRotation(0)), estimator_->solePosition(1).head<2>(),
-      yaw(estimator_->soleRotation(1)), cfg_.contact.sole_half_length, cfg_.contact.sole_half_width);
+      observer_->solePosition(0).head<2>(), yaw(observer_->soleRotation(0)), observer_->solePosition(1).head<2>(),
+      yaw(observer_->soleRotation(1)), cfg_.contact.sole_half_length, cfg_.contact.sole_half_width);
   trajectory_.generate(cfg_.trajectory, seed_, dyn_.com, polygon);  // not ready() on failure: holds the start
   trajectory_start_tick_ = tick;
 }
 
 bool BalanceController::runQp() {
   momentum_.compute(ref_, dyn_, rate_desired_);
-  posture_.compute(estimator_->state(), dnu_desired_, dnu_weights_);
+  posture_.compute(observer_->state(), dnu_desired_, dnu_weights_);
   formulation_.build(dyn_, rate_desired_, momentum_.weights(), dnu_desired_, dnu_weights_, contact_right_,
                      contact_left_, qp_);
   solver_->solve(qp_, result_);
@@ -195,7 +195,7 @@ void BalanceController::fallbackTorque(JointCommandSample& out) {
   damping_latched_ = true;
   out.mode = CommandMode::Damping;
   for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j) {
-    const double vj = estimator_ && std::isfinite(estimator_->state().v[j]) ? estimator_->state().v[j] : 0.0;
+    const double vj = observer_ && std::isfinite(observer_->state().v[j]) ? observer_->state().v[j] : 0.0;
     tau_cmd_[j] = clampAbs(-cfg_.fallback.damping * vj, cfg_.fallback.damping_torque_limit);
   }
   ++damping_ticks_;
@@ -224,13 +224,13 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     const int64_t gap = has_last_tick_ ? in.tick - last_tick_ : 1;
     gap_ = gap;
     if (gap > 1) stale_ += static_cast<int32_t>(gap - 1);
-    const bool was_latched = estimator_->latched();
-    estimator_->update(in, gap);
+    const bool was_latched = observer_->latched();
+    observer_->update(in, gap);
     has_last_tick_ = true;
     last_tick_ = in.tick;
     fresh = true;
     if (gap - 1 > cfg_.fallback.max_missed_ticks) reason = FallbackReason::Stale;
-    if (estimator_->latched() && !was_latched) startTrajectory(in.tick);
+    if (observer_->latched() && !was_latched) startTrajectory(in.tick);
   }
 
   st.qp_status = QpStatus::NotRun;
@@ -238,20 +238,20 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   st.qp_solve_us = 0.0;
   if (fresh) {
     // Reference: the trajectory once the feet are latched; before that, hold the current CoM.
-    if (estimator_->latched()) {
+    if (observer_->latched()) {
       const double t = static_cast<double>(in.tick - trajectory_start_tick_) * cfg_.loop.period;
       trajectory_.sample(t, ref_);
       if (!trajectory_.ready()) ref_.position = trajectory_.start();
       st.trajectory_time = t;
     } else {
-      computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+      computeRobotDynamics(model_, soles_, dyn_, observer_->state());
       ref_ = CoMReference{};
       ref_.position = dyn_.com;
-      contact_right_.setReference(estimator_->solePosition(0), estimator_->soleRotation(0));
-      contact_left_.setReference(estimator_->solePosition(1), estimator_->soleRotation(1));
-      posture_.setReference(estimator_->initialPosture());
+      contact_right_.setReference(observer_->solePosition(0), observer_->soleRotation(0));
+      contact_left_.setReference(observer_->solePosition(1), observer_->soleRotation(1));
+      posture_.setReference(observer_->initialPosture());
     }
-    computeRobotDynamics(model_, soles_, dyn_, estimator_->state());
+    computeRobotDynamics(model_, soles_, dyn_, observer_->state());
     // Feedforward from the estimator enters the dynamics (h + tau_ff), zero when absent or too old; the
     // disturbance observer's estimate of what the model still misses is added to it.
     const bool use_ff = cfg_.feedforward.enabled && has_feedforward_ &&
@@ -294,9 +294,9 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     st.move_index = ref_.move_index;
     st.moves_done = ref_.moves_done;
     st.trajectory_ready = trajectory_.ready();
-    st.trajectory_failed = estimator_->latched() && !trajectory_.ready();
+    st.trajectory_failed = observer_->latched() && !trajectory_.ready();
     st.trajectory_done = ref_.done;
-    st.leg_disagreement = estimator_->legDisagreement();
+    st.leg_disagreement = observer_->legDisagreement();
     st.dropped_contact_directions = formulation_.droppedContactDirections();
   }
 

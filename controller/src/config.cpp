@@ -180,7 +180,7 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
 
   Reader r(source, error);
   try {
-    r.checkKeys(root, "", {"loop", "trajectory", "estimator", "momentum", "posture", "contact", "torque", "solver",
+    r.checkKeys(root, "", {"loop", "trajectory", "observer", "momentum", "posture", "contact", "torque", "solver",
                            "fallback", "feedforward", "disturbance"});
     {
       const auto s = r.section(root, "loop", {"period"});
@@ -206,11 +206,11 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
       r.integer(s, n, "max_sampling_attempts", t.max_sampling_attempts);
     }
     {
-      const char* n = "estimator";
+      const char* n = "observer";
       const auto s = r.section(root, n,
                                {"joint_velocity_cutoff_hz", "gyro_cutoff_hz", "orientation_time_constant",
                                 "initial_base_xy", "ground_height", "latch_ticks"});
-      auto& e = c.estimator;
+      auto& e = c.observer;
       r.number(s, n, "joint_velocity_cutoff_hz", e.joint_velocity_cutoff_hz);
       r.number(s, n, "gyro_cutoff_hz", e.gyro_cutoff_hz);
       r.number(s, n, "orientation_time_constant", e.orientation_time_constant);
@@ -323,7 +323,7 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
     return (v.array() >= 0.0).all() ? true : failWith(error, std::string(field) + ": every component must be >= 0");
   };
   const auto& t = c.trajectory;
-  const auto& e = c.estimator;
+  const auto& e = c.observer;
   const auto& k = c.contact;
   const auto& f = c.fallback;
   return positive(c.loop.period, "loop.period") &&
@@ -338,16 +338,16 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
          (t.vertical_max >= t.vertical_min ? true
                                            : failWith(error, "trajectory.vertical_max: must be >= vertical_min")) &&
          (t.max_sampling_attempts >= 1 ? true : failWith(error, "trajectory.max_sampling_attempts: must be >= 1")) &&
-         positive(e.joint_velocity_cutoff_hz, "estimator.joint_velocity_cutoff_hz") &&
+         positive(e.joint_velocity_cutoff_hz, "observer.joint_velocity_cutoff_hz") &&
          (e.joint_velocity_cutoff_hz < 0.5 / c.loop.period
               ? true
-              : failWith(error, "estimator.joint_velocity_cutoff_hz: must be below the Nyquist frequency")) &&
-         nonneg(e.gyro_cutoff_hz, "estimator.gyro_cutoff_hz") &&
+              : failWith(error, "observer.joint_velocity_cutoff_hz: must be below the Nyquist frequency")) &&
+         nonneg(e.gyro_cutoff_hz, "observer.gyro_cutoff_hz") &&
          (e.gyro_cutoff_hz < 0.5 / c.loop.period
               ? true
-              : failWith(error, "estimator.gyro_cutoff_hz: must be below the Nyquist frequency")) &&
-         nonneg(e.orientation_time_constant, "estimator.orientation_time_constant") &&
-         (e.latch_ticks >= 1 ? true : failWith(error, "estimator.latch_ticks: must be >= 1")) &&
+              : failWith(error, "observer.gyro_cutoff_hz: must be below the Nyquist frequency")) &&
+         nonneg(e.orientation_time_constant, "observer.orientation_time_constant") &&
+         (e.latch_ticks >= 1 ? true : failWith(error, "observer.latch_ticks: must be >= 1")) &&
          nonneg3(c.momentum.kp_com, "momentum.kp_com") && nonneg3(c.momentum.kd_com, "momentum.kd_com") &&
          nonneg3(c.momentum.kd_angular, "momentum.kd_angular") &&
          nonneg3(c.momentum.weight_linear, "momentum.weight_linear") &&

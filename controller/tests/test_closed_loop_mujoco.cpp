@@ -71,7 +71,7 @@ LoopMetrics runClosedLoop(const ControllerConfig& cfg, uint64_t seed, const test
   Eigen::Vector3d sole0[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   bool started = false;
   const long max_ticks = static_cast<long>(
-      (cfg.estimator.latch_ticks * cfg.loop.period + cfg.trajectory.initial_hold +
+      (cfg.observer.latch_ticks * cfg.loop.period + cfg.trajectory.initial_hold +
        cfg.trajectory.moves * (cfg.trajectory.move_duration + cfg.trajectory.hold_duration) + extra_time) /
       cfg.loop.period);
   for (long k = 0; k < max_ticks; ++k) {

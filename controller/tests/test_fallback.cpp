@@ -67,7 +67,7 @@ class FallbackTest : public ::testing::Test {
   }
   /// Runs good ticks until the controller is in torque mode past the start-up latch.
   int64_t settle(int64_t from = 0) {
-    const int64_t end = from + cfg_.estimator.latch_ticks + 50;
+    const int64_t end = from + cfg_.observer.latch_ticks + 50;
     for (int64_t k = from; k < end; ++k) tick(k);
     EXPECT_EQ(cmd_.mode, CommandMode::Torque);
     EXPECT_EQ(st_.fallbacks, 0);

@@ -114,7 +114,7 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
   for (int i = 0; i < 2; ++i) plates[static_cast<size_t>(i)].plate = i;
   ASSERT_TRUE(cfg.disturbance.enabled && cfg.disturbance.force_plates);
 
-  const long latch = cfg.estimator.latch_ticks;
+  const long latch = cfg.observer.latch_ticks;
   // Start-up latch, initial hold and three moves with their holds (~10 s, ~10^4 ticks).
   const long total = latch + static_cast<long>((cfg.trajectory.initial_hold +
                                                 3 * (cfg.trajectory.move_duration + cfg.trajectory.hold_duration)) /

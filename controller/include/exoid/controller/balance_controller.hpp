@@ -1,7 +1,7 @@
 #pragma once
 // BalanceController: the 1 kHz centroidal balance controller (Vallinas et al., ICORR 2023, as used in the seed
 // thesis section IV-A, without the torso stabilisation task). One tick:
-//   input checks -> BaseStateEstimator -> computeRobotDynamics (rnea, crba, sole Jacobians/drifts, centroidal)
+//   input checks -> BaseStateObserver -> computeRobotDynamics (rnea, crba, sole Jacobians/drifts, centroidal)
 //   -> MomentumTask / PostureRegularization / ContactSixD -> BalanceFormulation -> QpSolver -> joint torques,
 // with a safe fallback (hold the last safe command, then joint damping). tick() never allocates, never throws
 // and never blocks. Timing convention: the command answers state tick k with command.tick = k + 1.
@@ -10,7 +10,7 @@
 #include <memory>
 #include <string>
 
-#include "exoid/controller/base_state_estimator.hpp"
+#include "exoid/controller/base_state_observer.hpp"
 #include "exoid/controller/com_trajectory.hpp"
 #include "exoid/controller/config.hpp"
 #include "exoid/controller/disturbance_observer.hpp"
@@ -43,7 +43,7 @@ struct ControllerStatus : ControllerStatusSample {
 };
 
 /// Seconds from the first state to the end of the final hold, known upfront from the configuration:
-/// start-up latch (estimator.latch_ticks) + initial hold + moves * (move + hold) + final hold.
+/// start-up latch (observer.latch_ticks) + initial hold + moves * (move + hold) + final hold.
 double plannedRunDuration(const ControllerConfig& config);
 
 class BalanceController {
@@ -76,7 +76,7 @@ class BalanceController {
   const Model& model() const { return model_; }
   const ControllerConfig& config() const { return cfg_; }
   const CoMTrajectory& trajectory() const { return trajectory_; }
-  const BaseStateEstimator& estimator() const { return *estimator_; }
+  const BaseStateObserver& observer() const { return *observer_; }
   const RobotDynamicsData& dynamics() const { return dyn_; }
   const BalanceFormulation& formulation() const { return formulation_; }
   const QpProblem& problem() const { return qp_; }
@@ -102,7 +102,7 @@ class BalanceController {
 
   std::array<SoleFrame, 2> soles_{};
   SoleFrame imu_{};
-  std::unique_ptr<BaseStateEstimator> estimator_;
+  std::unique_ptr<BaseStateObserver> observer_;
   CoMTrajectory trajectory_;
   MomentumTask momentum_;
   PostureRegularization posture_;

@@ -29,7 +29,7 @@ struct TrajectoryConfig {
 };
 
 /// Base state estimation from IMU + encoders + stationary-feet kinematics.
-struct EstimatorConfig {
+struct ObserverConfig {
   double joint_velocity_cutoff_hz = 0.0;  ///< Hz, 2nd-order Butterworth on the encoder backward difference
   double gyro_cutoff_hz = 0.0;            ///< Hz, 2nd-order Butterworth on the gyro (0: unfiltered)
   double orientation_time_constant = 0.0; ///< s, complementary filter gyro/IMU orientation (0: raw IMU)
@@ -111,7 +111,7 @@ struct DisturbanceConfig {
 struct ControllerConfig {
   LoopConfig loop;
   TrajectoryConfig trajectory;
-  EstimatorConfig estimator;
+  ObserverConfig observer;  ///< base state observer (config section observer:)
   MomentumTaskConfig momentum;
   PostureConfig posture;
   ContactConfig contact;

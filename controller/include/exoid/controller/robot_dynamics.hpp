@@ -10,7 +10,7 @@
 #include <Eigen/Core>
 #include <array>
 
-#include "exoid/controller/base_state_estimator.hpp"
+#include "exoid/controller/base_state_observer.hpp"
 #include "exoid/model/dynamics.hpp"
 
 namespace exoid::controller {

@@ -1,4 +1,4 @@
-#include "exoid/controller/base_state_estimator.hpp"
+#include "exoid/controller/base_state_observer.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -32,7 +32,7 @@ bool resolveSoleFrame(const Model& model, const std::string& name, SoleFrame& ou
   return false;
 }
 
-BaseStateEstimator::BaseStateEstimator(const Model& model, const EstimatorConfig& config, double period,
+BaseStateObserver::BaseStateObserver(const Model& model, const ObserverConfig& config, double period,
                                        const std::array<SoleFrame, 2>& soles, const SoleFrame& imu)
     : model_(model),
       cfg_(config),
@@ -52,7 +52,7 @@ BaseStateEstimator::BaseStateEstimator(const Model& model, const EstimatorConfig
   reset();
 }
 
-void BaseStateEstimator::reset() {
+void BaseStateObserver::reset() {
   samples_ = 0;
   latched_ = false;
   leg_disagreement_ = 0.0;
@@ -71,7 +71,7 @@ void BaseStateEstimator::reset() {
   state_.a.setZero();
 }
 
-void BaseStateEstimator::footKinematics() {
+void BaseStateObserver::footKinematics() {
   kin_state_.q = state_.q;
   forwardKinematics(model_, kin_, kin_state_);
   for (size_t i = 0; i < 2; ++i) {
@@ -81,7 +81,7 @@ void BaseStateEstimator::footKinematics() {
   }
 }
 
-void BaseStateEstimator::update(const RobotStateSample& sample, int64_t ticks_since_last) {
+void BaseStateObserver::update(const RobotStateSample& sample, int64_t ticks_since_last) {
   const bool first = samples_ == 0;
   const double dt = period_ * static_cast<double>(ticks_since_last < 1 ? 1 : ticks_since_last);
 

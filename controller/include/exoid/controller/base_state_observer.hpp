@@ -7,7 +7,7 @@
 //  - base position and linear velocity: leg kinematics with both soles stationary. The sole poses are
 //    latched in the world at start-up, after latch_ticks samples during which the orientation estimate is the
 //    running mean of the IMU orientation (world x-y origin chosen so the base is at
-//    EstimatorConfig::initial_base_xy, height so the soles are at ground_height), then
+//    ObserverConfig::initial_base_xy, height so the soles are at ground_height), then
 //      p_b = mean_i (p_i^latched - R p_i^b),   v_b = mean_i -(omega x p_i^b + J_i,q dq)   (base coordinates).
 // Output: exoid::State (conventions of model.hpp: base velocities in base coordinates).
 #include <Eigen/Core>
@@ -32,13 +32,13 @@ struct SoleFrame {
 /// Resolves a URDF frame by name (a fixed-joint link lumped into a body, or a body itself).
 bool resolveSoleFrame(const Model& model, const std::string& name, SoleFrame& out, std::string* error);
 
-class BaseStateEstimator {
+class BaseStateObserver {
  public:
   static constexpr int kRight = 0;
   static constexpr int kLeft = 1;
 
   /// Setup (allocates). `imu_frame` names the URDF frame of the IMU ("" = the base frame itself).
-  BaseStateEstimator(const Model& model, const EstimatorConfig& config, double period,
+  BaseStateObserver(const Model& model, const ObserverConfig& config, double period,
                      const std::array<SoleFrame, 2>& soles, const SoleFrame& imu);
 
   /// Forget everything (next update() starts over, re-latching the feet).
@@ -49,7 +49,7 @@ class BaseStateEstimator {
   void update(const RobotStateSample& sample, int64_t ticks_since_last);
 
   bool initialized() const { return samples_ > 0; }
-  /// True once the sole poses are latched (after EstimatorConfig::latch_ticks samples).
+  /// True once the sole poses are latched (after ObserverConfig::latch_ticks samples).
   bool latched() const { return latched_; }
   const State& state() const { return state_; }
   /// Rotation world <- base.
@@ -66,7 +66,7 @@ class BaseStateEstimator {
   void footKinematics();  // fills sole_b_, Rsole_b_, J_ for the current q
 
   const Model& model_;
-  EstimatorConfig cfg_;
+  ObserverConfig cfg_;
   double period_;
   std::array<SoleFrame, 2> soles_;
   SoleFrame imu_;

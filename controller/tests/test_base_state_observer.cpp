@@ -1,10 +1,10 @@
-// BaseStateEstimator: the stationary-feet kinematics on synthetic samples (its filter: tests/model/test_filters.cpp).
+// BaseStateObserver: the stationary-feet kinematics on synthetic samples (its filter: tests/model/test_filters.cpp).
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "controller_test_util.hpp"
-#include "exoid/controller/base_state_estimator.hpp"
+#include "exoid/controller/base_state_observer.hpp"
 #include "exoid/model/regressor.hpp"
 
 namespace exoid::controller {
@@ -31,8 +31,8 @@ class EstimatorTest : public ::testing::Test {
 };
 
 TEST_F(EstimatorTest, StandingStartLatchesSolesOnTheGround) {
-  BaseStateEstimator est(model_, cfg_.estimator, cfg_.loop.period, soles_, imu_);
-  for (int k = 0; k < cfg_.estimator.latch_ticks + 10; ++k) {
+  BaseStateObserver est(model_, cfg_.observer, cfg_.loop.period, soles_, imu_);
+  for (int k = 0; k < cfg_.observer.latch_ticks + 10; ++k) {
     sample_.tick = k;
     est.update(sample_, 1);
   }
@@ -48,7 +48,7 @@ TEST_F(EstimatorTest, StandingStartLatchesSolesOnTheGround) {
 }
 
 TEST_F(EstimatorTest, JointVelocityOfARampIsExactAfterTheTransient) {
-  BaseStateEstimator est(model_, cfg_.estimator, cfg_.loop.period, soles_, imu_);
+  BaseStateObserver est(model_, cfg_.observer, cfg_.loop.period, soles_, imu_);
   const double rate = 0.3;  // rad/s on every joint
   for (int k = 0; k < 300; ++k) {
     sample_.tick = k;
@@ -66,7 +66,7 @@ TEST_F(EstimatorTest, JointVelocityOfARampIsExactAfterTheTransient) {
 TEST_F(EstimatorTest, BaseVelocityIsTheDerivativeOfTheKinematicBasePosition) {
   // Symmetric sagittal motion of both legs with the base orientation constant: the feet stay latched, so the
   // estimated base velocity (from J dq) must equal the derivative of the estimated base position.
-  BaseStateEstimator est(model_, cfg_.estimator, cfg_.loop.period, soles_, imu_);
+  BaseStateObserver est(model_, cfg_.observer, cfg_.loop.period, soles_, imu_);
   const int knee_r = model_.jointIndex("right_knee"), knee_l = model_.jointIndex("left_knee");
   const int hip_r = model_.jointIndex("right_hip_fe"), hip_l = model_.jointIndex("left_hip_fe");
   const double dt = cfg_.loop.period, w = 2.0 * M_PI * 0.5;
@@ -81,7 +81,7 @@ TEST_F(EstimatorTest, BaseVelocityIsTheDerivativeOfTheKinematicBasePosition) {
     sample_.q[hip_r] = sample_.q[hip_l] = 0.5 * a;
     est.update(sample_, 1);
     const Eigen::Vector3d p = est.state().base_position;
-    if (k > cfg_.estimator.latch_ticks + 100) {
+    if (k > cfg_.observer.latch_ticks + 100) {
       // Backward difference of p is centred half a period back; the filtered velocity lags ~2.3 ms: compare
       // with a tolerance of 2 % of the peak speed.
       const Eigen::Vector3d fd = (p - prev) / dt;
@@ -96,9 +96,9 @@ TEST_F(EstimatorTest, BaseVelocityIsTheDerivativeOfTheKinematicBasePosition) {
 }
 
 TEST_F(EstimatorTest, ComplementaryFilterTracksAConstantRateRotation) {
-  EstimatorConfig ec = cfg_.estimator;
+  ObserverConfig ec = cfg_.observer;
   ec.latch_ticks = 1;
-  BaseStateEstimator est(model_, ec, cfg_.loop.period, soles_, imu_);
+  BaseStateObserver est(model_, ec, cfg_.loop.period, soles_, imu_);
   const Eigen::Vector3d omega(0.0, 0.0, 0.4);  // rad/s about the base z axis
   Eigen::Quaterniond q = Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()));
   for (int k = 0; k < 1000; ++k) {
