@@ -38,8 +38,9 @@ struct TickNeeds {
   bool state = true, plates = true, truth = false;
 };
 
-/// Aligns channels by tick, in the order of `driver` (the states if needs.state, else the truth); the first
-/// message of a tick on each channel is used. Ticks missing a needed channel are skipped and counted.
+/// Aligns channels by tick: one entry per message of the driving channel (the states if needs.state, else
+/// the truth), in log order, with the first message of that tick on each other channel. Ticks missing a
+/// needed channel are skipped and counted.
 std::vector<AlignedTick> alignByTick(const std::vector<RobotStateSample>& states,
                                      const std::vector<ForcePlateSample>& plates_right,
                                      const std::vector<ForcePlateSample>& plates_left,
@@ -63,8 +64,8 @@ struct MeasuredSample {
   int ncontacts = 0;
 };
 
-/// A sample from the ground-truth channel: exact state; y from the applied torques and MuJoCo's contact
-/// wrenches (use_plates = false) or from the plates. feet: the model's right/left foot bodies.
+/// A sample from the ground-truth channel: exact state; y from the applied torques and the plates (when both
+/// are given) or MuJoCo's contact wrenches. feet: the model's right/left foot bodies.
 void measuredFromTruth(const Model& model, const GroundTruthSample& truth, const ForcePlateSample* plates[2],
                        const int feet[2], MeasuredSample& out);
 
@@ -73,6 +74,12 @@ void measuredFromTruth(const Model& model, const GroundTruthSample& truth, const
 /// No base position, no derivatives: the pipeline derives them.
 void measuredFromSensors(const Model& model, const RobotStateSample& state, const ForcePlateSample* plates[2],
                          const int feet[2], MeasuredSample& out);
+
+/// Thesis III-E on a signal [samples x channels] at uniform sample time dt: xf = F(x), dx = F(D xf),
+/// ddx = F(D dx), F the zero-phase 2nd-order Butterworth at cutoff_hz (identity when cutoff_hz <= 0), D central
+/// differences. Any output may be null. Requires cutoff_hz < 0.5 / dt (checked by the callers).
+void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_hz, Eigen::MatrixXd* xf,
+                            Eigen::MatrixXd* dx, Eigen::MatrixXd* ddx);
 
 enum class FilterMode {
   Inputs,    ///< thesis III-E: filter q (and the gyro), differentiate, filter the derivatives; y untouched

@@ -40,8 +40,12 @@ struct ScaledProblem {
   Eigen::VectorXd gamma;      ///< [p] offset (prior with C, zero without)
   Eigen::VectorXd prior;      ///< [p]
   std::vector<double> row_weight;  ///< [nv] 1 / sigma_i with R, ones without
-  double rss_full = 0.0;      ///< weighted residual at full rank (the part no phi can explain)
+  Eigen::MatrixXd Rw;         ///< [m x p] row-weighted factor: ||G (W phi - y)||^2 = ||Rw phi - zw||^2 + rss_w
+  Eigen::VectorXd zw;         ///< [m]
+  double rss_w = 0.0;
   long rows = 0;
+  /// ||G (W phi - y)||^2 from the factor.
+  double weightedRss(const Eigen::VectorXd& phi) const { return (Rw * phi - zw).squaredNorm() + rss_w; }
   int numericalRank(double tolerance = 1e-10) const;  ///< s_i > tolerance * s_1
 };
 
@@ -49,8 +53,9 @@ struct ScaledProblem {
 ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
                       const std::vector<bool>& include = {});
 
-/// Standard parameters [p] using the z largest singular values (z clamped to [0, r]); z = 0 is the prior
-/// (C) or the prior projected... see the method table above.
+/// Standard parameters [p] using the z largest singular values (z clamped to [0, r]); the directions not
+/// used are filled from the prior (OLS, WLS-R: eq. 23 with V_n = the unused columns of V; C: gamma), so
+/// z = 0 returns the prior.
 Eigen::VectorXd solveAtRank(const ScaledProblem& problem, int z);
 
 /// Generalized-force RMSE of phi on a factor (p-space): sqrt((||R phi - z||^2 + rss) / rows).
@@ -70,7 +75,8 @@ RankCurve rankByValidation(const ScaledProblem& problem, const LsqFactor& valida
 /// smallest z whose score is within one standard error of the minimum (the 1-SE rule).
 RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
                                 Method method);
-/// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2.
+/// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2 with the
+/// weighted training residual RSS(z).
 RankCurve rankByGcv(const ScaledProblem& problem);
 
 }  // namespace exoid::estimator
