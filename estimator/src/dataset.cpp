@@ -81,6 +81,7 @@ void contactsFromPlates(const ForcePlateSample* const plates[2], const int feet[
   for (int i = 0; i < 2; ++i) {
     out.contact[i].body = feet[i];
     footWrenchFromPlate(*plates[i], out.contact[i].force, out.contact[i].moment_world_origin);
+    out.plate_position[i] = plates[i]->plate_position;
   }
 }
 }  // namespace
@@ -273,7 +274,8 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
         const Eigen::Matrix3d Rwb = st.base_orientation.toRotationMatrix();
         Eigen::Vector3d sum = Eigen::Vector3d::Zero();
         for (const DatasetOptions::Foothold& f : opt_.footholds)
-          sum += f.world - Rwb * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
+          sum += f.world + (f.plate >= 0 ? s.plate_position[f.plate] : Eigen::Vector3d::Zero()) -
+                 Rwb * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
         st.base_position = sum / static_cast<double>(opt_.footholds.size());
       }
     }

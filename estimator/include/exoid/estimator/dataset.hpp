@@ -62,6 +62,8 @@ struct MeasuredSample {
   bool has_base_domega = false;    ///< false: derived from base_omega
   ExternalWrench contact[2];       ///< wrench on each foot (force world, moment about the world origin)
   int ncontacts = 0;
+  Eigen::Vector3d plate_position[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< plates' sensor
+                                   ///< origins (world) as the lab measured them, when from plates
 };
 
 /// A sample from the ground-truth channel: exact state; y from the applied torques and the plates (when both
@@ -97,7 +99,8 @@ struct DatasetOptions {
   struct Foothold {
     int body = -1;
     Eigen::Vector3d point_in_body = Eigen::Vector3d::Zero();
-    Eigen::Vector3d world = Eigen::Vector3d::Zero();
+    Eigen::Vector3d world = Eigen::Vector3d::Zero();  ///< plus the sample's plate_position[plate] if plate >= 0
+    int plate = -1;
   };
   std::vector<Foothold> footholds;
   int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
