@@ -199,8 +199,8 @@ int cmdIdentify(int argc, char** argv) {
   std::printf("%s, rank %s: z = %d of %d base parameters (numerical rank %d), condition number %.3g\n",
               estimator::methodName(r.method), estimator::rankRuleName(r.rank_rule), r.rank, base.rank,
               r.numerical_rank, r.condition);
-  std::printf("training: %ld samples, %ld equations, generalized-force RMSE %.6g\n", train.samples(), r.training_rows,
-              r.training_rmse);
+  std::printf("training: %ld samples, %ld equations, generalized-force RMSE %.6g (RMS of y %.6g)\n", train.samples(),
+              r.training_rows, r.training_rmse, r.training_y_rms);
   if (r.validation_rmse >= 0.0) {
     std::printf("validation: generalized-force RMSE %.6g (prior %.6g); per coordinate:", r.validation_rmse,
                 r.prior_validation_rmse);
@@ -241,7 +241,8 @@ int cmdIdentify(int argc, char** argv) {
     j["singular_values"] = std::vector<double>(r.singular_values.data(), r.singular_values.data() + r.singular_values.size());
     j["rank_curve"] = {{"rule", r.curve.rule}, {"score", r.curve.score}};
     j["row_weight"] = r.row_weight;
-    j["training"] = {{"samples", train.samples()}, {"equations", r.training_rows}, {"rmse", r.training_rmse}};
+    j["training"] = {{"samples", train.samples()}, {"equations", r.training_rows}, {"rmse", r.training_rmse},
+                     {"y_rms", r.training_y_rms}};
     if (r.validation_rmse >= 0.0)
       j["validation"] = {{"rmse", r.validation_rmse}, {"prior_rmse", r.prior_validation_rmse},
                          {"rmse_per_coordinate", r.validation_rmse_per_coordinate}};

@@ -99,9 +99,10 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
     out.links.push_back(checkLink(model.body_names[b], out.phi.segment<kParamsPerBody>(model.bodyParamIndex(b))));
   {
     const Eigen::VectorXd xb = out.phi_base;
-    double sse = 0.0;
-    for (int c = 0; c < nv; ++c) sse += train.residual(c, xb);
+    double sse = 0.0, yy = 0.0;
+    for (int c = 0; c < nv; ++c) sse += train.residual(c, xb), yy += train.residual(c, Eigen::VectorXd::Zero(m));
     out.training_rmse = std::sqrt(sse / rows);
+    out.training_y_rms = std::sqrt(yy / rows);
   }
   if (validation) {
     out.validation_rmse = rmse(vfactor, out.phi);

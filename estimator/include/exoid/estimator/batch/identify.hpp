@@ -57,6 +57,7 @@ struct IdentifyResult {
   std::vector<double> row_weight;  ///< [nv] WLS-R weights (ones without R)
   long training_rows = 0;
   double training_rmse = 0.0;      ///< unweighted generalized-force RMSE on the training data
+  double training_y_rms = 0.0;     ///< RMS of the training y (scale for training_rmse)
   double validation_rmse = -1.0;   ///< pooled, when validation data were given (< 0 otherwise)
   std::vector<double> validation_rmse_per_coordinate;  ///< [nv]
   double prior_validation_rmse = -1.0;  ///< the prior's (Ref)
