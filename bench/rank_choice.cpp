@@ -38,6 +38,8 @@ int main(int argc, char** argv) {
   app.add_flag("--fixed-base", fixed, "fixed-base model");
   app.add_option("--pipeline", pipeline, "training pipeline: truth or sensors");
   app.add_option("--cutoff", cutoff, "Butterworth cutoff, Hz (0: none)");
+  std::string mode = "inputs";
+  app.add_option("--filter-mode", mode, "inputs or parallel");
   app.add_option("--noise", noise, "encoder noise sigma on the training q");
   app.add_option("--perturb", perturb, "prior within +-perturb of the truth");
   app.add_option("--priors", priors, "number of random priors");
@@ -51,6 +53,7 @@ int main(int argc, char** argv) {
   so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
   so.dataset.cutoff_hz = cutoff;
   so.dataset.encoder_noise = noise;
+  so.dataset.filter = mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
   so.dataset.derive = noise > 0.0 || pipeline == "sensors";
   estimator::AccumulatorOptions ao;
   ao.folds = folds;
@@ -101,8 +104,8 @@ int main(int argc, char** argv) {
       ++mi;
     }
   }
-  std::printf("%d priors within +-%.1f %%, %s pipeline, cutoff %g Hz, noise %g; base parameters %d\n", priors,
-              100 * perturb, pipeline.c_str(), cutoff, noise, base.rank);
+  std::printf("%d priors within +-%.1f %%, %s pipeline, cutoff %g Hz (%s filtering), noise %g; base parameters %d\n",
+              priors, 100 * perturb, pipeline.c_str(), cutoff, mode.c_str(), noise, base.rank);
   std::printf("%-8s %-11s %8s %14s %12s\n", "method", "rank rule", "mean z", "val RMSE", "est. err %");
   std::printf("%-8s %-11s %8s %14.6g %12.3f\n", "Ref", "-", "-", ref.rmse, ref.err);
   const char* mn[] = {"OLS", "WLS-R", "WLS-C", "WLS-RC"};

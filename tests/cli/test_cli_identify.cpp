@@ -17,6 +17,7 @@
 
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/tools/urdf_inertials.hpp"
 #include "support/paths.hpp"
 #include "support/run_command.hpp"
 
@@ -103,6 +104,32 @@ TEST(IdentifyCli, ExactDataGiveTheIdentifiableFloor) {
               avgErr(est), avgErr(floor), avgErr(prior), (est - floor).cwiseAbs().maxCoeff() / model.phi.cwiseAbs().maxCoeff());
   EXPECT_NEAR(avgErr(est), avgErr(floor), 1e-3 * avgErr(floor));
   EXPECT_LT((est - floor).cwiseAbs().maxCoeff(), 1e-6 * model.phi.cwiseAbs().maxCoeff());
+  // The URDF written with the identified inertials (when every link is consistent) loads back to them.
+  if (!j["identified_urdf"].is_null()) {
+    Model back;
+    ASSERT_TRUE(buildModelFromUrdfFile(dir.file("id/identified.urdf"), true, back, &err)) << err;
+    ASSERT_EQ(back.nparams(), model.nparams());
+    const int ni = model.nInertialParams();
+    EXPECT_LT((back.phi.head(ni) - est.head(ni)).cwiseAbs().maxCoeff(), 1e-9 * est.head(ni).cwiseAbs().maxCoeff());
+  } else {
+    for (const auto& l : j["links"]) std::printf("link %s consistent %d\n", l["link"].get<std::string>().c_str(), l["consistent"].get<bool>());
+  }
+}
+
+TEST(IdentifyCli, IdentifiedUrdfRoundTrips) {
+  // Any consistent parameters written into the exoskeleton's URDF load back exactly.
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
+  test::TempDir dir("identify_urdf");
+  Eigen::VectorXd phi = model.phi;
+  for (int i = 0; i < model.nInertialParams(); ++i) phi[i] *= 1.0 + 0.01 * ((i * 7) % 5);
+  ASSERT_TRUE(tools::writeUrdfWithInertials(test::configPath("exo.urdf"), model, phi, dir.file("x.urdf"), &err)) << err;
+  Model back;
+  ASSERT_TRUE(buildModelFromUrdfFile(dir.file("x.urdf"), true, back, &err)) << err;
+  const int ni = model.nInertialParams();
+  EXPECT_LT((back.phi.head(ni) - phi.head(ni)).cwiseAbs().maxCoeff(), 1e-12 * phi.head(ni).cwiseAbs().maxCoeff());
+  EXPECT_EQ(back.body_names, model.body_names);
 }
 
 TEST(IdentifyCli, KukaValidationTorquesBeatTheUrdf) {

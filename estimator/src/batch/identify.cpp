@@ -11,13 +11,16 @@ const char* rankRuleName(RankRule r) {
     case RankRule::Fixed: return "fixed";
     case RankRule::Validation: return "validation";
     case RankRule::CrossValidation: return "cv";
+    case RankRule::CrossValidation1Se: return "cv-1se";
+    case RankRule::Jackknife: return "jackknife";
     case RankRule::Gcv: return "gcv";
   }
   return "?";
 }
 
 bool parseRankRule(const std::string& name, RankRule& r) {
-  for (RankRule x : {RankRule::Full, RankRule::Fixed, RankRule::Validation, RankRule::CrossValidation, RankRule::Gcv})
+  for (RankRule x : {RankRule::Full, RankRule::Fixed, RankRule::Validation, RankRule::CrossValidation,
+                     RankRule::CrossValidation1Se, RankRule::Gcv, RankRule::Jackknife})
     if (name == rankRuleName(x)) return r = x, true;
   return false;
 }
@@ -77,8 +80,15 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
       out.rank = out.curve.best;
       break;
     case RankRule::CrossValidation:
+    case RankRule::CrossValidation1Se:
       if (train.folds() < 2) return fail("cross-validation needs at least 2 folds");
-      out.curve = rankByCrossValidation(train, model, prior, o.method);
+      out.curve = rankByCrossValidation(train, model, prior, o.method,
+                                        o.rank_rule == RankRule::CrossValidation ? CvRule::Minimum : CvRule::OneStandardError);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::Jackknife:
+      if (train.folds() < 2) return fail("the jackknife needs at least 2 folds");
+      out.curve = rankByJackknife(train, model, prior, o.method, o.prior_uncertainty);
       out.rank = out.curve.best;
       break;
     case RankRule::Gcv:

@@ -16,16 +16,19 @@ enum class RankRule {
   Full,             ///< numerical rank of the scaled problem (s_i > 1e-10 s_1)
   Fixed,            ///< IdentifyOptions::rank
   Validation,       ///< (a) validation generalized-force RMSE (needs validation data)
-  CrossValidation,  ///< (b) time-block cross-validation on the training data, 1-SE rule
+  CrossValidation,  ///< (b) time-block cross-validation on the training data, minimum
+  CrossValidation1Se,  ///< (b) the same, paired one-standard-error rule
   Gcv,              ///< (b) generalized cross-validation on the training data
+  Jackknife,        ///< (b) noise-based cap: jackknife std of each direction below the prior's uncertainty
 };
-const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "gcv"
+const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "cv-1se", "gcv", "jackknife"
 bool parseRankRule(const std::string& name, RankRule& r);
 
 struct IdentifyOptions {
   Method method = Method::WlsRC;
-  RankRule rank_rule = RankRule::CrossValidation;
+  RankRule rank_rule = RankRule::Jackknife;
   int rank = -1;                  ///< for RankRule::Fixed
+  double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: prior within +-this (relative) of the truth
   double excitation_threshold = 0.1;  ///< a parameter whose unit direction has less than this norm in the
                                       ///< kept right singular vectors is reported as not excited
 };
