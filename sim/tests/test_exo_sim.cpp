@@ -168,6 +168,14 @@ TEST(ExoSimCli, HelpListsEveryOptionChannelAndExitCode) {
 TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
   const std::string bad_scenario = writeFile("bad.yaml", "name: x\nseed: 1\nnoise: off\neffects: {dampin: {all: 1}}\n");
   const std::string bad_mjcf = writeFile("bad.xml", "<mujoco><worldbody><body></mujoco>");
+  std::ifstream in(cfg("exo.xml"));
+  std::string mjcf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  mjcf.replace(mjcf.find("mass=\""), mjcf.find('"', mjcf.find("mass=\"") + 6) - mjcf.find("mass=\"") + 1, "mass=\"nan\"");
+  const std::string nan_mjcf = writeFile("nan.xml", mjcf);  // MuJoCo 2.2 alone accepts it with a warning
+  mjcf.replace(mjcf.find("mass=\"nan\""), 10, "mass=\"inf\"");
+  const std::string inf_mjcf = writeFile("inf.xml", mjcf);  // and this one silently
+  const std::string duplicate =
+      writeFile("dup.yaml", "name: x\nseed: 1\nnoise: off\neffects: {joint_damping: {all: 1, all: 2}}\n");
   const std::string unknown_joint =
       writeFile("joint.yaml", "name: x\nseed: 1\nnoise: off\neffects: {joint_damping: {knee: 1}}\n");
   struct Case {
@@ -175,13 +183,20 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
   };
   const std::vector<Case> cases = {
       {"--bogus 1", "unknown option '--bogus'"},
-      {"--duration -1", "--duration: expected a positive number of seconds, got '-1'"},
+      {"--duration -1", "--duration: '-1': out of range"},
+      {"--duration nan", "--duration: 'nan': not finite"},
+      {"--duration 1e400", "--duration: '1e400': too large for a double"},
+      {"--duration 2 stray", "unexpected argument 'stray'"},
       {"--duration", "--duration: missing value"},
-      {"--mode fast", "--mode: expected lockstep or realtime, got 'fast'"},
-      {"--command-timeout-ms x", "--command-timeout-ms: expected milliseconds >= 0"},
+      {"--mode fast", "--mode: fast not in {lockstep,realtime}"},
+      {"--command-timeout-ms x", "--command-timeout-ms: 'x': not an integer"},
+      {"--hold-ticks -1", "--hold-ticks: '-1': out of range, expected an integer in [0, 1000000000]"},
       {"--scenario " + bad_scenario, bad_scenario + ": effects.dampin: unknown key"},
+      {"--scenario " + duplicate, duplicate + ": effects.joint_damping.all: duplicate key (line 4; first on line 4)"},
       {"--scenario " + unknown_joint, unknown_joint + ": effects.joint_damping.knee: unknown joint 'knee'"},
       {"--model " + bad_mjcf, bad_mjcf + ": MuJoCo cannot load the model"},
+      {"--model " + nan_mjcf, nan_mjcf + ": body 'right_plate' <inertial mass='nan'> (line 14): not finite"},
+      {"--model " + inf_mjcf, inf_mjcf + ": body 'right_plate' <inertial mass='inf'> (line 14): not finite"},
       {"--sensors /nonexistent/s.yaml", "/nonexistent/s.yaml: cannot open file"},
       {"--lcm-url udpm://239.255.76.67:7667?ttl=1", "--lcm-url: "},
   };

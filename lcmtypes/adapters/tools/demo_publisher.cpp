@@ -1,6 +1,7 @@
 // exoid_lcm_demo_publisher: publishes N plausible exoid_lcm.robot_state_t messages (the 10 exoskeleton
 // joints, standing with a slow sway) at a fixed rate, for lcm-spy demos and transport checks.
-// Usage: exoid_lcm_demo_publisher [--count N] [--rate HZ] [--start-tick K] [--url URL] [--channel NAME]
+// Usage: exoid_lcm_demo_publisher --help
+#include <exoid/common/cli.hpp>
 #include <exoid/lcm/adapters.hpp>
 #include <exoid/lcm/channels.hpp>
 #include <exoid/lcm/lcm_endpoint.hpp>
@@ -20,67 +21,28 @@ const std::vector<std::string> kJointNames = {
     "right_hip_aa", "right_hip_fe", "right_knee", "right_ankle_pd", "right_ankle_ie",
     "left_hip_aa",  "left_hip_fe",  "left_knee",  "left_ankle_pd",  "left_ankle_ie"};
 
-void usage(FILE* out) {
-  std::fprintf(out,
-               "usage: exoid_lcm_demo_publisher [--count N] [--rate HZ] [--start-tick K] [--url URL] [--channel NAME]\n"
-               "  Publishes N (default 200) exoid_lcm.robot_state_t messages at HZ (default 100), ticks K, K+1, ...\n"
-               "  (default K = 0) on NAME (default %s) to URL (default $LCM_DEFAULT_URL, else %s).\n",
-               exoid::channels::kState, exoid::channels::kDefaultUrl);
-}
-
-bool parsePositive(const char* text, double* out) {
-  char* end = nullptr;
-  const double v = std::strtod(text, &end);
-  if (end == text || *end != '\0' || !(v > 0) || !std::isfinite(v)) return false;
-  *out = v;
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-  double count = 200, rate = 100;
-  long start_tick = 0;
+  int64_t count = 200, start_tick = 0;
+  double rate = 100;
   std::string url = exoid::LcmEndpoint::defaultUrl();
   std::string channel = exoid::channels::kState;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "-h" || arg == "--help") {
-      usage(stdout);
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "exoid_lcm_demo_publisher: %s needs a value\n", arg.c_str());
-      return 2;
-    }
-    const char* value = argv[++i];
-    if (arg == "--count") {
-      if (!parsePositive(value, &count) || count != std::floor(count)) {
-        std::fprintf(stderr, "exoid_lcm_demo_publisher: --count must be a positive integer, got '%s'\n", value);
-        return 2;
-      }
-    } else if (arg == "--rate") {
-      if (!parsePositive(value, &rate) || rate > 10000) {
-        std::fprintf(stderr, "exoid_lcm_demo_publisher: --rate must be in (0, 10000] Hz, got '%s'\n", value);
-        return 2;
-      }
-    } else if (arg == "--start-tick") {
-      char* end = nullptr;
-      start_tick = std::strtol(value, &end, 10);
-      if (end == value || *end != '\0' || start_tick < 0) {
-        std::fprintf(stderr, "exoid_lcm_demo_publisher: --start-tick must be an integer >= 0, got '%s'\n", value);
-        return 2;
-      }
-    } else if (arg == "--url") {
-      url = value;
-    } else if (arg == "--channel") {
-      channel = value;
-    } else {
-      std::fprintf(stderr, "exoid_lcm_demo_publisher: unknown option '%s'\n", arg.c_str());
-      usage(stderr);
-      return 2;
-    }
-  }
+  CLI::App app{"Publishes N exoid_lcm.robot_state_t messages (the 10 exoskeleton joints, standing with a slow\n"
+               "sway) at a fixed rate, ticks K, K+1, ..., for lcm-spy demos and transport checks.",
+               "exoid_lcm_demo_publisher"};
+  exoid::common::configureCli(app);
+  app.add_option("--count", count, "messages to publish")
+      ->transform(exoid::common::strictInteger(1, 1000000000))->type_name("N");
+  app.add_option("--rate", rate, "messages per second")
+      ->transform(exoid::common::strictNumber(1e-3, 10000.0))->type_name("HZ");
+  app.add_option("--start-tick", start_tick, "tick of the first message")
+      ->transform(exoid::common::strictInteger(0))->type_name("K");
+  app.add_option("--url", url, "LCM URL (udpm needs ttl=0); the default is $LCM_DEFAULT_URL when set")
+      ->type_name("URL");
+  app.add_option("--channel", channel, "channel name")->type_name("NAME");
+  app.footer("exit codes: 0 published, 1 LCM failure, 2 bad option.");
+  if (const int code = exoid::common::parseCli(app, argc, argv); code >= 0) return code;
 
   std::string why;
   auto lcm = exoid::LcmEndpoint::create(url, &why);
