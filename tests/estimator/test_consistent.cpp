@@ -9,6 +9,8 @@
 #include <Eigen/SVD>
 #include <random>
 
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/batch/accumulator.hpp"
 #include "exoid/estimator/batch/consistent.hpp"
 #include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
@@ -203,6 +205,39 @@ TEST_F(ConsistentExo, ConsistentWhereLeastSquaresIsNot) {
   const double F1 = r.target_cost + opt.prior_weight * (r.x - consistentCoordinates(model_, prior)).squaredNorm();
   const double F2 = r2.target_cost + opt.prior_weight * (r2.x - consistentCoordinates(model_, prior)).squaredNorm();
   EXPECT_NEAR(F2, F1, 1e-2 * F1);  // near the boundary the last digits come slowly (theta diverging)
+}
+
+TEST_F(ConsistentExo, WlsRcPcOnTheStreamedFactorsStaysCloseToWlsRc) {
+  // The batch pipeline: rows streamed into the QR accumulator, WLS-RC prepared (row weights from the OLS
+  // residual, columns by the prior), full numerical rank; WLS-RC-PC on the same problem.
+  Data data(model_);
+  State s = State::zero(model_);
+  std::mt19937_64 rng(12);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const BaseParameters base = computeBaseParameters(model_);
+  AccumulatorOptions ao;
+  ao.folds = 1;
+  LsqAccumulator acc(model_, base, ao);
+  for (int k = 0; k < 400; ++k) {
+    randomState(model_, rng, s);
+    s.q *= 0.2;
+    s.v *= 0.1;
+    s.a *= 0.1;
+    computeJointTorqueRegressor(model_, data, s);
+    Eigen::VectorXd y = data.K * model_.phi;
+    for (int i = 0; i < y.size(); ++i) y[i] += 0.5 * noise(rng);
+    ASSERT_TRUE(acc.add(data.K, y));
+  }
+  acc.flush();
+  const Eigen::VectorXd prior = randomPrior(model_, 0.25, 13);
+  const ScaledProblem sp = prepare(acc, model_, prior, Method::WlsRC);
+  const int z = sp.numericalRank();
+  const Eigen::VectorXd rc = solveAtRank(sp, z);
+  ASSERT_GT(countInconsistent(checkConsistency(model_, rc)), 0) << "the setup must make WLS-RC inconsistent";
+  const ConsistentResult pc = solveConsistentAtRank(model_, sp, z);
+  EXPECT_EQ(countInconsistent(pc.consistency), 0);
+  const LsqFactor train = toStandard(acc.mergedBase(), base.base_map);
+  EXPECT_LT(rmse(train, pc.phi), 1.10 * rmse(train, rc)) << rmse(train, pc.phi) << " vs " << rmse(train, rc);
 }
 
 TEST(Consistent, ConsistentFitIsLeftAlone) {

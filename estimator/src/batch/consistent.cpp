@@ -223,4 +223,13 @@ ConsistentResult solveConsistent(const Model& model, const QuadraticTarget& targ
   return res;
 }
 
+ConsistentResult solveConsistentAtRank(const Model& model, const ScaledProblem& sp, int z, double nullspace_rel,
+                                       double prior_rel, ConsistentOptions options) {
+  z = std::clamp(z, 1, static_cast<int>(sp.s.size()));
+  const double sz2 = sp.s[z - 1] * sp.s[z - 1];
+  const QuadraticTarget t = consistentTarget(sp.s, sp.V, sp.d, sp.h, sp.gamma, sp.prior, z, nullspace_rel * sz2);
+  options.prior_weight = prior_rel * sz2;
+  return solveConsistent(model, t, sp.prior, solveAtRank(sp, z), options);
+}
+
 }  // namespace exoid::estimator

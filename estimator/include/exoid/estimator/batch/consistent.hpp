@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "exoid/estimator/batch/solvers.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/model/model.hpp"
 
@@ -78,5 +79,12 @@ Eigen::MatrixXd consistentJacobian(const Model& model, const Eigen::VectorXd& x)
 /// pseudo-inertia eigenvalues lifted to 1e-10 of the largest so that the verdict survives round-off. prior: [p], its log-Cholesky coordinates anchor the gamma term.
 ConsistentResult solveConsistent(const Model& model, const QuadraticTarget& target, const Eigen::VectorXd& prior,
                                  const Eigen::VectorXd& start, const ConsistentOptions& options = {});
+
+/// WLS-RC-PC on a prepared problem (solvers.hpp; WLS-RC for the thesis's scaling, any method works): the
+/// target of its rank-z fit (consistentTarget with nullspace_weight = nullspace_rel * s_z^2), started at
+/// that fit (solveAtRank), gamma = prior_rel * s_z^2.
+ConsistentResult solveConsistentAtRank(const Model& model, const ScaledProblem& problem, int z,
+                                       double nullspace_rel = 1e-2, double prior_rel = 1e-6,
+                                       ConsistentOptions options = {});
 
 }  // namespace exoid::estimator
