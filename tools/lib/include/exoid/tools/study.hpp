@@ -6,7 +6,7 @@
 // WLS-R, WLS-C, WLS-RC with the rank chosen on the validation data (thesis), WLS-RC with the rank chosen from
 // the training data alone (time-block cross-validation), and WLS-RC-PC (physically consistent, at WLS-RC's
 // rank); every estimate scored with the thesis's metrics (estimator/metrics.hpp) on the validation run (and
-// the test run). Writes results.csv (one row per estimate), table_c1.{csv,md} (means over the priors, the
+// the test run, which also gets chapter 4's realistic torque prediction, eq. 4.1). Writes results.csv (one row per estimate), table_c1.{csv,md} (means over the priors, the
 // thesis's Table C.1), table2.{csv,md} (best over the cutoffs per metric, the thesis's Table II with its
 // numbers beside), singular_values.csv and link_error.csv (Fig. 6); scripts/plot_study.py draws them.
 #include <cstdint>
@@ -36,6 +36,8 @@ struct StudyOptions {
   std::vector<PriorRange> ranges{{"12.5%", 0.125, false}, {"25%", 0.25, false}, {"abs0.125", 0.125, true}};
   int stride = 10;             ///< validation/test metric samples: every stride-th tick (thesis figures: 0.02 s)
   int pc_iterations = 100;     ///< Newton iterations of WLS-RC-PC per estimate
+  double pc_nullspace = 1e-2;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
+  double realistic_cutoff_hz = 50.0;  ///< causal velocity filter of the realistic torque prediction (test run)
   std::function<void(const std::string&)> progress;  ///< one line per step (may be empty)
 };
 
