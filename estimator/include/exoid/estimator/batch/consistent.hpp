@@ -84,7 +84,7 @@ ConsistentResult solveConsistent(const Model& model, const QuadraticTarget& targ
 /// target of its rank-z fit (consistentTarget with nullspace_weight = nullspace_rel * s_z^2), started at
 /// that fit (solveAtRank), gamma = prior_rel * s_z^2.
 ConsistentResult solveConsistentAtRank(const Model& model, const ScaledProblem& problem, int z,
-                                       double nullspace_rel = 1e-2, double prior_rel = 1e-6,
+                                       double nullspace_rel = 1e-3, double prior_rel = 1e-6,
                                        ConsistentOptions options = {});
 
 }  // namespace exoid::estimator

@@ -36,7 +36,7 @@ struct StudyOptions {
   std::vector<PriorRange> ranges{{"12.5%", 0.125, false}, {"25%", 0.25, false}, {"abs0.125", 0.125, true}};
   int stride = 10;             ///< validation/test metric samples: every stride-th tick (thesis figures: 0.02 s)
   int pc_iterations = 100;     ///< Newton iterations of WLS-RC-PC per estimate
-  double pc_nullspace = 1e-2;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
+  double pc_nullspace = 1e-3;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
   double realistic_cutoff_hz = 50.0;  ///< causal velocity filter of the realistic torque prediction (test run)
   std::function<void(const std::string&)> progress;  ///< one line per step (may be empty)
 };
