@@ -16,7 +16,7 @@ DEB_PACKAGES=(
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev
   libgtest-dev libbenchmark-dev libyaml-cpp-dev libcereal-dev libcli11-dev nlohmann-json3-dev
   iproute2 util-linux xvfb xauth x11-apps imagemagick xdotool
-  nlohmann-json3-dev
+  python3-matplotlib
 )
 PROXSUITE_VERSION=0.8.0
 

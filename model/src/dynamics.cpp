@@ -1,5 +1,6 @@
 #include "exoid/model/dynamics.hpp"
 
+#include "exoid/model/inertial.hpp"
 #include "exoid/model/regressor.hpp"
 #include "spatial.hpp"
 
@@ -10,21 +11,10 @@ namespace {
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
-/// Spatial inertia of a body about the reference origin, reference coordinates, [angular; linear]:
-///   [I_O, S(h_O); S(h_O)^T, m E],  h_O = m p + R h,  I_O by the parallel-axis theorem from the body origin.
-void spatialInertia(const Vector10d& phi, const Eigen::Matrix3d& R, const Eigen::Vector3d& p, Matrix6d& out) {
-  const double m = phi[0];
-  const Eigen::Vector3d h = R * phi.segment<3>(1);
-  Eigen::Matrix3d I;
-  I << phi[4], phi[5], phi[6], phi[5], phi[7], phi[8], phi[6], phi[8], phi[9];
-  const Eigen::Matrix3d E = Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d IO = R * I * R.transpose() + m * (p.squaredNorm() * E - p * p.transpose()) +
-                             2.0 * p.dot(h) * E - h * p.transpose() - p * h.transpose();
-  const Eigen::Vector3d hO = h + m * p;
-  out.topLeftCorner<3, 3>() = IO;
-  out.topRightCorner<3, 3>() = skew(hO);
-  out.bottomLeftCorner<3, 3>() = skew(hO).transpose();
-  out.bottomRightCorner<3, 3>() = m * E;
+/// Spatial inertia of a body about the reference origin, reference coordinates, [angular; linear]: the body's
+/// parameters moved rigidly from its frame (R, p) to the reference frame.
+Matrix6d spatialInertiaInReference(const Vector10d& phi, const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
+  return spatialInertia(transformParams(phi, R, p));
 }
 
 }  // namespace
@@ -70,11 +60,13 @@ void rnea(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out, con
   }
 }
 
-void crba(const Model& model, DynamicsData& out, const State& state) {
+void crba(const Model& model, DynamicsData& out, const State& state) { crba(model, model.phi, out, state); }
+
+void crba(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out, const State& state) {
   Data& d = out.kin;
   forwardKinematics(model, d, state);
   for (int b = 0; b < model.nbodies; ++b)
-    spatialInertia(model.phi.segment<kParamsPerBody>(model.bodyParamIndex(b)), d.R[b], d.p[b], out.composite[b]);
+    out.composite[b] = spatialInertiaInReference(phi.segment<kParamsPerBody>(model.bodyParamIndex(b)), d.R[b], d.p[b]);
   for (int b = model.nbodies - 1; b > 0; --b)
     if (model.parent[b] >= 0) out.composite[model.parent[b]] += out.composite[b];
   if (model.floating_base) out.M.topLeftCorner<6, 6>() = out.composite[0];
@@ -126,17 +118,19 @@ Eigen::Matrix<double, 6, 1> pointAccelerationDrift(const Data& kin, int body, co
   return out;
 }
 
-void centroidal(const Model& model, DynamicsData& out) {
+void centroidal(const Model& model, DynamicsData& out) { centroidal(model, model.phi, out); }
+
+void centroidal(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out) {
   const Data& d = out.kin;
   out.mass = 0.0;
   Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();
   out.momentum_origin.setZero();
-  Matrix6d I;
+  Matrix6d I;  // body spatial inertia about the reference origin
   for (int b = 0; b < model.nbodies; ++b) {
-    const Vector10d phib = model.phi.segment<kParamsPerBody>(model.bodyParamIndex(b));
+    const Vector10d phib = phi.segment<kParamsPerBody>(model.bodyParamIndex(b));
     out.mass += phib[0];
     first_moment += phib[0] * d.p[b] + d.R[b] * phib.segment<3>(1);
-    spatialInertia(phib, d.R[b], d.p[b], I);
+    I = spatialInertiaInReference(phib, d.R[b], d.p[b]);
     Vector6d V;  // spatial velocity at the reference origin
     V << d.omega[b], d.vel[b] - d.omega[b].cross(d.p[b]);
     out.momentum_origin.noalias() += I * V;

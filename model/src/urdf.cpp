@@ -1,5 +1,7 @@
 #include "exoid/model/urdf.hpp"
 
+#include "exoid/model/inertial.hpp"
+
 #include <console_bridge/console.h>
 #include <tinyxml2.h>
 #include <urdf_parser/urdf_parser.h>
@@ -124,45 +126,6 @@ bool checkNumbers(const tinyxml2::XMLElement* robot, std::string* error) {
 }
 
 }  // namespace
-
-Eigen::Matrix3d inertiaTensor(const Vector10d& phi) {
-  Eigen::Matrix3d I;
-  I << phi[4], phi[5], phi[6], phi[5], phi[7], phi[8], phi[6], phi[8], phi[9];
-  return I;
-}
-
-Vector10d paramsFromInertial(double m, const Eigen::Vector3d& c, const Eigen::Matrix3d& R,
-                             const Eigen::Matrix3d& Ic) {
-  const Eigen::Matrix3d I =
-      R * Ic * R.transpose() + m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
-  Vector10d phi;
-  phi << m, m * c.x(), m * c.y(), m * c.z(), I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2), I(2, 2);
-  return phi;
-}
-
-Vector10d transformParams(const Vector10d& phi, const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
-  // r' = R r + p:  I'_o = R I_o R^T + m(|p|^2 E - p p^T) + 2 (p . Rh) E - (Rh) p^T - p (Rh)^T
-  const double m = phi[0];
-  const Eigen::Vector3d h = R * phi.segment<3>(1);
-  const Eigen::Matrix3d E = Eigen::Matrix3d::Identity();
-  const Eigen::Matrix3d I = R * inertiaTensor(phi) * R.transpose() +
-                            m * (p.squaredNorm() * E - p * p.transpose()) + 2.0 * p.dot(h) * E -
-                            h * p.transpose() - p * h.transpose();
-  const Eigen::Vector3d h2 = h + m * p;
-  Vector10d out;
-  out << m, h2.x(), h2.y(), h2.z(), I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2), I(2, 2);
-  return out;
-}
-
-Eigen::Matrix4d pseudoInertia(const Vector10d& phi) {
-  const Eigen::Matrix3d I = inertiaTensor(phi);
-  Eigen::Matrix4d P;
-  P.topLeftCorner<3, 3>() = 0.5 * I.trace() * Eigen::Matrix3d::Identity() - I;
-  P.topRightCorner<3, 1>() = phi.segment<3>(1);
-  P.bottomLeftCorner<1, 3>() = phi.segment<3>(1).transpose();
-  P(3, 3) = phi[0];
-  return P;
-}
 
 bool buildModelFromUrdfFile(const std::string& path, bool floating_base, Model& model, std::string* error,
                             double gravity_magnitude) {

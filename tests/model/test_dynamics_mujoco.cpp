@@ -2,7 +2,10 @@
 // floating-base exoskeleton (random states), converted through the free joint's velocity convention.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/inertial.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "support/mujoco_fixture.hpp"
@@ -124,6 +127,72 @@ TEST_F(DynamicsVsMujoco, CentroidalMatchesSubtreeComAndMomentum) {
     const Eigen::Vector3d LG_mj(d_->subtree_angmom + 3 * root);
     EXPECT_LT((LG - LG_mj).norm(), 1e-9 * std::max(1.0, LG_mj.norm()));
   }
+}
+
+// crba and centroidal with an arbitrary phi (an estimate): a different consistent parameter vector written
+// into MuJoCo's body inertials (mass, CoM, principal moments and frame) gives MuJoCo's mass matrix, CoM and
+// momentum for those parameters.
+TEST_F(DynamicsVsMujoco, CrbaAndCentroidalWithAnotherPhiMatchMuJoCo) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd phi = model_.phi;
+  for (int b = 0; b < model_.nbodies; ++b) {
+    Vector10d theta;
+    ASSERT_TRUE(logCholeskyFromParams(model_.phi.segment<10>(model_.bodyParamIndex(b)), theta));
+    for (int i = 0; i < 10; ++i) theta[i] += 0.2 * u(rng);  // log-Cholesky: every point is a real body
+    phi.segment<10>(model_.bodyParamIndex(b)) = paramsFromLogCholesky(theta);
+    InertialProperties in;
+    ASSERT_TRUE(inertialFromParams(phi.segment<10>(model_.bodyParamIndex(b)), in));
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(in.inertia_com);
+    Eigen::Matrix3d V = es.eigenvectors();
+    if (V.determinant() < 0) V.col(2) = -V.col(2);
+    const Eigen::Quaterniond q(V);
+    const int id = mj_name2id(m_, mjOBJ_BODY, model_.body_names[b].c_str());
+    ASSERT_GT(id, 0);
+    m_->body_mass[id] = in.mass;
+    for (int i = 0; i < 3; ++i) {
+      m_->body_ipos[3 * id + i] = in.com[i];
+      m_->body_inertia[3 * id + i] = es.eigenvalues()[i];
+    }
+    m_->body_iquat[4 * id + 0] = q.w();
+    m_->body_iquat[4 * id + 1] = q.x();
+    m_->body_iquat[4 * id + 2] = q.y();
+    m_->body_iquat[4 * id + 3] = q.z();
+  }
+  mj_setConst(m_, d_);  // subtree masses from the new body masses
+  DynamicsData dyn(model_), dyn_model(model_);
+  double worst_M = 0.0, differs = 0.0;
+  for (int k = 0; k < 100; ++k) {
+    const State s = test::randomState(model_, rng);
+    test::toMujoco(s, map_, m_, d_);
+    mj_forward(m_, d_);
+    mj_subtreeVel(m_, d_);
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> Mmj(m_->nv, m_->nv);
+    mj_fullM(m_, Mmj.data(), d_->qM);
+    const Eigen::MatrixXd T = velocityMap(s);
+    const Eigen::MatrixXd expected = T.transpose() * Mmj * T;
+    crba(model_, phi, dyn, s);
+    worst_M = std::max(worst_M, (dyn.M - expected).cwiseAbs().maxCoeff() / expected.cwiseAbs().maxCoeff());
+    crba(model_, dyn_model, s);
+    differs = std::max(differs, (dyn_model.M - expected).cwiseAbs().maxCoeff() / expected.cwiseAbs().maxCoeff());
+    // The default overload is the model.phi path exactly.
+    crba(model_, model_.phi, dyn, s);
+    EXPECT_EQ((dyn.M - dyn_model.M).cwiseAbs().maxCoeff(), 0.0);
+
+    forwardKinematics(model_, dyn.kin, s);
+    centroidal(model_, phi, dyn);
+    const int root = mj_name2id(m_, mjOBJ_BODY, "body");
+    const Eigen::Matrix3d R = s.base_orientation.toRotationMatrix();
+    EXPECT_NEAR(dyn.mass, m_->body_subtreemass[root], 1e-12);
+    EXPECT_LT((s.base_position + R * dyn.com - Eigen::Vector3d(d_->subtree_com + 3 * root)).norm(), 1e-12);
+    const Eigen::Vector3d P = R * dyn.momentum_origin.tail<3>();
+    EXPECT_LT((P - dyn.mass * Eigen::Vector3d(d_->subtree_linvel + 3 * root)).norm(), 1e-9 * std::max(1.0, P.norm()));
+    const Eigen::Vector3d LG = R * (dyn.momentum_origin.head<3>() - dyn.com.cross(dyn.momentum_origin.tail<3>()));
+    const Eigen::Vector3d LG_mj(d_->subtree_angmom + 3 * root);
+    EXPECT_LT((LG - LG_mj).norm(), 1e-9 * std::max(1.0, LG_mj.norm()));
+  }
+  EXPECT_LT(worst_M, 1e-9);
+  EXPECT_GT(differs, 1e-2);  // the other phi really is different
 }
 
 }  // namespace

@@ -26,6 +26,7 @@ TEST(NoAllocation, RegressorAndDynamicsPerSample) {
   for (int i = 0; i < 10; ++i) states.push_back(test::randomState(model, rng));
   const int foot = model.bodyIndex("right_foot");
   const Eigen::Vector3d point(0.06, 0.0, 0.03);
+  const Eigen::VectorXd phi_estimate = 1.1 * model.phi;  // the arbitrary-phi overloads (an estimate)
 
   const std::size_t before = test::allocationCount();
   Eigen::internal::set_is_malloc_allowed(false);
@@ -39,6 +40,9 @@ TEST(NoAllocation, RegressorAndDynamicsPerSample) {
     checksum += pointAccelerationDrift(dyn.kin, foot, point).sum();
     forwardKinematics(model, dyn.kin, s);
     centroidal(model, dyn);
+    checksum += dyn.com.sum();
+    crba(model, phi_estimate, dyn, s);
+    centroidal(model, phi_estimate, dyn);
     checksum += data.K.sum() + dyn.tau.sum() + dyn.M.sum() + J.sum() + dyn.com.sum();
   }
   Eigen::internal::set_is_malloc_allowed(true);

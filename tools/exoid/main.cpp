@@ -18,6 +18,7 @@ const Command kCommands[] = {
     {"experiment", exoid::cli::cmdExperiment, "closed-loop run: sim + controller over LCM in a private network namespace, logged and summarised"},
     {"export", exoid::cli::cmdExport, "a logged run as one CSV row per tick (sensors, or --truth)"},
     {"identify", exoid::cli::cmdIdentify, "batch identification (OLS / WLS-R / WLS-C / WLS-RC, truncated SVD) from logs or measured CSVs"},
+    {"study", exoid::cli::cmdStudy, "the thesis's comparison protocol (Tables II and C.1) on training, validation and test runs"},
 };
 
 void usage(FILE* out) {

@@ -34,6 +34,9 @@ void rnea(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out, con
 /// Uses state.q and state.base_orientation only. Allocation-free.
 void crba(const Model& model, DynamicsData& out, const State& state);
 
+/// The same for an arbitrary parameter vector phi [nparams] (e.g. an estimate; friction entries unused).
+void crba(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out, const State& state);
+
 /// Geometric Jacobian of a point fixed on a body (reference coordinates): J [6 x nv], rows
 /// [angular velocity; linear velocity of the point], so that [omega; v_point] = J nu. Requires a prior
 /// forwardKinematics (or rnea/crba) on out.kin for the same q. point_in_body: point in body coordinates.
@@ -51,5 +54,9 @@ void forwardKinematicsDrift(const Model& model, Data& kin, const State& state);
 /// Mass, centre of mass and total spatial momentum about the reference origin (reference coordinates).
 /// Requires forwardKinematics on out.kin. Allocation-free.
 void centroidal(const Model& model, DynamicsData& out);
+
+/// The same for an arbitrary parameter vector phi [nparams] (e.g. an estimate, for the CoM and momentum
+/// metrics). out.com is first moment / mass and is not finite when the total mass of phi is 0.
+void centroidal(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out);
 
 }  // namespace exoid

@@ -1,0 +1,235 @@
+#include "exoid/estimator/batch/consistent.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace exoid::estimator {
+
+QuadraticTarget consistentTarget(const Eigen::VectorXd& s, const Eigen::MatrixXd& V, const Eigen::VectorXd& d,
+                                 const Eigen::VectorXd& h, const Eigen::VectorXd& offset,
+                                 const Eigen::VectorXd& prior, int z, double nullspace_weight) {
+  const int p = static_cast<int>(V.rows());
+  const int r = static_cast<int>(V.cols());
+  z = std::clamp(z, 0, r);
+  const Eigen::VectorXd hinv = h.cwiseInverse();
+  const Eigen::MatrixXd Vz = V.leftCols(z);
+  QuadraticTarget t;
+  t.A.resize(z + p, p);
+  t.b.resize(z + p);
+  // Kept directions: S_z V_z^T H^-1 (phi - offset) = d_z.
+  t.A.topRows(z) = s.head(z).asDiagonal() * Vz.transpose() * hinv.asDiagonal();
+  t.b.head(z) = d.head(z) + t.A.topRows(z) * offset;
+  // The rest, toward the prior: (I - V_z V_z^T) H^-1 (phi - prior) = 0.
+  const double w = std::sqrt(std::max(nullspace_weight, 0.0));
+  const Eigen::MatrixXd Pn = Eigen::MatrixXd::Identity(p, p) - Vz * Vz.transpose();
+  t.A.bottomRows(p) = w * Pn * hinv.asDiagonal();
+  t.b.tail(p) = t.A.bottomRows(p) * prior;
+  return t;
+}
+
+namespace {
+
+/// The body's pseudo-inertia with its eigenvalues raised to relative_floor times the largest.
+Vector10d projectBody(const Vector10d& pb, double relative_floor, double floor_abs) {
+  Eigen::Matrix4d J = pseudoInertia(pb);
+  if (!J.allFinite()) J.setZero();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> es(J);
+  Eigen::Vector4d l = es.eigenvalues();
+  const double lmax = l.maxCoeff();
+  if (!(lmax > 0.0)) return paramsFromPseudoInertia(floor_abs * Eigen::Matrix4d::Identity());
+  for (int k = 0; k < 4; ++k) l[k] = std::max(l[k], relative_floor * lmax);
+  return paramsFromPseudoInertia(es.eigenvectors() * l.asDiagonal() * es.eigenvectors().transpose());
+}
+
+}  // namespace
+
+Eigen::VectorXd projectConsistent(const Model& model, const Eigen::VectorXd& phi, double relative_floor,
+                                  double floor_abs) {
+  Eigen::VectorXd out = phi;
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    const Vector10d pb = phi.segment<kParamsPerBody>(i);
+    if (!checkConsistency(pb).consistent) out.segment<kParamsPerBody>(i) = projectBody(pb, relative_floor, floor_abs);
+  }
+  return out;
+}
+
+Eigen::VectorXd consistentCoordinates(const Model& model, const Eigen::VectorXd& phi, double relative_floor) {
+  Eigen::VectorXd x = phi;
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    Vector10d theta;
+    Vector10d pb = phi.segment<kParamsPerBody>(i);
+    // Inconsistent (or, after round-off, on the boundary): raise the floor until the body is inside.
+    for (double floor = relative_floor; !logCholeskyFromParams(pb, theta); floor *= 10.0)
+      pb = projectBody(pb, std::min(floor, 1.0), 1e-9);
+    x.segment<kParamsPerBody>(i) = theta;
+  }
+  return x;
+}
+
+Eigen::VectorXd paramsFromConsistentCoordinates(const Model& model, const Eigen::VectorXd& x) {
+  Eigen::VectorXd phi = x;
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    phi.segment<kParamsPerBody>(i) = paramsFromLogCholesky(x.segment<kParamsPerBody>(i));
+  }
+  return phi;
+}
+
+Eigen::MatrixXd consistentJacobian(const Model& model, const Eigen::VectorXd& x) {
+  const int p = static_cast<int>(x.size());
+  Eigen::MatrixXd D = Eigen::MatrixXd::Identity(p, p);
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    D.block<kParamsPerBody, kParamsPerBody>(i, i) = logCholeskyJacobian(x.segment<kParamsPerBody>(i));
+  }
+  return D;
+}
+
+namespace {
+
+struct Evaluation {
+  Eigen::VectorXd phi, r;
+  double data = 0.0, total = 0.0;
+};
+
+Evaluation evaluate(const Model& model, const QuadraticTarget& t, const Eigen::VectorXd& x,
+                    const Eigen::VectorXd& x_prior, double gamma) {
+  Evaluation e;
+  e.phi = paramsFromConsistentCoordinates(model, x);
+  e.r = t.A * e.phi - t.b;
+  e.data = e.r.squaredNorm();
+  e.total = e.data + gamma * (x - x_prior).squaredNorm();
+  if (!std::isfinite(e.total)) e.total = std::numeric_limits<double>::infinity();
+  return e;
+}
+
+}  // namespace
+
+ConsistentResult solveConsistent(const Model& model, const QuadraticTarget& target, const Eigen::VectorXd& prior,
+                                 const Eigen::VectorXd& start, const ConsistentOptions& opt) {
+  const int p = model.nparams();
+  const double gamma = std::max(opt.prior_weight, 0.0);
+  const Eigen::VectorXd x_prior = consistentCoordinates(model, prior, opt.eigenvalue_floor);
+  // Inconsistent bodies of the start begin at the prior's (projected) body: a projection of an impossible
+  // body (negative mass) can be arbitrarily far from anything the data support.
+  Eigen::VectorXd x = consistentCoordinates(model, start, opt.eigenvalue_floor);
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    if (!checkConsistency(Vector10d(start.segment<kParamsPerBody>(i))).consistent)
+      x.segment<kParamsPerBody>(i) = x_prior.segment<kParamsPerBody>(i);
+  }
+  Evaluation cur = evaluate(model, target, x, x_prior, gamma);
+  ConsistentResult res;
+  res.start_cost = cur.data;
+  double lambda = 1e-3;
+  Eigen::MatrixXd AD(target.A.rows(), p), H(p, p);
+  Eigen::VectorXd g(p);
+  int flat = 0;  // consecutive accepted steps that lowered F by less than tolerance (relative)
+  for (int it = 0; it < opt.max_iterations && !res.converged; ++it) {
+    res.iterations = it + 1;
+    // Gauss-Newton model of F around x: J_F = [A D; sqrt(gamma) I].
+    AD = target.A;
+    for (int b = 0; b < model.nbodies; ++b) {
+      const int i = model.bodyParamIndex(b);
+      AD.middleCols<kParamsPerBody>(i) = target.A.middleCols<kParamsPerBody>(i) *
+                                         logCholeskyJacobian(x.segment<kParamsPerBody>(i));
+    }
+    H.noalias() = AD.transpose() * AD;
+    H.diagonal().array() += gamma;
+    const Eigen::VectorXd w = target.A.transpose() * cur.r;  // dF/dphi / 2
+    g.noalias() = AD.transpose() * cur.r;
+    g += gamma * (x - x_prior);
+    // Newton, not only Gauss-Newton: the residual at a constrained minimiser is not small (the fit wants an
+    // inconsistent body), and without the curvature of theta -> phi, sum_k w_k d2 phi_k / dtheta2, the
+    // iteration crawls along the boundary. That term per body, by central differences of the exact Jacobian.
+    for (int b = 0; b < model.nbodies; ++b) {
+      const int i = model.bodyParamIndex(b);
+      const Vector10d wb = w.segment<kParamsPerBody>(i);
+      Matrix10d S;
+      const double hstep = 1e-6;
+      for (int j = 0; j < kParamsPerBody; ++j) {
+        Vector10d tp = x.segment<kParamsPerBody>(i), tm = tp;
+        tp[j] += hstep;
+        tm[j] -= hstep;
+        S.col(j) = (logCholeskyJacobian(tp) - logCholeskyJacobian(tm)).transpose() * wb / (2.0 * hstep);
+      }
+      H.block<kParamsPerBody, kParamsPerBody>(i, i) += 0.5 * (S + S.transpose());
+    }
+    if (cur.total == 0.0 || g.norm() <= 1e-300) {
+      res.converged = true;
+      break;
+    }
+    const double dscale = std::max(H.diagonal().maxCoeff(), 1e-300);
+    // Levenberg-Marquardt: raise the damping until a step lowers F.
+    bool accepted = false;
+    while (!accepted && lambda < 1e16) {
+      Eigen::MatrixXd Hd = H;
+      // Levenberg's damping (lambda I): it shortens the flat directions most, which the trust region needs.
+      Hd.diagonal().array() += lambda * dscale;
+      const Eigen::LLT<Eigen::MatrixXd> llt(Hd);
+      if (llt.info() != Eigen::Success) {  // the Newton model is not convex here: damp more
+        lambda *= 4.0;
+        continue;
+      }
+      const Eigen::VectorXd step = llt.solve(-g);
+      // Trust region in log-Cholesky coordinates: at most a factor e per step. A long Gauss-Newton step
+      // can otherwise jump to a far log-coordinate where the map is flat (e^d ~ 0) and stall there.
+      const double big = step.cwiseAbs().maxCoeff();
+      if (!(big <= opt.max_step)) {
+        lambda *= 4.0;
+        continue;
+      }
+      const Eigen::VectorXd x_new = x + step;
+      Evaluation next = evaluate(model, target, x_new, x_prior, gamma);
+      if (next.total < cur.total) {
+        const double decrease = cur.total - next.total;
+        const bool small_step = step.norm() <= opt.tolerance * (x.norm() + opt.tolerance);
+        flat = decrease <= opt.tolerance * cur.total ? flat + 1 : 0;
+        x = x_new;
+        cur = std::move(next);
+        lambda = std::max(lambda / 3.0, 1e-15);
+        accepted = true;
+        // One flat step can be a heavily damped one on a plateau of the exponential map: ask for several.
+        if (flat >= 5 || small_step || cur.total == 0.0) res.converged = true;
+      } else {
+        lambda *= 4.0;
+      }
+    }
+    if (!accepted) {  // no descent at any damping: x is stationary to working precision
+      res.converged = true;
+      break;
+    }
+  }
+  res.x = x;
+  res.phi = cur.phi;
+  // A minimiser on the boundary of the consistent set (singular pseudo-inertia) is approached with theta
+  // diverging; keep the verdict robust to round-off by lifting eigenvalues below 1e-10 of the largest.
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    const Eigen::Vector4d l =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(pseudoInertia(res.phi.segment<kParamsPerBody>(i)),
+                                                       Eigen::EigenvaluesOnly)
+            .eigenvalues();
+    if (!(l.minCoeff() > 1e-10 * l.maxCoeff()))
+      res.phi.segment<kParamsPerBody>(i) = projectBody(res.phi.segment<kParamsPerBody>(i), 1e-10, 1e-12);
+  }
+  res.target_cost = (target.A * res.phi - target.b).squaredNorm();
+  res.consistency = checkConsistency(model, res.phi);
+  return res;
+}
+
+ConsistentResult solveConsistentAtRank(const Model& model, const ScaledProblem& sp, int z, double nullspace_rel,
+                                       double prior_rel, ConsistentOptions options) {
+  z = std::clamp(z, 1, static_cast<int>(sp.s.size()));
+  const double sz2 = sp.s[z - 1] * sp.s[z - 1];
+  const QuadraticTarget t = consistentTarget(sp.s, sp.V, sp.d, sp.h, sp.gamma, sp.prior, z, nullspace_rel * sz2);
+  options.prior_weight = prior_rel * sz2;
+  return solveConsistent(model, t, sp.prior, solveAtRank(sp, z), options);
+}
+
+}  // namespace exoid::estimator
