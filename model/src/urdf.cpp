@@ -224,6 +224,9 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
   // Bodies were appended in the order joints were discovered (parent before child, but siblings' subtrees
   // interleaved). Renumber into depth-first order following the document order of the joints.
   const int nb = static_cast<int>(m.body_names.size());
+  if (nb == 0)
+    return fail(error, "no moving link: the root is fixed to the world and no revolute or continuous joint follows "
+                       "it (a floating base would move)");
   std::vector<std::vector<int>> children(nb);
   std::vector<int> roots;
   for (int b = 0; b < nb; ++b) (m.parent[b] < 0 ? roots : children[m.parent[b]]).push_back(b);
