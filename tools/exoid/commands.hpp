@@ -7,4 +7,5 @@ int cmdBaseParams(int argc, char** argv);
 int cmdExport(int argc, char** argv);
 int cmdExperiment(int argc, char** argv);
 int cmdIdentify(int argc, char** argv);
+int cmdDiagnose(int argc, char** argv);
 }  // namespace exoid::cli

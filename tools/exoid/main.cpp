@@ -18,6 +18,7 @@ const Command kCommands[] = {
     {"experiment", exoid::cli::cmdExperiment, "closed-loop run: sim + controller over LCM in a private network namespace, logged and summarised"},
     {"export", exoid::cli::cmdExport, "a logged run as one CSV row per tick (sensors, or --truth)"},
     {"identify", exoid::cli::cmdIdentify, "batch identification (OLS / WLS-R / WLS-C / WLS-RC, truncated SVD) from logs or measured CSVs"},
+    {"diagnose", exoid::cli::cmdDiagnose, "find what the rigid-body model leaves out (friction, offsets, gain, delay, ...) from the residual"},
 };
 
 void usage(FILE* out) {
