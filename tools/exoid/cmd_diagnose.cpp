@@ -160,7 +160,7 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--folds", folds, "time-block folds for the held-out test (default 20)")
       ->transform(common::strictInteger(3, 100));
   app.add_option("--chunk-seconds", opt.chunk_seconds, "length of one time chunk; chunks are dealt to the folds in turn "
-                 "(default 0.5 s)")->transform(common::strictNumber(1e-3, 1e6));
+                 "(default 0.25 s)")->transform(common::strictNumber(1e-3, 1e6));
   app.add_option("--min-explained", opt.min_explained, "an effect must remove at least this fraction of its joint's "
                  "held-out residual (default 0.02)")->transform(common::strictNumber(0.0, 1.0));
   app.add_option("--max-effects", max_effects, "at most this many effects (default 30)")->transform(common::strictInteger(0, 1000));

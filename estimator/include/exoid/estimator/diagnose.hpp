@@ -68,7 +68,7 @@ struct DiagnoseOptions {
   EffectShape shape;
   bool declared_friction = false;  ///< the declared model includes the fv, fc columns of every joint
   int folds = 20;                  ///< time-block folds for the held-out test
-  double chunk_seconds = 0.5;      ///< the training data are cut into chunks of this length, dealt to the
+  double chunk_seconds = 0.25;     ///< the training data are cut into chunks of this length, dealt to the
                                    ///< folds in turn (chunk i -> fold i mod folds), so every fold spans the run
   double alpha = 0.01;             ///< family-wise false-alarm rate per selection step (Bonferroni)
   double min_explained = 0.02;     ///< an effect must remove this fraction of its joint's held-out residual
