@@ -167,7 +167,7 @@ double medianStep(const std::vector<MeasuredSample>& b) {
 DatasetBuilder::DatasetBuilder(const Model& model, const DatasetOptions& options, RowSink sink)
     : model_(model), opt_(options), sink_(std::move(sink)), rng_(options.noise_seed) {
   opt_.block = std::max(16, opt_.block);
-  // Parallel filtering holds every column of W over the window: smaller blocks keep that near 30 MB.
+  // Parallel filtering holds every column of W over the window: smaller blocks keep that bounded.
   if (opt_.filter == FilterMode::Parallel && opt_.cutoff_hz > 0.0) opt_.block = std::min(opt_.block, 1024);
   margin_ = 4;  // central differences of differences
   if (opt_.cutoff_hz > 0.0) margin_ = 3 * 4 + 3 * 60;  // refined at the first block from the sample rate
@@ -204,14 +204,19 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       return false;
     }
     lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
-    const int want = 3 * filterMargin(lp) + 8;
+    const int want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
     if (want > margin_ && emitted_ == 0 && !last) {
       margin_ = want;  // wait for enough lookahead
       if (n - head_ < opt_.block + margin_) return true;
     }
   }
   const int emit_end = last ? n : std::min(n, head_ + opt_.block);
-  auto filt = [&](const Eigen::MatrixXd& x) { return filter ? filtfilt(lp, x) : x; };
+  // Parallel filtering: the regressor's inputs are only differenced (no filter), then W and y both pass the
+  // one zero-phase filter, so that F(W) phi = F(y) holds wherever W phi = y does (the filter is linear).
+  const bool parallel = filter && opt_.filter == FilterMode::Parallel;
+  const double input_cutoff = parallel ? 0.0 : opt_.cutoff_hz;
+  const bool filter_inputs = filter && !parallel;
+  auto filt = [&](const Eigen::MatrixXd& x) { return filter_inputs ? filtfilt(lp, x) : x; };
   // Joint signals.
   Eigen::MatrixXd q(n, nj), v(n, nj), a(n, nj);
   bool measured_va = true;
@@ -225,7 +230,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     v = filt(v);
     a = filt(a);
   } else {
-    filterAndDifferentiate(q, dt, opt_.cutoff_hz, &q, &v, &a);
+    filterAndDifferentiate(q, dt, input_cutoff, &q, &v, &a);
   }
   // Base signals (floating base).
   Eigen::MatrixXd w(n, 3), dw(n, 3), acc(n, 3);
@@ -241,13 +246,12 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       w = filt(w);
       dw = filt(dw);
     } else {
-      filterAndDifferentiate(w, dt, opt_.cutoff_hz, &w, &dw, nullptr);
+      filterAndDifferentiate(w, dt, input_cutoff, &w, &dw, nullptr);
     }
     acc = filt(acc);
   }
   // Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With parallel
   // filtering every sample of the window is computed, then W and y filtered column by column.
-  const bool parallel = filter && opt_.filter == FilterMode::Parallel;
   const int from = parallel ? 0 : head_, to = parallel ? n : emit_end;
   Data kin(model);
   State st = State::zero(model);
@@ -289,8 +293,10 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     }
   }
   if (parallel) {
-    Kall = filtfilt(lp, Kall);
-    Yall = filtfilt(lp, Yall);
+    // Column by column (bounded memory); structural zeros stay zero and are skipped.
+    for (int j = 0; j < Kall.cols(); ++j)
+      if (Kall.col(j).cwiseAbs().maxCoeff() > 0.0) Kall.col(j) = filtfilt(lp, Kall.col(j));
+    for (int j = 0; j < nv; ++j) Yall.col(j) = filtfilt(lp, Yall.col(j));
     Eigen::MatrixXd K(nv, p);
     for (int i = head_; i < emit_end; ++i) {
       for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);

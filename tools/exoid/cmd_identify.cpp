@@ -15,6 +15,7 @@
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/identify_input.hpp"
+#include "exoid/tools/urdf_inertials.hpp"
 
 namespace exoid::cli {
 
@@ -73,7 +74,7 @@ int cmdIdentify(int argc, char** argv) {
   CLI::App app(kDescription, "exoid identify");
   std::vector<std::string> data, validate;
   std::string model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", pipeline = "sensors", vpipeline,
-              filter_mode = "inputs", method_name = "WLS-RC", rank_name = "cv", prior_path, out_dir;
+              filter_mode = "inputs", method_name = "WLS-RC", rank_name = "jackknife", prior_path, out_dir;
   bool fixed_base = false, derive = false, skip_bad = false;
   double cutoff = 0.0, noise = 0.0, perturb = 0.0, chunk_s = 2.0;
   uint64_t seed = 1, prior_seed = 1;
@@ -93,13 +94,18 @@ int cmdIdentify(int argc, char** argv) {
   app.add_option("--noise", noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")->check(CLI::NonNegativeNumber);
   app.add_option("--seed", seed, "noise seed");
   app.add_option("--method", method_name, "OLS, WLS-R, WLS-C or WLS-RC (default)")->check(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC"}));
-  app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate), "
-                 "'cv' (time-block cross-validation on the training data, default) or 'gcv'");
+  double prior_uncertainty = 0.25;
+  app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
+                 "choice), or from the training data alone: 'jackknife' (noise-based cap from time-block jackknife, "
+                 "see --prior-uncertainty; default), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
+                 "docs/identification.md compares them");
+  app.add_option("--prior-uncertainty", prior_uncertainty, "--rank jackknife: the prior is within +-this relative "
+                 "error of the truth (default 0.25)")->check(CLI::PositiveNumber);
   app.add_option("--prior", prior_path, "prior parameters, CSV name,value (default: the URDF's)");
   app.add_option("--prior-perturb", perturb, "scale each URDF parameter by a uniform random factor in [1-F, 1+F] for the prior")
       ->check(CLI::Range(0.0, 1.0));
   app.add_option("--prior-seed", prior_seed, "seed of --prior-perturb");
-  app.add_option("--folds", folds, "time-block folds for --rank cv (default 5)")->check(CLI::Range(2, 50));
+  app.add_option("--folds", folds, "time-block folds for --rank jackknife / cv (default 5)")->check(CLI::Range(2, 50));
   app.add_option("--chunk-seconds", chunk_s, "length of one time block (default 2 s; blocks go to folds in turn)")->check(CLI::PositiveNumber);
   app.add_option("--threads", threads, "threads for the QR updates (default 2)")->check(CLI::Range(1, 64));
   app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
@@ -122,6 +128,7 @@ int cmdIdentify(int argc, char** argv) {
     io.rank_rule = estimator::RankRule::Fixed;
     io.rank = static_cast<int>(z);
   }
+  io.prior_uncertainty = prior_uncertainty;
   if (io.rank_rule == estimator::RankRule::Validation && validate.empty()) return fail("--rank validation needs --validate");
   std::string err;
   Model model;
@@ -199,8 +206,8 @@ int cmdIdentify(int argc, char** argv) {
   std::printf("%s, rank %s: z = %d of %d base parameters (numerical rank %d), condition number %.3g\n",
               estimator::methodName(r.method), estimator::rankRuleName(r.rank_rule), r.rank, base.rank,
               r.numerical_rank, r.condition);
-  std::printf("training: %ld samples, %ld equations, generalized-force RMSE %.6g\n", train.samples(), r.training_rows,
-              r.training_rmse);
+  std::printf("training: %ld samples, %ld equations, generalized-force RMSE %.6g (RMS of y %.6g)\n", train.samples(),
+              r.training_rows, r.training_rmse, r.training_y_rms);
   if (r.validation_rmse >= 0.0) {
     std::printf("validation: generalized-force RMSE %.6g (prior %.6g); per coordinate:", r.validation_rmse,
                 r.prior_validation_rmse);
@@ -241,7 +248,8 @@ int cmdIdentify(int argc, char** argv) {
     j["singular_values"] = std::vector<double>(r.singular_values.data(), r.singular_values.data() + r.singular_values.size());
     j["rank_curve"] = {{"rule", r.curve.rule}, {"score", r.curve.score}};
     j["row_weight"] = r.row_weight;
-    j["training"] = {{"samples", train.samples()}, {"equations", r.training_rows}, {"rmse", r.training_rmse}};
+    j["training"] = {{"samples", train.samples()}, {"equations", r.training_rows}, {"rmse", r.training_rmse},
+                     {"y_rms", r.training_y_rms}};
     if (r.validation_rmse >= 0.0)
       j["validation"] = {{"rmse", r.validation_rmse}, {"prior_rmse", r.prior_validation_rmse},
                          {"rmse_per_coordinate", r.validation_rmse_per_coordinate}};
@@ -260,6 +268,14 @@ int cmdIdentify(int argc, char** argv) {
     j["options"] = {{"pipeline", pipeline}, {"cutoff_hz", cutoff}, {"filter_mode", filter_mode}, {"noise", noise},
                     {"folds", folds}, {"chunk_seconds", chunk_s}, {"prior_perturb", perturb}};
     j["timing_s"] = {{"read_filter_factor", t_read}, {"solve", t_solve}};
+    // URDF with the identified inertials, only when every link is physically consistent.
+    if (consistent == static_cast<int>(r.links.size())) {
+      if (!tools::writeUrdfWithInertials(model_path, model, r.phi, out_dir + "/identified.urdf", &err)) return fail(err);
+      j["identified_urdf"] = out_dir + "/identified.urdf";
+    } else {
+      j["identified_urdf"] = nullptr;
+      std::printf("no identified.urdf: %d link(s) physically inconsistent\n", static_cast<int>(r.links.size()) - consistent);
+    }
     std::ofstream(out_dir + "/summary.json") << j.dump(2) << "\n";
   }
   return 0;

@@ -63,7 +63,7 @@ bool LsqAccumulator::add(const Eigen::Ref<const Eigen::MatrixXd>& K, const Eigen
   if (buffered_ > 0 && fold != buffer_fold_) flush();
   buffer_fold_ = fold;
   for (int c = 0; c < nv_; ++c) {
-    Eigen::MatrixXd& b = buffer_[c];
+    RowMatrix& b = buffer_[c];
     const std::vector<int>& cols = active_[c];
     const int k = static_cast<int>(cols.size());
     for (int j = 0; j < k; ++j) b(buffered_, j) = K(c, base_.independent[cols[j]]);

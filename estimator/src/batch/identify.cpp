@@ -11,13 +11,16 @@ const char* rankRuleName(RankRule r) {
     case RankRule::Fixed: return "fixed";
     case RankRule::Validation: return "validation";
     case RankRule::CrossValidation: return "cv";
+    case RankRule::CrossValidation1Se: return "cv-1se";
+    case RankRule::Jackknife: return "jackknife";
     case RankRule::Gcv: return "gcv";
   }
   return "?";
 }
 
 bool parseRankRule(const std::string& name, RankRule& r) {
-  for (RankRule x : {RankRule::Full, RankRule::Fixed, RankRule::Validation, RankRule::CrossValidation, RankRule::Gcv})
+  for (RankRule x : {RankRule::Full, RankRule::Fixed, RankRule::Validation, RankRule::CrossValidation,
+                     RankRule::CrossValidation1Se, RankRule::Gcv, RankRule::Jackknife})
     if (name == rankRuleName(x)) return r = x, true;
   return false;
 }
@@ -77,8 +80,15 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
       out.rank = out.curve.best;
       break;
     case RankRule::CrossValidation:
+    case RankRule::CrossValidation1Se:
       if (train.folds() < 2) return fail("cross-validation needs at least 2 folds");
-      out.curve = rankByCrossValidation(train, model, prior, o.method);
+      out.curve = rankByCrossValidation(train, model, prior, o.method,
+                                        o.rank_rule == RankRule::CrossValidation ? CvRule::Minimum : CvRule::OneStandardError);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::Jackknife:
+      if (train.folds() < 2) return fail("the jackknife needs at least 2 folds");
+      out.curve = rankByJackknife(train, model, prior, o.method, o.prior_uncertainty);
       out.rank = out.curve.best;
       break;
     case RankRule::Gcv:
@@ -99,9 +109,10 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
     out.links.push_back(checkLink(model.body_names[b], out.phi.segment<kParamsPerBody>(model.bodyParamIndex(b))));
   {
     const Eigen::VectorXd xb = out.phi_base;
-    double sse = 0.0;
-    for (int c = 0; c < nv; ++c) sse += train.residual(c, xb);
+    double sse = 0.0, yy = 0.0;
+    for (int c = 0; c < nv; ++c) sse += train.residual(c, xb), yy += train.residual(c, Eigen::VectorXd::Zero(m));
     out.training_rmse = std::sqrt(sse / rows);
+    out.training_y_rms = std::sqrt(yy / rows);
   }
   if (validation) {
     out.validation_rmse = rmse(vfactor, out.phi);

@@ -146,9 +146,9 @@ RankCurve rankByValidation(const ScaledProblem& sp, const LsqFactor& validation)
 }
 
 RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
-                                Method method) {
+                                Method method, CvRule rule) {
   RankCurve c;
-  c.rule = "time-block cross-validation, 1-SE rule";
+  c.rule = rule == CvRule::Minimum ? "time-block cross-validation, minimum" : "time-block cross-validation, paired 1-SE";
   const int K = acc.folds(), nv = acc.coordinates(), m = acc.baseColumns();
   const Eigen::MatrixXd& B = acc.base().base_map;
   int r = m;
@@ -169,30 +169,73 @@ RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, c
     }
   }
   c.score.assign(r + 1, 0.0);
-  std::vector<double> se(r + 1, 0.0);
   int used = 0;
   for (int k = 0; k < K; ++k)
     if (!mse[k].empty()) ++used;
   if (used == 0) return c;
   for (int z = 0; z <= r; ++z) {
-    double mean = 0.0, sq = 0.0;
+    double mean = 0.0;
     for (int k = 0; k < K; ++k)
       if (!mse[k].empty()) mean += mse[k][z];
-    mean /= used;
-    for (int k = 0; k < K; ++k)
-      if (!mse[k].empty()) sq += (mse[k][z] - mean) * (mse[k][z] - mean);
-    c.score[z] = std::sqrt(mean);
-    se[z] = used > 1 ? std::sqrt(sq / (used - 1) / used) : 0.0;
-    (void)se;
+    c.score[z] = std::sqrt(mean / used);
   }
   const int zmin = static_cast<int>(std::min_element(c.score.begin(), c.score.end()) - c.score.begin());
-  const double limit = c.score[zmin] * c.score[zmin] + se[zmin];  // in MSE units
   c.best = zmin;
-  for (int z = 0; z <= zmin; ++z)
-    if (c.score[z] * c.score[z] <= limit) {
-      c.best = z;
-      break;
+  if (rule == CvRule::OneStandardError && used > 1) {
+    // The folds' error levels differ (motion and noise differ between time blocks), but for one fold the
+    // comparison of two ranks is paired: judge z by the mean and standard error over folds of
+    // MSE_k(z) - MSE_k(zmin), and take the smallest z not significantly worse.
+    for (int z = 0; z < zmin; ++z) {
+      double mean = 0.0, sq = 0.0;
+      for (int k = 0; k < K; ++k)
+        if (!mse[k].empty()) mean += mse[k][z] - mse[k][zmin];
+      mean /= used;
+      for (int k = 0; k < K; ++k)
+        if (!mse[k].empty()) sq += std::pow(mse[k][z] - mse[k][zmin] - mean, 2);
+      const double se = std::sqrt(sq / (used - 1) / used);
+      if (mean <= se) {
+        c.best = z;
+        break;
+      }
     }
+  }
+  return c;
+}
+
+RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                          double prior_uncertainty) {
+  RankCurve c;
+  c.rule = "jackknife over time blocks: keep directions whose std is below the prior's";
+  const ScaledProblem all = prepare(acc, model, prior, method);
+  const int r = all.numericalRank(), K = acc.folds(), nv = acc.coordinates();
+  std::vector<Eigen::VectorXd> a;
+  for (int k = 0; k < K; ++k) {
+    long n = 0;
+    for (int cc = 0; cc < nv; ++cc) n += acc.rows(cc, k);
+    if (n == 0) continue;
+    std::vector<bool> include(K, true);
+    include[k] = false;
+    const ScaledProblem sp = prepare(acc, model, prior, method, include);
+    const Eigen::VectorXd phi = solveAtRank(sp, sp.numericalRank());
+    // Coordinates along the full problem's right singular vectors, in its scaled units.
+    a.push_back(all.V.leftCols(r).transpose() * (phi - all.gamma).cwiseQuotient(all.h));
+  }
+  c.score.assign(r + 1, 0.0);
+  c.best = 0;
+  const int used = static_cast<int>(a.size());
+  if (used < 2) return c;
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(r), var = Eigen::VectorXd::Zero(r);
+  for (const auto& x : a) mean += x / used;
+  for (const auto& x : a) var += (x - mean).cwiseAbs2();
+  var *= (used - 1.0) / used;
+  // Prior uniform within +-u of the truth: std u / sqrt(3) of each scaled coordinate (with C scaling).
+  const double tau = prior_uncertainty / std::sqrt(3.0);
+  bool stop = false;
+  for (int z = 1; z <= r; ++z) {
+    c.score[z] = std::sqrt(var[z - 1]);
+    if (!stop && c.score[z] <= tau) c.best = z;
+    else stop = true;
+  }
   return c;
 }
 

@@ -85,7 +85,8 @@ void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_h
 
 enum class FilterMode {
   Inputs,    ///< thesis III-E: filter q (and the gyro), differentiate, filter the derivatives; y untouched
-  Parallel,  ///< as Inputs, then the same zero-phase filter on every column of W and on y
+  Parallel,  ///< inputs only differenced (no filter), then the zero-phase filter on every column of W and on
+             ///< y: F(W) phi = F(y) wherever W phi = y (filter lag and attenuation cancel)
 };
 
 struct DatasetOptions {

@@ -69,7 +69,8 @@ class LsqAccumulator {
   int nv_ = 0, m_ = 0;
   std::vector<std::vector<int>> active_;  ///< [nv] active base columns per coordinate
   std::vector<CoordinateFactor> factors_;  ///< [folds x nv]
-  std::vector<Eigen::MatrixXd> buffer_;    ///< [nv] block x (k+1) rows waiting
+  using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  std::vector<RowMatrix> buffer_;          ///< [nv] block x (k+1) rows waiting (row-major: filled row by row)
   std::vector<Eigen::MatrixXd> work_;      ///< [nv] QR workspace (k+1+block) x (k+1)
   int buffered_ = 0, buffer_fold_ = 0;
   long samples_ = 0;

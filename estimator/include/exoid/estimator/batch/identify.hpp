@@ -16,16 +16,19 @@ enum class RankRule {
   Full,             ///< numerical rank of the scaled problem (s_i > 1e-10 s_1)
   Fixed,            ///< IdentifyOptions::rank
   Validation,       ///< (a) validation generalized-force RMSE (needs validation data)
-  CrossValidation,  ///< (b) time-block cross-validation on the training data, 1-SE rule
+  CrossValidation,  ///< (b) time-block cross-validation on the training data, minimum
+  CrossValidation1Se,  ///< (b) the same, paired one-standard-error rule
   Gcv,              ///< (b) generalized cross-validation on the training data
+  Jackknife,        ///< (b) noise-based cap: jackknife std of each direction below the prior's uncertainty
 };
-const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "gcv"
+const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "cv-1se", "gcv", "jackknife"
 bool parseRankRule(const std::string& name, RankRule& r);
 
 struct IdentifyOptions {
   Method method = Method::WlsRC;
-  RankRule rank_rule = RankRule::CrossValidation;
+  RankRule rank_rule = RankRule::Jackknife;
   int rank = -1;                  ///< for RankRule::Fixed
+  double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: prior within +-this (relative) of the truth
   double excitation_threshold = 0.1;  ///< a parameter whose unit direction has less than this norm in the
                                       ///< kept right singular vectors is reported as not excited
 };
@@ -57,6 +60,7 @@ struct IdentifyResult {
   std::vector<double> row_weight;  ///< [nv] WLS-R weights (ones without R)
   long training_rows = 0;
   double training_rmse = 0.0;      ///< unweighted generalized-force RMSE on the training data
+  double training_y_rms = 0.0;     ///< RMS of the training y (scale for training_rmse)
   double validation_rmse = -1.0;   ///< pooled, when validation data were given (< 0 otherwise)
   std::vector<double> validation_rmse_per_coordinate;  ///< [nv]
   double prior_validation_rmse = -1.0;  ///< the prior's (Ref)

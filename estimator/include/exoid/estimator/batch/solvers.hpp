@@ -71,10 +71,19 @@ struct RankCurve {
 /// (a) The thesis's choice: validation generalized-force RMSE (needs a separate, ideal run).
 RankCurve rankByValidation(const ScaledProblem& problem, const LsqFactor& validation);
 /// (b1) Training data only: time-block cross-validation over the accumulator's folds (each fold predicted
-/// by the method trained on the others, the same weighting procedure); score = pooled RMSE; best = the
-/// smallest z whose score is within one standard error of the minimum (the 1-SE rule).
+/// by the method trained on the others, the same weighting procedure); score = RMSE over the folds.
+/// Minimum: best = argmin. OneStandardError: the smallest z whose paired excess MSE over the minimum
+/// (per fold, then mean over folds) is within one standard error.
+enum class CvRule { Minimum, OneStandardError };
 RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
-                                Method method);
+                                Method method, CvRule rule = CvRule::Minimum);
+/// (b3) Training data only, noise-based cap: the jackknife over the time-block folds gives the standard
+/// deviation of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of the full-rank estimate (it sees
+/// the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); directions are kept, in singular-value
+/// order, while that deviation is below the prior's own, prior_uncertainty / sqrt(3) (prior uniform within
+/// +-prior_uncertainty relative). Meaningful with column scaling (WLS-C, WLS-RC). score[z] = std of alpha_z.
+RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                          double prior_uncertainty);
 /// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2 with the
 /// weighted training residual RSS(z).
 RankCurve rankByGcv(const ScaledProblem& problem);
