@@ -182,6 +182,23 @@ TEST(Diagnose, CleanDataGiveNoFinding) {
   EXPECT_LE(found, 1);
 }
 
+// The first joint's axis is vertical: its armature column (joint acceleration) is the link's own Izz column,
+// so it is reported as not separable and never tested; with the friction declared, no friction candidate.
+TEST(Diagnose, CandidatesInTheDeclaredSpanAreNotTested) {
+  const DiagnosisResult res = runDiagnosis(31, 0.05, {});
+  bool armature0 = false;
+  for (const CandidateScore& c : res.first_step)
+    if (c.effect.kind == EffectKind::Armature && c.effect.joint == 0)
+      armature0 = c.status == "not separable from the declared model";
+  EXPECT_TRUE(armature0);
+  DiagnoseOptions opt;
+  opt.declared_friction = true;
+  const DiagnosisResult rf = runDiagnosis(31, 0.05, {}, opt);
+  EXPECT_EQ(rf.declared_columns, res.declared_columns + 14);
+  for (const CandidateScore& c : rf.first_step)
+    EXPECT_TRUE(c.effect.kind != EffectKind::Viscous && c.effect.kind != EffectKind::Coulomb);
+}
+
 TEST(Diagnose, TwoEffectsOnDifferentJointsAreBothFound) {
   const DiagnosisResult res =
       runDiagnosis(21, 0.05, {{EffectKind::Viscous, 0, 0.8}, {EffectKind::Offset, 6, -0.3}});

@@ -139,7 +139,7 @@ int cmdDiagnose(int argc, char** argv) {
   CLI::App app(kDescription, "exoid diagnose");
   common::configureCli(app);
   std::vector<std::string> train_files, val_files, kinds;
-  std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3";
+  std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "inputs";
   bool floating = false, skip_bad = false, no_plots = false;
   double gravity = 9.81, cutoff = 0.0;
   est::DiagnoseOptions opt;
@@ -173,6 +173,9 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--pipeline", pipeline, "LCM logs: 'sensors' (default) or 'truth'")->check(CLI::IsMember({"sensors", "truth"}));
   app.add_option("--cutoff", cutoff, "zero-phase Butterworth cutoff in Hz for the dataset pipeline (0: none; default)")
       ->transform(common::strictNumber(0.0, 1e6));
+  app.add_option("--filter-mode", filter_mode, "'inputs' (filter q, differentiate, filter again; default) or 'parallel' "
+                 "(also the same filter on every column of W and on y); docs/identification.md")
+      ->check(CLI::IsMember({"inputs", "parallel"}));
   app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
   app.add_flag("--no-plots", no_plots, "do not run the plot script (it is still written)");
   app.add_option("--python", python, "python interpreter for the plots (default python3; needs matplotlib and numpy)");
@@ -195,6 +198,7 @@ int cmdDiagnose(int argc, char** argv) {
   tools::SourceOptions so;
   so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
   so.dataset.cutoff_hz = cutoff;
+  so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
   so.skip_bad_rows = skip_bad;
   std::vector<tools::InputStats> stats(train_files.size() + val_files.size());
   auto makeSegment = [&](const std::string& path, size_t k) {
