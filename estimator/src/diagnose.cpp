@@ -491,7 +491,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         const Eigen::VectorXd w = Rs[F].triangularView<Eigen::Upper>().solve(Q[F].transpose() * col);
         const Eigen::VectorXd rc = col - A[F] * w;
         const double nrc = rc.squaredNorm();
-        if (col.squaredNorm() == 0.0 || !(nrc > 1e-10 * col.squaredNorm())) {
+        if (col.squaredNorm() == 0.0 || !(nrc > 1e-6 * col.squaredNorm())) {
           excluded[c] = 1;
           if (step == 0) {
             CandidateScore sc;
