@@ -357,7 +357,9 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         if (opt.declared_friction && (k == EffectKind::Viscous || k == EffectKind::Coulomb)) continue;
         bool measured = false;
         for (size_t s = 0; s < train.size(); ++s) measured = measured || caches[s].y.col(r).cwiseAbs().maxCoeff() > 0;
-        if (k == EffectKind::GainError && !measured) continue;  // no sensor on this joint
+        // A gain error needs a torque sensor: a measured torque and an actuated joint (URDF effort > 0).
+        const bool sensed = measured && (model.effort_limit.size() != nj || model.effort_limit[j] > 0);
+        if (k == EffectKind::GainError && !sensed) continue;
         cands.push_back({k, j, r});
       }
     const int nc = static_cast<int>(cands.size());
