@@ -8,4 +8,5 @@ int cmdExport(int argc, char** argv);
 int cmdExperiment(int argc, char** argv);
 int cmdIdentify(int argc, char** argv);
 int cmdStudy(int argc, char** argv);
+int cmdDiagnose(int argc, char** argv);
 }  // namespace exoid::cli

@@ -328,8 +328,8 @@ bool isCsvPath(const std::string& path) {
   return path.size() >= 4 && (path.compare(path.size() - 4, 4, ".csv") == 0 || path.compare(path.size() - 4, 4, ".CSV") == 0);
 }
 
-bool accumulateFile(const std::string& path, const Model& model, const SourceOptions& options,
-                    estimator::LsqAccumulator& acc, InputStats& stats, std::string* error) {
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
   int feet[2] = {-1, -1};
   estimator::DatasetOptions dopt = options.dataset;
   if (model.floating_base) {
@@ -352,10 +352,7 @@ bool accumulateFile(const std::string& path, const Model& model, const SourceOpt
       }
     }
   }
-  long nonfinite = 0;
-  estimator::DatasetBuilder builder(model, dopt, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
-    if (!acc.add(K, y)) ++nonfinite;
-  });
+  estimator::DatasetBuilder builder(model, dopt, rows);
   const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) { return builder.add(s, err); };
   const bool ok = isCsvPath(path) ? streamMeasuredCsv(path, model, feet, options.skip_bad_rows, sink, stats, error)
                                   : streamRunLog(path, model, options.pipeline, feet, sink, stats, error);
@@ -365,6 +362,16 @@ bool accumulateFile(const std::string& path, const Model& model, const SourceOpt
     if (error) *error = path + ": " + err;
     return false;
   }
+  return true;
+}
+
+bool accumulateFile(const std::string& path, const Model& model, const SourceOptions& options,
+                    estimator::LsqAccumulator& acc, InputStats& stats, std::string* error) {
+  long nonfinite = 0;
+  const estimator::RowSink rows = [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+    if (!acc.add(K, y)) ++nonfinite;
+  };
+  if (!streamFileRows(path, model, options, rows, stats, error)) return false;
   if (nonfinite > 0) {
     stats.skipped += nonfinite;
     stats.why["non-finite regressor row"] += nonfinite;

@@ -58,6 +58,11 @@ struct SourceOptions {
 /// True if the path names a CSV (by its extension), false for anything else (read as an LCM log).
 bool isCsvPath(const std::string& path);
 
+/// Streams one file (LCM log or CSV) through the dataset pipeline (filtering, K and y), one sample at a time,
+/// to a sink (accumulateFile below, `exoid diagnose`). Feet and footholds as for accumulateFile.
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const estimator::RowSink& sink, InputStats& stats, std::string* error);
+
 /// Streams one file (LCM log or CSV) through the dataset pipeline (filtering, K and y) into the accumulator.
 /// Floating base: the feet are the model's right_foot / left_foot bodies; without a measured base position
 /// the footholds are the right_sole / left_sole frames on their plates' sensor origins (each sole centred on

@@ -1,0 +1,156 @@
+#pragma once
+// Diagnosis of what a rigid-body model leaves out (docs/diagnose.md): identify the declared model, analyse
+// the residual per generalized coordinate, test a library of candidate effects per joint as extra regressor
+// columns (or, for a torque-sensor gain error and a time delay, as a linearised correction of the
+// measurement), choose them by forward selection with a paired t-test over held-out time-block folds, and
+// re-identify with the accepted effects.
+//
+// Data come as segments (runs) that stream their rows (K [nv x p], y [nv]) on request, so the diagnosis
+// works on anything the dataset pipeline produces (measured CSV, LCM log) and never holds W or y whole:
+// each pass keeps per-(fold, coordinate) triangular factors of [W_declared | candidate columns | y] and a
+// few per-sample signals (t, v, the declared model's prediction), O(samples x nv) doubles.
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "exoid/model/model.hpp"
+
+namespace exoid::estimator {
+
+/// Candidate effects on one joint. The column is the effect's signal on that joint's row of W (zero
+/// elsewhere); the coefficient is the effect's value (unit in effectUnit).
+enum class EffectKind {
+  Viscous,    ///< signal v (rad/s); value fv, N m s/rad
+  Coulomb,    ///< signal tanh(v / coulomb_width); value fc, N m
+  Stribeck,   ///< signal tanh(v / coulomb_width) exp(-(v / stribeck_velocity)^2); value fs - fc, N m
+  Offset,     ///< signal 1; value: constant torque (sensor offset or gravity-independent load), N m
+  Armature,   ///< signal a (rad/s^2, dv/dt); value: rotor inertia reflected through the gear, kg m^2
+  GainError,  ///< measured = (1 + g) model: signal = the declared model's torque; value g (fraction)
+  Delay,      ///< measured(t) = model(t - d): signal = -d/dt of the declared model's torque; value d, s
+};
+inline constexpr int kEffectKinds = 7;
+const char* effectKindName(EffectKind k);   ///< "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay"
+const char* effectKindWords(EffectKind k);  ///< "viscous friction", ..., "torque-sensor gain error", "time delay"
+const char* effectUnit(EffectKind k);       ///< "N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s"
+bool parseEffectKind(const std::string& name, EffectKind& k);
+/// Gain error and delay act on the measurement (identify corrects y), the others add dynamics columns.
+bool isMeasurementEffect(EffectKind k);
+/// Physically admissible value: friction and armature are >= 0, the others may have either sign.
+bool admissibleValue(EffectKind k, double value);
+
+/// Shape constants of the smooth friction signals (documented in docs/diagnose.md and written to the sidecar).
+struct EffectShape {
+  double coulomb_width = 0.03;      ///< rad/s: tanh(v / width) reaches 0.76 at |v| = width
+  double stribeck_velocity = 0.1;   ///< rad/s: the static-friction excess decays as exp(-(v / vs)^2)
+};
+
+/// Signal of an effect at one sample of its joint (see EffectKind). dtau_model: d/dt of the model torque.
+double effectSignal(EffectKind k, const EffectShape& shape, double v, double a, double tau_model, double dtau_model);
+
+struct Effect {
+  EffectKind kind = EffectKind::Offset;
+  int joint = -1;      ///< model joint index
+  double value = 0.0;  ///< in effectUnit(kind)
+};
+
+/// Receives one sample: time (s), K [nv x p] (columns of Model::phi), y [nv].
+using DiagnosisRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y)>;
+/// One run: streams all its samples, in time order, to the sink; must give the same rows every call.
+struct Segment {
+  std::string name;
+  std::function<bool(const DiagnosisRowSink& sink, std::string* error)> stream;
+};
+
+struct DiagnoseOptions {
+  std::vector<EffectKind> kinds = {EffectKind::Viscous,  EffectKind::Coulomb,   EffectKind::Stribeck, EffectKind::Offset,
+                                   EffectKind::Armature, EffectKind::GainError, EffectKind::Delay};
+  EffectShape shape;
+  bool declared_friction = false;  ///< the declared model includes the fv, fc columns of every joint
+  int folds = 20;                  ///< time-block folds for the held-out test
+  double chunk_seconds = 0.25;     ///< the training data are cut into chunks of this length, dealt to the
+                                   ///< folds in turn (chunk i -> fold i mod folds), so every fold spans the run
+  double alpha = 0.01;             ///< family-wise false-alarm rate per selection step (Bonferroni)
+  double min_explained = 0.02;     ///< an effect must remove this fraction of its joint's held-out residual
+  int max_effects = 30;
+  double torque_noise = -1.0;      ///< known torque noise sigma (N m) for the size check; < 0: estimated
+};
+
+/// One accepted effect.
+struct Finding {
+  Effect effect;
+  double std_error = 0.0;  ///< standard error of the value (training fit, white-noise assumption: optimistic)
+  double explained = 0.0;  ///< fraction of its joint's held-out-fold residual it removed when added
+  double p_value = 1.0;    ///< one-sided paired t-test over the folds (before the Bonferroni factor)
+  double t_stat = 0.0;
+  int tested = 0;          ///< candidates tested in its step (Bonferroni factor)
+  std::string sentence;    ///< the finding in words
+};
+
+/// A candidate as scored in the first selection step (against the declared model alone).
+struct CandidateScore {
+  Effect effect;            ///< value: the training estimate when added alone
+  double correlation = 0.0; ///< correlation of the declared model's residual with the signal (training)
+  double explained = 0.0;   ///< held-out-fold fraction of its joint's residual removed
+  double p_value = 1.0;
+  std::string status;       ///< "accepted", "not significant", "below min-explained", "inadmissible sign",
+                            ///< "not separable from the declared model"
+};
+
+/// Residual analysis of one coordinate.
+struct CoordinateSummary {
+  std::string name;
+  int joint = -1;                    ///< -1 for a floating base row
+  double rms_before = 0.0, rms_after = 0.0;              ///< held-out (validation segments; else training)
+  double train_rms_before = 0.0, train_rms_after = 0.0;  ///< training
+  double noise_floor = 0.0;   ///< torque_noise if given, else sqrt(mean(diff(r)^2) / 2) of the validation residual
+  double lag1_before = 0.0, lag1_after = 0.0;  ///< lag-1 autocorrelation of the residual (white noise: ~0)
+  double best_correlation = 0.0;               ///< largest |correlation| with a candidate signal, before
+  EffectKind best_kind = EffectKind::Offset;   ///< which candidate signal that is
+};
+
+/// Per-sample residuals of one segment (for plots and reports).
+struct ResidualSeries {
+  std::string segment;
+  bool validation = false;
+  Eigen::VectorXd t;              ///< [n]
+  Eigen::MatrixXd before, after;  ///< [n x nv] y - prediction of the declared / augmented model
+  Eigen::MatrixXd v, a;           ///< [n x nj] joint velocity (from K's fv column) and acceleration (dv/dt)
+  Eigen::MatrixXd tau_model;      ///< [n x nv] declared model's prediction
+};
+
+struct DiagnosisResult {
+  std::vector<std::string> coordinate_names;  ///< [nv]
+  int declared_columns = 0;      ///< base-parameter columns of the declared model kept (excited)
+  int dropped_columns = 0;       ///< structural base columns the training data did not excite
+  int candidates = 0;            ///< candidate columns tested
+  long train_samples = 0, validation_samples = 0;
+  bool has_validation = false;
+  std::vector<Finding> findings;  ///< in the order they were accepted
+  std::vector<CandidateScore> first_step;
+  std::vector<CoordinateSummary> coordinates;  ///< [nv]
+  double pooled_before = 0.0, pooled_after = 0.0;              ///< held-out RMSE over all coordinates
+  double train_pooled_before = 0.0, train_pooled_after = 0.0;
+  std::vector<ResidualSeries> series;  ///< one per segment, training first
+};
+
+/// The diagnosis loop. train: at least one segment; validate: may be empty (then "held-out" numbers are the
+/// training ones and only the fold test guards the choice). False with *error if a segment fails to stream,
+/// the segments disagree in size with the model, or the training data cannot identify the declared model.
+bool diagnose(const Model& model, const std::vector<Segment>& train, const std::vector<Segment>& validate,
+              const DiagnoseOptions& options, DiagnosisResult& out, std::string* error);
+
+/// One-sided p-value P(T >= t) of Student's t with dof degrees of freedom.
+double studentTUpperTail(double t, double dof);
+
+/// The augmented model's sidecar (docs/diagnose.md): YAML with the shape constants and one entry per effect.
+struct EffectSet {
+  std::string model;  ///< URDF file name the effects belong to
+  EffectShape shape;
+  std::vector<Effect> effects;
+};
+bool writeEffects(const std::string& path, const Model& model, const EffectSet& set, std::string* error);
+/// Reads a sidecar; fails naming the entry on an unknown joint or kind or a non-finite value.
+bool readEffects(const std::string& path, const Model& model, EffectSet& set, std::string* error);
+
+}  // namespace exoid::estimator

@@ -1,0 +1,249 @@
+// Diagnosis on synthetic data of the KUKA LWR4+ model (fixed base, 7 joints) with known injected effects:
+// the effect is found on the right joint with the right kind and value; clean data give no finding.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <array>
+#include <random>
+#include <unistd.h>
+
+#include "exoid/estimator/diagnose.hpp"
+#include "exoid/model/regressor.hpp"
+#include "exoid/model/urdf.hpp"
+
+namespace exoid::estimator {
+namespace {
+
+const Model& kuka() {
+  static Model model = [] {
+    Model m;
+    std::string err;
+    EXPECT_TRUE(buildModelFromUrdfFile(std::string(EXOID_DATA_DIR) + "/kuka_lwr4/kuka_lwr4.urdf", false, m, &err)) << err;
+    return m;
+  }();
+  return model;
+}
+
+// A smooth excitation: per joint a sum of three sines (0.1-0.6 Hz), |v| up to about 1 rad/s.
+struct Trajectory {
+  std::vector<std::array<double, 3>> amp, freq, phase;  // [nj]
+  double q0 = 0.0;
+  State at(const Model& model, double t) const {
+    State s = State::zero(model);
+    for (int j = 0; j < model.njoints; ++j)
+      for (int h = 0; h < 3; ++h) {
+        const double w = 2 * M_PI * freq[j][h], arg = w * t + phase[j][h];
+        s.q[j] += amp[j][h] * std::sin(arg);
+        s.v[j] += amp[j][h] * w * std::cos(arg);
+        s.a[j] -= amp[j][h] * w * w * std::sin(arg);
+      }
+    return s;
+  }
+};
+
+Trajectory randomTrajectory(const Model& model, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> f(0.1, 0.6), ph(0, 2 * M_PI), a(0.15, 0.35);
+  Trajectory tr;
+  for (int j = 0; j < model.njoints; ++j) {
+    std::array<double, 3> A{}, F{}, P{};
+    for (int h = 0; h < 3; ++h) F[h] = f(rng), P[h] = ph(rng), A[h] = a(rng) / (2 * M_PI * F[h]) * 0.5;
+    tr.amp.push_back(A), tr.freq.push_back(F), tr.phase.push_back(P);
+  }
+  return tr;
+}
+
+struct Injected {
+  EffectKind kind;
+  int joint;
+  double value;
+};
+
+// One run: samples at 200 Hz, y = K phi_true + effect + white noise of sigma N m on every joint.
+struct Run {
+  std::vector<State> states;
+  std::vector<double> t;
+  std::vector<Eigen::VectorXd> y;
+};
+
+Run makeRun(const Model& model, uint64_t seed, double duration, double sigma, const std::vector<Injected>& effects,
+            const EffectShape& shape) {
+  std::mt19937_64 rng(seed);
+  const Trajectory tr = randomTrajectory(model, rng);
+  std::normal_distribution<double> noise(0.0, sigma);
+  Data data(model);
+  Run run;
+  const double dt = 0.005;
+  for (double t = 0; t < duration; t += dt) {
+    const State s = tr.at(model, t);
+    computeJointTorqueRegressor(model, data, s);
+    Eigen::VectorXd tau = data.K * model.phi;
+    Eigen::VectorXd y = tau;
+    for (const Injected& e : effects) {
+      const int r = model.jointRow(e.joint);
+      if (e.kind == EffectKind::GainError) {
+        y[r] = (1 + e.value) * tau[r];
+      } else if (e.kind == EffectKind::Delay) {
+        const State past = tr.at(model, t - e.value);
+        computeJointTorqueRegressor(model, data, past);
+        y[r] = (data.K * model.phi)[r];
+      } else {
+        y[r] += e.value * effectSignal(e.kind, shape, s.v[e.joint], s.a[e.joint], 0, 0);
+      }
+    }
+    for (int r = 0; r < model.nv; ++r) y[r] += noise(rng);
+    run.states.push_back(s);
+    run.t.push_back(t);
+    run.y.push_back(y);
+  }
+  return run;
+}
+
+Segment segmentOf(const Model& model, const Run& run, const std::string& name) {
+  return {name, [&model, &run](const DiagnosisRowSink& sink, std::string*) {
+            Data data(model);
+            for (size_t i = 0; i < run.states.size(); ++i) {
+              computeJointTorqueRegressor(model, data, run.states[i]);
+              sink(run.t[i], data.K, run.y[i]);
+            }
+            return true;
+          }};
+}
+
+
+DiagnosisResult runDiagnosis(uint64_t seed, double sigma, const std::vector<Injected>& effects,
+                             const DiagnoseOptions& opt = {}) {
+  const Model& model = kuka();
+  const Run r1 = makeRun(model, seed * 3 + 1, 20.0, sigma, effects, opt.shape);
+  const Run r2 = makeRun(model, seed * 3 + 2, 20.0, sigma, effects, opt.shape);
+  const Run rv = makeRun(model, seed * 3 + 3, 20.0, sigma, effects, opt.shape);
+  DiagnosisResult res;
+  std::string err;
+  EXPECT_TRUE(diagnose(model, {segmentOf(model, r1, "a"), segmentOf(model, r2, "b")}, {segmentOf(model, rv, "v")}, opt,
+                       res, &err))
+      << err;
+  return res;
+}
+
+TEST(StudentT, MatchesTabulatedQuantiles) {
+  // t_{0.99}(9) = 2.821, t_{0.975}(9) = 2.262, t_{0.95}(30) = 1.697 (standard tables).
+  EXPECT_NEAR(studentTUpperTail(2.821, 9), 0.01, 2e-4);
+  EXPECT_NEAR(studentTUpperTail(2.262, 9), 0.025, 2e-4);
+  EXPECT_NEAR(studentTUpperTail(1.697, 30), 0.05, 2e-4);
+  EXPECT_NEAR(studentTUpperTail(0.0, 5), 0.5, 1e-12);
+  EXPECT_NEAR(studentTUpperTail(-2.821, 9), 0.99, 2e-4);
+}
+
+// Each kind on one joint, sized at least 3x the torque noise (sigma = 0.05 N m): named on the right joint
+// with the right kind as the first finding, value within 10 %, and the held-out RMSE back near the noise.
+// (An offset on a joint whose gravity torque barely changes over the run hides in the rigid-body parameters:
+// lwr_5 with this excitation; lwr_0's axis is vertical, so its offset cannot hide.)
+struct Case {
+  EffectKind kind;
+  int joint;
+  double value;
+};
+class SingleEffect : public ::testing::TestWithParam<Case> {};
+
+TEST_P(SingleEffect, FoundOnTheRightJointWithTheRightKindAndValue) {
+  const Case c = GetParam();
+  const double sigma = 0.05;
+  const DiagnosisResult res = runDiagnosis(11, sigma, {{c.kind, c.joint, c.value}});
+  ASSERT_FALSE(res.findings.empty());
+  const Finding& f = res.findings.front();
+  EXPECT_EQ(f.effect.joint, c.joint) << f.sentence;
+  EXPECT_EQ(f.effect.kind, c.kind) << f.sentence;
+  EXPECT_NEAR(f.effect.value, c.value, 0.1 * std::fabs(c.value)) << f.sentence;
+  // Nothing else of note: at most one further finding, and the augmented model is at the noise floor.
+  EXPECT_LE(res.findings.size(), 2u) << res.findings.back().sentence;
+  // Held-out: the joint is back at the noise floor and better than before (part of an effect can hide in
+  // the rigid-body parameters, so "before" is not always far above the noise).
+  EXPECT_LT(res.pooled_after, 1.1 * sigma);
+  EXPECT_LT(res.coordinates[c.joint].rms_after, 1.1 * sigma);
+  EXPECT_LT(res.coordinates[c.joint].rms_after, res.coordinates[c.joint].rms_before);
+}
+
+INSTANTIATE_TEST_SUITE_P(Kinds, SingleEffect,
+                         ::testing::Values(Case{EffectKind::Viscous, 3, 0.6}, Case{EffectKind::Coulomb, 1, 0.4},
+                                           Case{EffectKind::Stribeck, 4, 0.4}, Case{EffectKind::Offset, 0, 0.2},
+                                           Case{EffectKind::Armature, 2, 0.3}, Case{EffectKind::GainError, 1, 0.05},
+                                           Case{EffectKind::Delay, 3, 0.01}));
+
+// Clean data (no undeclared effect, different noise seeds): no finding at the documented false-alarm rate
+// alpha = 0.01 per data set; 10 seeds may give at most one.
+TEST(Diagnose, CleanDataGiveNoFinding) {
+  int found = 0;
+  for (uint64_t seed = 100; seed < 110; ++seed) {
+    const DiagnosisResult res = runDiagnosis(seed, 0.05, {});
+    for (const Finding& f : res.findings) std::printf("seed %llu: %s\n", (unsigned long long)seed, f.sentence.c_str());
+    found += res.findings.empty() ? 0 : 1;
+    EXPECT_NEAR(res.pooled_before, 0.05, 0.005);
+  }
+  EXPECT_LE(found, 1);
+}
+
+// The first joint's axis is vertical: its armature column (joint acceleration) is the link's own Izz column,
+// so it is reported as not separable and never tested; with the friction declared, no friction candidate.
+TEST(Diagnose, CandidatesInTheDeclaredSpanAreNotTested) {
+  const DiagnosisResult res = runDiagnosis(31, 0.05, {});
+  bool armature0 = false;
+  for (const CandidateScore& c : res.first_step)
+    if (c.effect.kind == EffectKind::Armature && c.effect.joint == 0)
+      armature0 = c.status == "not separable from the declared model";
+  EXPECT_TRUE(armature0);
+  DiagnoseOptions opt;
+  opt.declared_friction = true;
+  const DiagnosisResult rf = runDiagnosis(31, 0.05, {}, opt);
+  EXPECT_EQ(rf.declared_columns, res.declared_columns + 14);
+  for (const CandidateScore& c : rf.first_step)
+    EXPECT_TRUE(c.effect.kind != EffectKind::Viscous && c.effect.kind != EffectKind::Coulomb);
+}
+
+TEST(Diagnose, TwoEffectsOnDifferentJointsAreBothFound) {
+  const DiagnosisResult res =
+      runDiagnosis(21, 0.05, {{EffectKind::Viscous, 0, 0.8}, {EffectKind::Offset, 6, -0.3}});
+  bool visc = false, off = false;
+  for (const Finding& f : res.findings) {
+    visc = visc || (f.effect.kind == EffectKind::Viscous && f.effect.joint == 0 && std::fabs(f.effect.value - 0.8) < 0.08);
+    off = off || (f.effect.kind == EffectKind::Offset && f.effect.joint == 6 && std::fabs(f.effect.value + 0.3) < 0.03);
+  }
+  EXPECT_TRUE(visc);
+  EXPECT_TRUE(off);
+  EXPECT_LT(res.pooled_after, 1.2 * 0.05);
+}
+
+TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
+  const Model& model = kuka();
+  EffectSet set;
+  set.model = "kuka_lwr4.urdf";
+  set.shape.coulomb_width = 0.02;
+  set.effects = {{EffectKind::Offset, 0, 0.83}, {EffectKind::GainError, 4, -0.031}};
+  const std::string path = testing::TempDir() + "effects_" + std::to_string(::getpid()) + ".yaml";
+  std::string err;
+  ASSERT_TRUE(writeEffects(path, model, set, &err)) << err;
+  EffectSet back;
+  ASSERT_TRUE(readEffects(path, model, back, &err)) << err;
+  ASSERT_EQ(back.effects.size(), 2u);
+  EXPECT_EQ(back.effects[1].kind, EffectKind::GainError);
+  EXPECT_EQ(back.effects[1].joint, 4);
+  EXPECT_EQ(back.effects[1].value, -0.031);
+  EXPECT_EQ(back.shape.coulomb_width, 0.02);
+  {
+    FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs("effects:\n  - {joint: no_such_joint, kind: offset, value: 1}\n", f);
+    std::fclose(f);
+  }
+  EXPECT_FALSE(readEffects(path, model, back, &err));
+  EXPECT_NE(err.find("no_such_joint"), std::string::npos) << err;
+  {
+    FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs("effects:\n  - {joint: lwr_0_joint, kind: magic, value: 1}\n", f);
+    std::fclose(f);
+  }
+  EXPECT_FALSE(readEffects(path, model, back, &err));
+  EXPECT_NE(err.find("magic"), std::string::npos) << err;
+  std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace exoid::estimator

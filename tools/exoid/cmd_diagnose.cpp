@@ -1,0 +1,447 @@
+// exoid diagnose: what the rigid-body model leaves out, found from the residual (docs/diagnose.md).
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "commands.hpp"
+#include "exoid/common/cli.hpp"
+#include "exoid/estimator/diagnose.hpp"
+#include "exoid/model/urdf.hpp"
+#include "exoid/tools/identify_input.hpp"
+
+namespace exoid::cli {
+
+namespace {
+namespace est = exoid::estimator;
+namespace fs = std::filesystem;
+
+constexpr char kDescription[] =
+    "Finds what the declared rigid-body model leaves out (docs/diagnose.md). Identifies the declared model on\n"
+    "the training data, analyses the residual per joint (size against the noise, autocorrelation, correlation\n"
+    "with candidate signals), tests a library of candidate effects per joint (viscous, Coulomb with a smooth\n"
+    "sign, Stribeck, constant offset, armature, torque-sensor gain error, time delay) by forward selection with\n"
+    "a one-sided paired t-test over held-out time-block folds (Bonferroni over the candidates of each step:\n"
+    "false-alarm rate <= --alpha per data set), re-identifies with the accepted effects and reports the torque\n"
+    "RMSE before and after on the validation data, per joint and pooled.\n\n"
+    "Writes to --out: report.md (findings in words, tables, plots), summary.json, rmse.csv, candidates.csv,\n"
+    "residual_<segment>.csv, effects.yaml (the sidecar of the augmented model) next to a copy of the URDF,\n"
+    "plot_diagnose.py and its PNGs (rmse.png, residual_vs_signal.png, spectra.png; python3 with matplotlib).\n\n"
+    "exit codes: 0 success, 2 bad input or data that cannot identify the declared model (one line on stderr).";
+
+int fail(const std::string& msg) {
+  std::fprintf(stderr, "exoid diagnose: error: %s\n", msg.c_str());
+  return 2;
+}
+
+// Plots from the CSVs this command writes (matplotlib, headless).
+constexpr char kPlotScript[] = R"PY(#!/usr/bin/env python3
+# Plots of `exoid diagnose` from the CSVs next to this script (written by exoid; docs/diagnose.md).
+import csv, math, os, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+here = os.path.dirname(os.path.abspath(__file__))
+
+def read(name):
+    with open(os.path.join(here, name)) as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:]
+
+h, rows = read("rmse.csv")
+names = [r[0] for r in rows]
+before = np.array([float(r[1]) for r in rows]); after = np.array([float(r[2]) for r in rows])
+x = np.arange(len(names))
+fig, ax = plt.subplots(figsize=(max(6, 0.9 * len(names) + 2), 4))
+ax.bar(x - 0.2, before, 0.4, label="declared model")
+ax.bar(x + 0.2, after, 0.4, label="with the accepted effects")
+ax.set_xticks(x); ax.set_xticklabels(names, rotation=30, ha="right")
+ax.set_ylabel("held-out torque RMSE (N m)"); ax.legend(); ax.grid(axis="y", alpha=0.3)
+ax.set_title("Torque prediction error per coordinate (held-out data)")
+fig.tight_layout(); fig.savefig(os.path.join(here, "rmse.png"), dpi=110); plt.close(fig)
+
+_, sig = read("signals.csv")  # coordinate, kind, label
+h, rows = read(sys.argv[1] if len(sys.argv) > 1 else "residual_plot.csv")
+data = np.array([[float(c) for c in r] for r in rows])
+col = {n: i for i, n in enumerate(h)}
+t = data[:, col["t"]]
+n = len(sig); nc = min(4, n); nr = int(math.ceil(n / nc))
+fig, axes = plt.subplots(nr, nc, figsize=(4 * nc, 3.2 * nr), squeeze=False)
+step = max(1, len(t) // 3000)
+for k, (name, kind, label) in enumerate(sig):
+    ax = axes[k // nc][k % nc]
+    s = data[::step, col["sig_" + name]]
+    ax.plot(s, data[::step, col["before_" + name]], ".", ms=1.5, alpha=0.4, label="before")
+    ax.plot(s, data[::step, col["after_" + name]], ".", ms=1.5, alpha=0.4, label="after")
+    ax.set_title(name, fontsize=9); ax.set_xlabel(label, fontsize=8); ax.set_ylabel("residual (N m)", fontsize=8)
+    ax.grid(alpha=0.3)
+    if k == 0: ax.legend(markerscale=6, fontsize=7)
+for k in range(n, nr * nc): axes[k // nc][k % nc].axis("off")
+fig.suptitle("Residual against the chosen candidate signal, before and after augmentation (held-out data)")
+fig.tight_layout(); fig.savefig(os.path.join(here, "residual_vs_signal.png"), dpi=100); plt.close(fig)
+
+# Spectra: resampled to the mean sample time (the timestamps may jitter), Welch with Hann windows.
+dt = (t[-1] - t[0]) / max(len(t) - 1, 1)
+tu = t[0] + dt * np.arange(len(t))
+def welch(r):
+    r = np.interp(tu, t, r); r = r - r.mean()
+    nseg = min(1024, len(r)); hop = nseg // 2; w = np.hanning(nseg)
+    acc = None; cnt = 0
+    for s0 in range(0, len(r) - nseg + 1, hop):
+        X = np.fft.rfft(w * r[s0:s0 + nseg]); p = (np.abs(X) ** 2) * dt / (w ** 2).sum()
+        p[1:-1] *= 2; acc = p if acc is None else acc + p; cnt += 1
+    return np.fft.rfftfreq(nseg, dt), acc / cnt
+fig, axes = plt.subplots(nr, nc, figsize=(4 * nc, 3.2 * nr), squeeze=False)
+for k, (name, kind, label) in enumerate(sig):
+    ax = axes[k // nc][k % nc]
+    f, pb = welch(data[:, col["before_" + name]]); _, pa = welch(data[:, col["after_" + name]])
+    ax.loglog(f[1:], pb[1:], lw=0.8, label="before"); ax.loglog(f[1:], pa[1:], lw=0.8, label="after")
+    ax.set_title(name, fontsize=9); ax.set_xlabel("frequency (Hz)", fontsize=8); ax.set_ylabel("PSD (N^2 m^2 / Hz)", fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    if k == 0: ax.legend(fontsize=7)
+for k in range(n, nr * nc): axes[k // nc][k % nc].axis("off")
+fig.suptitle("Residual spectra before and after augmentation (held-out data)")
+fig.tight_layout(); fig.savefig(os.path.join(here, "spectra.png"), dpi=100); plt.close(fig)
+)PY";
+
+std::string safeName(std::string s) {
+  for (char& c : s)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
+  return s;
+}
+
+std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
+  char buf[128];
+  switch (k) {
+    case est::EffectKind::Viscous: return "v (rad/s)";
+    case est::EffectKind::Coulomb: std::snprintf(buf, sizeof buf, "tanh(v / %g)", shape.coulomb_width); return buf;
+    case est::EffectKind::Stribeck:
+      std::snprintf(buf, sizeof buf, "tanh(v/%g) exp(-(v/%g)^2)", shape.coulomb_width, shape.stribeck_velocity);
+      return buf;
+    case est::EffectKind::Offset: return "v (rad/s; offset: constant signal)";
+    case est::EffectKind::Armature: return "dv/dt (rad/s^2)";
+    case est::EffectKind::GainError: return "model torque (N m)";
+    case est::EffectKind::Delay: return "-d/dt model torque (N m/s)";
+  }
+  return "";
+}
+}  // namespace
+
+int cmdDiagnose(int argc, char** argv) {
+  CLI::App app(kDescription, "exoid diagnose");
+  common::configureCli(app);
+  std::vector<std::string> train_files, val_files, kinds;
+  std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "inputs";
+  bool floating = false, skip_bad = false, no_plots = false;
+  double gravity = 9.81, cutoff = 0.0;
+  est::DiagnoseOptions opt;
+  int folds = opt.folds, max_effects = opt.max_effects;
+  app.add_option("--model", model_path, "robot URDF")->required();
+  app.add_flag("--floating-base", floating, "the root link is on a 6-dof free joint (default: fixed to the world)");
+  app.add_option("--train", train_files, "training data: measured CSVs (docs/identification.md) and/or LCM logs of "
+                 "`exoid experiment`")->required();
+  app.add_option("--validate", val_files, "held-out data for the before/after report (same kinds); without it the "
+                 "training data are reported and only the fold test guards the choice");
+  app.add_option("--out", out_dir, "output directory (created)")->required();
+  app.add_option("--gravity", gravity, "gravity magnitude, m/s^2, along -z of the world / root link")->transform(common::strictNumber(0.0, 100.0));
+  app.add_option("--declared", declared, "declared model: 'rigid' (URDF rigid-body parameters; default) or "
+                 "'rigid+friction' (plus fv, fc of every joint)")->check(CLI::IsMember({"rigid", "rigid+friction"}));
+  app.add_option("--effects", kinds, "candidate kinds to test (default all): viscous coulomb stribeck offset armature gain delay");
+  app.add_option("--alpha", opt.alpha, "false-alarm rate per data set (family-wise per selection step; default 0.01)")
+      ->transform(common::strictNumber(1e-9, 0.5));
+  app.add_option("--folds", folds, "time-block folds for the held-out test (default 20)")
+      ->transform(common::strictInteger(3, 100));
+  app.add_option("--chunk-seconds", opt.chunk_seconds, "length of one time chunk; chunks are dealt to the folds in turn "
+                 "(default 0.25 s)")->transform(common::strictNumber(1e-3, 1e6));
+  app.add_option("--min-explained", opt.min_explained, "an effect must remove at least this fraction of its joint's "
+                 "held-out residual (default 0.02)")->transform(common::strictNumber(0.0, 1.0));
+  app.add_option("--max-effects", max_effects, "at most this many effects (default 30)")->transform(common::strictInteger(0, 1000));
+  app.add_option("--coulomb-width", opt.shape.coulomb_width, "rad/s: Coulomb signal tanh(v / width) (default 0.03)")
+      ->transform(common::strictNumber(1e-9, 1e3));
+  app.add_option("--stribeck-velocity", opt.shape.stribeck_velocity, "rad/s: Stribeck decay exp(-(v / vs)^2) (default 0.1)")
+      ->transform(common::strictNumber(1e-9, 1e3));
+  app.add_option("--torque-noise", opt.torque_noise, "known torque noise sigma (N m) for the size check (default: "
+                 "estimated from the residual's sample-to-sample differences)")->transform(common::strictNumber(0.0, 1e6));
+  app.add_option("--pipeline", pipeline, "LCM logs: 'sensors' (default) or 'truth'")->check(CLI::IsMember({"sensors", "truth"}));
+  app.add_option("--cutoff", cutoff, "zero-phase Butterworth cutoff in Hz for the dataset pipeline (0: none; default)")
+      ->transform(common::strictNumber(0.0, 1e6));
+  app.add_option("--filter-mode", filter_mode, "'inputs' (filter q, differentiate, filter again; default) or 'parallel' "
+                 "(also the same filter on every column of W and on y); docs/identification.md")
+      ->check(CLI::IsMember({"inputs", "parallel"}));
+  app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
+  app.add_flag("--no-plots", no_plots, "do not run the plot script (it is still written)");
+  app.add_option("--python", python, "python interpreter for the plots (default python3; needs matplotlib and numpy)");
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
+  opt.folds = folds;
+  opt.max_effects = max_effects;
+  opt.declared_friction = declared == "rigid+friction";
+  if (!kinds.empty()) {
+    opt.kinds.clear();
+    for (const std::string& k : kinds) {
+      est::EffectKind kind;
+      if (!est::parseEffectKind(k, kind)) return fail("--effects: unknown kind '" + k + "'");
+      opt.kinds.push_back(kind);
+    }
+  }
+
+  std::string err;
+  Model model;
+  if (!buildModelFromUrdfFile(model_path, floating, model, &err, gravity)) return fail(err);
+  tools::SourceOptions so;
+  so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
+  so.dataset.cutoff_hz = cutoff;
+  so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
+  so.skip_bad_rows = skip_bad;
+  std::vector<tools::InputStats> stats(train_files.size() + val_files.size());
+  auto makeSegment = [&](const std::string& path, size_t k) {
+    est::Segment s;
+    s.name = fs::path(path).stem().string();
+    s.stream = [&, path, k](const est::DiagnosisRowSink& sink, std::string* e) {
+      stats[k] = tools::InputStats{};
+      return tools::streamFileRows(path, model, so, sink, stats[k], e);
+    };
+    return s;
+  };
+  std::vector<est::Segment> train, validate;
+  for (size_t i = 0; i < train_files.size(); ++i) train.push_back(makeSegment(train_files[i], i));
+  for (size_t i = 0; i < val_files.size(); ++i) validate.push_back(makeSegment(val_files[i], train_files.size() + i));
+
+  est::DiagnosisResult res;
+  if (!est::diagnose(model, train, validate, opt, res, &err)) return fail(err);
+
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (ec) return fail("cannot create '" + out_dir + "': " + ec.message());
+  const fs::path out(out_dir);
+  const int nv = model.nv;
+  auto open = [&](const std::string& name, std::ofstream& f) {
+    f.open(out / name);
+    if (!f) return fail("cannot write '" + (out / name).string() + "'"), false;
+    return true;
+  };
+
+  // Which signal to plot per joint: its first finding, else the best-correlated candidate.
+  std::vector<est::EffectKind> plot_kind(nv, est::EffectKind::Viscous);
+  std::vector<bool> from_finding(nv, false);
+  for (int r = 0; r < nv; ++r) plot_kind[r] = res.coordinates[r].best_kind;
+  for (const est::Finding& f : res.findings) {
+    const int r = model.jointRow(f.effect.joint);
+    if (!from_finding[r]) plot_kind[r] = f.effect.kind, from_finding[r] = true;
+  }
+  for (int r = 0; r < nv; ++r)
+    if (plot_kind[r] == est::EffectKind::Offset) plot_kind[r] = est::EffectKind::Viscous;  // constant: plot vs v
+
+  // CSVs.
+  {
+    std::ofstream f;
+    if (!open("rmse.csv", f)) return 2;
+    f << "coordinate,rmse_before,rmse_after,train_rmse_before,train_rmse_after,noise_floor,lag1_before,lag1_after\n";
+    char buf[256];
+    for (const est::CoordinateSummary& c : res.coordinates) {
+      std::snprintf(buf, sizeof buf, "%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.6f,%.6f\n", c.name.c_str(), c.rms_before, c.rms_after,
+                    c.train_rms_before, c.train_rms_after, c.noise_floor, c.lag1_before, c.lag1_after);
+      f << buf;
+    }
+    std::snprintf(buf, sizeof buf, "pooled,%.9g,%.9g,%.9g,%.9g,,,\n", res.pooled_before, res.pooled_after,
+                  res.train_pooled_before, res.train_pooled_after);
+    f << buf;
+  }
+  {
+    std::ofstream f;
+    if (!open("candidates.csv", f)) return 2;
+    f << "joint,kind,value,unit,correlation,explained,p_value,status\n";
+    for (const est::CandidateScore& c : res.first_step)
+      f << model.joint_names[c.effect.joint] << ',' << est::effectKindName(c.effect.kind) << ',' << c.effect.value << ','
+        << est::effectUnit(c.effect.kind) << ',' << c.correlation << ',' << c.explained << ',' << c.p_value << ",\""
+        << c.status << "\"\n";
+  }
+  {
+    std::ofstream f;
+    if (!open("signals.csv", f)) return 2;
+    f << "coordinate,kind,label\n";
+    for (int j = 0; j < model.njoints; ++j) {
+      const int r = model.jointRow(j);
+      f << model.joint_names[j] << ',' << est::effectKindName(plot_kind[r]) << ",\"" << signalLabel(plot_kind[r], opt.shape)
+        << "\"\n";
+    }
+  }
+  std::string plot_csv;
+  for (const est::ResidualSeries& rs : res.series) {
+    if (rs.validation != res.has_validation) continue;
+    const std::string name = "residual_" + safeName(rs.segment) + ".csv";
+    if (plot_csv.empty()) plot_csv = name;
+    std::ofstream f;
+    if (!open(name, f)) return 2;
+    f << "t";
+    for (int j = 0; j < model.njoints; ++j) {
+      const std::string& n = model.joint_names[j];
+      f << ",before_" << n << ",after_" << n << ",sig_" << n << ",v_" << n;
+    }
+    f << '\n';
+    char buf[64];
+    for (long i = 0; i < rs.t.size(); ++i) {
+      std::snprintf(buf, sizeof buf, "%.9g", rs.t[i]);
+      f << buf;
+      for (int j = 0; j < model.njoints; ++j) {
+        const int r = model.jointRow(j);
+        const double dtau = (i > 0 && i + 1 < rs.t.size())
+                                ? (rs.tau_model(i + 1, r) - rs.tau_model(i - 1, r)) / (rs.t[i + 1] - rs.t[i - 1])
+                                : 0.0;
+        const double s = est::effectSignal(plot_kind[r], opt.shape, rs.v(i, j), rs.a(i, j), rs.tau_model(i, r), dtau);
+        std::snprintf(buf, sizeof buf, ",%.6g,%.6g,%.6g,%.6g", rs.before(i, r), rs.after(i, r), s, rs.v(i, j));
+        f << buf;
+      }
+      f << '\n';
+    }
+  }
+
+  // Sidecar + URDF copy: the augmented model.
+  est::EffectSet set;
+  set.model = fs::path(model_path).filename().string();
+  set.shape = opt.shape;
+  for (const est::Finding& f : res.findings) set.effects.push_back(f.effect);
+  fs::copy_file(model_path, out / set.model, fs::copy_options::overwrite_existing, ec);
+  if (ec) return fail("cannot copy the URDF: " + ec.message());
+  if (!est::writeEffects((out / "effects.yaml").string(), model, set, &err)) return fail(err);
+
+  // summary.json
+  nlohmann::json js;
+  js["model"] = model_path;
+  js["declared"] = declared;
+  js["declared_columns"] = res.declared_columns;
+  js["dropped_columns"] = res.dropped_columns;
+  js["candidates"] = res.candidates;
+  js["train_samples"] = res.train_samples;
+  js["validation_samples"] = res.validation_samples;
+  js["alpha"] = opt.alpha;
+  js["folds"] = opt.folds;
+  js["pooled_rmse_before"] = res.pooled_before;
+  js["pooled_rmse_after"] = res.pooled_after;
+  js["train_pooled_rmse_before"] = res.train_pooled_before;
+  js["train_pooled_rmse_after"] = res.train_pooled_after;
+  for (const est::Finding& f : res.findings)
+    js["findings"].push_back({{"joint", model.joint_names[f.effect.joint]}, {"kind", est::effectKindName(f.effect.kind)},
+                              {"value", f.effect.value}, {"unit", est::effectUnit(f.effect.kind)},
+                              {"std_error", f.std_error}, {"explained", f.explained}, {"p_value", f.p_value},
+                              {"tested", f.tested}, {"sentence", f.sentence}});
+  if (res.findings.empty()) js["findings"] = nlohmann::json::array();
+  for (const est::CoordinateSummary& c : res.coordinates)
+    js["coordinates"].push_back({{"name", c.name}, {"rmse_before", c.rms_before}, {"rmse_after", c.rms_after},
+                                 {"train_rmse_before", c.train_rms_before}, {"train_rmse_after", c.train_rms_after},
+                                 {"noise_floor", c.noise_floor}, {"lag1_before", c.lag1_before}, {"lag1_after", c.lag1_after}});
+  {
+    std::ofstream f;
+    if (!open("summary.json", f)) return 2;
+    f << js.dump(2) << '\n';
+  }
+
+  // Plots.
+  {
+    std::ofstream f;
+    if (!open("plot_diagnose.py", f)) return 2;
+    f << kPlotScript;
+  }
+  bool plotted = false;
+  if (!no_plots && !plot_csv.empty()) {
+    const std::string cmd = python + " '" + (out / "plot_diagnose.py").string() + "' '" + plot_csv + "'";
+    plotted = std::system(cmd.c_str()) == 0;
+    if (!plotted) std::fprintf(stderr, "exoid diagnose: warning: the plot script failed (%s); the CSVs are written\n", cmd.c_str());
+  }
+
+  // report.md
+  std::ostringstream md;
+  char buf[512];
+  md << "# exoid diagnose report\n\n";
+  md << "Model `" << model_path << "` (" << (model.floating_base ? "floating" : "fixed") << " base, " << model.njoints
+     << " joints); declared model: " << (opt.declared_friction ? "rigid body + viscous and Coulomb friction" : "rigid body")
+     << ", " << res.declared_columns << " base-parameter columns excited";
+  if (res.dropped_columns) md << " (" << res.dropped_columns << " structural ones not excited, left out)";
+  md << ".\n\nTraining: ";
+  for (const std::string& f : train_files) md << '`' << f << "` ";
+  md << "(" << res.train_samples << " samples). Held-out validation: ";
+  if (val_files.empty()) md << "none (the before/after numbers below are training numbers)";
+  for (const std::string& f : val_files) md << '`' << f << "` ";
+  if (!val_files.empty()) md << "(" << res.validation_samples << " samples)";
+  std::snprintf(buf, sizeof buf,
+                ".\n\nSelection: %d candidate columns, forward selection; an effect is accepted when the one-sided paired "
+                "t-test of the held-out squared-error reduction over %d time-block folds has p < %g / (candidates of the "
+                "step), it removes at least %.0f %% of its joint's held-out residual, and its value has the physical "
+                "sign. False-alarm rate on data without an undeclared effect: <= %g per data set. Method: "
+                "docs/diagnose.md.\n\n",
+                res.candidates, opt.folds, opt.alpha, 100 * opt.min_explained, opt.alpha);
+  md << buf;
+  md << "## Findings\n\n";
+  if (res.findings.empty()) md << "None: no candidate effect passed the test; the residual is what the data allow.\n";
+  for (const est::Finding& f : res.findings) md << "- " << f.sentence << "\n";
+  std::snprintf(buf, sizeof buf, "\n## Torque RMSE before and after (%s)\n\n", res.has_validation ? "held-out validation data" : "training data");
+  md << buf;
+  md << "| coordinate | before (N m) | after (N m) | change | noise floor (N m) | lag-1 autocorr. before / after | training before / after |\n"
+        "|---|---|---|---|---|---|---|\n";
+  for (const est::CoordinateSummary& c : res.coordinates) {
+    std::snprintf(buf, sizeof buf, "| %s | %.3f | %.3f | %+.0f %% | %.3f | %.2f / %.2f | %.3f / %.3f |\n", c.name.c_str(),
+                  c.rms_before, c.rms_after, 100 * (c.rms_after / c.rms_before - 1), c.noise_floor, c.lag1_before,
+                  c.lag1_after, c.train_rms_before, c.train_rms_after);
+    md << buf;
+  }
+  std::snprintf(buf, sizeof buf, "| **pooled** | **%.3f** | **%.3f** | %+.0f %% | | | %.3f / %.3f |\n\n", res.pooled_before,
+                res.pooled_after, 100 * (res.pooled_after / res.pooled_before - 1), res.train_pooled_before,
+                res.train_pooled_after);
+  md << buf;
+  md << "Noise floor: " << (opt.torque_noise > 0 ? "the given --torque-noise" : "sqrt(mean(diff(r)^2)/2) of the residual (white-noise estimate; "
+                                                                                  "low for filtered data)")
+     << ". A white residual has lag-1 autocorrelation near 0; near 1 means structure the model misses.\n\n";
+  md << "## Residual structure before augmentation\n\n| joint | RMSE / noise floor | most correlated candidate signal | correlation |\n|---|---|---|---|\n";
+  for (const est::CoordinateSummary& c : res.coordinates) {
+    if (c.joint < 0) continue;
+    std::snprintf(buf, sizeof buf, "| %s | %.1f | %s | %+.2f |\n", c.name.c_str(),
+                  c.noise_floor > 0 ? c.rms_before / c.noise_floor : 0.0, est::effectKindWords(c.best_kind), c.best_correlation);
+    md << buf;
+  }
+  md << "\n## Candidates of the first step (against the declared model alone), by held-out effect\n\n"
+        "| joint | kind | value alone | correlation | explains | p | verdict |\n|---|---|---|---|---|---|---|\n";
+  std::vector<est::CandidateScore> sorted = res.first_step;
+  std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.explained > b.explained; });
+  for (size_t i = 0; i < sorted.size() && i < 20; ++i) {
+    const est::CandidateScore& c = sorted[i];
+    std::snprintf(buf, sizeof buf, "| %s | %s | %.3g %s | %+.2f | %.0f %% | %.2g | %s |\n",
+                  model.joint_names[c.effect.joint].c_str(), est::effectKindName(c.effect.kind), c.effect.value,
+                  est::effectUnit(c.effect.kind), c.correlation, 100 * c.explained, c.p_value, c.status.c_str());
+    md << buf;
+  }
+  md << "\n(all " << res.first_step.size() << " in candidates.csv)\n\n## Plots\n\n";
+  if (plotted)
+    md << "![RMSE per coordinate](rmse.png)\n\n![Residual against the chosen signal](residual_vs_signal.png)\n\n"
+          "Each panel: the joint's residual against the signal of its first finding (or, without a finding, the best-correlated "
+          "candidate; velocity for an offset), before (blue) and after (orange).\n\n![Residual spectra](spectra.png)\n\n";
+  else
+    md << "Not drawn (run `python3 plot_diagnose.py " << plot_csv << "` here with matplotlib).\n\n";
+  md << "## Augmented model\n\n`" << set.model << "` (the rigid-body model, unchanged) + `effects.yaml` (the accepted "
+        "effects: dynamics columns and measurement corrections; format in docs/diagnose.md).\n";
+  {
+    std::ofstream f;
+    if (!open("report.md", f)) return 2;
+    f << md.str();
+  }
+
+  // Console summary.
+  std::printf("declared model: %d base-parameter columns; %d candidates; %ld training / %ld validation samples\n",
+              res.declared_columns, res.candidates, res.train_samples, res.validation_samples);
+  for (const est::Finding& f : res.findings) std::printf("  %s\n", f.sentence.c_str());
+  if (res.findings.empty()) std::printf("  no finding\n");
+  std::printf("%-16s %10s %10s\n", "coordinate", "before", "after");
+  for (const est::CoordinateSummary& c : res.coordinates) std::printf("%-16s %10.4f %10.4f\n", c.name.c_str(), c.rms_before, c.rms_after);
+  std::printf("%-16s %10.4f %10.4f   (%s RMSE, N m)\n", "pooled", res.pooled_before, res.pooled_after,
+              res.has_validation ? "held-out" : "training");
+  std::printf("report: %s\n", (out / "report.md").string().c_str());
+  return 0;
+}
+
+}  // namespace exoid::cli
