@@ -3,7 +3,7 @@
  * Ticks in [from, to) misbehave as <kind>: error (returns EXOID_PLUGIN_ERROR), nan (a NaN torque), bad_tick
  * (command stamped for the wrong tick), slow (busy-waits the given microseconds, then answers well),
  * create_fail (create fails, whatever the range). Every other tick answers tau_j = j + 1 + tick * 1e-3.
- * Built also with EXOID_FAULT_ABI_VERSION (another ABI version) and EXOID_FAULT_STATE_SIZE (a state struct of
+ * Built also with EXOID_FAULT_ABI_VERSION (another ABI version: 1, a plugin from before the force plates) and EXOID_FAULT_STATE_SIZE (a state struct of
  * another size), as a plugin built against another header would be, and EXOID_FAULT_NO_ENTRY (a shared
  * library that is not a plugin). */
 #include <math.h>
@@ -88,7 +88,7 @@ static void f_destroy(void* self) { free(self); }
 
 static const exoid_controller_plugin_api kApi __attribute__((used)) = {
     EXOID_FAULT_ABI_VERSION, EXOID_FAULT_STATE_SIZE, sizeof(exoid_plugin_command), sizeof(exoid_plugin_status),
-    "fault injection", f_create, f_reset, f_tick, f_status, NULL, f_destroy,
+    "fault injection", f_create, f_reset, f_tick, f_status, NULL, f_destroy, sizeof(exoid_plugin_force_plate), NULL,
 };
 
 #ifndef EXOID_FAULT_NO_ENTRY
