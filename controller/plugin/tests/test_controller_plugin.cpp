@@ -7,6 +7,7 @@
 //    tests/support/alloc_counter);
 //  - the example joint PD plugin answers tau = KP (q0 - q) - KD dq, clamped (recomputed here), and holds the
 //    exoskeleton standing in MuJoCo;
+//  - the host gives the plates of tick k after the tick, counts refusals, and nothing without the entry;
 //  - faults (error code, NaN torque, wrong tick, over budget): the host holds the last good torque for
 //    hold_ticks, then damps, counted per kind, and returns to the plugin's torque when it answers well again.
 #include <gtest/gtest.h>
@@ -297,6 +298,9 @@ TEST(JointPdPlugin, AnswersThePdLawAndHoldsTheRobotStanding) {
   EXPECT_LE(max_err, 1e-9);
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(plugin->stats().good, 3000);
+  // No set_force_plates (NULL in its table): the host keeps the plates, counts nothing.
+  EXPECT_FALSE(plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet));
+  EXPECT_EQ(plugin->stats().plates_accepted + plugin->stats().plates_rejected, 0);
   EXPECT_FALSE(sim::simFell(exo.model, exo.data));
   // Standing: a stiff joint PD leaves a static sag (gravity torque / KP) and a slow sway of ~1-2 cm; the base
   // stays at its height (no collapse) and comes to rest.
@@ -306,6 +310,26 @@ TEST(JointPdPlugin, AnswersThePdLawAndHoldsTheRobotStanding) {
   EXPECT_LT(d.head<2>().norm(), 0.03);
   EXPECT_LT(std::abs(d.z()), 1e-3);
   EXPECT_LT(exo.data.truth.base_velocity.norm(), 0.02);
+}
+
+// The plates of tick k go to the plugin after its tick, in order right, left; a refusal is counted and
+// changes nothing else.
+TEST(PluginPlates, HostHandsThemOverInOrderAndCountsRefusals) {
+  Exo exo;
+  std::string err;
+  auto plugin = load(faultOptions("plates 100 110"), exo, &err);
+  ASSERT_TRUE(plugin) << err;
+  closedLoop(exo, *plugin, 130, [&](int k, const RobotStateSample& s) {
+    plugin->step(s);
+    EXPECT_EQ(exo.data.plates[0].tick, k);
+    EXPECT_EQ(plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet), k < 100 || k >= 110) << k;
+    EXPECT_EQ(plugin->command().mode, CommandMode::Torque) << k;
+  });
+  EXPECT_EQ(plugin->stats().plates_accepted, 120);
+  EXPECT_EQ(plugin->stats().plates_rejected, 10);
+  EXPECT_EQ(plugin->stats().fallbackTicks(), 0);
+  EXPECT_FALSE(plugin->setForcePlates(exo.data.plates.data(), 1));  // the ABI carries both plates
+  EXPECT_NE(plugin->formatStats().find("plates accepted 120 rejected 11"), std::string::npos) << plugin->formatStats();
 }
 
 struct FaultCase {
