@@ -8,8 +8,8 @@
 // A call that fails (error code, non-finite torque, wrong tick or mode, or longer than the time budget when
 // one is set) is replaced by the fallback, counted: hold the last good torque for hold_ticks controller ticks,
 // then damping (the simulator's drive damping) until the plugin answers well again. After step(state_k),
-// setForcePlates(plates_k) every physics tick. step() allocates nothing
-// and throws nothing (beyond what the plugin itself does: it runs in this process).
+// setForcePlates(plates_k), every physics tick. Neither allocates nor throws (beyond what the plugin itself
+// does: it runs in this process).
 #include <cstdint>
 #include <memory>
 #include <string>
