@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "exoid/controller_plugin_samples.hpp"
+
 namespace exoid::sim {
 namespace {
 
@@ -62,12 +64,13 @@ std::unique_ptr<ControllerPlugin> ControllerPlugin::load(const PluginOptions& o,
     return fail("ABI version " + std::to_string(a->abi_version) + ", this exo_sim needs " +
                 std::to_string(EXOID_CONTROLLER_PLUGIN_ABI_VERSION) + " (rebuild the plugin against controller_plugin.h)");
   if (a->state_size != sizeof(exoid_plugin_state) || a->command_size != sizeof(exoid_plugin_command) ||
-      a->status_size != sizeof(exoid_plugin_status))
+      a->status_size != sizeof(exoid_plugin_status) || a->force_plate_size != sizeof(exoid_plugin_force_plate))
     return fail("struct sizes (state " + std::to_string(a->state_size) + ", command " +
-                std::to_string(a->command_size) + ", status " + std::to_string(a->status_size) +
-                ") differ from this exo_sim's (" + std::to_string(sizeof(exoid_plugin_state)) + ", " +
-                std::to_string(sizeof(exoid_plugin_command)) + ", " + std::to_string(sizeof(exoid_plugin_status)) +
-                "): built against another controller_plugin.h");
+                std::to_string(a->command_size) + ", status " + std::to_string(a->status_size) + ", force plate " +
+                std::to_string(a->force_plate_size) + ") differ from this exo_sim's (" +
+                std::to_string(sizeof(exoid_plugin_state)) + ", " + std::to_string(sizeof(exoid_plugin_command)) +
+                ", " + std::to_string(sizeof(exoid_plugin_status)) + ", " +
+                std::to_string(sizeof(exoid_plugin_force_plate)) + "): built against another controller_plugin.h");
   if (!a->create || !a->reset || !a->tick || !a->status || !a->destroy)
     return fail("the function table lacks create, reset, tick, status or destroy");
 
@@ -242,6 +245,15 @@ bool ControllerPlugin::setFeedforward(const double* tau_ff, int num_joints, int6
   return ok;
 }
 
+bool ControllerPlugin::setForcePlates(const ForcePlateSample* plates, int num_plates) {
+  if (!api_->set_force_plates) return false;  // the plugin does not use them: nothing to count
+  bool ok = plates && num_plates == EXOID_PLUGIN_NUM_PLATES;
+  for (int i = 0; ok && i < num_plates; ++i) plugin_abi::toPlugin(plates[i], plates_[i]);
+  ok = ok && api_->set_force_plates(self_, plates_, num_plates) == EXOID_PLUGIN_OK;
+  ++(ok ? stats_.plates_accepted : stats_.plates_rejected);
+  return ok;
+}
+
 std::string ControllerPlugin::formatStats() const {
   const PluginStats& s = stats_;
   char buf[512];
@@ -249,10 +261,10 @@ std::string ControllerPlugin::formatStats() const {
                 "exo_sim: plugin '%s': calls %" PRId64 ", good %" PRId64 ", failed %" PRId64 ", non_finite %" PRId64
                 ", bad_output %" PRId64 ", overruns %" PRId64 " (budget %.0f us), fallback ticks %" PRId64
                 " (held %" PRId64 ", damping %" PRId64 "), bad status %" PRId64 ", feedforward accepted %" PRId64
-                " rejected %" PRId64 ", call mean %.1f us max %.1f us",
+                " rejected %" PRId64 ", plates accepted %" PRId64 " rejected %" PRId64 ", call mean %.1f us max %.1f us",
                 name(), s.calls, s.good, s.failed, s.non_finite, s.bad_output, s.overruns, opt_.budget_us,
                 s.fallbackTicks(), s.hold_ticks, s.damping_ticks, s.bad_status, s.feedforward_accepted,
-                s.feedforward_rejected, s.calls > 0 ? s.call_us_sum / static_cast<double>(s.calls) : 0.0,
+                s.feedforward_rejected, s.plates_accepted, s.plates_rejected, s.calls > 0 ? s.call_us_sum / static_cast<double>(s.calls) : 0.0,
                 s.call_us_max);
   return buf;
 }

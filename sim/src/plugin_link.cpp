@@ -31,8 +31,10 @@ PluginLink::~PluginLink() {
   if (subscription_ > 0) ep_.unsubscribe(subscription_);
 }
 
-bool PluginLink::afterStep(const RobotStateSample& state, CommandArbiter& arb, std::string* err) {
+bool PluginLink::afterStep(const RobotStateSample& state, const ForcePlateSample* plates, CommandArbiter& arb,
+                           std::string* err) {
   const bool ran = plugin_.step(state);
+  plugin_.setForcePlates(plates, EXOID_PLUGIN_NUM_PLATES);  // after the state, as exo_controller receives them
   arbiterOffer(arb, plugin_.command());
   if (!ran) return true;
   toLcm(plugin_.command(), joint_names_, command_msg_);

@@ -1,6 +1,6 @@
 #pragma once
 // The LCM side of the plugin stage inside runSim (private to exoid_sim_runner): after each simStep it runs
-// the plugin, publishes its command (EXO_COMMAND) and status (EXO_CONTROLLER_STATUS) on the controller's
+// the plugin (state, then force plates), publishes its command (EXO_COMMAND) and status (EXO_CONTROLLER_STATUS) on the controller's
 // ticks, and hands the command to the arbiter; EXO_ESTIMATE (through a MessageGate, names checked against
 // the plugin's URDF) feeds the plugin's feedforward. Allocation-free per tick once constructed.
 #include <string>
@@ -21,9 +21,10 @@ class PluginLink {
   PluginLink(const PluginLink&) = delete;
   PluginLink& operator=(const PluginLink&) = delete;
 
-  /// After simStep of tick k: plugin stage, publishing, arbiterOffer(command for k + 1). False on an LCM
-  /// failure (*err).
-  bool afterStep(const RobotStateSample& state, CommandArbiter& arb, std::string* err);
+  /// After simStep of tick k: plugin stage, the plates of tick k [EXOID_PLUGIN_NUM_PLATES] to the plugin,
+  /// publishing, arbiterOffer(command for k + 1). False on an LCM failure (*err).
+  bool afterStep(const RobotStateSample& state, const ForcePlateSample* plates, CommandArbiter& arb,
+                 std::string* err);
   /// Subscribed to EXO_ESTIMATE (else the loop has nothing to receive).
   bool listening() const { return subscription_ > 0; }
 

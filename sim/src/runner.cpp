@@ -62,6 +62,7 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
   int reasons_logged = 0;
   // With an in-loop controller plugin the loop itself publishes EXO_COMMAND: it must not read it back.
   std::unique_ptr<PluginLink> plugin_link;
+  static_assert(kNumFeet == EXOID_PLUGIN_NUM_PLATES, "the plugin gets the plates in SimData.plates order");
   if (opt.plugin) plugin_link = std::make_unique<PluginLink>(*opt.plugin, ep, sm.joint_names);
   const int subscription = opt.plugin ? 0 : ep.subscribeRaw(channels::kCommand, [&](const char*, const void* bytes, int size, int64_t) {
     if (gate.admitEncoded(0, bytes, size, scratch, incoming, &why, sm.joint_names)) {
@@ -148,7 +149,7 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       s.fell = true;
       s.fall_tick = k;
     }
-    if (!publishAll() || (plugin_link && !plugin_link->afterStep(sd.state, arb, err))) {
+    if (!publishAll() || (plugin_link && !plugin_link->afterStep(sd.state, sd.plates.data(), arb, err))) {
       ok = false;
       break;
     }

@@ -123,6 +123,8 @@ static const exoid_controller_plugin_api kApi = {
     pd_status,
     NULL, /* no feedforward */
     pd_destroy,
+    sizeof(exoid_plugin_force_plate),
+    NULL, /* no force plates */
 };
 
 __attribute__((visibility("default"))) const exoid_controller_plugin_api* exoid_controller_plugin(void) {

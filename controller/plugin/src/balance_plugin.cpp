@@ -10,6 +10,7 @@
 
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller_plugin.h"
+#include "exoid/controller_plugin_samples.hpp"
 #include "exoid/model/urdf.hpp"
 
 namespace {
@@ -27,6 +28,7 @@ struct BalancePlugin {
   exoid::JointCommandSample command;   // [nj]
   ControllerStatus status;
   Eigen::VectorXd feedforward;         // [nj]
+  exoid::ForcePlateSample plate;
   double finished_after_s = 0.0;       // trajectory time at which the task is over (moves + final hold)
 };
 
@@ -183,6 +185,19 @@ int setFeedforward(void* self, const double* tau_ff, int32_t n, int64_t tick) no
   return p.ctrl->setFeedforward(p.feedforward, tick) ? EXOID_PLUGIN_OK : EXOID_PLUGIN_ERROR;
 }
 
+// exo_controller's EXO_PLATE_RIGHT/LEFT handlers: subscribed only when the observer uses the plates, each sample
+// checked and converted as fromLcm does, then setForcePlate. The host calls this after the tick of the plates'
+// tick, the order in which exo_controller receives them.
+int setForcePlates(void* self, const exoid_plugin_force_plate* plates, int32_t n) noexcept {
+  auto& p = *static_cast<BalancePlugin*>(self);
+  if (!plates || n != EXOID_PLUGIN_NUM_PLATES) return EXOID_PLUGIN_ERROR;
+  if (!(p.cfg.disturbance.enabled && p.cfg.disturbance.force_plates)) return EXOID_PLUGIN_OK;  // not listening
+  bool ok = true;
+  for (int i = 0; i < n; ++i)
+    ok = exoid::plugin_abi::fromPlugin(plates[i], i, p.plate) && p.ctrl->setForcePlate(p.plate) && ok;
+  return ok ? EXOID_PLUGIN_OK : EXOID_PLUGIN_ERROR;
+}
+
 void destroy(void* self) { delete static_cast<BalancePlugin*>(self); }
 
 const exoid_controller_plugin_api kApi = {
@@ -197,6 +212,8 @@ const exoid_controller_plugin_api kApi = {
     status,
     setFeedforward,
     destroy,
+    sizeof(exoid_plugin_force_plate),
+    setForcePlates,
 };
 
 }  // namespace

@@ -2,8 +2,10 @@
  *     "<kind> <from> <to> [microseconds]"
  * Ticks in [from, to) misbehave as <kind>: error (returns EXOID_PLUGIN_ERROR), nan (a NaN torque), bad_tick
  * (command stamped for the wrong tick), slow (busy-waits the given microseconds, then answers well),
- * create_fail (create fails, whatever the range). Every other tick answers tau_j = j + 1 + tick * 1e-3.
- * Built also with EXOID_FAULT_ABI_VERSION (another ABI version) and EXOID_FAULT_STATE_SIZE (a state struct of
+ * create_fail (create fails, whatever the range), plates (set_force_plates returns EXOID_PLUGIN_ERROR for
+ * the plates of those ticks; it also refuses a wrong count, plate order or tick). Every other tick answers
+ * tau_j = j + 1 + tick * 1e-3.
+ * Built also with EXOID_FAULT_ABI_VERSION (another ABI version: 1, a plugin from before the force plates) and EXOID_FAULT_STATE_SIZE (a state struct of
  * another size), as a plugin built against another header would be, and EXOID_FAULT_NO_ENTRY (a shared
  * library that is not a plugin). */
 #include <math.h>
@@ -84,11 +86,21 @@ static int f_status(const void* self, exoid_plugin_status* out) {
   return EXOID_PLUGIN_OK;
 }
 
+static int f_set_force_plates(void* self, const exoid_plugin_force_plate* plates, int32_t n) {
+  fault* f = (fault*)self;
+  if (!plates || n != EXOID_PLUGIN_NUM_PLATES || plates[0].plate != 0 || plates[1].plate != 1 ||
+      plates[0].tick != plates[1].tick)
+    return EXOID_PLUGIN_ERROR;
+  const int bad = plates[0].tick >= f->from && plates[0].tick < f->to;
+  return bad && strcmp(f->kind, "plates") == 0 ? EXOID_PLUGIN_ERROR : EXOID_PLUGIN_OK;
+}
+
 static void f_destroy(void* self) { free(self); }
 
 static const exoid_controller_plugin_api kApi __attribute__((used)) = {
     EXOID_FAULT_ABI_VERSION, EXOID_FAULT_STATE_SIZE, sizeof(exoid_plugin_command), sizeof(exoid_plugin_status),
-    "fault injection", f_create, f_reset, f_tick, f_status, NULL, f_destroy,
+    "fault injection", f_create, f_reset, f_tick, f_status, NULL, f_destroy, sizeof(exoid_plugin_force_plate),
+    f_set_force_plates,
 };
 
 #ifndef EXOID_FAULT_NO_ENTRY

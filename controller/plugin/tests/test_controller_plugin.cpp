@@ -1,10 +1,13 @@
 // The controller plugin ABI, host and plugins (docs/plugin.md), in-process (no LCM):
 //  - loading: a missing library, a library without the entry, another ABI version, other struct sizes and a
 //    failing create give one-line errors naming the library;
-//  - the balance plugin computes bit for bit what BalanceController computes from the same states, and its
-//    tick allocates nothing through the ABI (counted with tests/support/alloc_counter);
+//  - the balance plugin computes bit for bit what BalanceController computes from the same states and force
+//    plates (given as exo_controller gets them: over LCM, after the state), differs from a controller never
+//    given the plates, and its tick and set_force_plates allocate nothing through the ABI (counted with
+//    tests/support/alloc_counter);
 //  - the example joint PD plugin answers tau = KP (q0 - q) - KD dq, clamped (recomputed here), and holds the
 //    exoskeleton standing in MuJoCo;
+//  - the host gives the plates of tick k after the tick, counts refusals, and nothing without the entry;
 //  - faults (error code, NaN torque, wrong tick, over budget): the host holds the last good torque for
 //    hold_ticks, then damps, counted per kind, and returns to the plugin's torque when it answers well again.
 #include <gtest/gtest.h>
@@ -84,9 +87,9 @@ TEST(PluginLoad, ErrorsNameTheLibraryAndTheProblem) {
 
   EXPECT_NE(load(faultOptions("ok 0 0"), exo, &err), nullptr) << err;
   sim::PluginOptions wrong = faultOptions("ok 0 0");
-  wrong.path = pluginLib("exoid_fault_plugin_abi2");
+  wrong.path = pluginLib("exoid_fault_plugin_abi1");
   EXPECT_EQ(load(wrong, exo, &err), nullptr);
-  EXPECT_NE(err.find("ABI version 2, this exo_sim needs 1"), std::string::npos) << err;
+  EXPECT_NE(err.find("ABI version 1, this exo_sim needs 2"), std::string::npos) << err;
   wrong.path = pluginLib("exoid_fault_plugin_size");
   EXPECT_EQ(load(wrong, exo, &err), nullptr);
   EXPECT_NE(err.find("struct sizes (state " + std::to_string(sizeof(exoid_plugin_state) + 8)), std::string::npos) << err;
@@ -134,14 +137,34 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   ref.prepare(ref_cmd);
   controller::ControllerStatus ref_status;
 
-  long mismatches = 0, allocations = 0, torque_ticks = 0;
+  // The same controller never given the plates: the observer (disturbance.force_plates) must make a
+  // difference, else this test could not tell whether the plates reach the plugin.
+  ASSERT_TRUE(cfg.disturbance.enabled && cfg.disturbance.force_plates);
+  controller::BalanceController blind(model, cfg, 3);
+  JointCommandSample blind_cmd;
+  blind.prepare(blind_cmd);
+  controller::ControllerStatus blind_status;
+  exoid_lcm::force_plate_t plate_msg;
+  ForcePlateSample plate;
+
+  long mismatches = 0, allocations = 0, torque_ticks = 0, blind_differ = 0;
   const int ticks = 2500;  // start-up latch (200), initial hold, into the first move
   closedLoop(exo, *plugin, ticks, [&](int k, const RobotStateSample& s) {
     test::AllocationCounter count;
     ASSERT_TRUE(plugin->step(s));
+    const bool plates_taken = plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet);
     count.stop();
+    ASSERT_TRUE(plates_taken) << k;
     if (k >= 10) allocations += count.mallocs() + count.news();  // the first ticks warm the solver up
     ref.tick(s, ref_cmd, ref_status);
+    // exo_controller's path for the plates of tick k: over LCM (toLcm, fromLcm), after the state of tick k.
+    for (int i = 0; i < sim::kNumFeet; ++i) {
+      toLcm(exo.data.plates[static_cast<size_t>(i)], plate_msg);
+      ASSERT_TRUE(fromLcm(plate_msg, i, plate, &err)) << err;
+      ASSERT_TRUE(ref.setForcePlate(plate));
+    }
+    blind.tick(s, blind_cmd, blind_status);
+    blind_differ += blind_cmd.tau == plugin->command().tau ? 0 : 1;
     const JointCommandSample& c = plugin->command();
     bool same = c.tick == ref_cmd.tick && c.source_tick == ref_cmd.source_tick && c.mode == ref_cmd.mode;
     for (int j = 0; j < model.njoints; ++j)
@@ -160,6 +183,9 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   EXPECT_EQ(plugin->stats().calls, ticks);
   EXPECT_EQ(plugin->stats().good, ticks);
   EXPECT_EQ(plugin->stats().fallbackTicks(), 0);
+  EXPECT_EQ(plugin->stats().plates_accepted, ticks);
+  EXPECT_EQ(plugin->stats().plates_rejected, 0);
+  EXPECT_GT(blind_differ, ticks / 2) << "the plates made no difference to the commands";
   EXPECT_TRUE(plugin->statusValid());
   EXPECT_GE(plugin->status().move_index, 0);  // the moves started
   EXPECT_FALSE(sim::simFell(exo.model, exo.data));
@@ -272,6 +298,9 @@ TEST(JointPdPlugin, AnswersThePdLawAndHoldsTheRobotStanding) {
   EXPECT_LE(max_err, 1e-9);
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(plugin->stats().good, 3000);
+  // No set_force_plates (NULL in its table): the host keeps the plates, counts nothing.
+  EXPECT_FALSE(plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet));
+  EXPECT_EQ(plugin->stats().plates_accepted + plugin->stats().plates_rejected, 0);
   EXPECT_FALSE(sim::simFell(exo.model, exo.data));
   // Standing: a stiff joint PD leaves a static sag (gravity torque / KP) and a slow sway of ~1-2 cm; the base
   // stays at its height (no collapse) and comes to rest.
@@ -281,6 +310,26 @@ TEST(JointPdPlugin, AnswersThePdLawAndHoldsTheRobotStanding) {
   EXPECT_LT(d.head<2>().norm(), 0.03);
   EXPECT_LT(std::abs(d.z()), 1e-3);
   EXPECT_LT(exo.data.truth.base_velocity.norm(), 0.02);
+}
+
+// The plates of tick k go to the plugin after its tick, in order right, left; a refusal is counted and
+// changes nothing else.
+TEST(PluginPlates, HostHandsThemOverInOrderAndCountsRefusals) {
+  Exo exo;
+  std::string err;
+  auto plugin = load(faultOptions("plates 100 110"), exo, &err);
+  ASSERT_TRUE(plugin) << err;
+  closedLoop(exo, *plugin, 130, [&](int k, const RobotStateSample& s) {
+    plugin->step(s);
+    EXPECT_EQ(exo.data.plates[0].tick, k);
+    EXPECT_EQ(plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet), k < 100 || k >= 110) << k;
+    EXPECT_EQ(plugin->command().mode, CommandMode::Torque) << k;
+  });
+  EXPECT_EQ(plugin->stats().plates_accepted, 120);
+  EXPECT_EQ(plugin->stats().plates_rejected, 10);
+  EXPECT_EQ(plugin->stats().fallbackTicks(), 0);
+  EXPECT_FALSE(plugin->setForcePlates(exo.data.plates.data(), 1));  // the ABI carries both plates
+  EXPECT_NE(plugin->formatStats().find("plates accepted 120 rejected 11"), std::string::npos) << plugin->formatStats();
 }
 
 struct FaultCase {
@@ -418,7 +467,7 @@ TEST(PluginCli, BadPluginsExitTwoWithOneLineAndHelpListsTheOptions) {
     std::string args, expect;
   } cases[] = {
       {"--controller-plugin /nonexistent/lib.so", "--controller-plugin /nonexistent/lib.so: cannot load"},
-      {"--controller-plugin " + pluginLib("exoid_fault_plugin_abi2"), "ABI version 2, this exo_sim needs 1"},
+      {"--controller-plugin " + pluginLib("exoid_fault_plugin_abi1"), "ABI version 1, this exo_sim needs 2"},
       {"--controller-plugin " + pluginLib("exoid_not_a_plugin"), "not a controller plugin"},
       {"--controller-plugin " + pluginLib("exoid_controller_plugin") + " --controller-config /nonexistent.yaml",
        "/nonexistent.yaml"},

@@ -1,24 +1,31 @@
-/* exoid controller plugin ABI, version 1 (docs/plugin.md).
+/* exoid controller plugin ABI, version 2 (docs/plugin.md; version 2 added the force plates).
  *
  * A controller plugin is a shared library that exports one C function,
  *
  *     const exoid_controller_plugin_api* exoid_controller_plugin(void);
  *
  * returning a static table of function pointers. The host (exo_sim --controller-plugin PATH) dlopens the
- * library, checks abi_version and the three struct sizes against its own, then calls
+ * library, checks abi_version and the four struct sizes against its own, then calls
  *
- *     create -> reset -> { tick -> status }*  (set_feedforward at any time between ticks) -> destroy
+ *     create -> reset -> { [tick -> status] -> set_force_plates }*  (set_feedforward at any time between
+ *     ticks) -> destroy
  *
  * from ONE thread (the simulation loop), never concurrently. Only the plain C structs below cross the
  * boundary: no C++, LCM, MuJoCo or Eigen types, no ownership transfer, no exceptions (a C++ plugin catches
  * everything at its boundary). create and reset run before the loop (or between runs) and may allocate;
- * tick, status and set_feedforward run inside the 1 kHz loop and must not allocate, block or throw.
+ * tick, status, set_feedforward and set_force_plates run inside the 1 kHz loop and must not allocate, block
+ * or throw.
  *
  * Timing: tick receives the sensor sample of physics tick k and fills the command for tick k + 1
  * (command->tick = k + 1, command->source_tick = k): one tick of transport delay, as in the process mode
  * (exo_controller over LCM). At a controller rate below the 1 kHz physics rate (every N-th tick) the host
  * holds each command until the next one. Units SI; frames and joint order as docs/conventions.md (the joint
  * order is the host's, given to create by name).
+ *
+ * Force plates: after the tick of physics tick k (or, between controller ticks, in its place) the host calls
+ * set_force_plates with the two plate samples of tick k, every physics tick: the order in which the process
+ * mode receives EXO_STATE then EXO_PLATE_RIGHT/LEFT of the same tick, so a plugin sees the plates of tick k
+ * from its tick k + 1 on, exactly as exo_controller does.
  */
 #ifndef EXOID_CONTROLLER_PLUGIN_H
 #define EXOID_CONTROLLER_PLUGIN_H
@@ -31,9 +38,11 @@ extern "C" {
 #endif
 
 /* Bumped on any change of the structs or of the function table. */
-#define EXOID_CONTROLLER_PLUGIN_ABI_VERSION 1u
+#define EXOID_CONTROLLER_PLUGIN_ABI_VERSION 2u
 /* Largest joint count a sample carries (the exoskeleton has 10). */
 #define EXOID_PLUGIN_MAX_JOINTS 32
+/* Force plates per set_force_plates call: 0 right, 1 left. */
+#define EXOID_PLUGIN_NUM_PLATES 2
 /* Name of the exported entry function. */
 #define EXOID_CONTROLLER_PLUGIN_ENTRY "exoid_controller_plugin"
 
@@ -58,6 +67,19 @@ typedef struct exoid_plugin_state {
   double imu_gyro[3];                           /* angular velocity, IMU frame, rad/s */
   double imu_accel[3];                          /* specific force (a - g), IMU frame, m/s^2 */
 } exoid_plugin_state;
+
+/* One force plate's load cell at one physics tick (exoid_lcm.force_plate_t). */
+typedef struct exoid_plugin_force_plate {
+  int64_t utime;                                /* sample time, microseconds */
+  int64_t tick;                                 /* physics tick k */
+  int32_t plate;                                /* 0 right, 1 left (= its index in the call's array) */
+  int32_t reserved;
+  double force[3];                              /* force ON the plate, plate frame, N */
+  double moment[3];                             /* moment ON the plate about the sensor origin, plate frame, N m */
+  double cop[3];                                /* centre of pressure on the top surface, plate frame, m */
+  double plate_position[3];                     /* sensor origin, world, m */
+  double plate_orientation[4];                  /* world <- plate unit quaternion, Hamilton, w x y z */
+} exoid_plugin_force_plate;
 
 /* Command for one tick (exoid_lcm.joint_command_t). The host pre-fills num_joints; tau must be finite. */
 typedef struct exoid_plugin_command {
@@ -125,6 +147,14 @@ typedef struct exoid_controller_plugin_api {
    * tick. Returns EXOID_PLUGIN_ERROR (and ignores it) on a wrong size or non-finite values. */
   int (*set_feedforward)(void* self, const double* tau_ff, int32_t num_joints, int64_t tick);
   void (*destroy)(void* self);
+
+  /* Version 2 (appended, so a table written in positional order for version 1 still lines up). */
+  uint32_t force_plate_size;                    /* sizeof(exoid_plugin_force_plate) */
+  /* Optional (may be NULL: the host then keeps the plates to itself): the EXOID_PLUGIN_NUM_PLATES plate
+   * samples of physics tick k, plates[0] right, plates[1] left, called every physics tick after tick (see
+   * "Force plates" above). The array lives only during the call. Returns EXOID_PLUGIN_ERROR (and ignores
+   * the samples) on a wrong count or non-finite values; the host counts it. */
+  int (*set_force_plates)(void* self, const exoid_plugin_force_plate* plates, int32_t num_plates);
 } exoid_controller_plugin_api;
 
 typedef const exoid_controller_plugin_api* (*exoid_controller_plugin_entry_fn)(void);

@@ -7,8 +7,9 @@
 // its command for tick k + 1 is checked; in between, the last command is held (re-stamped for tick k + 1).
 // A call that fails (error code, non-finite torque, wrong tick or mode, or longer than the time budget when
 // one is set) is replaced by the fallback, counted: hold the last good torque for hold_ticks controller ticks,
-// then damping (the simulator's drive damping) until the plugin answers well again. step() allocates nothing
-// and throws nothing (beyond what the plugin itself does: it runs in this process).
+// then damping (the simulator's drive damping) until the plugin answers well again. After step(state_k),
+// setForcePlates(plates_k), every physics tick. Neither allocates nor throws (beyond what the plugin itself
+// does: it runs in this process).
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -43,6 +44,7 @@ struct PluginStats {
   int64_t damping_ticks = 0;   ///< controller ticks on the host's fallback: damping
   int64_t bad_status = 0;      ///< status samples with non-finite values or out-of-range fields (not published)
   int64_t feedforward_accepted = 0, feedforward_rejected = 0;
+  int64_t plates_accepted = 0, plates_rejected = 0;  ///< set_force_plates calls (none without the entry)
   double call_us_max = 0.0, call_us_sum = 0.0;  ///< wall time of the tick calls
   int64_t fallbackTicks() const { return hold_ticks + damping_ticks; }
 };
@@ -75,6 +77,10 @@ class ControllerPlugin {
   /// The estimator's feedforward [njoints], N m, valid from `tick` (ignored, counted, when the plugin has no
   /// set_feedforward or refuses it). Allocation-free.
   bool setFeedforward(const double* tau_ff, int num_joints, int64_t tick);
+  /// The force plates of physics tick k [num_plates = EXOID_PLUGIN_NUM_PLATES: right, left], after step(state_k)
+  /// (process mode's EXO_STATE-then-EXO_PLATE_* order). False when the plugin has no set_force_plates
+  /// (not counted) or refuses them (counted). Allocation-free.
+  bool setForcePlates(const ForcePlateSample* plates, int num_plates);
   const PluginStats& stats() const { return stats_; }
   /// One line: calls, good, fallbacks by reason, call time.
   std::string formatStats() const;
@@ -91,6 +97,7 @@ class ControllerPlugin {
   exoid_plugin_state in_{};
   exoid_plugin_command out_{};
   exoid_plugin_status st_{};
+  exoid_plugin_force_plate plates_[EXOID_PLUGIN_NUM_PLATES]{};
   JointCommandSample command_;    ///< [nj] what the host applies from tick k + 1
   JointCommandSample last_good_;  ///< [nj]
   bool has_good_ = false;
