@@ -14,7 +14,7 @@ DEB_PACKAGES=(
   libeigen3-dev libmujoco-dev
   liblcm-dev liblcm-bin liblcm-java libglib2.0-dev default-jdk-headless libjchart2d-java
   liborocos-kdl-dev libkdl-parser-dev liburdfdom-dev
-  libgtest-dev libbenchmark-dev libyaml-cpp-dev libcereal-dev libcli11-dev
+  libgtest-dev libbenchmark-dev libyaml-cpp-dev libcereal-dev libcli11-dev nlohmann-json3-dev
   iproute2 util-linux xvfb xauth x11-apps imagemagick xdotool
 )
 PROXSUITE_VERSION=0.8.0

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <dirent.h>
 
+#include "exoid/estimator/dataset.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "sim_test_util.hpp"
@@ -105,47 +106,21 @@ TEST_F(SimExo, PlatesCarryTheRobotWeightWhenStandingStill) {
 }
 
 // Residuals of K(q, v, a) phi = y, with y built from external wrenches on the feet (about the world
-// origin, world coordinates) as described in docs/sim.md. Returns max |K phi - y| and max |y|.
+// origin, world coordinates) by the estimator's one implementation (thesis eq. 4). Returns max |K phi - y|
+// and max |y|.
 struct EomResidual {
   double err = 0.0, scale = 0.0;
 };
-EomResidual eomResidual(const Model& model, Data& kin, State& st, const GroundTruthSample& t,
+EomResidual eomResidual(const Model& model, Data& kin, const GroundTruthSample& t,
                         const std::array<Eigen::Vector3d, 2>& F, const std::array<Eigen::Vector3d, 2>& N) {
-  st.base_orientation = t.base_orientation;
-  st.base_position = t.base_position;
-  st.base_omega = t.base_omega;
-  st.base_velocity = t.base_velocity;
-  st.base_domega = t.base_domega;
-  st.base_acceleration = t.base_acceleration;
-  st.q = t.q;
-  st.v = t.v;
-  st.a = t.a;
+  const State st = estimator::stateFromTruth(model, t);
   computeJointTorqueRegressor(model, kin, st);  // also forward kinematics: kin.p, kin.axis in base coords
-  const Eigen::VectorXd Kphi = kin.K * model.phi;
-  const Eigen::Matrix3d R = t.base_orientation.toRotationMatrix();
+  ExternalWrench w[2];
   const int foot_body[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
-  Eigen::VectorXd y = Eigen::VectorXd::Zero(model.nv);
-  Eigen::Matrix<double, 6, 1> w[2];
-  for (int i = 0; i < 2; ++i) {
-    // Wrench on the foot about the base origin, base coordinates: [R^T (n_O - p_b x f); R^T f].
-    w[i].head<3>() = R.transpose() * (N[i] - t.base_position.cross(F[i]));
-    w[i].tail<3>() = R.transpose() * F[i];
-    y.head<6>() += w[i];
-  }
-  for (int j = 0; j < model.njoints; ++j) {
-    const int b = model.joint_body[j];
-    double yj = t.tau_applied[j];
-    for (int i = 0; i < 2; ++i) {
-      const auto& sub = model.subtree[b];
-      if (std::find(sub.begin(), sub.end(), foot_body[i]) == sub.end()) continue;
-      Eigen::Matrix<double, 6, 1> S;  // joint motion axis [axis; p x axis], base coordinates
-      S.head<3>() = kin.axis[b];
-      S.tail<3>() = kin.p[b].cross(kin.axis[b]);
-      yj += S.dot(w[i]);
-    }
-    y[model.jointRow(j)] = yj;
-  }
-  return {(Kphi - y).cwiseAbs().maxCoeff(), y.cwiseAbs().maxCoeff()};
+  for (int i = 0; i < 2; ++i) w[i].body = foot_body[i], w[i].force = F[i], w[i].moment_world_origin = N[i];
+  Eigen::VectorXd y(model.nv);
+  generalizedForceFromMeasurements(model, kin, st, t.tau_applied, w, 2, y);
+  return {(kin.K * model.phi - y).cwiseAbs().maxCoeff(), y.cwiseAbs().maxCoeff()};
 }
 
 struct EomRun {
@@ -157,7 +132,6 @@ struct EomRun {
 // then oscillates a by +-0.05 rad at 2 Hz (joint speeds up to ~1 rad/s).
 EomRun runEom(const Model& model, const SimModel& sm, SimData& sd, int ticks) {
   Data kin(model);
-  State st = State::zero(model);
   JointCommandSample cmd = simZeroCommand(sm);
   Eigen::VectorXd q_ref = Eigen::VectorXd::Zero(sm.nj);
   EomRun r;
@@ -175,17 +149,11 @@ EomRun runEom(const Model& model, const SimModel& sm, SimData& sd, int ticks) {
     simStep(sm, sd, cmd);
     if (k < 10) continue;  // first contact transient (y ~ 0 while the robot settles onto the plates)
     const GroundTruthSample& tr = sd.truth;
-    const EomResidual rt = eomResidual(model, kin, st, tr, tr.foot_force, tr.foot_moment);
-    // Plate measurement -> wrench on the foot: negate the wrench ON the plate and move it to the world origin.
+    const EomResidual rt = eomResidual(model, kin, tr, tr.foot_force, tr.foot_moment);
+    // Plate measurement -> wrench on the foot (negated, moved to the world origin).
     std::array<Eigen::Vector3d, 2> F, N;
-    for (int i = 0; i < 2; ++i) {
-      const ForcePlateSample& p = sd.plates[i];
-      const Eigen::Matrix3d Rp = p.plate_orientation.toRotationMatrix();
-      const Eigen::Vector3d f = Rp * p.force;
-      F[i] = -f;
-      N[i] = -(Rp * p.moment + p.plate_position.cross(f));
-    }
-    const EomResidual rp = eomResidual(model, kin, st, tr, F, N);
+    for (int i = 0; i < 2; ++i) estimator::footWrenchFromPlate(sd.plates[i], F[i], N[i]);
+    const EomResidual rp = eomResidual(model, kin, tr, F, N);
     r.truth = std::max(r.truth, rt.err / rt.scale);
     r.plates = std::max(r.plates, rp.err / rp.scale);
     r.min_load = std::min({r.min_load, tr.foot_force[0].z(), tr.foot_force[1].z()});

@@ -6,4 +6,5 @@ int cmdRegressor(int argc, char** argv);
 int cmdBaseParams(int argc, char** argv);
 int cmdExport(int argc, char** argv);
 int cmdExperiment(int argc, char** argv);
+int cmdIdentify(int argc, char** argv);
 }  // namespace exoid::cli

@@ -17,6 +17,7 @@ const Command kCommands[] = {
     {"base-params", exoid::cli::cmdBaseParams, "structural base parameters: which parameters are identifiable, alone or combined"},
     {"experiment", exoid::cli::cmdExperiment, "closed-loop run: sim + controller over LCM in a private network namespace, logged and summarised"},
     {"export", exoid::cli::cmdExport, "a logged run as one CSV row per tick (sensors, or --truth)"},
+    {"identify", exoid::cli::cmdIdentify, "batch identification (OLS / WLS-R / WLS-C / WLS-RC, truncated SVD) from logs or measured CSVs"},
 };
 
 void usage(FILE* out) {

@@ -1,8 +1,6 @@
 #include "exoid/tools/run_table.hpp"
 
-#include <unordered_map>
-
-#include "exoid/signal/filters.hpp"
+#include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/tools/state_columns.hpp"
@@ -11,35 +9,7 @@ namespace exoid::tools {
 
 namespace {
 const char* const kSides[2] = {"right", "left"};
-
-template <class T>
-std::unordered_map<int64_t, const T*> byTick(const std::vector<T>& v) {
-  std::unordered_map<int64_t, const T*> m;
-  for (const T& s : v) m.emplace(s.tick, &s);
-  return m;
-}
-
 }  // namespace
-
-State stateFromTruth(const Model& model, const GroundTruthSample& t) {
-  State s = State::zero(model);
-  s.base_orientation = t.base_orientation;
-  s.base_position = t.base_position;
-  s.base_omega = t.base_omega;
-  s.base_velocity = t.base_velocity;
-  s.base_domega = t.base_domega;
-  s.base_acceleration = t.base_acceleration;
-  s.q = t.q;
-  s.v = t.v;
-  s.a = t.a;
-  return s;
-}
-
-void footWrenchFromPlate(const ForcePlateSample& p, Eigen::Vector3d& f, Eigen::Vector3d& n) {
-  const Eigen::Matrix3d R = p.plate_orientation.toRotationMatrix();
-  f = -(R * p.force);
-  n = -(R * p.moment) + p.plate_position.cross(f);
-}
 
 bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& opt, RunTable& table,
                    std::string* error) {
@@ -51,9 +21,6 @@ bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& o
   std::vector<int> actuated;
   for (int j = 0; j < model.njoints; ++j)
     if (model.effort_limit[j] > 0.0) actuated.push_back(j);
-  const auto plates_r = byTick(log.plates[0]);
-  const auto plates_l = byTick(log.plates[1]);
-
   auto appendTauPlates = [&](std::vector<std::string>& h) {
     for (int j : actuated) h.push_back("tau_" + model.joint_names[j]);
     for (const char* side : kSides)
@@ -80,17 +47,14 @@ bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& o
   // Sensors: encoders, IMU, joint torque sensors, plates. Ticks missing a plate message are skipped.
   if (log.states.empty()) return fail("the log has no robot state (EXO_STATE) messages");
   if (opt.filter_hz < 0.0) return fail("--filter must be positive");
+  const std::vector<estimator::AlignedTick> ticks =
+      estimator::alignByTick(log.states, log.plates[0], log.plates[1], log.truth, {true, true, false}, &table.skipped_ticks);
   std::vector<const RobotStateSample*> st;
   std::vector<const ForcePlateSample*> pr, pl;
-  for (const RobotStateSample& s : log.states) {
-    auto r = plates_r.find(s.tick), l = plates_l.find(s.tick);
-    if (r == plates_r.end() || l == plates_l.end()) {
-      ++table.skipped_ticks;
-      continue;
-    }
-    st.push_back(&s);
-    pr.push_back(r->second);
-    pl.push_back(l->second);
+  for (const estimator::AlignedTick& a : ticks) {
+    st.push_back(a.state);
+    pr.push_back(a.plate[0]);
+    pl.push_back(a.plate[1]);
   }
   if (st.empty()) return fail("no tick has both the robot state and both plate messages");
   const int n = static_cast<int>(st.size()), nj = model.njoints;
@@ -104,12 +68,8 @@ bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& o
     // Thesis section III-E: filter, differentiate, filter again; the same for the body angular velocity.
     const double dt = n > 1 ? (st[n - 1]->utime - st[0]->utime) * 1e-6 / (n - 1) : 1e-3;
     if (opt.filter_hz >= 0.5 / dt) return fail("--filter must be below the Nyquist frequency " + std::to_string(0.5 / dt) + " Hz");
-    const Biquad lp = Biquad::butterworthLowPass(opt.filter_hz, 1.0 / dt);
-    q = filtfilt(lp, q);
-    v = filtfilt(lp, differentiate(q, dt));
-    a = filtfilt(lp, differentiate(v, dt));
-    gyro = filtfilt(lp, gyro);
-    dw = filtfilt(lp, differentiate(gyro, dt));
+    estimator::filterAndDifferentiate(q, dt, opt.filter_hz, nullptr, &v, &a);
+    estimator::filterAndDifferentiate(gyro, dt, opt.filter_hz, &gyro, &dw, nullptr);
     for (int i = 0; i < n; ++i) q.row(i) = st[i]->q.transpose();  // positions themselves stay unfiltered
   }
   table.header = {"t"};
@@ -155,25 +115,22 @@ bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& l
     if (error) *error = "the EoM residual needs a floating-base model with right_foot and left_foot links";
     return false;
   }
-  const auto states = byTick(log.states);
-  const auto plates_r = byTick(log.plates[0]);
-  const auto plates_l = byTick(log.plates[1]);
+  const std::vector<estimator::AlignedTick> ticks =
+      estimator::alignByTick(log.states, log.plates[0], log.plates[1], log.truth, {true, true, true}, nullptr);
   Data kin(model);
   Eigen::VectorXd y(model.nv), tau(model.njoints);
   Eigen::VectorXd sum_sq = Eigen::VectorXd::Zero(model.nv);
   double max_error = 0.0, max_y = 0.0;
-  for (const GroundTruthSample& t : log.truth) {
-    auto s = states.find(t.tick);
-    auto r = plates_r.find(t.tick), l = plates_l.find(t.tick);
-    if (s == states.end() || r == plates_r.end() || l == plates_l.end()) continue;
+  for (const estimator::AlignedTick& a : ticks) {
+    const GroundTruthSample& t = *a.truth;
     const State state = stateFromTruth(model, t);
     computeJointTorqueRegressor(model, kin, state);
     ExternalWrench w[2];
     for (int side = 0; side < 2; ++side) {
       w[side].body = feet[side];
-      footWrenchFromPlate(*(side == 0 ? r->second : l->second), w[side].force, w[side].moment_world_origin);
+      footWrenchFromPlate(*a.plate[side], w[side].force, w[side].moment_world_origin);
     }
-    for (int j = 0; j < model.njoints; ++j) tau[j] = s->second->has_tau[j] ? s->second->tau[j] : 0.0;
+    for (int j = 0; j < model.njoints; ++j) tau[j] = a.state->has_tau[j] ? a.state->tau[j] : 0.0;
     generalizedForceFromMeasurements(model, kin, state, tau, w, 2, y);
     const Eigen::VectorXd e = kin.K * phi - y;
     max_error = std::max(max_error, e.cwiseAbs().maxCoeff());

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "exoid/estimator/dataset.hpp"
 #include "exoid/model/model.hpp"
 #include "exoid/tools/run_log.hpp"
 
@@ -25,11 +26,9 @@ struct RunTable {
 bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& options, RunTable& table,
                    std::string* error);
 
-/// The exact state of a ground-truth sample (every State field).
-State stateFromTruth(const Model& model, const GroundTruthSample& truth);
-
-/// Wrench on each foot from a plate sample: force on the foot (world) and its moment about the world origin.
-void footWrenchFromPlate(const ForcePlateSample& plate, Eigen::Vector3d& force, Eigen::Vector3d& moment_world_origin);
+// Sample alignment, state from samples and plate wrenches live in the estimator library (dataset.hpp).
+using estimator::footWrenchFromPlate;
+using estimator::stateFromTruth;
 
 struct EomResidual {
   long ticks = 0;

@@ -1,0 +1,76 @@
+#pragma once
+// One identification from streamed factors: the chosen method, rank rule and the verdicts a user needs to
+// trust (or distrust) the estimate: singular values, chosen z and condition number, the parameters the data
+// did not excite (left at the prior), per-link physical consistency, and training / validation RMSE.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "exoid/estimator/batch/accumulator.hpp"
+#include "exoid/estimator/batch/solvers.hpp"
+#include "exoid/model/model.hpp"
+
+namespace exoid::estimator {
+
+enum class RankRule {
+  Full,             ///< numerical rank of the scaled problem (s_i > 1e-10 s_1)
+  Fixed,            ///< IdentifyOptions::rank
+  Validation,       ///< (a) validation generalized-force RMSE (needs validation data)
+  CrossValidation,  ///< (b) time-block cross-validation on the training data, minimum
+  CrossValidation1Se,  ///< (b) the same, paired one-standard-error rule
+  Gcv,              ///< (b) generalized cross-validation on the training data
+  Jackknife,        ///< (b) noise-based cap: jackknife std of each direction below the prior's uncertainty
+};
+const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "cv-1se", "gcv", "jackknife"
+bool parseRankRule(const std::string& name, RankRule& r);
+
+struct IdentifyOptions {
+  Method method = Method::WlsRC;
+  RankRule rank_rule = RankRule::Jackknife;
+  int rank = -1;                  ///< for RankRule::Fixed
+  double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: prior within +-this (relative) of the truth
+  double excitation_threshold = 0.1;  ///< a parameter whose unit direction has less than this norm in the
+                                      ///< kept right singular vectors is reported as not excited
+};
+
+/// Physical consistency of one body's 10 parameters (about the body origin): the pseudo-inertia
+/// J = [0.5 tr(I) 1 - I, m c; (m c)^T, m] is positive definite (mass > 0 and the inertia about the CoM
+/// satisfies the triangle inequalities strictly).
+struct LinkVerdict {
+  std::string name;
+  double mass = 0.0;
+  double min_eigenvalue = 0.0;  ///< smallest eigenvalue of J (kg m^2)
+  bool consistent = false;
+};
+LinkVerdict checkLink(const std::string& name, const Eigen::Ref<const Eigen::Matrix<double, 10, 1>>& phi10);
+
+struct IdentifyResult {
+  Method method = Method::WlsRC;
+  RankRule rank_rule = RankRule::Full;
+  Eigen::VectorXd phi;         ///< [p] standard parameters (inertial per body, then fv, fc per joint)
+  Eigen::VectorXd phi_base;    ///< [m] structural base parameters base_map * phi
+  Eigen::VectorXd prior;       ///< [p]
+  Eigen::VectorXd singular_values;  ///< [m] of the scaled training problem
+  int rank = 0;                ///< z used
+  int numerical_rank = 0;      ///< s_i > 1e-10 s_1
+  double condition = 0.0;      ///< s_1 / s_z
+  RankCurve curve;             ///< the rank rule's score per z (empty for Full / Fixed)
+  std::vector<int> unexcited;  ///< standard parameters the kept directions do not reach (stay at the prior)
+  std::vector<LinkVerdict> links;
+  std::vector<double> row_weight;  ///< [nv] WLS-R weights (ones without R)
+  long training_rows = 0;
+  double training_rmse = 0.0;      ///< unweighted generalized-force RMSE on the training data
+  double training_y_rms = 0.0;     ///< RMS of the training y (scale for training_rmse)
+  double validation_rmse = -1.0;   ///< pooled, when validation data were given (< 0 otherwise)
+  std::vector<double> validation_rmse_per_coordinate;  ///< [nv]
+  double prior_validation_rmse = -1.0;  ///< the prior's (Ref)
+};
+
+/// Identifies from the training accumulator. validation may be null (then RankRule::Validation fails).
+/// False with *error when the data cannot support an estimate (no rows, fewer rows than base parameters,
+/// nothing excited) or the options are inconsistent.
+bool identify(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
+              const IdentifyOptions& options, const LsqAccumulator* validation, IdentifyResult& out,
+              std::string* error);
+
+}  // namespace exoid::estimator

@@ -1,0 +1,91 @@
+#pragma once
+// Batch least-squares solvers of the thesis (chapter 3, section III) on the streamed factors, never on the
+// stacked W: every method reduces to the SVD of a small matrix with the same singular values and right
+// singular vectors as the (scaled) W, because ||W phi - y||^2 = ||R phi - z||^2 + rss (lsq_factor.hpp).
+//
+//   OLS     eqs. (20)-(23): phi = V_e S_e^-1 U_e^T y + V_n V_n^T phi_prior  (nullspace toward the prior)
+//   WLS-R   eqs. (29)-(32): rows of coordinate i scaled by 1 / sigma_i, sigma_i^2 = ||y_i - W_i phi_OLS||^2 /
+//           (N - p); then as OLS (nullspace toward the prior)
+//   WLS-C   eq. (27) with H = diag(|phi_prior|) and gamma = phi_prior: W~ = W H, y~ = y - W phi_prior,
+//           phi = phi_prior + H phi~ (the directions not kept stay at the prior); zero prior entries get
+//           the scale of their kind (see columnScale)
+//   WLS-RC  both scalings
+// Truncated SVD (III-D): only the z largest singular values of the scaled problem are used.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "exoid/estimator/batch/accumulator.hpp"
+#include "exoid/estimator/batch/lsq_factor.hpp"
+
+namespace exoid::estimator {
+
+enum class Method { Ols, WlsR, WlsC, WlsRC };
+const char* methodName(Method m);  ///< "OLS", "WLS-R", "WLS-C", "WLS-RC"
+bool parseMethod(const std::string& name, Method& m);
+
+/// Column scale of WLS-C: |phi_prior_i|, and where that is below floor_fraction of the largest |prior|
+/// of the same kind (mass, first moment, inertia, friction), that kind's median |prior| (a zero prior
+/// product of inertia must not pin its parameter). [p]
+Eigen::VectorXd columnScale(const Model& model, const Eigen::VectorXd& prior, double floor_fraction = 1e-3);
+
+/// A method's problem reduced to its SVD: the scaled problem's singular values s (descending), right
+/// singular vectors V [p x r] (r = m base parameters), d = U^T y~ [r], plus what maps back to phi.
+struct ScaledProblem {
+  Method method = Method::Ols;
+  Eigen::VectorXd s;          ///< [r] singular values of G W H, descending
+  Eigen::MatrixXd V;          ///< [p x r]
+  Eigen::VectorXd d;          ///< [r]
+  Eigen::VectorXd h;          ///< [p] column scale (ones without C)
+  Eigen::VectorXd gamma;      ///< [p] offset (prior with C, zero without)
+  Eigen::VectorXd prior;      ///< [p]
+  std::vector<double> row_weight;  ///< [nv] 1 / sigma_i with R, ones without
+  Eigen::MatrixXd Rw;         ///< [m x p] row-weighted factor: ||G (W phi - y)||^2 = ||Rw phi - zw||^2 + rss_w
+  Eigen::VectorXd zw;         ///< [m]
+  double rss_w = 0.0;
+  long rows = 0;
+  /// ||G (W phi - y)||^2 from the factor.
+  double weightedRss(const Eigen::VectorXd& phi) const { return (Rw * phi - zw).squaredNorm() + rss_w; }
+  int numericalRank(double tolerance = 1e-10) const;  ///< s_i > tolerance * s_1
+};
+
+/// Builds the scaled problem from the training folds (include: all when empty).
+ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                      const std::vector<bool>& include = {});
+
+/// Standard parameters [p] using the z largest singular values (z clamped to [0, r]); the directions not
+/// used are filled from the prior (OLS, WLS-R: eq. 23 with V_n = the unused columns of V; C: gamma), so
+/// z = 0 returns the prior.
+Eigen::VectorXd solveAtRank(const ScaledProblem& problem, int z);
+
+/// Generalized-force RMSE of phi on a factor (p-space): sqrt((||R phi - z||^2 + rss) / rows).
+double rmse(const LsqFactor& standard_factor, const Eigen::VectorXd& phi);
+
+/// Error of the estimate against held-out data for every rank z = 1..r.
+struct RankCurve {
+  std::vector<double> score;  ///< [r + 1] score per z (index z; score[0] = the prior)
+  int best = 0;               ///< chosen z
+  std::string rule;           ///< how it was chosen
+};
+
+/// (a) The thesis's choice: validation generalized-force RMSE (needs a separate, ideal run).
+RankCurve rankByValidation(const ScaledProblem& problem, const LsqFactor& validation);
+/// (b1) Training data only: time-block cross-validation over the accumulator's folds (each fold predicted
+/// by the method trained on the others, the same weighting procedure); score = RMSE over the folds.
+/// Minimum: best = argmin. OneStandardError: the smallest z whose paired excess MSE over the minimum
+/// (per fold, then mean over folds) is within one standard error.
+enum class CvRule { Minimum, OneStandardError };
+RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
+                                Method method, CvRule rule = CvRule::Minimum);
+/// (b3) Training data only, noise-based cap: the jackknife over the time-block folds gives the standard
+/// deviation of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of the full-rank estimate (it sees
+/// the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); directions are kept, in singular-value
+/// order, while that deviation is below the prior's own, prior_uncertainty / sqrt(3) (prior uniform within
+/// +-prior_uncertainty relative). Meaningful with column scaling (WLS-C, WLS-RC). score[z] = std of alpha_z.
+RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                          double prior_uncertainty);
+/// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2 with the
+/// weighted training residual RSS(z).
+RankCurve rankByGcv(const ScaledProblem& problem);
+
+}  // namespace exoid::estimator

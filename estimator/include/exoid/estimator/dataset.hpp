@@ -1,0 +1,139 @@
+#pragma once
+// From a run's samples to the identification data (W, y) of K(q, v, dv) phi = y, shared by the batch
+// solvers, the online estimator and the diagnosis (docs/identification.md):
+//   - sample alignment by control tick (a tick missing a needed message is skipped and counted);
+//   - the state from samples (ground truth, or sensors: encoders + IMU + leg kinematics for the base position);
+//   - plate wrench -> wrench on the foot -> generalized forces (thesis eq. 4, measurement.hpp);
+//   - filtering: zero-phase 2nd-order Butterworth of the regressor's inputs (thesis III-E) and, with
+//     parallel filtering, the same filter on every column of W and on y;
+// streamed block by block so that memory does not depend on the length of the run.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "exoid/estimator/measurement.hpp"
+#include "exoid/model/model.hpp"
+#include "exoid/samples.hpp"
+
+namespace exoid::estimator {
+
+/// The exact state of a ground-truth sample (every State field).
+State stateFromTruth(const Model& model, const GroundTruthSample& truth);
+
+/// Wrench on a foot from its plate's sample: force ON the foot (world) and its moment about the WORLD
+/// origin (world): f = -R_p force, n_O = -(R_p moment + p_plate x R_p force).
+void footWrenchFromPlate(const ForcePlateSample& plate, Eigen::Vector3d& force, Eigen::Vector3d& moment_world_origin);
+
+/// One control tick with the messages of every channel that carried it (nullptr where absent).
+struct AlignedTick {
+  const RobotStateSample* state = nullptr;
+  const ForcePlateSample* plate[2] = {nullptr, nullptr};  ///< right, left
+  const GroundTruthSample* truth = nullptr;
+};
+
+/// Which channels a tick must have to be kept.
+struct TickNeeds {
+  bool state = true, plates = true, truth = false;
+};
+
+/// Aligns channels by tick: one entry per message of the driving channel (the states if needs.state, else
+/// the truth), in log order, with the first message of that tick on each other channel. Ticks missing a
+/// needed channel are skipped and counted.
+std::vector<AlignedTick> alignByTick(const std::vector<RobotStateSample>& states,
+                                     const std::vector<ForcePlateSample>& plates_right,
+                                     const std::vector<ForcePlateSample>& plates_left,
+                                     const std::vector<GroundTruthSample>& truth, const TickNeeds& needs,
+                                     long* skipped);
+
+/// One aligned measurement, the input of the dataset pipeline. Sizes [njoints]; v, a empty when not
+/// measured (then derived by differentiation); has_* say which base fields are measured.
+struct MeasuredSample {
+  double t = 0.0;  ///< seconds
+  Eigen::VectorXd q, v, a, tau;
+  // Floating base only (base coordinates unless stated):
+  Eigen::Quaterniond base_orientation = Eigen::Quaterniond::Identity();  ///< world <- base
+  Eigen::Vector3d base_position = Eigen::Vector3d::Zero();  ///< world; needed by the plate moments
+  Eigen::Vector3d base_omega = Eigen::Vector3d::Zero();
+  Eigen::Vector3d base_domega = Eigen::Vector3d::Zero();
+  Eigen::Vector3d base_acceleration = Eigen::Vector3d::Zero();  ///< classical, gravity excluded
+  bool has_base_position = false;  ///< false: from leg kinematics (feet on their sole points, see below)
+  bool has_base_domega = false;    ///< false: derived from base_omega
+  ExternalWrench contact[2];       ///< wrench on each foot (force world, moment about the world origin)
+  int ncontacts = 0;
+  Eigen::Vector3d plate_position[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< plates' sensor
+                                   ///< origins (world) as the lab measured them, when from plates
+};
+
+/// A sample from the ground-truth channel: exact state; y from the applied torques and the plates (when both
+/// are given) or MuJoCo's contact wrenches. feet: the model's right/left foot bodies.
+void measuredFromTruth(const Model& model, const GroundTruthSample& truth, const ForcePlateSample* plates[2],
+                       const int feet[2], MeasuredSample& out);
+
+/// A sample from the sensors only (what a lab has): encoders, joint torque sensors (0 where absent), IMU
+/// orientation and gyro (IMU frame = base frame), accelerometer + R^T g as the base acceleration, plates.
+/// No base position, no derivatives: the pipeline derives them.
+void measuredFromSensors(const Model& model, const RobotStateSample& state, const ForcePlateSample* plates[2],
+                         const int feet[2], MeasuredSample& out);
+
+/// Thesis III-E on a signal [samples x channels] at uniform sample time dt: xf = F(x), dx = F(D xf),
+/// ddx = F(D dx), F the zero-phase 2nd-order Butterworth at cutoff_hz (identity when cutoff_hz <= 0), D central
+/// differences. Any output may be null. Requires cutoff_hz < 0.5 / dt (checked by the callers).
+void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_hz, Eigen::MatrixXd* xf,
+                            Eigen::MatrixXd* dx, Eigen::MatrixXd* ddx);
+
+enum class FilterMode {
+  Inputs,    ///< thesis III-E: filter q (and the gyro), differentiate, filter the derivatives; y untouched
+  Parallel,  ///< inputs only differenced (no filter), then the zero-phase filter on every column of W and on
+             ///< y: F(W) phi = F(y) wherever W phi = y (filter lag and attenuation cancel)
+};
+
+struct DatasetOptions {
+  double cutoff_hz = 0.0;            ///< zero-phase 2nd-order Butterworth cutoff; <= 0: no filter
+  FilterMode filter = FilterMode::Inputs;
+  bool derive = false;               ///< true: v, a (and base dw) by differences even where measured
+  double encoder_noise = 0.0;        ///< sigma (rad) of white noise added to q before anything (thesis: 9e-6)
+  uint64_t noise_seed = 1;
+  /// Sole points (body, point in body coordinates, world position) for the base position from leg
+  /// kinematics when a sample has none: p_b = p_world - R_wb * p_body(q), averaged over the feet.
+  struct Foothold {
+    int body = -1;
+    Eigen::Vector3d point_in_body = Eigen::Vector3d::Zero();
+    Eigen::Vector3d world = Eigen::Vector3d::Zero();  ///< plus the sample's plate_position[plate] if plate >= 0
+    int plate = -1;
+  };
+  std::vector<Foothold> footholds;
+  int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
+};
+
+/// Callback receiving the identification data of one sample: K [nv x p] and y [nv] (both after filtering).
+using RowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y)>;
+
+/// Streams measured samples to (K, y) per sample. Samples must come at a uniform rate (the sample time is
+/// the median step of each block); call finish() after the last sample. Zero-phase filtering is done per
+/// block over the block plus a margin on each side long enough for the filter's transient to decay below
+/// 1e-15 (so the result equals filtering the whole run at once, to round-off), which keeps memory bounded.
+class DatasetBuilder {
+ public:
+  /// Fails (returns false with *error) on an invalid cutoff for the sample rate at the first block.
+  DatasetBuilder(const Model& model, const DatasetOptions& options, RowSink sink);
+  bool add(const MeasuredSample& sample, std::string* error);
+  bool finish(std::string* error);
+  long samples() const { return emitted_; }
+  /// Margin (samples) on each side of a block for the filter's transient to die out.
+  int margin() const { return margin_; }
+
+ private:
+  bool processBlock(bool last, std::string* error);
+  const Model& model_;
+  DatasetOptions opt_;
+  RowSink sink_;
+  std::vector<MeasuredSample> buffer_;  ///< [margin_ history][block][margin_ lookahead]
+  long emitted_ = 0;
+  int head_ = 0;  ///< samples at the front of buffer_ already emitted (history)
+  int margin_ = 0;
+  uint64_t rng_ = 0;
+};
+
+}  // namespace exoid::estimator

@@ -1,0 +1,127 @@
+#include "exoid/estimator/batch/identify.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+namespace exoid::estimator {
+
+const char* rankRuleName(RankRule r) {
+  switch (r) {
+    case RankRule::Full: return "full";
+    case RankRule::Fixed: return "fixed";
+    case RankRule::Validation: return "validation";
+    case RankRule::CrossValidation: return "cv";
+    case RankRule::CrossValidation1Se: return "cv-1se";
+    case RankRule::Jackknife: return "jackknife";
+    case RankRule::Gcv: return "gcv";
+  }
+  return "?";
+}
+
+bool parseRankRule(const std::string& name, RankRule& r) {
+  for (RankRule x : {RankRule::Full, RankRule::Fixed, RankRule::Validation, RankRule::CrossValidation,
+                     RankRule::CrossValidation1Se, RankRule::Gcv, RankRule::Jackknife})
+    if (name == rankRuleName(x)) return r = x, true;
+  return false;
+}
+
+LinkVerdict checkLink(const std::string& name, const Eigen::Ref<const Eigen::Matrix<double, 10, 1>>& p) {
+  LinkVerdict v;
+  v.name = name;
+  v.mass = p[0];
+  Eigen::Matrix3d I;
+  I << p[4], p[5], p[6], p[5], p[7], p[8], p[6], p[8], p[9];
+  Eigen::Matrix4d J;
+  J.topLeftCorner<3, 3>() = 0.5 * I.trace() * Eigen::Matrix3d::Identity() - I;
+  J.topRightCorner<3, 1>() = p.segment<3>(1);
+  J.bottomLeftCorner<1, 3>() = p.segment<3>(1).transpose();
+  J(3, 3) = p[0];
+  v.min_eigenvalue = Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(J, Eigen::EigenvaluesOnly).eigenvalues()[0];
+  v.consistent = v.min_eigenvalue > 0.0;
+  return v;
+}
+
+bool identify(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
+              const IdentifyOptions& o, const LsqAccumulator* validation, IdentifyResult& out, std::string* error) {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  out = IdentifyResult();
+  out.method = o.method;
+  out.rank_rule = o.rank_rule;
+  out.prior = prior;
+  const int p = model.nparams(), m = train.baseColumns(), nv = train.coordinates();
+  if (prior.size() != p) return fail("the prior has " + std::to_string(prior.size()) + " parameters, the model " + std::to_string(p));
+  long rows = 0;
+  for (int c = 0; c < nv; ++c) rows += train.rows(c);
+  out.training_rows = rows;
+  if (rows == 0) return fail("no training data");
+  if (rows < m) {
+    return fail("too little data: " + std::to_string(rows) + " equations for " + std::to_string(m) +
+                " base parameters (" + std::to_string(train.samples()) + " samples)");
+  }
+  const ScaledProblem sp = prepare(train, model, prior, o.method);
+  out.singular_values = sp.s;
+  out.row_weight = sp.row_weight;
+  out.numerical_rank = sp.numericalRank();
+  if (out.numerical_rank == 0) return fail("the data excite no parameter (every singular value is zero)");
+  LsqFactor vfactor;
+  if (validation) vfactor = toStandard(validation->mergedBase(), validation->base().base_map);
+  switch (o.rank_rule) {
+    case RankRule::Full: out.rank = out.numerical_rank; break;
+    case RankRule::Fixed:
+      if (o.rank < 0 || o.rank > m) return fail("--rank must be in [0, " + std::to_string(m) + "]");
+      out.rank = o.rank;
+      break;
+    case RankRule::Validation:
+      if (!validation) return fail("the validation rank rule needs validation data");
+      out.curve = rankByValidation(sp, vfactor);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::CrossValidation:
+    case RankRule::CrossValidation1Se:
+      if (train.folds() < 2) return fail("cross-validation needs at least 2 folds");
+      out.curve = rankByCrossValidation(train, model, prior, o.method,
+                                        o.rank_rule == RankRule::CrossValidation ? CvRule::Minimum : CvRule::OneStandardError);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::Jackknife:
+      if (train.folds() < 2) return fail("the jackknife needs at least 2 folds");
+      out.curve = rankByJackknife(train, model, prior, o.method, o.prior_uncertainty);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::Gcv:
+      out.curve = rankByGcv(sp);
+      out.rank = out.curve.best;
+      break;
+  }
+  out.rank = std::min(out.rank, out.numerical_rank);
+  out.phi = solveAtRank(sp, out.rank);
+  out.phi_base = train.base().base_map * out.phi;
+  out.condition = out.rank > 0 ? sp.s[0] / sp.s[out.rank - 1] : 1.0;
+  // Excitation of each standard parameter: the norm of its (scaled) unit direction inside span(V_z).
+  for (int i = 0; i < p; ++i) {
+    const double reach = out.rank > 0 ? sp.V.row(i).head(out.rank).norm() : 0.0;
+    if (reach < o.excitation_threshold) out.unexcited.push_back(i);
+  }
+  for (int b = 0; b < model.nbodies; ++b)
+    out.links.push_back(checkLink(model.body_names[b], out.phi.segment<kParamsPerBody>(model.bodyParamIndex(b))));
+  {
+    const Eigen::VectorXd xb = out.phi_base;
+    double sse = 0.0, yy = 0.0;
+    for (int c = 0; c < nv; ++c) sse += train.residual(c, xb), yy += train.residual(c, Eigen::VectorXd::Zero(m));
+    out.training_rmse = std::sqrt(sse / rows);
+    out.training_y_rms = std::sqrt(yy / rows);
+  }
+  if (validation) {
+    out.validation_rmse = rmse(vfactor, out.phi);
+    out.prior_validation_rmse = rmse(vfactor, prior);
+    const Eigen::VectorXd xb = validation->base().base_map * out.phi;
+    for (int c = 0; c < nv; ++c)
+      out.validation_rmse_per_coordinate.push_back(std::sqrt(validation->residual(c, xb) / std::max<long>(1, validation->rows(c))));
+  }
+  return true;
+}
+
+}  // namespace exoid::estimator

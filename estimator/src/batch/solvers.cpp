@@ -1,0 +1,256 @@
+#include "exoid/estimator/batch/solvers.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+
+namespace exoid::estimator {
+
+const char* methodName(Method m) {
+  switch (m) {
+    case Method::Ols: return "OLS";
+    case Method::WlsR: return "WLS-R";
+    case Method::WlsC: return "WLS-C";
+    case Method::WlsRC: return "WLS-RC";
+  }
+  return "?";
+}
+
+bool parseMethod(const std::string& name, Method& m) {
+  for (Method x : {Method::Ols, Method::WlsR, Method::WlsC, Method::WlsRC})
+    if (name == methodName(x)) return m = x, true;
+  return false;
+}
+
+namespace {
+bool rowScaled(Method m) { return m == Method::WlsR || m == Method::WlsRC; }
+bool columnScaled(Method m) { return m == Method::WlsC || m == Method::WlsRC; }
+
+// Kind of a standard parameter: 0 mass, 1 first moment, 2 inertia, 3 viscous, 4 Coulomb.
+int kindOf(const Model& model, int i) {
+  if (i >= model.nInertialParams()) return 3 + (i - model.nInertialParams()) % kParamsPerJoint;
+  const int k = i % kParamsPerBody;
+  return k == 0 ? 0 : k < 4 ? 1 : 2;
+}
+
+// Minimum-norm least-squares solution of R x = z (R square), numerical rank by relative tolerance.
+Eigen::VectorXd pinvSolve(const Eigen::MatrixXd& R, const Eigen::VectorXd& z) {
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  svd.setThreshold(1e-12);
+  return svd.solve(z);
+}
+}  // namespace
+
+Eigen::VectorXd columnScale(const Model& model, const Eigen::VectorXd& prior, double floor_fraction) {
+  const int p = static_cast<int>(prior.size());
+  Eigen::VectorXd h = prior.cwiseAbs();
+  for (int kind = 0; kind < 5; ++kind) {
+    std::vector<double> v;
+    double vmax = 0.0;
+    for (int i = 0; i < p; ++i)
+      if (kindOf(model, i) == kind) v.push_back(h[i]), vmax = std::max(vmax, h[i]);
+    if (v.empty()) continue;
+    std::sort(v.begin(), v.end());
+    const double floor = floor_fraction * vmax, median = v[v.size() / 2];
+    // Nothing known of this kind (e.g. friction absent from a URDF): unit scale.
+    const double fallback = vmax == 0.0 ? 1.0 : median > floor ? median : vmax;
+    for (int i = 0; i < p; ++i)
+      if (kindOf(model, i) == kind && !(h[i] > floor)) h[i] = fallback;
+  }
+  return h;
+}
+
+int ScaledProblem::numericalRank(double tolerance) const {
+  int r = 0;
+  while (r < s.size() && s[r] > tolerance * s[0]) ++r;
+  return r;
+}
+
+ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                      const std::vector<bool>& include) {
+  const int nv = acc.coordinates(), p = model.nparams();
+  const Eigen::MatrixXd& B = acc.base().base_map;
+  ScaledProblem sp;
+  sp.method = method;
+  sp.prior = prior;
+  sp.row_weight.assign(nv, 1.0);
+  if (rowScaled(method)) {
+    // Eqs. (29)-(30): sigma_i from the OLS residual of coordinate i (the residual does not depend on the
+    // nullspace, so the minimum-norm base solution gives it).
+    const LsqFactor ols = acc.mergedBase({}, include);
+    const Eigen::VectorXd x = pinvSolve(ols.R, ols.z);
+    std::vector<double> sigma(nv);
+    double y2 = 0.0, maxsig = 0.0;
+    long rows_all = 0;
+    for (int c = 0; c < nv; ++c) {
+      long n = 0;
+      for (int f = 0; f < acc.folds(); ++f)
+        if (include.empty() || include[f]) n += acc.rows(c, f);
+      double r2 = 0.0;
+      for (int f = 0; f < acc.folds(); ++f)
+        if (include.empty() || include[f]) {
+          r2 += acc.residual(c, x, f);
+          y2 += acc.residual(c, Eigen::VectorXd::Zero(acc.baseColumns()), f);
+        }
+      rows_all += n;
+      sigma[c] = std::sqrt(r2 / std::max<long>(1, n - p));
+      maxsig = std::max(maxsig, sigma[c]);
+    }
+    // Exact data leave sigma ~ round-off: floor at 1e-10 of the RMS of y so that weights stay finite.
+    const double floor = std::max(1e-10 * std::sqrt(y2 / std::max<long>(1, rows_all)), 1e-6 * maxsig);
+    for (int c = 0; c < nv; ++c) sp.row_weight[c] = sigma[c] > 0.0 || floor > 0.0 ? 1.0 / std::max(sigma[c], floor) : 1.0;
+  }
+  const LsqFactor f = acc.mergedBase(sp.row_weight, include);
+  sp.rows = f.rows;
+  const Eigen::MatrixXd Rf = f.R.triangularView<Eigen::Upper>() * B;  // m x p, same singular values and V as G W
+  sp.h = columnScaled(method) ? columnScale(model, prior) : Eigen::VectorXd::Ones(p);
+  sp.gamma = columnScaled(method) ? prior : Eigen::VectorXd::Zero(p);
+  const Eigen::VectorXd zt = f.z - Rf * sp.gamma;
+  const Eigen::MatrixXd A = Rf * sp.h.asDiagonal();
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  sp.s = svd.singularValues();
+  sp.V = svd.matrixV();
+  sp.d = svd.matrixU().transpose() * zt;
+  sp.Rw = Rf;
+  sp.zw = f.z;
+  sp.rss_w = f.rss;
+  return sp;
+}
+
+Eigen::VectorXd solveAtRank(const ScaledProblem& sp, int z) {
+  z = std::clamp(z, 0, static_cast<int>(sp.s.size()));
+  while (z > 0 && !(sp.s[z - 1] > 0.0)) --z;
+  const Eigen::VectorXd alpha = sp.d.head(z).cwiseQuotient(sp.s.head(z));
+  const auto Vz = sp.V.leftCols(z);
+  if (columnScaled(sp.method)) {
+    // phi = gamma + H V_z S_z^-1 d_z: directions not kept stay at the prior (eq. 27, gamma = prior).
+    return sp.gamma + sp.h.cwiseProduct(Vz * alpha);
+  }
+  // Eqs. (21)-(23): phi = V_e alpha_e + V_n V_n^T phi_prior, with V_n the directions not kept.
+  return sp.prior + Vz * (alpha - Vz.transpose() * sp.prior);
+}
+
+double rmse(const LsqFactor& f, const Eigen::VectorXd& phi) {
+  const double sse = (f.R.triangularView<Eigen::Upper>() * phi - f.z).squaredNorm() + f.rss;
+  return std::sqrt(sse / std::max<long>(1, f.rows));
+}
+
+RankCurve rankByValidation(const ScaledProblem& sp, const LsqFactor& validation) {
+  RankCurve c;
+  c.rule = "validation generalized-force RMSE (thesis IV-B)";
+  const int r = static_cast<int>(sp.s.size());
+  c.score.resize(r + 1);
+  for (int z = 0; z <= r; ++z) c.score[z] = rmse(validation, solveAtRank(sp, z));
+  c.best = static_cast<int>(std::min_element(c.score.begin(), c.score.end()) - c.score.begin());
+  return c;
+}
+
+RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
+                                Method method, CvRule rule) {
+  RankCurve c;
+  c.rule = rule == CvRule::Minimum ? "time-block cross-validation, minimum" : "time-block cross-validation, paired 1-SE";
+  const int K = acc.folds(), nv = acc.coordinates(), m = acc.baseColumns();
+  const Eigen::MatrixXd& B = acc.base().base_map;
+  int r = m;
+  std::vector<std::vector<double>> mse(K);  // [fold][z]
+  for (int k = 0; k < K; ++k) {
+    long n = 0;
+    for (int cc = 0; cc < nv; ++cc) n += acc.rows(cc, k);
+    if (n == 0) continue;
+    std::vector<bool> include(K, true);
+    include[k] = false;
+    const ScaledProblem sp = prepare(acc, model, prior, method, include);
+    r = std::min(r, static_cast<int>(sp.s.size()));
+    for (int z = 0; z <= static_cast<int>(sp.s.size()); ++z) {
+      const Eigen::VectorXd xb = B * solveAtRank(sp, z);
+      double sse = 0.0;
+      for (int cc = 0; cc < nv; ++cc) sse += acc.residual(cc, xb, k);
+      mse[k].push_back(sse / n);
+    }
+  }
+  c.score.assign(r + 1, 0.0);
+  int used = 0;
+  for (int k = 0; k < K; ++k)
+    if (!mse[k].empty()) ++used;
+  if (used == 0) return c;
+  for (int z = 0; z <= r; ++z) {
+    double mean = 0.0;
+    for (int k = 0; k < K; ++k)
+      if (!mse[k].empty()) mean += mse[k][z];
+    c.score[z] = std::sqrt(mean / used);
+  }
+  const int zmin = static_cast<int>(std::min_element(c.score.begin(), c.score.end()) - c.score.begin());
+  c.best = zmin;
+  if (rule == CvRule::OneStandardError && used > 1) {
+    // The folds' error levels differ (motion and noise differ between time blocks), but for one fold the
+    // comparison of two ranks is paired: judge z by the mean and standard error over folds of
+    // MSE_k(z) - MSE_k(zmin), and take the smallest z not significantly worse.
+    for (int z = 0; z < zmin; ++z) {
+      double mean = 0.0, sq = 0.0;
+      for (int k = 0; k < K; ++k)
+        if (!mse[k].empty()) mean += mse[k][z] - mse[k][zmin];
+      mean /= used;
+      for (int k = 0; k < K; ++k)
+        if (!mse[k].empty()) sq += std::pow(mse[k][z] - mse[k][zmin] - mean, 2);
+      const double se = std::sqrt(sq / (used - 1) / used);
+      if (mean <= se) {
+        c.best = z;
+        break;
+      }
+    }
+  }
+  return c;
+}
+
+RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                          double prior_uncertainty) {
+  RankCurve c;
+  c.rule = "jackknife over time blocks: keep directions whose std is below the prior's";
+  const ScaledProblem all = prepare(acc, model, prior, method);
+  const int r = all.numericalRank(), K = acc.folds(), nv = acc.coordinates();
+  std::vector<Eigen::VectorXd> a;
+  for (int k = 0; k < K; ++k) {
+    long n = 0;
+    for (int cc = 0; cc < nv; ++cc) n += acc.rows(cc, k);
+    if (n == 0) continue;
+    std::vector<bool> include(K, true);
+    include[k] = false;
+    const ScaledProblem sp = prepare(acc, model, prior, method, include);
+    const Eigen::VectorXd phi = solveAtRank(sp, sp.numericalRank());
+    // Coordinates along the full problem's right singular vectors, in its scaled units.
+    a.push_back(all.V.leftCols(r).transpose() * (phi - all.gamma).cwiseQuotient(all.h));
+  }
+  c.score.assign(r + 1, 0.0);
+  c.best = 0;
+  const int used = static_cast<int>(a.size());
+  if (used < 2) return c;
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(r), var = Eigen::VectorXd::Zero(r);
+  for (const auto& x : a) mean += x / used;
+  for (const auto& x : a) var += (x - mean).cwiseAbs2();
+  var *= (used - 1.0) / used;
+  // Prior uniform within +-u of the truth: std u / sqrt(3) of each scaled coordinate (with C scaling).
+  const double tau = prior_uncertainty / std::sqrt(3.0);
+  bool stop = false;
+  for (int z = 1; z <= r; ++z) {
+    c.score[z] = std::sqrt(var[z - 1]);
+    if (!stop && c.score[z] <= tau) c.best = z;
+    else stop = true;
+  }
+  return c;
+}
+
+RankCurve rankByGcv(const ScaledProblem& sp) {
+  RankCurve c;
+  c.rule = "generalized cross-validation";
+  const int r = static_cast<int>(sp.s.size());
+  c.score.resize(r + 1);
+  const double n = static_cast<double>(sp.rows);
+  for (int z = 0; z <= r; ++z) {
+    const double rss = sp.weightedRss(solveAtRank(sp, z));
+    c.score[z] = n > z ? n * rss / ((n - z) * (n - z)) : INFINITY;
+  }
+  c.best = static_cast<int>(std::min_element(c.score.begin(), c.score.end()) - c.score.begin());
+  return c;
+}
+
+}  // namespace exoid::estimator

@@ -1,0 +1,314 @@
+#include "exoid/estimator/dataset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <unordered_map>
+
+#include "exoid/model/regressor.hpp"
+#include "exoid/signal/filters.hpp"
+
+namespace exoid::estimator {
+
+State stateFromTruth(const Model& model, const GroundTruthSample& t) {
+  State s = State::zero(model);
+  s.base_orientation = t.base_orientation;
+  s.base_position = t.base_position;
+  s.base_omega = t.base_omega;
+  s.base_velocity = t.base_velocity;
+  s.base_domega = t.base_domega;
+  s.base_acceleration = t.base_acceleration;
+  s.q = t.q;
+  s.v = t.v;
+  s.a = t.a;
+  return s;
+}
+
+void footWrenchFromPlate(const ForcePlateSample& p, Eigen::Vector3d& f, Eigen::Vector3d& n) {
+  const Eigen::Matrix3d R = p.plate_orientation.toRotationMatrix();
+  f = -(R * p.force);
+  n = -(R * p.moment) + p.plate_position.cross(f);
+}
+
+namespace {
+template <class T>
+std::unordered_map<int64_t, const T*> byTick(const std::vector<T>& v) {
+  std::unordered_map<int64_t, const T*> m;
+  for (const T& s : v) m.emplace(s.tick, &s);
+  return m;
+}
+}  // namespace
+
+std::vector<AlignedTick> alignByTick(const std::vector<RobotStateSample>& states,
+                                     const std::vector<ForcePlateSample>& plates_right,
+                                     const std::vector<ForcePlateSample>& plates_left,
+                                     const std::vector<GroundTruthSample>& truth, const TickNeeds& needs,
+                                     long* skipped) {
+  const auto st = byTick(states);
+  const auto pr = byTick(plates_right);
+  const auto pl = byTick(plates_left);
+  const auto tr = byTick(truth);
+  std::vector<AlignedTick> out;
+  long skip = 0;
+  auto look = [](const auto& map, int64_t tick) -> decltype(map.begin()->second) {
+    auto it = map.find(tick);
+    return it == map.end() ? nullptr : it->second;
+  };
+  auto consider = [&](int64_t tick, const RobotStateSample* s, const GroundTruthSample* t) {
+    AlignedTick a;
+    a.state = s ? s : look(st, tick);
+    a.plate[0] = look(pr, tick);
+    a.plate[1] = look(pl, tick);
+    a.truth = t ? t : look(tr, tick);
+    if ((needs.state && !a.state) || (needs.plates && (!a.plate[0] || !a.plate[1])) || (needs.truth && !a.truth)) {
+      ++skip;
+      return;
+    }
+    out.push_back(a);
+  };
+  if (needs.state) {
+    for (const RobotStateSample& s : states) consider(s.tick, &s, nullptr);
+  } else {
+    for (const GroundTruthSample& t : truth) consider(t.tick, nullptr, &t);
+  }
+  if (skipped) *skipped = skip;
+  return out;
+}
+
+namespace {
+void contactsFromPlates(const ForcePlateSample* const plates[2], const int feet[2], MeasuredSample& out) {
+  out.ncontacts = 2;
+  for (int i = 0; i < 2; ++i) {
+    out.contact[i].body = feet[i];
+    footWrenchFromPlate(*plates[i], out.contact[i].force, out.contact[i].moment_world_origin);
+    out.plate_position[i] = plates[i]->plate_position;
+  }
+}
+}  // namespace
+
+void measuredFromTruth(const Model& model, const GroundTruthSample& t, const ForcePlateSample* plates[2],
+                       const int feet[2], MeasuredSample& out) {
+  out.t = t.utime * 1e-6;
+  out.q = t.q;
+  out.v = t.v;
+  out.a = t.a;
+  out.tau = t.tau_applied;
+  out.base_orientation = t.base_orientation;
+  out.base_position = t.base_position;
+  out.base_omega = t.base_omega;
+  out.base_domega = t.base_domega;
+  out.base_acceleration = t.base_acceleration;
+  out.has_base_position = true;
+  out.has_base_domega = true;
+  if (plates && plates[0] && plates[1]) {
+    contactsFromPlates(plates, feet, out);
+  } else {
+    out.ncontacts = 2;
+    for (int i = 0; i < 2; ++i) {
+      out.contact[i].body = feet[i];
+      out.contact[i].force = t.foot_force[i];
+      out.contact[i].moment_world_origin = t.foot_moment[i];
+    }
+  }
+  (void)model;
+}
+
+void measuredFromSensors(const Model& model, const RobotStateSample& s, const ForcePlateSample* plates[2],
+                         const int feet[2], MeasuredSample& out) {
+  out.t = s.utime * 1e-6;
+  out.q = s.q;
+  out.v.resize(0);
+  out.a.resize(0);
+  out.tau = s.tau;
+  for (int j = 0; j < model.njoints; ++j)
+    if (!s.has_tau[j]) out.tau[j] = 0.0;
+  out.base_orientation = s.imu_orientation;
+  out.base_omega = s.imu_gyro;
+  // Accelerometer = R^T (a - g): the classical acceleration of the base origin is accel + R^T g.
+  out.base_acceleration = s.imu_accel + s.imu_orientation.conjugate() * model.gravity;
+  out.base_domega.setZero();
+  out.has_base_position = false;
+  out.has_base_domega = false;
+  contactsFromPlates(plates, feet, out);
+}
+
+void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_hz, Eigen::MatrixXd* xf,
+                            Eigen::MatrixXd* dx, Eigen::MatrixXd* ddx) {
+  const bool filter = cutoff_hz > 0.0;
+  const Biquad lp = filter ? Biquad::butterworthLowPass(cutoff_hz, 1.0 / dt) : Biquad();
+  auto F = [&](const Eigen::MatrixXd& s) { return filter ? filtfilt(lp, s) : s; };
+  const Eigen::MatrixXd f = F(x);
+  if (dx || ddx) {
+    const Eigen::MatrixXd d = F(differentiate(f, dt));
+    if (ddx) *ddx = F(differentiate(d, dt));
+    if (dx) *dx = d;
+  }
+  if (xf) *xf = f;
+}
+
+namespace {
+// Samples for the filter's transient to decay to e^-40 (~4e-18): the poles of the biquad have modulus
+// sqrt(a2) (complex pair of a Butterworth), the error after k samples ~ sqrt(a2)^k.
+int filterMargin(const Biquad& c) {
+  const double r = std::sqrt(std::max(c.a2, 1e-300));
+  return r >= 1.0 ? 1 << 20 : static_cast<int>(std::ceil(40.0 / -std::log(r))) + 8;
+}
+
+double medianStep(const std::vector<MeasuredSample>& b) {
+  std::vector<double> d;
+  d.reserve(b.size());
+  for (size_t i = 1; i < b.size(); ++i) d.push_back(b[i].t - b[i - 1].t);
+  if (d.empty()) return 1e-3;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+}  // namespace
+
+DatasetBuilder::DatasetBuilder(const Model& model, const DatasetOptions& options, RowSink sink)
+    : model_(model), opt_(options), sink_(std::move(sink)), rng_(options.noise_seed) {
+  opt_.block = std::max(16, opt_.block);
+  // Parallel filtering holds every column of W over the window: smaller blocks keep that bounded.
+  if (opt_.filter == FilterMode::Parallel && opt_.cutoff_hz > 0.0) opt_.block = std::min(opt_.block, 1024);
+  margin_ = 4;  // central differences of differences
+  if (opt_.cutoff_hz > 0.0) margin_ = 3 * 4 + 3 * 60;  // refined at the first block from the sample rate
+}
+
+bool DatasetBuilder::add(const MeasuredSample& sample, std::string* error) {
+  buffer_.push_back(sample);
+  MeasuredSample& s = buffer_.back();
+  if (opt_.encoder_noise > 0.0) {
+    std::mt19937_64 g(rng_);
+    std::normal_distribution<double> n(0.0, opt_.encoder_noise);
+    for (int j = 0; j < s.q.size(); ++j) s.q[j] += n(g);
+    rng_ = g();
+  }
+  if (static_cast<int>(buffer_.size()) - head_ >= opt_.block + margin_) return processBlock(false, error);
+  return true;
+}
+
+bool DatasetBuilder::finish(std::string* error) {
+  while (head_ < static_cast<int>(buffer_.size()))
+    if (!processBlock(true, error)) return false;
+  return true;
+}
+
+bool DatasetBuilder::processBlock(bool last, std::string* error) {
+  const Model& model = model_;
+  const int n = static_cast<int>(buffer_.size()), nj = model.njoints, nv = model.nv, p = model.nparams();
+  const double dt = medianStep(buffer_);
+  const bool filter = opt_.cutoff_hz > 0.0;
+  Biquad lp;
+  if (filter) {
+    if (!(dt > 0.0) || opt_.cutoff_hz >= 0.5 / dt) {
+      if (error) *error = "the filter cutoff " + std::to_string(opt_.cutoff_hz) + " Hz is not below the Nyquist frequency " + std::to_string(0.5 / dt) + " Hz";
+      return false;
+    }
+    lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
+    const int want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
+    if (want > margin_ && emitted_ == 0 && !last) {
+      margin_ = want;  // wait for enough lookahead
+      if (n - head_ < opt_.block + margin_) return true;
+    }
+  }
+  const int emit_end = last ? n : std::min(n, head_ + opt_.block);
+  // Parallel filtering: the regressor's inputs are only differenced (no filter), then W and y both pass the
+  // one zero-phase filter, so that F(W) phi = F(y) holds wherever W phi = y does (the filter is linear).
+  const bool parallel = filter && opt_.filter == FilterMode::Parallel;
+  const double input_cutoff = parallel ? 0.0 : opt_.cutoff_hz;
+  const bool filter_inputs = filter && !parallel;
+  auto filt = [&](const Eigen::MatrixXd& x) { return filter_inputs ? filtfilt(lp, x) : x; };
+  // Joint signals.
+  Eigen::MatrixXd q(n, nj), v(n, nj), a(n, nj);
+  bool measured_va = true;
+  for (int i = 0; i < n; ++i) {
+    q.row(i) = buffer_[i].q.transpose();
+    if (buffer_[i].v.size() != nj || buffer_[i].a.size() != nj) measured_va = false;
+  }
+  if (measured_va && !opt_.derive) {
+    for (int i = 0; i < n; ++i) v.row(i) = buffer_[i].v.transpose(), a.row(i) = buffer_[i].a.transpose();
+    q = filt(q);
+    v = filt(v);
+    a = filt(a);
+  } else {
+    filterAndDifferentiate(q, dt, input_cutoff, &q, &v, &a);
+  }
+  // Base signals (floating base).
+  Eigen::MatrixXd w(n, 3), dw(n, 3), acc(n, 3);
+  if (model.floating_base) {
+    bool measured_dw = !opt_.derive;
+    for (int i = 0; i < n; ++i) {
+      w.row(i) = buffer_[i].base_omega.transpose();
+      dw.row(i) = buffer_[i].base_domega.transpose();
+      acc.row(i) = buffer_[i].base_acceleration.transpose();
+      measured_dw = measured_dw && buffer_[i].has_base_domega;
+    }
+    if (measured_dw) {
+      w = filt(w);
+      dw = filt(dw);
+    } else {
+      filterAndDifferentiate(w, dt, input_cutoff, &w, &dw, nullptr);
+    }
+    acc = filt(acc);
+  }
+  // Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With parallel
+  // filtering every sample of the window is computed, then W and y filtered column by column.
+  const int from = parallel ? 0 : head_, to = parallel ? n : emit_end;
+  Data kin(model);
+  State st = State::zero(model);
+  Eigen::VectorXd y(nv);
+  Eigen::MatrixXd Kall, Yall;
+  if (parallel) Kall.resize(to - from, nv * p), Yall.resize(to - from, nv);
+  for (int i = from; i < to; ++i) {
+    const MeasuredSample& s = buffer_[i];
+    st.q = q.row(i).transpose();
+    st.v = v.row(i).transpose();
+    st.a = a.row(i).transpose();
+    if (model.floating_base) {
+      st.base_orientation = s.base_orientation;
+      st.base_omega = w.row(i).transpose();
+      st.base_domega = dw.row(i).transpose();
+      st.base_acceleration = acc.row(i).transpose();
+    }
+    computeJointTorqueRegressor(model, kin, st);
+    if (model.floating_base) {
+      if (s.has_base_position || opt_.footholds.empty()) {
+        st.base_position = s.base_position;
+      } else {
+        // Leg kinematics: each sole point stays where the lab placed it, p_b = p_world - R_wb p_base(q).
+        const Eigen::Matrix3d Rwb = st.base_orientation.toRotationMatrix();
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        for (const DatasetOptions::Foothold& f : opt_.footholds)
+          sum += f.world + (f.plate >= 0 ? s.plate_position[f.plate] : Eigen::Vector3d::Zero()) -
+                 Rwb * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
+        st.base_position = sum / static_cast<double>(opt_.footholds.size());
+      }
+    }
+    generalizedForceFromMeasurements(model, kin, st, s.tau, s.contact, s.ncontacts, y);
+    if (parallel) {
+      for (int c = 0; c < nv; ++c) Kall.block(i - from, c * p, 1, p) = kin.K.row(c);
+      Yall.row(i - from) = y.transpose();
+    } else {
+      sink_(s.t, kin.K, y);
+      ++emitted_;
+    }
+  }
+  if (parallel) {
+    // Column by column (bounded memory); structural zeros stay zero and are skipped.
+    for (int j = 0; j < Kall.cols(); ++j)
+      if (Kall.col(j).cwiseAbs().maxCoeff() > 0.0) Kall.col(j) = filtfilt(lp, Kall.col(j));
+    for (int j = 0; j < nv; ++j) Yall.col(j) = filtfilt(lp, Yall.col(j));
+    Eigen::MatrixXd K(nv, p);
+    for (int i = head_; i < emit_end; ++i) {
+      for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);
+      sink_(buffer_[i].t, K, Yall.row(i).transpose());
+      ++emitted_;
+    }
+  }
+  // Keep `margin_` samples of history before the next block.
+  const int drop = std::max(0, emit_end - margin_);
+  buffer_.erase(buffer_.begin(), buffer_.begin() + drop);
+  head_ = emit_end - drop;
+  return true;
+}
+
+}  // namespace exoid::estimator

@@ -1,0 +1,206 @@
+// The batch machinery against independent dense computations on the stacked problem:
+//  - the streamed per-coordinate, per-fold QR equals the QR of the stacked W (normal matrix, z, rss) for any
+//    block size, fold count and thread count;
+//  - every solver (OLS, WLS-R, WLS-C, WLS-RC) at every truncation rank equals the thesis's formulas
+//    (eqs. 20-23, 27, 29-32) evaluated with a dense SVD of the stacked, scaled 130-column W.
+#include <gtest/gtest.h>
+
+#include <Eigen/SVD>
+#include <random>
+
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/batch/accumulator.hpp"
+#include "exoid/estimator/batch/solvers.hpp"
+#include "exoid/model/random_state.hpp"
+#include "exoid/model/regressor.hpp"
+#include "exoid/model/urdf.hpp"
+
+namespace exoid::estimator {
+namespace {
+
+struct Problem {
+  Model model;
+  BaseParameters base;
+  Eigen::MatrixXd W;  // stacked [N nv x p]
+  Eigen::VectorXd y;
+  int nv = 0, N = 0;
+};
+
+// N random states of the exoskeleton; y = W phi_true + noise whose level differs per coordinate (so WLS-R
+// has something to weight).
+Problem makeProblem(int N, uint64_t seed) {
+  Problem pb;
+  std::string err;
+  EXPECT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, pb.model, &err)) << err;
+  pb.base = computeBaseParameters(pb.model);
+  const Model& m = pb.model;
+  pb.nv = m.nv;
+  pb.N = N;
+  pb.W.resize(N * m.nv, m.nparams());
+  pb.y.resize(N * m.nv);
+  Data data(m);
+  State s = State::zero(m);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  Eigen::VectorXd phi = m.phi;
+  for (int j = 0; j < m.njoints; ++j) phi[m.frictionParamIndex(j)] = 0.3, phi[m.frictionParamIndex(j) + 1] = 0.5;
+  for (int i = 0; i < N; ++i) {
+    randomState(m, rng, s);
+    s.a *= 0.1;  // gentler, so that coordinates differ in scale
+    computeJointTorqueRegressor(m, data, s);
+    pb.W.middleRows(i * m.nv, m.nv) = data.K;
+    for (int c = 0; c < m.nv; ++c) pb.y[i * m.nv + c] = data.K.row(c).dot(phi) + 0.05 * (1 + c % 4) * noise(rng);
+  }
+  return pb;
+}
+
+LsqAccumulator accumulate(const Problem& pb, const AccumulatorOptions& o) {
+  LsqAccumulator acc(pb.model, pb.base, o);
+  for (int i = 0; i < pb.N; ++i)
+    EXPECT_TRUE(acc.add(pb.W.middleRows(i * pb.nv, pb.nv), pb.y.segment(i * pb.nv, pb.nv)));
+  acc.flush();
+  return acc;
+}
+
+TEST(BatchAccumulator, StreamingQrEqualsTheStackedSolve) {
+  const Problem pb = makeProblem(900, 1);
+  const int m = pb.base.rank;
+  Eigen::MatrixXd Wb(pb.W.rows(), m);
+  for (int j = 0; j < m; ++j) Wb.col(j) = pb.W.col(pb.base.independent[j]);
+  // Independent: normal matrix, W^T y, the least-squares solution and its residual from the stacked matrix.
+  const Eigen::MatrixXd G = Wb.transpose() * Wb;
+  const Eigen::VectorXd g = Wb.transpose() * pb.y;
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> dense(Wb);
+  const Eigen::VectorXd x_dense = dense.solve(pb.y);
+  const double rss_dense = (Wb * x_dense - pb.y).squaredNorm();
+  for (const AccumulatorOptions o : {AccumulatorOptions{256, 5, 100, 2}, AccumulatorOptions{7, 1, 2000, 1},
+                                     AccumulatorOptions{1000, 3, 37, 2}}) {
+    const LsqAccumulator acc = accumulate(pb, o);
+    const LsqFactor f = acc.mergedBase();
+    EXPECT_EQ(f.rows, static_cast<long>(pb.W.rows()));
+    const Eigen::MatrixXd Rt = f.R.triangularView<Eigen::Upper>();
+    EXPECT_LT((Rt.transpose() * Rt - G).norm() / G.norm(), 1e-13);
+    EXPECT_LT((Rt.transpose() * f.z - g).norm() / g.norm(), 1e-13);
+    const Eigen::VectorXd x = Rt.triangularView<Eigen::Upper>().solve(f.z);
+    EXPECT_LT((x - x_dense).norm() / x_dense.norm(), 1e-9);
+    EXPECT_NEAR(f.rss, rss_dense, 1e-9 * rss_dense);
+    // Per-coordinate residuals from the factors equal the stacked ones.
+    for (int c = 0; c < pb.nv; ++c) {
+      double r = 0.0;
+      for (int i = 0; i < pb.N; ++i) r += std::pow(Wb.row(i * pb.nv + c).dot(x_dense) - pb.y[i * pb.nv + c], 2);
+      EXPECT_NEAR(acc.residual(c, x_dense), r, 1e-9 * r) << c;
+    }
+    // The standard-parameter factor: ||W phi - y||^2 = ||R phi - z||^2 + rss for any phi.
+    const LsqFactor sf = toStandard(f, pb.base.base_map);
+    const Eigen::VectorXd phi = pb.model.phi * 1.1;
+    const double lhs = (pb.W * phi - pb.y).squaredNorm();
+    EXPECT_NEAR((sf.R.triangularView<Eigen::Upper>() * phi - sf.z).squaredNorm() + sf.rss, lhs, 1e-10 * lhs);
+  }
+}
+
+TEST(BatchAccumulator, RejectsNonFiniteRows) {
+  const Problem pb = makeProblem(3, 2);
+  LsqAccumulator acc(pb.model, pb.base);
+  Eigen::MatrixXd K = pb.W.topRows(pb.nv);
+  K(3, 4) = std::nan("");
+  EXPECT_FALSE(acc.add(K, pb.y.head(pb.nv)));
+  EXPECT_EQ(acc.samples(), 0);
+}
+
+// The thesis's formulas on the stacked, scaled W (all 130 columns, dense SVD).
+std::vector<Eigen::VectorXd> denseSolve(const Problem& pb, Method method, const Eigen::VectorXd& prior,
+                                        const std::vector<int>& ranks, Eigen::VectorXd* singular) {
+  const int p = pb.model.nparams(), nv = pb.nv;
+  Eigen::VectorXd wrow = Eigen::VectorXd::Ones(pb.W.rows());
+  if (method == Method::WlsR || method == Method::WlsRC) {
+    // Eq. (30) with the OLS solution (minimum norm; the residual does not depend on the nullspace).
+    Eigen::BDCSVD<Eigen::MatrixXd> svd(pb.W, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    svd.setThreshold(1e-10);
+    const Eigen::VectorXd e = pb.W * svd.solve(pb.y) - pb.y;
+    for (int c = 0; c < nv; ++c) {
+      double r2 = 0.0;
+      for (int i = 0; i < pb.N; ++i) r2 += e[i * nv + c] * e[i * nv + c];
+      const double sigma = std::sqrt(r2 / (pb.N - p));
+      for (int i = 0; i < pb.N; ++i) wrow[i * nv + c] = 1.0 / sigma;  // eqs. (31)-(32)
+    }
+  }
+  const bool C = method == Method::WlsC || method == Method::WlsRC;
+  const Eigen::VectorXd h = C ? columnScale(pb.model, prior) : Eigen::VectorXd::Ones(p);
+  const Eigen::VectorXd gamma = C ? prior : Eigen::VectorXd::Zero(p);
+  const Eigen::MatrixXd A = wrow.asDiagonal() * pb.W * h.asDiagonal();
+  const Eigen::VectorXd yt = wrow.asDiagonal() * (pb.y - pb.W * gamma);
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  *singular = svd.singularValues();
+  std::vector<Eigen::VectorXd> out;
+  for (int z : ranks) {
+    const Eigen::MatrixXd U = svd.matrixU().leftCols(z), V = svd.matrixV().leftCols(z);
+    const Eigen::VectorXd alpha = (U.transpose() * yt).cwiseQuotient(svd.singularValues().head(z));  // eq. (20)
+    if (C) {
+      out.push_back(gamma + h.cwiseProduct(V * alpha));
+    } else {
+      // Eqs. (21)-(23): V_n spans the directions not used.
+      const Eigen::MatrixXd Vn = svd.matrixV().rightCols(p - z);
+      out.push_back(V * alpha + Vn * (Vn.transpose() * prior));
+    }
+  }
+  return out;
+}
+
+TEST(BatchSolvers, EveryMethodAtEveryRankEqualsTheDenseSvdOfTheStackedProblem) {
+  const Problem pb = makeProblem(400, 3);
+  const LsqAccumulator acc = accumulate(pb, {64, 4, 50, 2});
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-0.25, 0.25);
+  Eigen::VectorXd prior = pb.model.phi;
+  for (int i = 0; i < prior.size(); ++i) prior[i] *= 1.0 + u(rng);
+  const int m = pb.base.rank;
+  for (Method method : {Method::Ols, Method::WlsR, Method::WlsC, Method::WlsRC}) {
+    const ScaledProblem sp = prepare(acc, pb.model, prior, method);
+    ASSERT_EQ(sp.s.size(), m);
+    Eigen::VectorXd s_dense;
+    const std::vector<int> ranks = {1, 10, 40, 77, m};
+    const std::vector<Eigen::VectorXd> dense = denseSolve(pb, method, prior, ranks, &s_dense);
+    // Same singular values as the scaled 130-column W: the m nonzero ones, then (structurally) zeros.
+    EXPECT_LT((sp.s - s_dense.head(m)).norm() / s_dense[0], 1e-11) << methodName(method);
+    std::printf("%s: s_1 %.3e, s_m/s_1 %.3e, s_(m+1)/s_1 %.3e\n", methodName(method), sp.s[0], sp.s[m - 1] / sp.s[0], s_dense[m] / s_dense[0]);
+    EXPECT_LT(s_dense[m] / s_dense[0], 1e-12) << methodName(method);
+    for (size_t k = 0; k < ranks.size(); ++k) {
+      const int z = ranks[k];
+      const Eigen::VectorXd a = solveAtRank(sp, z), b = dense[k];
+      EXPECT_LT((a - b).norm() / b.norm(), 1e-8) << methodName(method) << " z " << z;
+    }
+  }
+}
+
+TEST(BatchSolvers, RankChoiceCurvesAreConsistentWithTheirDefinitions) {
+  const Problem pb = makeProblem(600, 4), val = makeProblem(300, 8);
+  const LsqAccumulator acc = accumulate(pb, {64, 4, 50, 2});
+  const LsqAccumulator vacc = accumulate(val, {64, 1, 50, 2});
+  Eigen::VectorXd prior = pb.model.phi * 1.2;
+  const ScaledProblem sp = prepare(acc, pb.model, prior, Method::WlsRC);
+  const LsqFactor vf = toStandard(vacc.mergedBase(), val.base.base_map);
+  const RankCurve vc = rankByValidation(sp, vf);
+  for (int z : {0, 5, 50, vc.best}) {
+    const Eigen::VectorXd phi = solveAtRank(sp, z);
+    const double direct = std::sqrt((val.W * phi - val.y).squaredNorm() / val.W.rows());
+    EXPECT_NEAR(vc.score[z], direct, 1e-9 * direct);
+  }
+  for (double s : vc.score) EXPECT_GE(s, vc.score[vc.best]);
+  // GCV from the factors equals rows * RSS / (rows - z)^2 with the weighted stacked residual.
+  const RankCurve g = rankByGcv(sp);
+  Eigen::VectorXd wrow(pb.W.rows());
+  for (int i = 0; i < pb.N; ++i)
+    for (int c = 0; c < pb.nv; ++c) wrow[i * pb.nv + c] = sp.row_weight[c];
+  for (int z : {3, 60}) {
+    const double r = (wrow.asDiagonal() * (pb.W * solveAtRank(sp, z) - pb.y)).squaredNorm();
+    const double n = static_cast<double>(pb.W.rows());
+    EXPECT_NEAR(g.score[z], n * r / ((n - z) * (n - z)), 1e-8 * g.score[z]);
+  }
+  // Cross-validation: noise-free data of a well-excited problem keep (nearly) every direction.
+  const RankCurve cv = rankByCrossValidation(acc, pb.model, prior, Method::WlsRC);
+  EXPECT_EQ(static_cast<int>(cv.score.size()), sp.s.size() + 1);
+  EXPECT_GT(cv.best, 0);
+}
+
+}  // namespace
+}  // namespace exoid::estimator

@@ -1,0 +1,174 @@
+// Dataset assembly: block-wise zero-phase filtering equals filtering the whole run at once; without a
+// filter the pipeline reproduces K(q, v, dv) and y exactly; the base position from leg kinematics equals
+// the true one when the feet are where the footholds say.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "exoid/estimator/dataset.hpp"
+#include "exoid/model/regressor.hpp"
+#include "exoid/model/urdf.hpp"
+
+namespace exoid::estimator {
+namespace {
+
+Model exo() {
+  Model m;
+  std::string err;
+  EXPECT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, m, &err)) << err;
+  return m;
+}
+
+// A smooth motion with exact derivatives, and wrenches on both feet.
+MeasuredSample sampleAt(const Model& m, double t) {
+  MeasuredSample s;
+  s.t = t;
+  const int nj = m.njoints;
+  s.q.resize(nj), s.v.resize(nj), s.a.resize(nj), s.tau.resize(nj);
+  for (int j = 0; j < nj; ++j) {
+    const double w = 2.0 + 0.7 * j, A = 0.1 + 0.01 * j;
+    s.q[j] = A * std::sin(w * t + j);
+    s.v[j] = A * w * std::cos(w * t + j);
+    s.a[j] = -A * w * w * std::sin(w * t + j);
+    s.tau[j] = 10.0 * std::cos(1.3 * t + j);
+  }
+  s.base_orientation = Eigen::AngleAxisd(0.05 * std::sin(t), Eigen::Vector3d::UnitX()) *
+                       Eigen::AngleAxisd(0.03 * std::sin(2 * t), Eigen::Vector3d::UnitY());
+  s.base_position = Eigen::Vector3d(0.01 * std::sin(t), 0.0, 1.0);
+  s.base_omega = Eigen::Vector3d(0.05 * std::cos(t), 0.06 * std::cos(2 * t), 0.0);
+  s.base_domega = Eigen::Vector3d(-0.05 * std::sin(t), -0.12 * std::sin(2 * t), 0.0);
+  s.base_acceleration = Eigen::Vector3d(-0.01 * std::sin(t), 0.0, 0.0);
+  s.has_base_position = s.has_base_domega = true;
+  s.ncontacts = 2;
+  const int feet[2] = {m.bodyIndex("right_foot"), m.bodyIndex("left_foot")};
+  for (int i = 0; i < 2; ++i) {
+    s.contact[i].body = feet[i];
+    s.contact[i].force = Eigen::Vector3d(5 * std::sin(t), 2.0, 350.0 + 20 * std::sin(3 * t + i));
+    s.contact[i].moment_world_origin = Eigen::Vector3d(3 * std::cos(t), -1.0, 0.5);
+  }
+  return s;
+}
+
+struct Rows {
+  std::vector<double> t;
+  std::vector<Eigen::MatrixXd> K;
+  std::vector<Eigen::VectorXd> y;
+};
+
+Rows run(const Model& m, const DatasetOptions& o, int n, double dt, bool measured_va) {
+  Rows r;
+  DatasetBuilder b(m, o, [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+    r.t.push_back(t), r.K.push_back(K), r.y.push_back(y);
+  });
+  std::string err;
+  for (int i = 0; i < n; ++i) {
+    MeasuredSample s = sampleAt(m, i * dt);
+    if (!measured_va) s.v.resize(0), s.a.resize(0), s.has_base_domega = false;
+    EXPECT_TRUE(b.add(s, &err)) << err;
+  }
+  EXPECT_TRUE(b.finish(&err)) << err;
+  EXPECT_EQ(b.samples(), n);
+  return r;
+}
+
+TEST(Dataset, WithoutFilterTheRowsAreTheRegressorAndTheMeasuredForces) {
+  const Model m = exo();
+  DatasetOptions o;
+  o.block = 100;
+  const Rows r = run(m, o, 250, 1e-3, true);
+  ASSERT_EQ(r.K.size(), 250u);
+  Data kin(m);
+  Eigen::VectorXd y(m.nv);
+  for (int i : {0, 99, 100, 249}) {
+    const MeasuredSample s = sampleAt(m, i * 1e-3);
+    State st = State::zero(m);
+    st.q = s.q, st.v = s.v, st.a = s.a;
+    st.base_orientation = s.base_orientation, st.base_position = s.base_position;
+    st.base_omega = s.base_omega, st.base_domega = s.base_domega, st.base_acceleration = s.base_acceleration;
+    computeJointTorqueRegressor(m, kin, st);
+    generalizedForceFromMeasurements(m, kin, st, s.tau, s.contact, 2, y);
+    EXPECT_EQ((r.K[i] - kin.K).cwiseAbs().maxCoeff(), 0.0) << i;
+    EXPECT_EQ((r.y[i] - y).cwiseAbs().maxCoeff(), 0.0) << i;
+    EXPECT_DOUBLE_EQ(r.t[i], i * 1e-3);
+  }
+}
+
+TEST(Dataset, BlockwiseZeroPhaseFilteringEqualsFilteringTheWholeRun) {
+  const Model m = exo();
+  for (FilterMode mode : {FilterMode::Inputs, FilterMode::Parallel}) {
+    DatasetOptions whole;
+    whole.cutoff_hz = 30.0;
+    whole.filter = mode;
+    whole.block = 1 << 20;
+    DatasetOptions blocks = whole;
+    blocks.block = 300;
+    const int n = 2500;
+    const Rows a = run(m, whole, n, 1e-3, false), b = run(m, blocks, n, 1e-3, false);
+    double worst = 0.0;
+    for (int i = 0; i < n; ++i) {
+      worst = std::max(worst, (a.K[i] - b.K[i]).cwiseAbs().maxCoeff() / std::max(1.0, a.K[i].cwiseAbs().maxCoeff()));
+      worst = std::max(worst, (a.y[i] - b.y[i]).cwiseAbs().maxCoeff() / std::max(1.0, a.y[i].cwiseAbs().maxCoeff()));
+    }
+    EXPECT_LT(worst, 1e-12) << (mode == FilterMode::Inputs ? "inputs" : "parallel");
+  }
+}
+
+TEST(Dataset, DerivativesOfASmoothMotionMatchTheExactOnes) {
+  const Model m = exo();
+  DatasetOptions o;
+  o.cutoff_hz = 50.0;
+  const Rows f = run(m, o, 3000, 1e-3, false);
+  DatasetOptions exact;
+  const Rows e = run(m, exact, 3000, 1e-3, true);
+  double worst = 0.0;
+  for (int i = 100; i < 2900; ++i)
+    worst = std::max(worst, (f.K[i] - e.K[i]).cwiseAbs().maxCoeff() / e.K[i].cwiseAbs().maxCoeff());
+  EXPECT_LT(worst, 2e-3);  // 2nd-order Butterworth at 50 Hz on motions of 0.3-1.5 Hz plus differencing
+}
+
+TEST(Dataset, BasePositionFromLegKinematicsEqualsTheTrueOne) {
+  const Model m = exo();
+  const MeasuredSample truth = sampleAt(m, 0.37);
+  // Footholds placed where the true state puts two sole points.
+  Data kin(m);
+  State st = State::zero(m);
+  st.q = truth.q, st.base_orientation = truth.base_orientation;
+  forwardKinematics(m, kin, st);
+  DatasetOptions o;
+  const Eigen::Matrix3d R = truth.base_orientation.toRotationMatrix();
+  for (const char* foot : {"right_foot", "left_foot"}) {
+    DatasetOptions::Foothold f;
+    f.body = m.bodyIndex(foot);
+    f.point_in_body = Eigen::Vector3d(0.06, 0.0, 0.03);
+    f.world = truth.base_position + R * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
+    o.footholds.push_back(f);
+  }
+  Rows with, without;
+  DatasetBuilder a(m, {}, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { with.K.push_back(K), with.y.push_back(y); });
+  DatasetBuilder b(m, o, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { without.K.push_back(K), without.y.push_back(y); });
+  MeasuredSample s = truth;
+  std::string err;
+  ASSERT_TRUE(a.add(s, &err) && a.finish(&err)) << err;
+  s.has_base_position = false;
+  s.base_position = Eigen::Vector3d(9, 9, 9);  // must not be used
+  ASSERT_TRUE(b.add(s, &err) && b.finish(&err)) << err;
+  ASSERT_EQ(with.y.size(), 1u);
+  ASSERT_EQ(without.y.size(), 1u);
+  EXPECT_LT((with.y[0] - without.y[0]).cwiseAbs().maxCoeff(), 1e-11 * with.y[0].cwiseAbs().maxCoeff());
+}
+
+TEST(Dataset, CutoffAboveNyquistIsAnError) {
+  const Model m = exo();
+  DatasetOptions o;
+  o.cutoff_hz = 600.0;
+  DatasetBuilder b(m, o, [](double, const Eigen::MatrixXd&, const Eigen::VectorXd&) {});
+  std::string err;
+  bool ok = true;
+  for (int i = 0; i < 50 && ok; ++i) ok = b.add(sampleAt(m, i * 1e-3), &err);
+  if (ok) ok = b.finish(&err);
+  EXPECT_FALSE(ok);
+  EXPECT_NE(err.find("Nyquist"), std::string::npos) << err;
+}
+
+}  // namespace
+}  // namespace exoid::estimator

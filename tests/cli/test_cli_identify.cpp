@@ -1,0 +1,272 @@
+// `exoid identify` end to end:
+//  - exact data (ideal run, the simulator's own accelerations, no filter): WLS-RC at full structural rank
+//    predicts y to 1e-8 relative, and its estimate equals the floor set by the unidentifiable directions:
+//    prior + H (B H)^+ B (phi_true - prior), with B the structural base map computed independently of the run;
+//  - KUKA LWR4+ (identify on runs 2 and 3, validate on run 1): the estimate predicts the held-out run's
+//    torques better than the URDF by more than 2x;
+//  - messy data: every damage named with its row/column and exit 2, or dropped and counted with
+//    --skip-bad-rows; data too short for the model rejected.
+#include <gtest/gtest.h>
+#include <lcm/eventlog.h>
+#include <unistd.h>
+
+#include <Eigen/SVD>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/model/urdf.hpp"
+#include "exoid/tools/urdf_inertials.hpp"
+#include "support/paths.hpp"
+#include "support/run_command.hpp"
+
+namespace exoid {
+namespace {
+
+std::string kuka(const std::string& f) { return test::dataPath("kuka_lwr4/" + f); }
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+// Estimate and prior columns of estimate.csv.
+void readEstimate(const std::string& path, Eigen::VectorXd& prior, Eigen::VectorXd& est) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::vector<double> p, e;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string name, a, b;
+    std::getline(ss, name, ',');
+    std::getline(ss, a, ',');
+    std::getline(ss, b, ',');
+    p.push_back(std::stod(a));
+    e.push_back(std::stod(b));
+  }
+  prior = Eigen::Map<Eigen::VectorXd>(p.data(), p.size());
+  est = Eigen::Map<Eigen::VectorXd>(e.data(), e.size());
+}
+
+TEST(IdentifyCli, ExactDataGiveTheIdentifiableFloor) {
+  test::TempDir dir("identify_exact");
+  const auto run = test::runCommand(test::exoidBinary() + " experiment --scenario " + test::configPath("scenarios/ideal.yaml") +
+                                        " --out " + dir.file("run"), dir.path);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto id = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("run/run.lcmlog") +
+                                       " --pipeline truth --method WLS-RC --rank full --prior-perturb 0.25 --prior-seed 3 --out " +
+                                       dir.file("id"), dir.path);
+  ASSERT_EQ(id.exit_code, 0) << id.err;
+  std::printf("%s", id.out.c_str());
+  const nlohmann::json j = readJson(dir.file("id/summary.json"));
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
+  const BaseParameters base = computeBaseParameters(model);
+  EXPECT_EQ(j["rank"].get<int>(), base.rank);
+  const double rel = j["training"]["rmse"].get<double>() / j["training"]["y_rms"].get<double>();
+  std::printf("exact data: prediction RMSE / RMS(y) = %.3e\n", rel);
+  EXPECT_LE(rel, 1e-8);
+  Eigen::VectorXd prior, est;
+  readEstimate(dir.file("id/estimate.csv"), prior, est);
+  ASSERT_EQ(est.size(), model.nparams());
+  // Independent floor: the point of {phi : B phi = B phi_true} closest to the prior in the H^-1 metric.
+  Eigen::VectorXd h = prior.cwiseAbs();
+  {
+    // The same scale rule as WLS-C (columnScale), rebuilt here: zero priors of a kind take that kind's median
+    // (or 1 when the whole kind is zero, e.g. friction absent from the URDF).
+    const int nb = model.nInertialParams();
+    auto kind = [&](int i) { return i >= nb ? 3 + (i - nb) % 2 : (i % 10 == 0 ? 0 : i % 10 < 4 ? 1 : 2); };
+    for (int k = 0; k < 5; ++k) {
+      std::vector<double> v;
+      double vmax = 0;
+      for (int i = 0; i < h.size(); ++i)
+        if (kind(i) == k) v.push_back(h[i]), vmax = std::max(vmax, h[i]);
+      std::sort(v.begin(), v.end());
+      const double med = v[v.size() / 2], fl = 1e-3 * vmax;
+      for (int i = 0; i < h.size(); ++i)
+        if (kind(i) == k && !(h[i] > fl)) h[i] = vmax == 0 ? 1.0 : med > fl ? med : vmax;
+    }
+  }
+  const Eigen::MatrixXd BH = base.base_map * h.asDiagonal();
+  const Eigen::VectorXd floor =
+      prior + h.cwiseProduct(BH.completeOrthogonalDecomposition().solve(base.base_map * (model.phi - prior)));
+  auto avgErr = [&](const Eigen::VectorXd& x) {
+    double s = 0;
+    int n = 0;
+    for (int i = 0; i < model.nInertialParams(); ++i)
+      if (std::abs(model.phi[i]) > 1e-12) s += std::abs((x[i] - model.phi[i]) / model.phi[i]), ++n;
+    return 100.0 * s / n;
+  };
+  std::printf("estimation error: WLS-RC %.6f %%, floor %.6f %%, prior %.6f %%; max |est - floor| / max |phi| %.3e\n",
+              avgErr(est), avgErr(floor), avgErr(prior), (est - floor).cwiseAbs().maxCoeff() / model.phi.cwiseAbs().maxCoeff());
+  EXPECT_NEAR(avgErr(est), avgErr(floor), 1e-3 * avgErr(floor));
+  EXPECT_LT((est - floor).cwiseAbs().maxCoeff(), 1e-6 * model.phi.cwiseAbs().maxCoeff());
+  // The URDF written with the identified inertials (when every link is consistent) loads back to them.
+  if (!j["identified_urdf"].is_null()) {
+    Model back;
+    ASSERT_TRUE(buildModelFromUrdfFile(dir.file("id/identified.urdf"), true, back, &err)) << err;
+    ASSERT_EQ(back.nparams(), model.nparams());
+    const int ni = model.nInertialParams();
+    EXPECT_LT((back.phi.head(ni) - est.head(ni)).cwiseAbs().maxCoeff(), 1e-9 * est.head(ni).cwiseAbs().maxCoeff());
+  } else {
+    for (const auto& l : j["links"]) std::printf("link %s consistent %d\n", l["link"].get<std::string>().c_str(), l["consistent"].get<bool>());
+  }
+}
+
+TEST(IdentifyCli, IdentifiedUrdfRoundTrips) {
+  // Any consistent parameters written into the exoskeleton's URDF load back exactly.
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
+  test::TempDir dir("identify_urdf");
+  Eigen::VectorXd phi = model.phi;
+  for (int i = 0; i < model.nInertialParams(); ++i) phi[i] *= 1.0 + 0.01 * ((i * 7) % 5);
+  ASSERT_TRUE(tools::writeUrdfWithInertials(test::configPath("exo.urdf"), model, phi, dir.file("x.urdf"), &err)) << err;
+  Model back;
+  ASSERT_TRUE(buildModelFromUrdfFile(dir.file("x.urdf"), true, back, &err)) << err;
+  const int ni = model.nInertialParams();
+  EXPECT_LT((back.phi.head(ni) - phi.head(ni)).cwiseAbs().maxCoeff(), 1e-12 * phi.head(ni).cwiseAbs().maxCoeff());
+  EXPECT_EQ(back.body_names, model.body_names);
+}
+
+TEST(IdentifyCli, KukaValidationTorquesBeatTheUrdf) {
+  test::TempDir dir("identify_kuka");
+  const auto id = test::runCommand(test::exoidBinary() + " identify --fixed-base --model " + kuka("kuka_lwr4.urdf") +
+                                       " --data " + kuka("measurements_2.csv") + " " + kuka("measurements_3.csv") +
+                                       " --validate " + kuka("measurements_1.csv") + " --rank cv --out " + dir.file("id"),
+                                   dir.path);
+  ASSERT_EQ(id.exit_code, 0) << id.err;
+  std::printf("%s", id.out.c_str());
+  const nlohmann::json j = readJson(dir.file("id/summary.json"));
+  const double rmse = j["validation"]["rmse"].get<double>(), prior = j["validation"]["prior_rmse"].get<double>();
+  EXPECT_LT(rmse, 0.5 * prior);
+  EXPECT_EQ(j["inputs"][0]["samples"].get<long>(), 5027);
+}
+
+class IdentifyMessy : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::ifstream in(kuka("measurements_1.csv"));
+    std::string line;
+    while (std::getline(in, line)) lines_.push_back(line);
+  }
+  // Writes the KUKA run with an edit and runs identify on it.
+  test::CommandResult run(std::vector<std::string> lines, const std::string& extra = "", bool final_newline = true,
+                          const std::string& rank = "full") {
+    std::ofstream f(dir_.file("m.csv"));
+    for (size_t i = 0; i < lines.size(); ++i) f << lines[i] << (i + 1 < lines.size() || final_newline ? "\n" : "");
+    f.close();
+    return test::runCommand(test::exoidBinary() + " identify --fixed-base --model " + kuka("kuka_lwr4.urdf") +
+                                " --data " + dir_.file("m.csv") + " --rank " + rank + " " + extra, dir_.path);
+  }
+  static std::string replaceCell(const std::string& line, int col, const std::string& v) {
+    std::vector<std::string> c;
+    std::stringstream ss(line);
+    std::string x;
+    while (std::getline(ss, x, ',')) c.push_back(x);
+    c[col] = v;
+    std::string out;
+    for (size_t i = 0; i < c.size(); ++i) out += (i ? "," : "") + c[i];
+    return out;
+  }
+  test::TempDir dir_{"identify_messy"};
+  std::vector<std::string> lines_;
+};
+
+TEST_F(IdentifyMessy, CleanDataPass) {
+  const auto r = run(lines_);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+TEST_F(IdentifyMessy, MissingAndMisnamedColumnsAreNamed) {
+  auto l = lines_;
+  l[0] = replaceCell(l[0], 23, "tau_lwr_1_jiont");  // 0-based column 23: tau_lwr_1_joint
+  auto r = run(l);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("unknown column 'tau_lwr_1_jiont'"), std::string::npos) << r.err;
+  l = lines_;
+  for (auto& s : l) s = s.substr(0, s.rfind(','));  // drop tau_lwr_6_joint
+  r = run(l);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("missing column 'tau_lwr_6_joint'"), std::string::npos) << r.err;
+}
+
+TEST_F(IdentifyMessy, BadRowsAreNamedOrSkippedAndCounted) {
+  auto l = lines_;
+  l[100] = l[99];                                         // repeated timestamp (row 101)
+  l[200] = replaceCell(l[200], 3, "nan");                 // NaN
+  l[300] = replaceCell(l[300], 25, "1e12");               // absurd torque
+  l[400] = replaceCell(l[400], 5, "abc");                 // not a number
+  l.back() = l.back().substr(0, l.back().size() / 2);     // truncated last line
+  auto r = run(l);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("row 101: column 't'"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  r = run(l, "--skip-bad-rows --out " + dir_.file("o"), false);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = readJson(dir_.file("o/summary.json"));
+  const auto& in = j["inputs"][0];
+  EXPECT_EQ(in["skipped"].get<long>(), 5);
+  EXPECT_EQ(in["samples"].get<long>(), static_cast<long>(lines_.size()) - 1 - 5);
+  EXPECT_EQ(in["skipped_by_reason"]["time not increasing"].get<long>(), 1);
+  EXPECT_EQ(in["skipped_by_reason"]["not a finite number"].get<long>(), 2);
+  EXPECT_EQ(in["skipped_by_reason"]["absurd value"].get<long>(), 1);
+  EXPECT_EQ(in["skipped_by_reason"]["truncated last line"].get<long>(), 1);
+}
+
+TEST_F(IdentifyMessy, DecreasingTimeIsNamed) {
+  auto l = lines_;
+  l[50] = replaceCell(l[50], 0, "0.0001");
+  const auto r = run(l);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("row 51: column 't'"), std::string::npos) << r.err;
+}
+
+TEST_F(IdentifyMessy, TooShortDataAreRejected) {
+  const auto r = run(std::vector<std::string>(lines_.begin(), lines_.begin() + 4));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("too little data"), std::string::npos) << r.err;
+}
+
+TEST_F(IdentifyMessy, UnexcitingDataReportTheUnexcitedParameters) {
+  // The arm standing still for 200 samples: only gravity is seen.
+  std::vector<std::string> l{lines_[0]};
+  for (int i = 1; i <= 200; ++i) {
+    std::string row = replaceCell(lines_[1], 0, std::to_string(i * 0.005));
+    for (int c = 8; c < 22; ++c) row = replaceCell(row, c, "0");
+    l.push_back(row);
+  }
+  const auto r = run(l, "--out " + dir_.file("o"), true, "cv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = readJson(dir_.file("o/summary.json"));
+  EXPECT_GT(j["not_excited"].size(), 40u) << r.out;  // inertia and friction cannot show without motion
+  EXPECT_GT(j["condition_number"].get<double>(), 0.0);
+}
+
+TEST(IdentifyCli, ALogWithoutTheNeededChannelsIsAnError) {
+  test::TempDir dir("identify_nochan");
+  lcm_eventlog_t* log = lcm_eventlog_create(dir.file("x.lcmlog").c_str(), "w");
+  ASSERT_NE(log, nullptr);
+  char channel[] = "SOMETHING_ELSE";
+  char data[4] = {1, 2, 3, 4};
+  lcm_eventlog_event_t e{};
+  e.timestamp = 1;
+  e.channellen = sizeof(channel) - 1;
+  e.datalen = sizeof(data);
+  e.channel = channel;
+  e.data = data;
+  ASSERT_EQ(lcm_eventlog_write_event(log, &e), 0);
+  lcm_eventlog_destroy(log);
+  const auto r = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("x.lcmlog"), dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("has none of the channels"), std::string::npos) << r.err;
+  const auto r2 = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("missing.lcmlog"), dir.path);
+  EXPECT_EQ(r2.exit_code, 2);
+  EXPECT_NE(r2.err.find("cannot open"), std::string::npos) << r2.err;
+}
+
+}  // namespace
+}  // namespace exoid
