@@ -7,6 +7,7 @@
 
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
+#include "exoid/estimator/online/row_filter.hpp"
 #include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
@@ -36,13 +37,19 @@ TEST(OnlineNoAllocation, UpdateSolveAndPredictAllocateNothing) {
   Eigen::MatrixXd Kbad = Eigen::MatrixXd::Zero(model.nv, model.nparams());
   Kbad(6, base.independent[rm.active[6][0]]) = std::numeric_limits<double>::quiet_NaN();
 
+  CausalRowFilter filter;
+  filter.configure(rm, 30.0, 1000.0);
+  Eigen::MatrixXd Kf = Eigen::MatrixXd::Zero(model.nv, model.nparams());
+  Eigen::VectorXd yf(model.nv);
+
   exoid::test::AllocationCounter counter;
   Eigen::internal::set_is_malloc_allowed(false);
   long accepted = 0;
   for (int k = 0; k < 2000; ++k) {
     computeJointTorqueRegressor(model, data, states[k % states.size()]);
     y.noalias() = data.K * prior;
-    accepted += updateRecursiveLs(rm, rd, k, data.K, y) == SampleStatus::Accepted;
+    filter.filter(rm, data.K, y, Kf, yf);
+    accepted += updateRecursiveLs(rm, rd, k, Kf, yf) == SampleStatus::Accepted;
     updateRecursiveLs(rm, rd, k, data.K, y);   // duplicate
     updateRecursiveLs(rm, rd, k + 1, Kbad, y);  // non-finite
     predictRecursiveLs(rm, rd, data.K, tau);

@@ -12,6 +12,7 @@
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/batch/accumulator.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
+#include "exoid/estimator/online/row_filter.hpp"
 #include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
@@ -284,6 +285,42 @@ TEST(RecursiveLs, BadConfigurationIsRefusedWithAMessage) {
   opt.row_weight = {1.0, 2.0};
   EXPECT_FALSE(makeRecursiveLs(e.model, e.base, prior, Lambda0, opt, rm, &err));
   EXPECT_NE(err.find("row weights"), std::string::npos) << err;
+}
+
+TEST(CausalRowFilter, SameFilterOnRowsAndYKeepsTheEquationsExact) {
+  const Exo& e = exo();
+  const Model& model = e.model;
+  RecursiveLsModel rm;
+  std::string err;
+  const Eigen::VectorXd phi = model.phi;
+  ASSERT_TRUE(makeRecursiveLs(model, e.base, phi, diagonalPriorInformation(model, e.base, phi, 0.25), {}, rm, &err));
+  CausalRowFilter filter;
+  filter.configure(rm, 30.0, 1000.0);
+  LowPassFilter one;  // an independent single-channel filter on one entry
+  one.configure(1, 30.0, 1000.0);
+  const int c = 8, col = e.base.independent[rm.active[8].back()];
+  Data data(model);
+  State s = State::zero(model);
+  std::mt19937_64 rng(3);
+  Eigen::MatrixXd Kf = Eigen::MatrixXd::Zero(model.nv, model.nparams());
+  Eigen::VectorXd y(model.nv), yf(model.nv), single(1);
+  // K phi = K_B x (W = W_B B): the base parameters on the independent columns, zeros elsewhere.
+  Eigen::VectorXd phi_b = Eigen::VectorXd::Zero(model.nparams());
+  for (int j = 0; j < rm.m; ++j) phi_b[e.base.independent[j]] = rm.x0[j];
+  double worst = 0.0, moved = 0.0;
+  for (int k = 0; k < 500; ++k) {
+    randomState(model, rng, s);
+    computeJointTorqueRegressor(model, data, s);
+    y = data.K * phi;
+    filter.filter(rm, data.K, y, Kf, yf);
+    single[0] = data.K(c, col);
+    one.filter(single, single);
+    EXPECT_NEAR(Kf(c, col), single[0], 1e-12 * (1 + std::abs(single[0])));
+    worst = std::max(worst, (Kf * phi_b - yf).norm() / yf.norm());
+    moved = std::max(moved, (Kf - data.K).norm() / data.K.norm());
+  }
+  EXPECT_LE(worst, 1e-12);  // F(K) phi = F(y)
+  EXPECT_GT(moved, 0.1);    // while K itself was changed a lot (random states: broadband)
 }
 
 }  // namespace
