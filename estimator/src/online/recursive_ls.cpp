@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <random>
 
 #include "exoid/estimator/batch/solvers.hpp"
@@ -198,6 +200,107 @@ void predictRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& da
     for (int j : model.active[c]) sum += K(c, model.independent[j]) * data.x[j];
     tau[c] = sum;
   }
+}
+
+namespace {
+constexpr char kMagic[8] = {'E', 'X', 'O', 'R', 'L', 'S', '0', '1'};
+
+// The model's structure as the checkpoint stores it: a restored state is only valid for the same one.
+std::vector<double> structure(const RecursiveLsModel& model) {
+  std::vector<double> v = {double(model.nv), double(model.m), double(model.p), model.forgetting};
+  for (const auto& cols : model.active) {
+    v.push_back(double(cols.size()));
+    for (int j : cols) v.push_back(j);
+  }
+  for (int j : model.independent) v.push_back(j);
+  for (int j = 0; j < model.m; ++j) v.push_back(model.x0[j]);
+  for (int c = 0; c < model.nv; ++c) v.push_back(model.row_weight[c]);
+  for (int i = 0; i < model.prior_information.size(); ++i) v.push_back(model.prior_information.data()[i]);
+  return v;
+}
+}  // namespace
+
+bool saveRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data, const std::string& path,
+                     std::string* error) {
+  std::vector<double> v = structure(model);
+  const double header_size = double(v.size());
+  v.insert(v.begin(), header_size);
+  for (int c = 0; c < model.nv; ++c) {
+    v.insert(v.end(), data.D[c].data(), data.D[c].data() + data.D[c].size());
+    v.insert(v.end(), data.d[c].data(), data.d[c].data() + data.d[c].size());
+  }
+  v.insert(v.end(), data.yy.data(), data.yy.data() + data.yy.size());
+  for (double x : {data.scale, data.effective_samples, double(data.last_tick), double(data.has_tick),
+                   double(data.accepted), double(data.rejected_nonfinite), double(data.rejected_out_of_order),
+                   double(data.rejected_duplicate), double(data.missing)})
+    v.push_back(x);
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out.write(kMagic, sizeof kMagic);
+    const double n = double(v.size());
+    out.write(reinterpret_cast<const char*>(&n), sizeof n);
+    out.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(double)));
+    if (!out) {
+      if (error) *error = tmp + ": cannot write the checkpoint";
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    if (error) *error = path + ": cannot rename " + tmp + " onto it";
+    return false;
+  }
+  return true;
+}
+
+bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const std::string& path,
+                     std::string* error) {
+  auto fail = [&](const std::string& what) {
+    if (error) *error = path + ": " + what;
+    return false;
+  };
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail("cannot open the checkpoint");
+  char magic[sizeof kMagic];
+  double n = 0;
+  if (!in.read(magic, sizeof magic) || std::string(magic, sizeof magic) != std::string(kMagic, sizeof kMagic))
+    return fail("not an estimator checkpoint (bad magic)");
+  if (!in.read(reinterpret_cast<char*>(&n), sizeof n) || !(n >= 1 && n < 1e9)) return fail("bad length field");
+  std::vector<double> v(static_cast<size_t>(n));
+  if (!in.read(reinterpret_cast<char*>(v.data()), std::streamsize(v.size() * sizeof(double))))
+    return fail("truncated (" + std::to_string(v.size()) + " values expected)");
+  if (in.peek() != std::char_traits<char>::eof()) return fail("trailing bytes after the checkpoint");
+  const std::vector<double> s = structure(model);
+  if (v[0] != double(s.size()) || v.size() < s.size() + 1 || !std::equal(s.begin(), s.end(), v.begin() + 1))
+    return fail("written for a different estimator (model structure, prior, weights or forgetting differ)");
+  size_t i = s.size() + 1;
+  size_t need = i + model.nv + 9;
+  for (int c = 0; c < model.nv; ++c) need += data.D[c].size() + data.d[c].size();
+  if (v.size() != need) return fail("size " + std::to_string(v.size()) + " does not match the model (" +
+                                    std::to_string(need) + ")");
+  for (size_t k = s.size() + 1; k < v.size(); ++k)
+    if (!std::isfinite(v[k])) return fail("non-finite value at position " + std::to_string(k));
+  RecursiveLsData restored = data;
+  for (int c = 0; c < model.nv; ++c) {
+    std::copy(v.begin() + i, v.begin() + i + restored.D[c].size(), restored.D[c].data());
+    i += restored.D[c].size();
+    std::copy(v.begin() + i, v.begin() + i + restored.d[c].size(), restored.d[c].data());
+    i += restored.d[c].size();
+  }
+  std::copy(v.begin() + i, v.begin() + i + model.nv, restored.yy.data());
+  i += model.nv;
+  restored.scale = v[i++];
+  restored.effective_samples = v[i++];
+  restored.last_tick = long(v[i++]);
+  restored.has_tick = v[i++] != 0.0;
+  restored.accepted = long(v[i++]);
+  restored.rejected_nonfinite = long(v[i++]);
+  restored.rejected_out_of_order = long(v[i++]);
+  restored.rejected_duplicate = long(v[i++]);
+  restored.missing = long(v[i++]);
+  if (!(restored.scale > 0.0 && restored.scale <= 1.0)) return fail("scale out of (0, 1]");
+  data = std::move(restored);
+  return true;
 }
 
 }  // namespace exoid::estimator

@@ -126,4 +126,15 @@ bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool
 void predictRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data,
                         const Eigen::Ref<const Eigen::MatrixXd>& K, Eigen::Ref<Eigen::VectorXd> tau);
 
+/// Checkpoint for a restarted estimator: writes the accumulated state (D_c, d_c, yy, scale, effective samples,
+/// tick and counters) with the model's structure (nv, m, active sets, forgetting, prior, row weights) to
+/// `path` (binary, native endianness; written to path + ".tmp", then renamed, so a crash never leaves half a
+/// file). Not real-time (file I/O): call it off the per-sample path.
+bool saveRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data, const std::string& path,
+                     std::string* error);
+/// Restores a checkpoint written for the same model structure; on any mismatch or a damaged file returns
+/// false with *error naming the file and what differs, and leaves data untouched. Call solveRecursiveLs after.
+bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const std::string& path,
+                     std::string* error);
+
 }  // namespace exoid::estimator
