@@ -1,4 +1,9 @@
 // exo_sim: the simulated exoskeleton on two force plates, as an LCM process (docs/sim.md).
+#include <sched.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
+
+#include <cerrno>
 #include <csignal>
 #include <cmath>
 #include <cstdio>
@@ -23,6 +28,9 @@ namespace {
 using exoid::common::kExitBadInput;
 using exoid::common::kExitOk;
 using exoid::common::kExitRuntime;
+constexpr int kExitFell = 3;
+constexpr int kExitControllerLost = 4;
+constexpr int kExitInterrupted = 5;
 
 volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
@@ -43,6 +51,13 @@ int main(int argc, char** argv) {
   std::string scenario_path = config + "/scenarios/nominal.yaml";
   std::string url = LcmEndpoint::defaultUrl();
   RunOptions opt;
+  std::string result_path;
+  PluginOptions plugin_opt;
+  plugin_opt.model_path = config + "/exo.urdf";
+  plugin_opt.config_path = config + "/controller.yaml";
+  double plugin_budget_us = -1.0;  // < 0: the mode's default
+  int rate_hz = 1000, rt_priority = 0;
+  bool no_estimate = false;
 
   CLI::App app{
       "Simulates the exoskeleton standing on two force plates (MuJoCo 2.2, 1 kHz: one 1 ms step per control\n"
@@ -75,7 +90,55 @@ int main(int argc, char** argv) {
                  "lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
                  "for a late controller; if none comes, run open loop without waiting")
       ->transform(common::strictNumber(0.0, 3600.0))->type_name("S");
+  app.add_option("--max-missing-commands", opt.max_missing_commands,
+                 "once a controller has answered: end the run (exit 4) when N consecutive\n"
+                 "commands are missing (lockstep: each after a --command-timeout-ms wait, so at most\n"
+                 "N x that; realtime: N x --command-timeout-ms ms without a fresh command); 0 never\n"
+                 "gives up")
+      ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_option("--result", result_path,
+                 "write the summary as JSON to FILE at the end (outcome, fall tick, fallback\n"
+                 "ticks, ...; `exoid experiment` reads it)")
+      ->type_name("FILE");
   app.add_flag("--quiet", opt.quiet, "no progress line (the summary line is always printed)");
+  app.add_option("--rt-priority", rt_priority,
+                 "realtime: lock memory (mlockall) and run the loop under SCHED_FIFO priority N\n"
+                 "(needs root or CAP_SYS_NICE, else a warning and normal scheduling)")
+      ->transform(common::strictInteger(1, 99))->type_name("N");
+  // In-loop controller (docs/plugin.md); without --controller-plugin a controller process answers EXO_COMMAND.
+  app.add_option("--controller-plugin", plugin_opt.path,
+                 "in-loop controller: load the controller plugin LIB (e.g.\n"
+                 "build/lib/libexoid_controller_plugin.so, docs/plugin.md) and call it after each\n"
+                 "step: state of tick k in, command for tick k+1 out (the one-tick delay of a\n"
+                 "controller process); the loop publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS\n"
+                 "and feeds EXO_ESTIMATE's feedforward to it. A failed, non-finite, malformed or\n"
+                 "over-budget answer is replaced by a counted fallback: hold the last good torque,\n"
+                 "then damping")
+      ->type_name("LIB");
+  app.add_option("--controller-model", plugin_opt.model_path, "robot model given to the plugin")->type_name("URDF");
+  app.add_option("--controller-config", plugin_opt.config_path, "the plugin's configuration")->type_name("FILE");
+  app.add_option("--controller-seed", plugin_opt.seed, "seed given to the plugin: the CoM move sequence (default 1)")
+      ->transform(common::strictInteger(0))->type_name("N");
+  app.add_option("--controller-moves", plugin_opt.moves, "CoM moves given to the plugin (0: the configuration's)")
+      ->transform(common::strictInteger(0, 1000))->type_name("N");
+  app.add_option("--controller-rate-hz", rate_hz,
+                 "plugin rate, a divisor of the 1000 Hz physics rate; the command is held between\n"
+                 "calls")
+      ->transform(common::strictInteger(1, 1000))
+      ->check(CLI::Validator([](std::string& v) { return 1000 % std::stoi(v) == 0 ? std::string() : "not a divisor of 1000"; },
+                             "", "divisor of 1000"))
+      ->type_name("HZ");
+  app.add_option("--plugin-budget-us", plugin_budget_us,
+                 "a plugin call longer than US microseconds (wall clock) is discarded and counted\n"
+                 "(default: none in lockstep, which stays deterministic; half the controller period\n"
+                 "in realtime)")
+      ->transform(common::strictNumber(0.0, 1e7))->type_name("US");
+  app.add_option("--plugin-hold-ticks", plugin_opt.hold_ticks,
+                 "plugin fallback: controller ticks on the last good torque before damping")
+      ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_flag("--no-estimate", no_estimate,
+               "with a plugin: do not subscribe to EXO_ESTIMATE (no estimator running: the loop then\n"
+               "reads nothing back from LCM, which saves a receive per published message)");
   app.footer(
       "channels (LCM, package exoid_lcm, SI units, docs/lcm.md):\n"
       "  publishes  EXO_STATE        robot_state_t    encoders rad, joint torques N m, IMU (quaternion world<-IMU\n"
@@ -84,19 +147,32 @@ int main(int argc, char** argv) {
       "             EXO_PLATE_LEFT   force_plate_t    plate frame; CoP m on the top surface (0 below 20 N load)\n"
       "             EXO_TRUTH        ground_truth_t   exact state, accelerations, applied torques, contact\n"
       "                                               wrenches ON the feet (world, moment about the world origin)\n"
+      "             EXO_COMMAND, EXO_CONTROLLER_STATUS   with --controller-plugin: the plugin's command and status\n"
       "  subscribes EXO_COMMAND      joint_command_t  torque command N m for tick `tick`; NaN/Inf, wrong size or\n"
       "                                               names, duplicate and out-of-order ticks are rejected and\n"
       "                                               counted; torques are clamped to the actuator ranges\n"
+      "                                               (not with --controller-plugin)\n"
+      "             EXO_ESTIMATE     estimator_output_t with --controller-plugin: its tau_ff goes to the plugin\n"
       "\n"
       "output: a progress line per simulated second (unless --quiet), then one summary line: ticks, realtime\n"
       "factor, accepted/rejected commands by reason, fallback ticks (held, zero, timeouts), clamped commands,\n"
-      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m).\n"
+      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m). A fall ends the run at\n"
+      "the fall tick (nothing after it is worth simulating; docs/sim.md). With a plugin a second line: calls,\n"
+      "good answers, failures by kind, over-budget calls, fallback ticks, call time. Last, the process's CPU\n"
+      "time (user, system) and simulated seconds per CPU second (the real-time factor with a core of its own).\n"
       "\n"
-      "exit codes: 0 run completed (also when interrupted by SIGINT/SIGTERM or when the robot fell),\n"
-      "            1 runtime failure (LCM), 2 bad input (options, MJCF, sensors or scenario file; one line\n"
-      "            on stderr names the problem).");
+      "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM, --result unwritable),\n"
+      "            2 bad input (options, MJCF, sensors or scenario file; a plugin that does not load, has another\n"
+      "            ABI version or fails to create; one line on stderr names the problem),\n"
+      "            3 the robot fell (run ended at the fall tick, printed),\n"
+      "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).");
   if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
   opt.mode = mode == "realtime" ? SimMode::Realtime : SimMode::Lockstep;
+  plugin_opt.divisor = 1000 / rate_hz;
+  plugin_opt.listen_estimate = !no_estimate;
+  // From here on a stop request ends the run cleanly (exit 5, --result written), also while loading.
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
 
   // Inputs: every problem is one line naming the file and the field.
   std::string err;
@@ -109,6 +185,15 @@ int main(int argc, char** argv) {
   SimData data;
   if (!simLoad(model_path, noise, scenario, model, &err)) return badInput(err);
   if (!simMakeData(model, data, &err)) return badInput(err);
+  std::unique_ptr<ControllerPlugin> plugin;
+  if (!plugin_opt.path.empty()) {
+    plugin_opt.budget_us = plugin_budget_us >= 0.0                 ? plugin_budget_us
+                           : opt.mode == SimMode::Realtime ? 500.0 * plugin_opt.divisor
+                                                           : 0.0;
+    plugin = ControllerPlugin::load(plugin_opt, model.joint_names, model.m->opt.timestep, &err);
+    if (!plugin) return badInput(err);
+    opt.plugin = plugin.get();
+  }
   std::string normalised;
   if (!LcmEndpoint::checkUrl(url, &normalised, &err)) return badInput("--lcm-url: " + err);
   std::unique_ptr<LcmEndpoint> endpoint = LcmEndpoint::create(normalised, &err);
@@ -117,9 +202,17 @@ int main(int argc, char** argv) {
     return kExitRuntime;
   }
 
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
+  if (rt_priority > 0) {  // no page faults and no time-sharing preemption inside the 1 kHz loop
+    sched_param sp{};
+    sp.sched_priority = rt_priority;
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 || sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+      std::fprintf(stderr, "exo_sim: warning: --rt-priority %d: %s (running with normal scheduling)\n", rt_priority,
+                   std::strerror(errno));
+  }
   if (!opt.quiet) {
+    if (plugin)
+      std::printf("exo_sim: controller plugin '%s' (%s) at %d Hz, seed %llu\n", plugin->name(), plugin_opt.path.c_str(),
+                  rate_hz, static_cast<unsigned long long>(plugin_opt.seed));
     std::printf("exo_sim: %s, scenario '%s' (%s), noise %s, seed %llu, %s, %.3f s, LCM %s\n", model_path.c_str(),
                 scenario.name.c_str(), scenario_path.c_str(), noise.source.empty() ? "none" : noise.source.c_str(),
                 static_cast<unsigned long long>(scenario.seed),
@@ -129,10 +222,33 @@ int main(int argc, char** argv) {
   RunSummary summary;
   const bool ok = runSim(model, data, *endpoint, opt, &summary, &err, &g_stop);
   std::printf("%s\n", formatSummary(summary).c_str());
+  if (plugin) std::printf("%s\n", plugin->formatStats().c_str());
+  {  // CPU time: what the loop costs, whatever else the machine runs (wall time counts waiting for the CPU)
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const double user = ru.ru_utime.tv_sec + 1e-6 * ru.ru_utime.tv_usec, sys = ru.ru_stime.tv_sec + 1e-6 * ru.ru_stime.tv_usec;
+    std::printf("exo_sim: cpu user %.3f s, system %.3f s: %.2f simulated s per cpu s\n", user, sys,
+                user + sys > 0 ? summary.sim_time_s / (user + sys) : 0.0);
+  }
   std::fflush(stdout);
+  if (!result_path.empty()) {
+    std::FILE* f = std::fopen(result_path.c_str(), "w");
+    const std::string json = runSummaryJson(summary);
+    if (!f || std::fputs(json.c_str(), f) < 0 || std::fclose(f) != 0) {
+      std::fprintf(stderr, "exo_sim: cannot write --result '%s': %s\n", result_path.c_str(), std::strerror(errno));
+      return kExitRuntime;
+    }
+  }
   if (!ok) {
     std::fprintf(stderr, "exo_sim: %s\n", err.c_str());
     return kExitRuntime;
   }
-  return kExitOk;
+  switch (summary.outcome) {
+    case RunOutcome::Completed: return kExitOk;
+    case RunOutcome::Fell: return kExitFell;
+    case RunOutcome::ControllerLost: return kExitControllerLost;
+    case RunOutcome::Interrupted: return kExitInterrupted;
+    case RunOutcome::LcmFailure: return kExitRuntime;
+  }
+  return kExitRuntime;
 }

@@ -1,10 +1,14 @@
 // exo_sim over LCM: the loop in-process against a fake controller on memq:// (timing convention, gate,
 // fallbacks), and the binary's command line (help, exit codes, one-line errors).
+#include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <array>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -132,6 +136,99 @@ TEST(ExoSimLoop, RealtimeRunsAtWallClockAndCountsStaleTicks) {
   EXPECT_EQ(s.timeouts, 0);               // realtime never waits for a command
 }
 
+// A fall ends the run at the fall tick (the floor does not collide: without this the robot dropped to
+// z = -300 m while the run went on); the tick is reported and the last published tick is the fall tick.
+TEST(ExoSimLoop, AFallEndsTheRunAtTheFallTick) {
+  std::string err;
+  Scenario sc;
+  sc.noise = NoiseMode::Off;
+  SimModel sm;
+  SimData sd;
+  ASSERT_TRUE(simLoad(cfg("exo.xml"), SensorConfig(), sc, sm, &err)) << err;
+  ASSERT_TRUE(simMakeData(sm, sd, &err)) << err;
+  const double z0 = sd.d->qpos[sm.base_qpos + 2];
+  LcmEndpoint ep("memq://");
+  std::vector<double> z;  // truth base height per tick
+  ep.subscribe<exoid_lcm::ground_truth_t>(channels::kTruth, [&](const char*, const exoid_lcm::ground_truth_t& t) {
+    ASSERT_EQ(t.tick, static_cast<int64_t>(z.size()));
+    z.push_back(t.base_position[2]);
+  });
+  RunOptions opt;
+  opt.duration_s = 5.0;
+  opt.start_timeout_s = 0.0;  // no controller: open loop at zero torque, the robot folds up
+  opt.quiet = true;
+  RunSummary s;
+  ASSERT_TRUE(runSim(sm, sd, ep, opt, &s, &err)) << err;
+  while (ep.handleAvailable() > 0) {
+  }
+  EXPECT_EQ(s.outcome, RunOutcome::Fell);
+  EXPECT_TRUE(s.fell);
+  EXPECT_EQ(s.ticks_planned, 5000);
+  ASSERT_GT(s.fall_tick, 0);
+  EXPECT_LT(s.fall_tick, 2000);  // folds within a fraction of a second; 5 s were planned
+  EXPECT_EQ(s.ticks, s.fall_tick + 1);
+  ASSERT_EQ(static_cast<int64_t>(z.size()), s.ticks);
+  // Independent check on the published truth: every tick before the fall tick was above the threshold, and
+  // the state after the fall tick (z of the fall tick + one step at most ~5 mm) is below it.
+  for (int64_t k = 0; k < s.fall_tick; ++k) ASSERT_GE(z[static_cast<size_t>(k)], z0 - kFallDrop) << k;
+  EXPECT_LT(z.back(), z0 - kFallDrop + 0.005);
+  EXPECT_EQ(s.zero_ticks, s.ticks - 1);
+  EXPECT_EQ(s.timeouts, 0);  // open loop never waits
+  EXPECT_NE(formatSummary(s).find("fell (fall at tick " + std::to_string(s.fall_tick)), std::string::npos)
+      << formatSummary(s);
+}
+
+// A controller that answered and then went silent ends the run after max_missing_commands consecutive
+// missing commands, instead of a command_timeout_ms wait on every remaining tick (an hour for a 20-move run).
+TEST(ExoSimLoop, ASilentControllerEndsTheRunAfterMaxMissingCommands) {
+  std::string err;
+  Scenario sc;
+  sc.noise = NoiseMode::Off;
+  SimModel sm;
+  SimData sd;
+  ASSERT_TRUE(simLoad(cfg("exo.xml"), SensorConfig(), sc, sm, &err)) << err;
+  ASSERT_TRUE(simMakeData(sm, sd, &err)) << err;
+  LcmEndpoint ep("memq://");
+  JointCommandSample cmd;
+  cmd.tau.setZero(sm.nj);
+  cmd.tau_ff.setZero(sm.nj);
+  exoid_lcm::joint_command_t msg;
+  ep.subscribe<exoid_lcm::robot_state_t>(channels::kState, [&](const char*, const exoid_lcm::robot_state_t& st) {
+    if (st.tick + 1 > 100) return;  // the controller dies after sending the command for tick 100
+    cmd.tick = st.tick + 1;
+    cmd.source_tick = st.tick;
+    for (int j = 0; j < sm.nj; ++j) cmd.tau[j] = -1000.0 * st.q[static_cast<size_t>(j)];
+    toLcm(cmd, sm.joint_names, msg);
+    ep.publish(channels::kCommand, msg);
+  });
+  RunOptions opt;
+  opt.duration_s = 3600.0;  // an hour planned: only the missing-command limit can end it in time
+  opt.command_timeout_ms = 20;
+  opt.max_missing_commands = 5;
+  opt.quiet = true;
+  RunSummary s;
+  ASSERT_TRUE(runSim(sm, sd, ep, opt, &s, &err)) << err;
+  EXPECT_EQ(s.outcome, RunOutcome::ControllerLost);
+  EXPECT_EQ(s.last_fresh_tick, 100);
+  EXPECT_EQ(s.missing_commands, 5);
+  EXPECT_EQ(s.ticks, 105);  // ticks 101..104 stepped on the fallback, tick 105 would have been the 5th miss
+  EXPECT_EQ(s.timeouts, 5);
+  EXPECT_EQ(s.held_ticks, 4);
+  EXPECT_LT(s.wall_time_s, 2.0);  // 5 waits of 20 ms, not 3.6 million
+  EXPECT_FALSE(s.fell);
+  // The summary survives the JSON round trip exo_sim --result -> exoid experiment.
+  RunSummary back;
+  ASSERT_TRUE(parseRunSummaryJson(runSummaryJson(s), &back, &err)) << err;
+  EXPECT_EQ(back.outcome, RunOutcome::ControllerLost);
+  EXPECT_EQ(back.ticks, s.ticks);
+  EXPECT_EQ(back.last_fresh_tick, 100);
+  EXPECT_EQ(back.held_ticks, 4);
+  EXPECT_EQ(back.wall_time_s, s.wall_time_s);
+  EXPECT_FALSE(parseRunSummaryJson("{\"outcome\": \"completed\"}", &back, &err));
+  EXPECT_NE(err.find("ticks_planned"), std::string::npos) << err;
+  EXPECT_FALSE(parseRunSummaryJson("{\"outcome\": ", &back, &err));
+}
+
 // --- the binary ------------------------------------------------------------------------------------------
 struct CliRun {
   int code = -1;
@@ -160,8 +257,10 @@ TEST(ExoSimCli, HelpListsEveryOptionChannelAndExitCode) {
   const CliRun r = runExoSim("--help");
   EXPECT_EQ(r.code, 0);
   for (const char* s : {"--model", "--sensors", "--scenario", "--mode", "--duration", "--lcm-url",
-                        "--command-timeout-ms", "--hold-ticks", "--start-timeout-s", "--quiet", "--help", "EXO_STATE",
-                        "EXO_PLATE_RIGHT", "EXO_PLATE_LEFT", "EXO_TRUTH", "EXO_COMMAND", "exit codes", "ttl=0"})
+                        "--command-timeout-ms", "--hold-ticks", "--start-timeout-s", "--max-missing-commands",
+                        "--result", "--quiet", "--help", "EXO_STATE",
+                        "EXO_PLATE_RIGHT", "EXO_PLATE_LEFT", "EXO_TRUTH", "EXO_COMMAND", "exit codes", "ttl=0",
+                        "3 the robot fell", "4 the controller stopped answering", "5 interrupted"})
     EXPECT_NE(r.out.find(s), std::string::npos) << s;
 }
 
@@ -209,18 +308,63 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
 }
 
 TEST(ExoSimCli, OpenLoopRunPrintsProgressAndSummary) {
-  // No controller on memq:// and no start wait: open loop at zero torque (the robot folds up).
-  const CliRun r = runExoSim("--lcm-url memq:// --start-timeout-s 0 --duration 2 --scenario " +
-                          cfg("scenarios/ideal.yaml"));
-  EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("exo_sim: t 1.0 s"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("exo_sim: t 2.0 s"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("exo_sim: summary: ticks 2000, simulated 2.000 s"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("fallback ticks 1999 (held 0, zero 1999, timeouts 1999)"), std::string::npos) << r.out;
+  // No controller on memq:// and no start wait: open loop at zero torque; the robot folds up and the run
+  // ends at the fall with exit code 3 (a 0.3 s run ends standing, exit 0).
+  const std::string result = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_sim_result.json";
+  const CliRun r = runExoSim("--lcm-url memq:// --start-timeout-s 0 --duration 2 --result " + result + " --scenario " +
+                             cfg("scenarios/ideal.yaml"));
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_NE(r.out.find("exo_sim: summary: fell (fall at tick "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" of 2000, simulated"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(held 0, zero "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("timeouts 0)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("fell yes"), std::string::npos) << r.out;
-  const CliRun q = runExoSim("--quiet --lcm-url memq:// --start-timeout-s 0 --duration 0.05");
+  std::ifstream in(result);
+  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  RunSummary s;
+  std::string err;
+  ASSERT_TRUE(parseRunSummaryJson(json, &s, &err)) << err << json;
+  EXPECT_EQ(s.outcome, RunOutcome::Fell);
+  EXPECT_EQ(s.ticks, s.fall_tick + 1);
+  EXPECT_NE(r.out.find("fall at tick " + std::to_string(s.fall_tick) + ","), std::string::npos) << r.out;
+  std::remove(result.c_str());
+  const CliRun q = runExoSim("--quiet --lcm-url memq:// --start-timeout-s 0 --duration 0.3");
   EXPECT_EQ(q.code, 0) << q.out;
-  EXPECT_EQ(q.out.rfind("exo_sim: summary: ticks 50,", 0), 0u) << q.out;  // only the summary line
+  EXPECT_EQ(q.out.rfind("exo_sim: summary: completed, ticks 300 of 300,", 0), 0u) << q.out;  // only the summary
+  EXPECT_EQ(runExoSim("--result /nonexistent/dir/r.json --quiet --lcm-url memq:// --start-timeout-s 0 --duration 0.01").code, 1);
+}
+
+// SIGTERM (here during the start handshake, waiting for a controller) ends the run cleanly: exit 5, the
+// result says interrupted. A SIGTERM while the model loads is honoured too (the handler is installed first).
+TEST(ExoSimCli, SigtermEndsTheRunWithExitFiveAndItsResult) {
+  const std::string result = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_sim_sigterm.json";
+  for (const int delay_ms : {600, 0}) {
+    std::remove(result.c_str());
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, STDOUT_FILENO);
+      ::execl(EXO_SIM_BIN, EXO_SIM_BIN, "--lcm-url", "memq://", "--duration", "10", "--result", result.c_str(),
+              static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    if (delay_ms == 0 && WIFSIGNALED(status)) continue;  // killed before main() installed the handler
+    ASSERT_TRUE(WIFEXITED(status)) << delay_ms;
+    EXPECT_EQ(WEXITSTATUS(status), 5) << delay_ms;
+    std::ifstream in(result);
+    const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    RunSummary s;
+    std::string err;
+    ASSERT_TRUE(parseRunSummaryJson(json, &s, &err)) << err << json;
+    EXPECT_EQ(s.outcome, RunOutcome::Interrupted);
+    EXPECT_LT(s.ticks, 10000);
+  }
+  std::remove(result.c_str());
 }
 
 }  // namespace

@@ -1,5 +1,4 @@
 // exoid identify: one batch identification from logged or measured data (docs/identification.md).
-#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -10,6 +9,8 @@
 #include <random>
 
 #include "commands.hpp"
+#include "exoid/common/cli.hpp"
+#include "exoid/common/strict_number.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/model/urdf.hpp"
@@ -58,10 +59,10 @@ bool readPrior(const std::string& path, const Model& model, Eigen::VectorXd& pri
     if (comma == std::string::npos || it == index.end())
       return *error = path + ": row " + std::to_string(row) + ": unknown parameter '" + name + "'", false;
     const std::string cell = line.substr(comma + 1, line.find(',', comma + 1) - comma - 1);
-    char* end = nullptr;
-    const double v = std::strtod(cell.c_str(), &end);
-    if (cell.empty() || *end != '\0' || !std::isfinite(v))
-      return *error = path + ": row " + std::to_string(row) + ": '" + cell + "' is not a finite number", false;
+    double v = 0.0;
+    std::string why;
+    if (!common::parseDouble(cell, v, &why))
+      return *error = path + ": row " + std::to_string(row) + ": '" + cell + "': " + why, false;
     prior[it->second] = v;
   }
   for (int i = 0; i < prior.size(); ++i)
@@ -72,6 +73,7 @@ bool readPrior(const std::string& path, const Model& model, Eigen::VectorXd& pri
 
 int cmdIdentify(int argc, char** argv) {
   CLI::App app(kDescription, "exoid identify");
+  common::configureCli(app);
   std::vector<std::string> data, validate;
   std::string model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", pipeline = "sensors", vpipeline,
               filter_mode = "inputs", method_name = "WLS-RC", rank_name = "jackknife", prior_path, out_dir;
@@ -87,12 +89,14 @@ int cmdIdentify(int argc, char** argv) {
                  "'truth' (EXO_TRUTH state and applied torques + plates: the thesis protocol)")->check(CLI::IsMember({"sensors", "truth"}));
   app.add_option("--validate-pipeline", vpipeline, "pipeline of the validation logs (default: truth, ideal as in the thesis)")
       ->check(CLI::IsMember({"sensors", "truth"}));
-  app.add_option("--cutoff", cutoff, "zero-phase 2nd-order Butterworth cutoff in Hz (0: no filter)")->check(CLI::NonNegativeNumber);
+  app.add_option("--cutoff", cutoff, "zero-phase 2nd-order Butterworth cutoff in Hz (0: no filter)")
+      ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
   app.add_option("--filter-mode", filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
-                 "'parallel': also the same filter on every column of W and on y")->check(CLI::IsMember({"inputs", "parallel"}));
+                 "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
   app.add_flag("--derive", derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
-  app.add_option("--noise", noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")->check(CLI::NonNegativeNumber);
-  app.add_option("--seed", seed, "noise seed");
+  app.add_option("--noise", noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
+      ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");
+  app.add_option("--seed", seed, "noise seed")->transform(common::strictInteger(0, INT64_MAX));
   app.add_option("--method", method_name, "OLS, WLS-R, WLS-C or WLS-RC (default)")->check(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC"}));
   double prior_uncertainty = 0.25;
   app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
@@ -100,31 +104,24 @@ int cmdIdentify(int argc, char** argv) {
                  "see --prior-uncertainty; default), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them");
   app.add_option("--prior-uncertainty", prior_uncertainty, "--rank jackknife: the prior is within +-this relative "
-                 "error of the truth (default 0.25)")->check(CLI::PositiveNumber);
+                 "error of the truth")->transform(common::strictNumber(1e-6, 10.0));
   app.add_option("--prior", prior_path, "prior parameters, CSV name,value (default: the URDF's)");
   app.add_option("--prior-perturb", perturb, "scale each URDF parameter by a uniform random factor in [1-F, 1+F] for the prior")
-      ->check(CLI::Range(0.0, 1.0));
-  app.add_option("--prior-seed", prior_seed, "seed of --prior-perturb");
-  app.add_option("--folds", folds, "time-block folds for --rank jackknife / cv (default 5)")->check(CLI::Range(2, 50));
-  app.add_option("--chunk-seconds", chunk_s, "length of one time block (default 2 s; blocks go to folds in turn)")->check(CLI::PositiveNumber);
-  app.add_option("--threads", threads, "threads for the QR updates (default 2)")->check(CLI::Range(1, 64));
+      ->transform(common::strictNumber(0.0, 1.0))->type_name("F");
+  app.add_option("--prior-seed", prior_seed, "seed of --prior-perturb")->transform(common::strictInteger(0, INT64_MAX));
+  app.add_option("--folds", folds, "time-block folds for --rank jackknife / cv")->transform(common::strictInteger(2, 50));
+  app.add_option("--chunk-seconds", chunk_s, "length of one time block (blocks go to the folds in turn)")
+      ->transform(common::strictNumber(1e-3, 1e6));
+  app.add_option("--threads", threads, "threads for the QR updates")->transform(common::strictInteger(1, 64));
   app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
   app.add_option("--out", out_dir, "directory for summary.json, estimate.csv and (all links consistent) identified.urdf");
-  try {
-    app.parse(argc - 1, argv + 1);
-  } catch (const CLI::CallForHelp&) {
-    std::fputs(app.help().c_str(), stdout);
-    return 0;
-  } catch (const CLI::ParseError& e) {
-    return fail(e.what());
-  }
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   const auto t0 = std::chrono::steady_clock::now();
   estimator::IdentifyOptions io;
   if (!estimator::parseMethod(method_name, io.method)) return fail("unknown --method '" + method_name + "'");
   if (!estimator::parseRankRule(rank_name, io.rank_rule)) {
-    char* end = nullptr;
-    const long z = std::strtol(rank_name.c_str(), &end, 10);
-    if (rank_name.empty() || *end != '\0' || z < 0) return fail("--rank must be a number >= 0, full, validation, cv or gcv (got '" + rank_name + "')");
+    int64_t z = 0;
+    if (!common::parseInt(rank_name, 0, 100000, z)) return fail("--rank must be a number >= 0, full, validation, cv or gcv (got '" + rank_name + "')");
     io.rank_rule = estimator::RankRule::Fixed;
     io.rank = static_cast<int>(z);
   }

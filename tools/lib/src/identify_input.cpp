@@ -12,6 +12,7 @@
 #include <sstream>
 #include <vector>
 
+#include "exoid/common/strict_number.hpp"
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/safe_decode.hpp"
@@ -125,15 +126,8 @@ bool streamRunLog(const std::string& path, const Model& model, LogPipeline pipel
 }
 
 namespace {
-// Strict number: the whole cell, finite.
-bool parseCell(const std::string& cell, double& v) {
-  if (cell.empty()) return false;
-  errno = 0;
-  char* end = nullptr;
-  v = std::strtod(cell.c_str(), &end);
-  if (errno == ERANGE || end != cell.c_str() + cell.size()) return false;
-  return std::isfinite(v);
-}
+// Strict number: the whole cell, finite (common/strict_number.hpp).
+bool parseCell(const std::string& cell, double& v) { return common::parseDouble(cell, v); }
 
 void splitCells(const std::string& line, std::vector<std::string>& cells) {
   cells.clear();

@@ -1,5 +1,7 @@
 #pragma once
-// Child processes for `exoid experiment`: spawn with argv (no shell), wait with a deadline, stop.
+// Child processes for `exoid experiment`: spawn with argv (no shell), wait with a deadline, stop. Children
+// run in their own process group (a terminal's Ctrl-C reaches only the supervisor, which stops them in
+// order) and get SIGTERM when the supervisor dies, however it dies (no orphan keeps running).
 #include <sys/types.h>
 
 #include <string>
@@ -15,10 +17,14 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, s
 std::vector<int> allowedCpus();
 
 /// Waits up to timeout_ms for the process to exit (timeout_ms < 0: forever). Returns true and its exit
-/// code (128 + signal if killed by one) when it exited; false on timeout.
+/// code (128 + signal if killed by one) when it exited; false on timeout. pid <= 0: true at once, code -1.
 bool waitFor(pid_t pid, int timeout_ms, int* exit_code);
 
-/// Sends sig, then waits up to grace_ms; if still running, kills it (SIGKILL) and reaps it.
+/// Sends sig (and SIGCONT, so that a stopped process sees it), then waits up to grace_ms; if still running,
+/// kills it (SIGKILL). Always reaps it. Returns its exit code as waitFor does (-1 for pid <= 0, no signal).
 int stop(pid_t pid, int sig, int grace_ms);
+
+/// "exited with code N" or "was killed by signal N (SIGNAME)" for an exit code from waitFor.
+std::string describeExit(int exit_code);
 
 }  // namespace exoid::tools

@@ -1,0 +1,260 @@
+// Host side of the controller plugin ABI: dlopen, ABI checks, the loop stage with its counted fallback.
+#include "exoid/sim/controller_plugin.hpp"
+
+#include <dlfcn.h>
+#include <time.h>
+
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+
+namespace exoid::sim {
+namespace {
+
+int64_t monoNs() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
+}
+
+bool allFinite(const double* v, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) return false;
+  return true;
+}
+
+template <class V>
+void copyTo(const double* from, V& to) {
+  for (Eigen::Index i = 0; i < to.size(); ++i) to[i] = from[i];
+}
+
+}  // namespace
+
+std::unique_ptr<ControllerPlugin> ControllerPlugin::load(const PluginOptions& o,
+                                                         const std::vector<std::string>& joint_names,
+                                                         double period_s, std::string* err) {
+  const std::string where = "--controller-plugin " + o.path + ": ";
+  auto fail = [&](const std::string& what) {
+    if (err) *err = where + what;
+    return nullptr;
+  };
+  if (o.divisor < 1) return fail("controller rate divisor must be >= 1, got " + std::to_string(o.divisor));
+  if (joint_names.empty() || joint_names.size() > EXOID_PLUGIN_MAX_JOINTS)
+    return fail("the robot has " + std::to_string(joint_names.size()) + " joints; the ABI carries 1.." +
+                std::to_string(EXOID_PLUGIN_MAX_JOINTS));
+  std::unique_ptr<ControllerPlugin> p(new ControllerPlugin);
+  p->opt_ = o;
+  p->nj_ = static_cast<int>(joint_names.size());
+  // A path without a slash would be searched in the library path: make it relative to the working directory.
+  const std::string path = o.path.find('/') == std::string::npos ? "./" + o.path : o.path;
+  dlerror();
+  p->lib_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!p->lib_) {
+    const char* e = dlerror();
+    return fail(std::string("cannot load: ") + (e ? e : "dlopen failed"));
+  }
+  auto entry = reinterpret_cast<exoid_controller_plugin_entry_fn>(dlsym(p->lib_, EXOID_CONTROLLER_PLUGIN_ENTRY));
+  if (!entry) return fail(std::string("not a controller plugin: no symbol '") + EXOID_CONTROLLER_PLUGIN_ENTRY + "'");
+  p->api_ = entry();
+  const exoid_controller_plugin_api* a = p->api_;
+  if (!a) return fail(std::string(EXOID_CONTROLLER_PLUGIN_ENTRY) + "() returned NULL");
+  if (a->abi_version != EXOID_CONTROLLER_PLUGIN_ABI_VERSION)
+    return fail("ABI version " + std::to_string(a->abi_version) + ", this exo_sim needs " +
+                std::to_string(EXOID_CONTROLLER_PLUGIN_ABI_VERSION) + " (rebuild the plugin against controller_plugin.h)");
+  if (a->state_size != sizeof(exoid_plugin_state) || a->command_size != sizeof(exoid_plugin_command) ||
+      a->status_size != sizeof(exoid_plugin_status))
+    return fail("struct sizes (state " + std::to_string(a->state_size) + ", command " +
+                std::to_string(a->command_size) + ", status " + std::to_string(a->status_size) +
+                ") differ from this exo_sim's (" + std::to_string(sizeof(exoid_plugin_state)) + ", " +
+                std::to_string(sizeof(exoid_plugin_command)) + ", " + std::to_string(sizeof(exoid_plugin_status)) +
+                "): built against another controller_plugin.h");
+  if (!a->create || !a->reset || !a->tick || !a->status || !a->destroy)
+    return fail("the function table lacks create, reset, tick, status or destroy");
+
+  std::vector<const char*> names;
+  for (const std::string& n : joint_names) names.push_back(n.c_str());
+  exoid_plugin_config c{};
+  c.abi_version = EXOID_CONTROLLER_PLUGIN_ABI_VERSION;
+  c.num_joints = p->nj_;
+  c.joint_names = names.data();
+  c.model_path = o.model_path.c_str();
+  c.config_path = o.config_path.c_str();
+  c.seed = o.seed;
+  c.moves = o.moves;
+  c.tick_divisor = o.divisor;
+  c.physics_period_s = period_s;
+  char error[1024] = "";
+  p->self_ = a->create(&c, error, sizeof error);
+  if (!p->self_) return fail(std::string("create failed: ") + (error[0] ? error : "no reason given"));
+
+  p->command_.tau = Eigen::VectorXd::Zero(p->nj_);
+  p->command_.tau_ff = Eigen::VectorXd::Zero(p->nj_);
+  p->last_good_ = p->command_;
+  if (!p->reset(err)) return nullptr;
+  return p;
+}
+
+ControllerPlugin::~ControllerPlugin() {
+  if (self_ && api_) api_->destroy(self_);
+  if (lib_) dlclose(lib_);
+}
+
+const char* ControllerPlugin::name() const { return api_ && api_->name ? api_->name : "?"; }
+
+bool ControllerPlugin::reset(std::string* err) {
+  if (api_->reset(self_) != EXOID_PLUGIN_OK) {
+    if (err) *err = "--controller-plugin " + opt_.path + ": reset failed";
+    return false;
+  }
+  command_.tick = command_.source_tick = command_.utime = 0;
+  command_.mode = CommandMode::Torque;
+  command_.tau.setZero();
+  command_.tau_ff.setZero();
+  last_good_ = command_;
+  has_good_ = false;
+  bad_streak_ = 0;
+  status_ = ControllerStatusSample{};
+  status_valid_ = finished_ = false;
+  stats_ = PluginStats{};
+  return true;
+}
+
+void ControllerPlugin::fallback(int64_t k) {
+  ++bad_streak_;
+  command_.tick = k + 1;
+  command_.source_tick = k;
+  command_.tau_ff.setZero();
+  if (has_good_ && bad_streak_ <= opt_.hold_ticks) {
+    command_.mode = CommandMode::HoldLastSafe;  // the simulator re-applies its previous torque
+    command_.tau = last_good_.tau;
+    ++stats_.hold_ticks;
+  } else {
+    command_.mode = CommandMode::Damping;  // the simulator's drive damping
+    command_.tau.setZero();
+    ++stats_.damping_ticks;
+  }
+}
+
+bool ControllerPlugin::step(const RobotStateSample& s) {
+  const int64_t k = s.tick;
+  if (k % opt_.divisor != 0) {  // zero-order hold between controller ticks
+    command_.tick = k + 1;
+    return false;
+  }
+  in_.utime = s.utime;
+  in_.tick = k;
+  in_.num_joints = nj_;
+  for (int j = 0; j < nj_; ++j) {
+    in_.q[j] = s.q[j];
+    in_.tau[j] = s.tau[j];
+    in_.has_tau[j] = s.has_tau[j] ? 1 : 0;
+  }
+  in_.imu_orientation[0] = s.imu_orientation.w();
+  in_.imu_orientation[1] = s.imu_orientation.x();
+  in_.imu_orientation[2] = s.imu_orientation.y();
+  in_.imu_orientation[3] = s.imu_orientation.z();
+  for (int i = 0; i < 3; ++i) {
+    in_.imu_gyro[i] = s.imu_gyro[i];
+    in_.imu_accel[i] = s.imu_accel[i];
+  }
+  out_.num_joints = nj_;
+  out_.tick = out_.source_tick = -1;  // the plugin must stamp them
+
+  const int64_t t0 = monoNs();
+  const int rc = api_->tick(self_, &in_, &out_);
+  const double us = static_cast<double>(monoNs() - t0) * 1e-3;
+  ++stats_.calls;
+  stats_.call_us_sum += us;
+  if (us > stats_.call_us_max) stats_.call_us_max = us;
+  const bool overrun = opt_.budget_us > 0.0 && us > opt_.budget_us;
+  if (overrun) ++stats_.overruns;
+
+  bool good = false;
+  if (rc != EXOID_PLUGIN_OK) {
+    ++stats_.failed;
+  } else if (out_.num_joints != nj_ || out_.tick != k + 1 || out_.source_tick != k || out_.mode < 0 ||
+             out_.mode > EXOID_MODE_OFF) {
+    ++stats_.bad_output;
+  } else if (!allFinite(out_.tau, nj_) || !allFinite(out_.tau_ff, nj_)) {
+    ++stats_.non_finite;
+  } else if (!overrun) {
+    good = true;
+  }
+  if (good) {
+    ++stats_.good;
+    bad_streak_ = 0;
+    command_.utime = out_.utime;
+    command_.tick = out_.tick;
+    command_.source_tick = out_.source_tick;
+    command_.mode = static_cast<CommandMode>(out_.mode);
+    copyTo(out_.tau, command_.tau);
+    copyTo(out_.tau_ff, command_.tau_ff);
+    if (command_.mode == CommandMode::Torque) {
+      last_good_ = command_;  // same sizes: no allocation
+      has_good_ = true;
+    }
+  } else {
+    fallback(k);
+    command_.utime = s.utime;
+  }
+
+  // Status: published only when every field is in range (readers reject the rest).
+  status_valid_ = api_->status(self_, &st_) == EXOID_PLUGIN_OK;
+  status_valid_ = status_valid_ && st_.qp_status >= 0 && st_.qp_status <= 3 && st_.qp_iterations >= 0 &&
+                  st_.move_index >= -1 && st_.moves_done >= 0 && st_.fallbacks >= 0 && st_.rejected_inputs >= 0 &&
+                  st_.stale_inputs >= 0 && std::isfinite(st_.qp_solve_us) && st_.qp_solve_us >= 0.0 &&
+                  std::isfinite(st_.tick_us) && st_.tick_us >= 0.0 && allFinite(st_.com_ref, 3) &&
+                  allFinite(st_.com, 3) && allFinite(st_.com_vel_ref, 3) && allFinite(st_.com_vel, 3) &&
+                  allFinite(st_.momentum_rate_ref, 6) && allFinite(st_.momentum, 6) &&
+                  allFinite(st_.wrench_right, 6) && allFinite(st_.wrench_left, 6);
+  if (!status_valid_) {
+    ++stats_.bad_status;
+    return true;
+  }
+  ControllerStatusSample& o = status_;
+  o.utime = s.utime;
+  o.tick = k;
+  o.qp_status = static_cast<QpStatus>(st_.qp_status);
+  o.qp_iterations = st_.qp_iterations;
+  o.qp_solve_us = st_.qp_solve_us;
+  o.tick_us = st_.tick_us;
+  o.move_index = st_.move_index;
+  o.moves_done = st_.moves_done;
+  copyTo(st_.com_ref, o.com_ref);
+  copyTo(st_.com, o.com);
+  copyTo(st_.com_vel_ref, o.com_vel_ref);
+  copyTo(st_.com_vel, o.com_vel);
+  copyTo(st_.momentum_rate_ref, o.momentum_rate_ref);
+  copyTo(st_.momentum, o.momentum);
+  copyTo(st_.wrench_right, o.wrench_right);
+  copyTo(st_.wrench_left, o.wrench_left);
+  o.fallbacks = st_.fallbacks + static_cast<int32_t>(stats_.fallbackTicks());
+  o.rejected_inputs = st_.rejected_inputs;
+  o.stale_inputs = st_.stale_inputs;
+  finished_ = st_.finished != 0;
+  return true;
+}
+
+bool ControllerPlugin::setFeedforward(const double* tau_ff, int num_joints, int64_t tick) {
+  const bool ok = api_->set_feedforward && num_joints == nj_ &&
+                  api_->set_feedforward(self_, tau_ff, num_joints, tick) == EXOID_PLUGIN_OK;
+  ++(ok ? stats_.feedforward_accepted : stats_.feedforward_rejected);
+  return ok;
+}
+
+std::string ControllerPlugin::formatStats() const {
+  const PluginStats& s = stats_;
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "exo_sim: plugin '%s': calls %" PRId64 ", good %" PRId64 ", failed %" PRId64 ", non_finite %" PRId64
+                ", bad_output %" PRId64 ", overruns %" PRId64 " (budget %.0f us), fallback ticks %" PRId64
+                " (held %" PRId64 ", damping %" PRId64 "), bad status %" PRId64 ", feedforward accepted %" PRId64
+                " rejected %" PRId64 ", call mean %.1f us max %.1f us",
+                name(), s.calls, s.good, s.failed, s.non_finite, s.bad_output, s.overruns, opt_.budget_us,
+                s.fallbackTicks(), s.hold_ticks, s.damping_ticks, s.bad_status, s.feedforward_accepted,
+                s.feedforward_rejected, s.calls > 0 ? s.call_us_sum / static_cast<double>(s.calls) : 0.0,
+                s.call_us_max);
+  return buf;
+}
+
+}  // namespace exoid::sim

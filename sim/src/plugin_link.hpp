@@ -1,0 +1,43 @@
+#pragma once
+// The LCM side of the plugin stage inside runSim (private to exoid_sim_runner): after each simStep it runs
+// the plugin, publishes its command (EXO_COMMAND) and status (EXO_CONTROLLER_STATUS) on the controller's
+// ticks, and hands the command to the arbiter; EXO_ESTIMATE (through a MessageGate, names checked against
+// the plugin's URDF) feeds the plugin's feedforward. Allocation-free per tick once constructed.
+#include <string>
+#include <vector>
+
+#include "exoid/lcm/lcm_endpoint.hpp"
+#include "exoid/lcm/message_gate.hpp"
+#include "exoid/sim/command.hpp"
+#include "exoid/sim/controller_plugin.hpp"
+
+namespace exoid::sim {
+
+class PluginLink {
+ public:
+  /// Setup (allocates; loads the plugin's URDF for the parameter names of EXO_ESTIMATE).
+  PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vector<std::string>& joint_names);
+  ~PluginLink();
+  PluginLink(const PluginLink&) = delete;
+  PluginLink& operator=(const PluginLink&) = delete;
+
+  /// After simStep of tick k: plugin stage, publishing, arbiterOffer(command for k + 1). False on an LCM
+  /// failure (*err).
+  bool afterStep(const RobotStateSample& state, CommandArbiter& arb, std::string* err);
+  /// Subscribed to EXO_ESTIMATE (else the loop has nothing to receive).
+  bool listening() const { return subscription_ > 0; }
+
+ private:
+  ControllerPlugin& plugin_;
+  LcmEndpoint& ep_;
+  const std::vector<std::string>& joint_names_;
+  std::vector<std::string> param_names_;
+  MessageGate gate_;
+  int subscription_ = 0;
+  EstimatorOutputSample estimate_;
+  exoid_lcm::estimator_output_t estimate_msg_;
+  exoid_lcm::joint_command_t command_msg_;
+  exoid_lcm::controller_status_t status_msg_;
+};
+
+}  // namespace exoid::sim
