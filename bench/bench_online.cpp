@@ -1,0 +1,137 @@
+// Per-sample work of the online estimator for the exoskeleton (issue 8 target: <= 20 us p99): regressor of
+// the measured state, causal parallel filter, recursive update, regressor of the desired state and the
+// feedforward prediction; plus the publication-rate solve and, for reference, the textbook covariance-form
+// update (16 rows x m parameters) the information form replaces. Per-iteration times are measured with
+// steady_clock (manual time) so that p50 / p99 / max can be reported as counters.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <random>
+#include <vector>
+
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/online/recursive_ls.hpp"
+#include "exoid/estimator/online/row_filter.hpp"
+#include "exoid/model/random_state.hpp"
+#include "exoid/model/regressor.hpp"
+#include "exoid/model/urdf.hpp"
+
+namespace {
+using namespace exoid;
+using namespace exoid::estimator;
+
+struct Setup {
+  Model model;
+  BaseParameters base;
+  RecursiveLsModel rm;
+  std::vector<State> states;
+  Setup() {
+    std::string err;
+    if (!buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) std::abort();
+    base = computeBaseParameters(model);
+    RecursiveLsOptions opt;
+    opt.forgetting = 0.9995;
+    if (!makeRecursiveLs(model, base, model.phi, diagonalPriorInformation(model, base, model.phi, 0.25), opt, rm, &err))
+      std::abort();
+    std::mt19937_64 rng(1);
+    states.assign(1024, State::zero(model));
+    for (State& s : states) randomState(model, rng, s);
+  }
+};
+const Setup& setup() {
+  static const Setup s;
+  return s;
+}
+
+void reportPercentiles(benchmark::State& state, std::vector<double>& t) {
+  std::sort(t.begin(), t.end());
+  auto at = [&](double f) { return t[std::min(t.size() - 1, static_cast<size_t>(f * t.size()))] * 1e6; };
+  state.counters["p50_us"] = at(0.50);
+  state.counters["p99_us"] = at(0.99);
+  state.counters["max_us"] = t.back() * 1e6;
+}
+
+void BM_OnlineSample(benchmark::State& state) {
+  const Setup& s = setup();
+  const Model& model = s.model;
+  RecursiveLsData rd(s.rm);
+  CausalRowFilter filter;
+  filter.configure(s.rm, 30.0, 1000.0);
+  Data measured(model), desired(model);
+  Eigen::MatrixXd Kf = Eigen::MatrixXd::Zero(model.nv, model.nparams());
+  Eigen::VectorXd y(model.nv), yf(model.nv), tau_ff(model.nv);
+  std::vector<double> times;
+  times.reserve(1 << 22);
+  long k = 0;
+  for (auto _ : state) {
+    const State& st = s.states[k % s.states.size()];
+    const State& sd = s.states[(k + 7) % s.states.size()];
+    y.setConstant(1.0 + 1e-3 * (k % 13));
+    const auto t0 = std::chrono::steady_clock::now();
+    computeJointTorqueRegressor(model, measured, st);
+    filter.filter(s.rm, measured.K, y, Kf, yf);
+    updateRecursiveLs(s.rm, rd, k, Kf, yf);
+    computeJointTorqueRegressor(model, desired, sd);
+    predictRecursiveLs(s.rm, rd, desired.K, tau_ff);
+    const auto t1 = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(tau_ff.data());
+    const double dt = std::chrono::duration<double>(t1 - t0).count();
+    state.SetIterationTime(dt);
+    if (times.size() < times.capacity()) times.push_back(dt);
+    ++k;
+  }
+  reportPercentiles(state, times);
+}
+BENCHMARK(BM_OnlineSample)->UseManualTime()->MinTime(2.0);
+
+// The update alone (16 rows into the per-coordinate information over their structural columns).
+void BM_OnlineUpdateOnly(benchmark::State& state) {
+  const Setup& s = setup();
+  RecursiveLsData rd(s.rm);
+  Data data(s.model);
+  computeJointTorqueRegressor(s.model, data, s.states[0]);
+  Eigen::VectorXd y = Eigen::VectorXd::Ones(s.model.nv);
+  long k = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(updateRecursiveLs(s.rm, rd, k++, data.K, y));
+}
+BENCHMARK(BM_OnlineUpdateOnly)->Unit(benchmark::kMicrosecond);
+
+// Publication-rate solve: assemble A (m x m), Cholesky, solve; arg 1: plus A^-1 and sigma.
+void BM_OnlineSolve(benchmark::State& state) {
+  const Setup& s = setup();
+  RecursiveLsData rd(s.rm);
+  Data data(s.model);
+  Eigen::VectorXd y = Eigen::VectorXd::Ones(s.model.nv);
+  for (int k = 0; k < 200; ++k) {
+    computeJointTorqueRegressor(s.model, data, s.states[k]);
+    updateRecursiveLs(s.rm, rd, k, data.K, y);
+  }
+  for (auto _ : state) benchmark::DoNotOptimize(solveRecursiveLs(s.rm, rd, state.range(0) != 0));
+}
+BENCHMARK(BM_OnlineSolve)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// Reference: textbook covariance-form RLS, one row at a time, dense m x m P (Ljung & Soederstroem 1983).
+void BM_CovarianceFormReference(benchmark::State& state) {
+  const Setup& s = setup();
+  const int m = s.rm.m, nv = s.model.nv;
+  Eigen::MatrixXd P = Eigen::MatrixXd::Identity(m, m), KB(nv, m);
+  Data data(s.model);
+  computeJointTorqueRegressor(s.model, data, s.states[0]);
+  for (int j = 0; j < m; ++j) KB.col(j) = data.K.col(s.base.independent[j]);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(m), Pk(m);
+  for (auto _ : state) {
+    for (int c = 0; c < nv; ++c) {
+      Pk.noalias() = P * KB.row(c).transpose();
+      const double den = 1.0 + KB.row(c).dot(Pk);
+      x += Pk * ((1.0 - KB.row(c).dot(x)) / den);
+      P.noalias() -= (Pk / den) * Pk.transpose();
+    }
+    benchmark::DoNotOptimize(x.data());
+  }
+}
+BENCHMARK(BM_CovarianceFormReference)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
