@@ -1,0 +1,42 @@
+// LCM event-log reader (tools::readRunLog, what `exoid export` reads) on arbitrary file contents.
+// Properties: a failure is one line; every event read is accounted for exactly once (decoded into a
+// sample, rejected, or on an unknown channel).
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "exoid/model/urdf.hpp"
+#include "exoid/tools/run_log.hpp"
+#include "fuzz_support.hpp"
+
+namespace {
+std::vector<std::string> g_joints;
+}  // namespace
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  exoid::Model model;
+  std::string error;
+  if (!exoid::buildModelFromUrdfFile(EXOID_CONFIG_DIR "/exo.urdf", true, model, &error)) {
+    std::fprintf(stderr, "fuzz_lcm_log: %s\n", error.c_str());
+    std::abort();
+  }
+  g_joints = model.joint_names;
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  static exoid::fuzz::MemFile file;
+  exoid::tools::RunLog log;
+  std::string error;
+  if (!exoid::tools::readRunLog(file.write(data, size), g_joints, log, &error)) {
+    exoid::fuzz::checkOneLine(error, "a rejected log gets a one-line error");
+    return 0;
+  }
+  long events = 0;
+  for (const auto& [channel, count] : log.events) events += count;
+  const long taken = static_cast<long>(log.states.size() + log.plates[0].size() + log.plates[1].size() +
+                                       log.truth.size() + log.commands.size() + log.status.size());
+  EXOID_FUZZ_CHECK(events == taken + log.rejected + log.unknown_channel, "every event is accounted for once");
+  EXOID_FUZZ_CHECK(log.rejected == 0 || !log.first_rejection.empty(), "the first rejection is named");
+  return 0;
+}
