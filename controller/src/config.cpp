@@ -1,4 +1,5 @@
 #include "exoid/controller/config.hpp"
+#include "exoid/one_line.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -19,7 +20,7 @@ class Reader {
   bool ok() const { return ok_; }
 
   bool fail(const std::string& field, const std::string& what) {
-    if (ok_ && error_) *error_ = source_ + ": " + field + ": " + what;
+    if (ok_ && error_) *error_ = oneLine(source_ + ": " + field + ": " + what);  // keys quote the file
     ok_ = false;
     return false;
   }
@@ -152,7 +153,7 @@ class Reader {
 };
 
 bool failWith(std::string* error, const std::string& text) {
-  if (error) *error = text;
+  if (error) *error = oneLine(text);
   return false;
 }
 
