@@ -1,6 +1,7 @@
 // YAML loaders for the sensor noise model and scenarios. yaml-cpp throws; every call into it is wrapped so
 // that a bad file becomes one line "<file>: <key>: <what>" and never an exception (startup code only).
 #include "exoid/sim/config.hpp"
+#include "exoid/one_line.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -18,7 +19,7 @@ struct Ctx {
   std::string file;
   std::string* err;
   bool fail(const std::string& key, const std::string& what) const {
-    if (err) *err = file + ": " + (key.empty() ? "" : key + ": ") + what;
+    if (err) *err = oneLine(file + ": " + (key.empty() ? "" : key + ": ") + what);  // may quote the file
     return false;
   }
 };
