@@ -1,4 +1,5 @@
 #include "exoid/model/urdf.hpp"
+#include "exoid/one_line.hpp"
 
 #include <console_bridge/console.h>
 #include <tinyxml2.h>
@@ -25,7 +26,7 @@ class CaptureHandler : public console_bridge::OutputHandler {
 };
 
 bool fail(std::string* error, const std::string& message) {
-  if (error) *error = message;
+  if (error) *error = oneLine(message);  // tinyxml2's and urdfdom's messages quote the file
   return false;
 }
 

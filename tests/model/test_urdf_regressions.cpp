@@ -30,5 +30,16 @@ TEST(UrdfRegressions, LinksOnALoopDetachedFromTheRootAreRefused) {
   }
 }
 
+// tinyxml2's message for a misplaced declaration quotes its text, line breaks included: the error
+// was several lines. Control characters are now escaped.
+TEST(UrdfRegressions, MalformedXmlErrorIsOneLine) {
+  Model model;
+  std::string err;
+  EXPECT_FALSE(buildModelFromUrdfString("<robot name=\"r\">\n<?xml version=\n  1 ?>\n</robot>\n", false, model, &err));
+  EXPECT_NE(err.find("malformed XML"), std::string::npos) << err;
+  EXPECT_NE(err.find("\\n"), std::string::npos) << "the line break shown escaped: " << err;
+  EXPECT_EQ(err.find('\n'), std::string::npos) << err;
+}
+
 }  // namespace
 }  // namespace exoid
