@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exoid/common/cli.hpp>
 #include <exoid/lcm/adapters.hpp>
 #include <exoid/lcm/channels.hpp>
 #include <exoid/lcm/lcm_endpoint.hpp>
@@ -24,10 +25,10 @@
 
 namespace {
 
-constexpr int kExitOk = 0;
-constexpr int kExitRuntime = 1;    // LCM failure or interrupted
-constexpr int kExitBadInput = 2;   // bad arguments, URDF or config
-constexpr int kExitIdle = 3;       // no state for --idle-timeout-ms
+using exoid::common::kExitBadInput;  // bad arguments, URDF or config
+using exoid::common::kExitOk;
+using exoid::common::kExitRuntime;  // LCM failure or interrupted
+constexpr int kExitIdle = 3;        // no state for --idle-timeout-ms
 constexpr int kDefaultIdleTimeoutMs = 5000;
 constexpr int kPollSliceMs = 50;   // longest single wait inside the loop (keeps signals responsive)
 constexpr int kMaxReportedRejections = 5;
@@ -45,30 +46,52 @@ std::string defaultPath(const char* file) {
 #endif
 }
 
-void printHelp() {
-  std::printf(
-      "Usage: exo_controller [options]\n"
-      "\n"
+int badInput(const std::string& message) {
+  std::fprintf(stderr, "exo_controller: %s\n", message.c_str());
+  return kExitBadInput;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace exoid;
+  using namespace exoid::controller;
+  namespace common = exoid::common;
+
+  std::string model_path = defaultPath("exo.urdf");
+  std::string config_path = defaultPath("controller.yaml");
+  std::string url = LcmEndpoint::defaultUrl();
+  unsigned long long seed = 1;
+  int64_t idle_timeout_ms = kDefaultIdleTimeoutMs;
+  bool use_estimate = true, quiet = false, print_duration = false;
+  int64_t moves = 0;  // 0: the configuration's
+
+  CLI::App app{
       "Centroidal (momentum-based) balance controller of the exoskeleton standing on both feet (Vallinas et al.,\n"
       "ICORR 2023): tracks the seed thesis's protocol of straight-line CoM moves inside the support polygon, with\n"
-      "ProxQP solving the whole-body QP every tick. Documentation: docs/controller.md.\n"
-      "\n"
-      "Options:\n"
-      "  --model PATH           URDF of the robot (default: config/exo.urdf)\n"
-      "  --config PATH          controller configuration (default: config/controller.yaml)\n"
-      "  --moves N              number of CoM moves (default: trajectory.moves of the configuration, 20)\n"
-      "  --seed N               seed of the CoM move sequence, unsigned integer (default: 1); use different seeds\n"
-      "                         for training and validation runs\n"
-      "  --lcm-url URL          LCM URL (default: $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0);\n"
-      "                         udpm URLs must have ttl=0 (added when absent)\n"
-      "  --idle-timeout-ms N    exit with code 3 when no robot state arrives for N ms (default: %d; > 0)\n"
-      "  --no-estimate          ignore EXO_ESTIMATE (zero feedforward)\n"
-      "  --quiet                no progress lines on stderr (errors and the summary are still printed)\n"
-      "  --print-duration       print the planned run time in seconds (start-up latch + moves + holds, from the\n"
-      "                         config; set the simulator's --duration to at least this) and exit 0\n"
-      "  --help                 this text\n"
-      "\n"
-      "Channels:\n"
+      "ProxQP solving the whole-body QP every tick. Documentation: docs/controller.md.",
+      "exo_controller"};
+  common::configureCli(app);
+  bool no_estimate = false;
+  app.add_option("--model", model_path, "URDF of the robot")->type_name("PATH");
+  app.add_option("--config", config_path, "controller configuration")->type_name("PATH");
+  app.add_option("--moves", moves, "number of CoM moves (0: trajectory.moves of the configuration, 20)")
+      ->transform(common::strictInteger(0, 1000))->type_name("N");
+  app.add_option("--seed", seed,
+                 "seed of the CoM move sequence; use different seeds for training and validation runs")
+      ->transform(common::strictInteger(0))->type_name("N");
+  app.add_option("--lcm-url", url,
+                 "LCM URL; udpm URLs must have ttl=0 (added when absent); the default is\n$LCM_DEFAULT_URL when set")
+      ->type_name("URL");
+  app.add_option("--idle-timeout-ms", idle_timeout_ms, "exit with code 3 when no robot state arrives for N ms")
+      ->transform(common::strictInteger(1, 24LL * 3600 * 1000))->type_name("N");
+  app.add_flag("--no-estimate", no_estimate, "ignore EXO_ESTIMATE (zero feedforward)");
+  app.add_flag("--quiet", quiet, "no progress lines on stderr (errors and the summary are still printed)");
+  app.add_flag("--print-duration", print_duration,
+               "print the planned run time in seconds (start-up latch + moves + holds, from the\n"
+               "config; set the simulator's --duration to at least this) and exit 0");
+  app.footer(
+      "channels:\n"
       "  subscribes  EXO_STATE              exoid_lcm.robot_state_t      robot state of tick k (SI: rad, N m,\n"
       "                                                                  rad/s, m/s^2; IMU quaternion w x y z)\n"
       "              EXO_ESTIMATE           exoid_lcm.estimator_output_t optional: tau_ff [N m] enters the QP's\n"
@@ -88,85 +111,14 @@ void printHelp() {
       "A state that fails the input checks (NaN, malformed) is answered by the fallback command (hold the last\n"
       "safe command, then joint damping); duplicate or out-of-order states are counted and not answered.\n"
       "\n"
-      "Exit codes:\n"
+      "exit codes:\n"
       "  0  trajectory done and final hold over (summary line on stdout)\n"
       "  1  LCM failure or interrupted (SIGINT/SIGTERM)\n"
       "  2  bad input: unknown option or bad value, unreadable/invalid URDF or config (one-line error naming the\n"
       "     field), or no move sequence fits the support polygon with the configured margins\n"
-      "  3  no robot state for --idle-timeout-ms\n",
-      kDefaultIdleTimeoutMs);
-}
-
-bool parseInt(const char* s, long long lo, long long hi, long long* out) {
-  if (!s || !*s) return false;
-  char* end = nullptr;
-  errno = 0;
-  const long long v = std::strtoll(s, &end, 10);
-  if (errno != 0 || *end != '\0' || v < lo || v > hi) return false;
-  *out = v;
-  return true;
-}
-
-int badInput(const std::string& message) {
-  std::fprintf(stderr, "exo_controller: %s\n", message.c_str());
-  return kExitBadInput;
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace exoid;
-  using namespace exoid::controller;
-
-  std::string model_path = defaultPath("exo.urdf");
-  std::string config_path = defaultPath("controller.yaml");
-  std::string url = LcmEndpoint::defaultUrl();
-  unsigned long long seed = 1;
-  long long idle_timeout_ms = kDefaultIdleTimeoutMs;
-  bool use_estimate = true, quiet = false, print_duration = false;
-  long long moves = 0;  // 0: the configuration's
-
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](const char* name) -> const char* {
-      if (i + 1 >= argc) return nullptr;
-      (void)name;
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      printHelp();
-      return kExitOk;
-    } else if (a == "--model") {
-      const char* v = value("--model");
-      if (!v) return badInput("--model needs a path");
-      model_path = v;
-    } else if (a == "--config") {
-      const char* v = value("--config");
-      if (!v) return badInput("--config needs a path");
-      config_path = v;
-    } else if (a == "--seed") {
-      long long s = 0;
-      if (!parseInt(value("--seed"), 0, INT64_MAX, &s)) return badInput("--seed needs an unsigned integer");
-      seed = static_cast<unsigned long long>(s);
-    } else if (a == "--moves") {
-      if (!parseInt(value("--moves"), 1, 1000, &moves)) return badInput("--moves needs an integer in 1..1000");
-    } else if (a == "--lcm-url") {
-      const char* v = value("--lcm-url");
-      if (!v) return badInput("--lcm-url needs a URL");
-      url = v;
-    } else if (a == "--idle-timeout-ms") {
-      if (!parseInt(value("--idle-timeout-ms"), 1, 24LL * 3600 * 1000, &idle_timeout_ms))
-        return badInput("--idle-timeout-ms needs a positive integer (milliseconds)");
-    } else if (a == "--no-estimate") {
-      use_estimate = false;
-    } else if (a == "--quiet") {
-      quiet = true;
-    } else if (a == "--print-duration") {
-      print_duration = true;
-    } else {
-      return badInput("unknown option '" + a + "' (see --help)");
-    }
-  }
+      "  3  no robot state for --idle-timeout-ms");
+  if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
+  use_estimate = !no_estimate;
 
   // ---- setup (allocations allowed) ---------------------------------------------------------------------
   Model model;

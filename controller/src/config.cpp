@@ -8,6 +8,8 @@
 #include <initializer_list>
 #include <sstream>
 
+#include "exoid/common/yaml.hpp"
+
 namespace exoid::controller {
 
 namespace {
@@ -63,8 +65,9 @@ class Reader {
       return;
     }
     double v = 0.0;
-    if (!YAML::convert<double>::decode(n, v) || !std::isfinite(v)) {
-      fail(field, "expected a finite number, got '" + n.Scalar() + "'");
+    std::string why;
+    if (!common::yamlNumber(n, v, &why)) {
+      fail(field, why);
       return;
     }
     out = v;
@@ -78,9 +81,10 @@ class Reader {
       fail(field, "missing");
       return;
     }
-    long long v = 0;
-    if (!n.IsScalar() || !YAML::convert<long long>::decode(n, v) || v < INT32_MIN || v > INT32_MAX) {
-      fail(field, "expected an integer");
+    int64_t v = 0;
+    std::string why;
+    if (!common::yamlInteger(n, INT32_MIN, INT32_MAX, v, &why)) {
+      fail(field, why);
       return;
     }
     out = static_cast<int>(v);
@@ -123,10 +127,11 @@ class Reader {
       return;
     }
     const std::string expect = "expected " + std::to_string(N) + " finite numbers (or one for all)";
+    std::string why;
     if (n.IsScalar()) {  // one value for every component
       double v = 0.0;
-      if (!YAML::convert<double>::decode(n, v) || !std::isfinite(v)) {
-        fail(field, expect);
+      if (!common::yamlNumber(n, v, &why)) {
+        fail(field, expect + ": " + why);
         return;
       }
       out.setConstant(v);
@@ -138,8 +143,8 @@ class Reader {
     }
     for (int i = 0; i < N; ++i) {
       double v = 0.0;
-      if (!n[i].IsScalar() || !YAML::convert<double>::decode(n[i], v) || !std::isfinite(v)) {
-        fail(field, expect);
+      if (!common::yamlNumber(n[i], v, &why)) {
+        fail(field + "[" + std::to_string(i) + "]", why);
         return;
       }
       out[i] = v;
@@ -171,6 +176,8 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
     return failWith(error, source + ": YAML syntax error: " + msg);
   }
   if (!root.IsMap()) return failWith(error, source + ": expected a YAML map of sections");
+  std::string duplicate;
+  if (!common::checkNoDuplicateKeys(root, &duplicate)) return failWith(error, source + ": " + duplicate);
 
   Reader r(source, error);
   try {

@@ -86,5 +86,42 @@ TEST(ControllerConfig, ErrorQuotingAKeyWithALineBreakIsOneLine) {
   EXPECT_EQ(err.find_first_of("\r\n"), std::string::npos) << "one line: " << err;
 }
 
+TEST(ControllerConfig, NumbersAreStrict) {
+  const std::string text = readDefaultConfig();
+  ControllerConfig c;
+  std::string err;
+  const std::pair<std::string, std::string> bad[] = {
+      {"period: 13,5", "cfg: loop.period: expected a finite number, got '13,5' (not a number)"},
+      {"period: .nan", "cfg: loop.period: expected a finite number, got '.nan' (not finite)"},
+      {"period: -.Inf", "cfg: loop.period: expected a finite number, got '-.Inf' (not finite)"},
+      {"period: 1e400", "cfg: loop.period: expected a finite number, got '1e400' (too large for a double)"},
+      {"period: 0.001x", "cfg: loop.period: expected a finite number, got '0.001x' (not a number)"},
+      {"period: ''", "cfg: loop.period: expected a finite number, got '' (empty, expected a number)"},
+      {"kp_com: [100.0, .inf, 100.0]", "cfg: momentum.kp_com[1]: expected a finite number, got '.inf' (not finite)"},
+      {"moves: 99999999999", "cfg: trajectory.moves: expected an integer, got '99999999999' (out of range"},
+      {"moves: 0x14", "cfg: trajectory.moves: expected an integer, got '0x14' (not an integer)"},
+  };
+  for (const auto& [line, expect] : bad) {
+    const std::string key = line.substr(0, line.find(':'));
+    EXPECT_FALSE(parseControllerConfig(withLine(text, key, line), "cfg", c, &err)) << line;
+    EXPECT_EQ(err.rfind(expect, 0), 0u) << err;
+  }
+  // A subnormal is a number (it used to be refused as not one).
+  ASSERT_TRUE(parseControllerConfig(withLine(text, "min_normal_force", "min_normal_force: 1e-320"), "cfg", c, &err))
+      << err;
+  EXPECT_EQ(c.contact.min_normal_force, std::strtod("1e-320", nullptr));
+}
+
+TEST(ControllerConfig, DuplicateKeysAreRefusedAtEveryLevel) {
+  const std::string text = readDefaultConfig();
+  ControllerConfig c;
+  std::string err;
+  // yaml-cpp keeps both pairs and a lookup returns the first: the second value used to be ignored silently.
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "period", "period: 0.001\n  period: 0.002"), "cfg", c, &err));
+  EXPECT_EQ(err.rfind("cfg: loop.period: duplicate key (line 8; first on line 7)", 0), 0u) << err;
+  EXPECT_FALSE(parseControllerConfig(text + "loop: {period: 0.002}\n", "cfg", c, &err));
+  EXPECT_EQ(err.rfind("cfg: loop: duplicate key", 0), 0u) << err;
+}
+
 }  // namespace
 }  // namespace exoid::controller

@@ -33,6 +33,7 @@ pid_t spawn(const std::vector<std::string>& args, const std::string& out_path) {
     for (auto& a : copy) argv.push_back(a.data());
     argv.push_back(nullptr);
     if (!freopen(out_path.c_str(), "w", stdout)) _exit(120);
+    dup2(fileno(stdout), STDERR_FILENO);  // error lines land in the same file
     execv(bin.c_str(), argv.data());
     _exit(127);
   }
@@ -76,7 +77,7 @@ TEST(ExoControllerBinary, HelpAndBadInputExitCodes) {
   EXPECT_EQ(waitExit(spawn({"--help"}, out)), 0);
   const std::string help = slurp(out);
   for (const char* needle : {"--model", "--config", "--seed", "--lcm-url", "--idle-timeout-ms", "EXO_STATE",
-                             "EXO_COMMAND", "EXO_CONTROLLER_STATUS", "EXO_ESTIMATE", "Exit codes", "N m"})
+                             "EXO_COMMAND", "EXO_CONTROLLER_STATUS", "EXO_ESTIMATE", "exit codes", "N m"})
     EXPECT_NE(help.find(needle), std::string::npos) << needle;
   EXPECT_EQ(waitExit(spawn({"--print-duration"}, out)), 0);
   ControllerConfig cfg;
@@ -87,6 +88,13 @@ TEST(ExoControllerBinary, HelpAndBadInputExitCodes) {
   EXPECT_EQ(waitExit(spawn({"--model", "/nonexistent/exo.urdf"}, out)), 2);
   EXPECT_EQ(waitExit(spawn({"--seed", "abc"}, out)), 2);
   EXPECT_EQ(waitExit(spawn({"--frobnicate"}, out)), 2);
+  EXPECT_NE(slurp(out).find("exo_controller: error: unknown option '--frobnicate'"), std::string::npos) << slurp(out);
+  // The ranges exoid experiment also enforces (it must refuse what the controller would).
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"--moves", "1001"}, {"--seed", "-1"}, {"--seed", "1.5"}, {"--idle-timeout-ms", "0"}, {"--moves"}}) {
+    EXPECT_EQ(waitExit(spawn(args, out)), 2) << args[0];
+    EXPECT_NE(slurp(out).find("exo_controller: error: " + args[0] + ": "), std::string::npos) << slurp(out);
+  }
   const std::string bad = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_bad_controller.yaml";
   std::ofstream(bad) << "loop: {period: 0.001}\n";
   EXPECT_EQ(waitExit(spawn({"--config", bad}, out)), 2);

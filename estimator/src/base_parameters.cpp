@@ -27,21 +27,29 @@ BaseParameters computeBaseParameters(const Model& model, const BaseParameterOpti
   out.column_norm.resize(p);
   for (int c = 0; c < p; ++c) out.column_norm[c] = W.col(c).norm();
 
+  if (W.rows() == 0) {  // fixed base without joints: no generalized force, no parameter has an effect
+    for (int i = 0; i < p; ++i) out.dependent.push_back(i);
+    out.beta.resize(0, p);
+    out.base_map.resize(0, p);
+    out.nullspace = Eigen::MatrixXd::Identity(p, p);
+    out.kind.assign(p, Identifiability::None);
+    return out;
+  }
   Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(W);
   const Eigen::MatrixXd R = qr.matrixR().topRows(std::min<int>(W.rows(), p)).template triangularView<Eigen::Upper>();
-  const double r11 = std::abs(R(0, 0));
+  const double r11 = p > 0 ? std::abs(R(0, 0)) : 0.0;
   int m = 0;
-  while (m < p && std::abs(R(m, m)) > options.tolerance * r11) ++m;
+  while (m < std::min<int>(R.rows(), p) && std::abs(R(m, m)) > options.tolerance * r11) ++m;
   out.rank = m;
   out.pivot_ratio = m > 0 ? std::abs(R(m - 1, m - 1)) / r11 : 0.0;
-  out.gap_ratio = (m < p && m > 0) ? std::abs(R(m, m)) / std::abs(R(m - 1, m - 1)) : 0.0;
+  out.gap_ratio = (m < std::min<int>(R.rows(), p) && m > 0) ? std::abs(R(m, m)) / std::abs(R(m - 1, m - 1)) : 0.0;
   const auto& perm = qr.colsPermutation().indices();
   for (int i = 0; i < p; ++i) (i < m ? out.independent : out.dependent).push_back(perm[i]);
 
   // W P = Q [R11 R12] -> W_dep = W_ind R11^-1 R12.
   out.beta = R.topLeftCorner(m, m).triangularView<Eigen::Upper>().solve(R.block(0, m, m, p - m));
   // Entries that are zero up to rounding are exactly zero (structural combinations have clean coefficients).
-  const double clean = 1e-9 * std::max(1.0, out.beta.cwiseAbs().maxCoeff());
+  const double clean = 1e-9 * std::max(1.0, out.beta.size() > 0 ? out.beta.cwiseAbs().maxCoeff() : 0.0);
   out.beta = out.beta.unaryExpr([&](double x) { return std::abs(x) < clean ? 0.0 : x; });
 
   out.base_map = Eigen::MatrixXd::Zero(m, p);

@@ -19,27 +19,16 @@
 #include <string>
 #include <vector>
 
+#include "exoid/common/cli.hpp"
+#include "exoid/lcm/channels.hpp"
 #include "lcm_wire.hpp"
 
 namespace {
 
+using exoid::channels::kDefaultUrl;
+
 volatile sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
-
-constexpr char kHelp[] =
-    "usage: exoid_logger --lcm-url udpm://GROUP:PORT?ttl=0 --out FILE [--force] [--recv-buf-mb N] [--quiet]\n\n"
-    "Records every message published on an LCM udpm:// multicast group (all channels) into FILE in the\n"
-    "lcm-logger event-log format (readable by lcm-logplayer, lcm-spy, exoid export). Runs until SIGINT or\n"
-    "SIGTERM, then drains what the kernel still holds and prints per-channel counts. Small and fragmented LCM\n"
-    "messages are both reassembled; malformed datagrams and messages with missing fragments are counted.\n\n"
-    "options:\n"
-    "  --lcm-url URL      udpm://GROUP:PORT[?ttl=0...] (default $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667)\n"
-    "  --out FILE         event-log file to write\n"
-    "  --force            overwrite FILE if it exists\n"
-    "  --recv-buf-mb N    kernel receive buffer in MiB (default 64; as root it may exceed net.core.rmem_max)\n"
-    "  --quiet            print only errors and the final summary\n"
-    "  --help             this text\n\n"
-    "exit codes: 0 success, 1 socket or file error, 2 bad input.\n";
 
 int bad(const std::string& m) {
   std::fprintf(stderr, "exoid_logger: error: %s\n", m.c_str());
@@ -55,25 +44,26 @@ int64_t nowUs() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string url = std::getenv("LCM_DEFAULT_URL") ? std::getenv("LCM_DEFAULT_URL") : "udpm://239.255.76.67:7667?ttl=0";
+  std::string url = std::getenv("LCM_DEFAULT_URL") ? std::getenv("LCM_DEFAULT_URL") : kDefaultUrl;
   std::string out;
   bool force = false, quiet = false;
-  long buf_mb = 64;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
-    if (a == "--help") return std::fputs(kHelp, stdout), 0;
-    if (a == "--force") force = true;
-    else if (a == "--quiet") quiet = true;
-    else if (a == "--lcm-url") { const char* v = next(); if (!v) return bad("--lcm-url needs a URL"); url = v; }
-    else if (a == "--out") { const char* v = next(); if (!v) return bad("--out needs a file"); out = v; }
-    else if (a == "--recv-buf-mb") {
-      const char* v = next();
-      char* end = nullptr;
-      buf_mb = v ? std::strtol(v, &end, 10) : 0;
-      if (!v || *end || buf_mb < 1 || buf_mb > 1024) return bad("--recv-buf-mb needs an integer in 1..1024");
-    } else return bad("unknown option '" + a + "' (see --help)");
-  }
+  int64_t buf_mb = 64;
+  CLI::App app{
+      "Records every message published on an LCM udpm:// multicast group (all channels) into FILE in the\n"
+      "lcm-logger event-log format (readable by lcm-logplayer, lcm-spy, exoid export). Runs until SIGINT or\n"
+      "SIGTERM, then drains what the kernel still holds and prints per-channel counts. Small and fragmented LCM\n"
+      "messages are both reassembled; malformed datagrams and messages with missing fragments are counted.",
+      "exoid_logger"};
+  exoid::common::configureCli(app);
+  app.add_option("--lcm-url", url, "udpm://GROUP:PORT[?ttl=0...]; the default is $LCM_DEFAULT_URL when set")
+      ->type_name("URL");
+  app.add_option("--out", out, "event-log file to write")->required()->type_name("FILE");
+  app.add_flag("--force", force, "overwrite FILE if it exists");
+  app.add_option("--recv-buf-mb", buf_mb, "kernel receive buffer in MiB (as root it may exceed net.core.rmem_max)")
+      ->transform(exoid::common::strictInteger(1, 1024))->type_name("N");
+  app.add_flag("--quiet", quiet, "print only errors and the final summary");
+  app.footer("exit codes: 0 success, 1 socket or file error, 2 bad input.");
+  if (const int code = exoid::common::parseCli(app, argc, argv); code >= 0) return code;
   if (out.empty()) return bad("--out FILE is required");
   // udpm://GROUP:PORT?params
   if (url.rfind("udpm://", 0) != 0) return bad("--lcm-url must be udpm://GROUP:PORT (got '" + url + "')");

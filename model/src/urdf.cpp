@@ -7,10 +7,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <sstream>
+
+#include "exoid/common/strict_number.hpp"
 
 namespace exoid {
 
@@ -39,6 +43,85 @@ bool finite(const urdf::Pose& p) {
   return std::isfinite(p.position.x) && std::isfinite(p.position.y) && std::isfinite(p.position.z) &&
          std::isfinite(p.rotation.x) && std::isfinite(p.rotation.y) && std::isfinite(p.rotation.z) &&
          std::isfinite(p.rotation.w);
+}
+
+/// A numeric attribute of a URDF element: how many numbers it holds and their range.
+struct NumericAttribute {
+  const char* element;
+  const char* attribute;
+  int count;
+  double lo, hi;
+};
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Every numeric attribute of the URDF specification (links and joints). urdfdom converts these leniently
+// (a locale-dependent stream: "13,5" reads as 13 or 0, "abc" as 0, "1e400" as inf): check the text first.
+constexpr NumericAttribute kNumericAttributes[] = {
+    {"origin", "xyz", 3, -kInf, kInf},      {"origin", "rpy", 3, -kInf, kInf},
+    {"mass", "value", 1, 0.0, kInf},        {"inertia", "ixx", 1, -kInf, kInf},
+    {"inertia", "ixy", 1, -kInf, kInf},     {"inertia", "ixz", 1, -kInf, kInf},
+    {"inertia", "iyy", 1, -kInf, kInf},     {"inertia", "iyz", 1, -kInf, kInf},
+    {"inertia", "izz", 1, -kInf, kInf},     {"axis", "xyz", 3, -kInf, kInf},
+    {"limit", "lower", 1, -kInf, kInf},     {"limit", "upper", 1, -kInf, kInf},
+    {"limit", "effort", 1, 0.0, kInf},      {"limit", "velocity", 1, 0.0, kInf},
+    {"dynamics", "damping", 1, 0.0, kInf},  {"dynamics", "friction", 1, 0.0, kInf},
+    {"calibration", "rising", 1, -kInf, kInf}, {"calibration", "falling", 1, -kInf, kInf},
+    {"mimic", "multiplier", 1, -kInf, kInf}, {"mimic", "offset", 1, -kInf, kInf},
+    {"safety_controller", "soft_lower_limit", 1, -kInf, kInf},
+    {"safety_controller", "soft_upper_limit", 1, -kInf, kInf},
+    {"safety_controller", "k_position", 1, -kInf, kInf},
+    {"safety_controller", "k_velocity", 1, -kInf, kInf},
+    {"box", "size", 3, 0.0, kInf},          {"cylinder", "radius", 1, 0.0, kInf},
+    {"cylinder", "length", 1, 0.0, kInf},   {"sphere", "radius", 1, 0.0, kInf},
+    {"capsule", "radius", 1, 0.0, kInf},    {"capsule", "length", 1, 0.0, kInf},
+    {"mesh", "scale", 3, -kInf, kInf},      {"color", "rgba", 4, 0.0, 1.0},
+};
+
+/// "link 'thigh' <inertial><mass value=\"13,5\"> (line 12)" for error messages.
+std::string where(const tinyxml2::XMLElement* top, const tinyxml2::XMLElement* e, const char* attribute) {
+  std::vector<const tinyxml2::XMLElement*> chain;
+  for (const tinyxml2::XMLElement* x = e; x && x != top; x = x->Parent() ? x->Parent()->ToElement() : nullptr)
+    chain.push_back(x);
+  const char* name = top->Attribute("name");
+  std::string s = std::string(top->Name()) + " '" + (name ? name : "?") + "' ";
+  for (auto it = chain.rbegin(); it != chain.rend(); ++it) s += "<" + std::string((*it)->Name()) + (*it == e ? "" : ">");
+  return s + " " + attribute + "=" + common::quoteValue(e->Attribute(attribute)) + "> (line " +
+         std::to_string(e->GetLineNum()) + ")";
+}
+
+/// Checks every numeric attribute under every <link> and <joint>: whole numbers, finite, in range.
+bool checkNumbers(const tinyxml2::XMLElement* robot, std::string* error) {
+  std::vector<double> values;
+  for (const tinyxml2::XMLElement* top = robot->FirstChildElement(); top; top = top->NextSiblingElement()) {
+    const std::string kind = top->Name();
+    if (kind != "link" && kind != "joint") continue;
+    std::vector<const tinyxml2::XMLElement*> todo = {top};
+    while (!todo.empty()) {
+      const tinyxml2::XMLElement* e = todo.back();
+      todo.pop_back();
+      for (const tinyxml2::XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) todo.push_back(c);
+      for (const NumericAttribute& a : kNumericAttributes) {
+        if (std::strcmp(e->Name(), a.element) != 0) continue;
+        const char* text = e->Attribute(a.attribute);
+        if (!text) continue;  // required attributes are urdfdom's to demand
+        std::string why;
+        values.resize(1);
+        if (a.count == 1 ? !common::parseDouble(text, values[0], &why)
+                         : !common::parseDoubleList(text, a.count, values, &why))
+          return fail(error, where(top, e, a.attribute) + ": " + why);
+        for (double v : values)
+          if (v < a.lo || v > a.hi) {
+            char range[64];
+            std::snprintf(range, sizeof range, a.hi == kInf ? ">= %g" : "in [%g, %g]", a.lo, a.hi);
+            return fail(error, where(top, e, a.attribute) + ": out of range, expected " + range);
+          }
+      }
+      if (std::strcmp(e->Name(), "limit") == 0 && e->Attribute("lower") && e->Attribute("upper") &&
+          e->DoubleAttribute("lower") > e->DoubleAttribute("upper"))
+        return fail(error, where(top, e, "lower") + ": lower limit above the upper limit " +
+                               common::quoteValue(e->Attribute("upper")));
+    }
+  }
+  return true;
 }
 
 }  // namespace
@@ -104,6 +187,7 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
     return fail(error, std::string("malformed XML: ") + (doc.ErrorStr() ? doc.ErrorStr() : "parse error"));
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (!robot) return fail(error, "no <robot> element");
+  if (!checkNumbers(robot, error)) return false;
   std::map<std::string, int> joint_order;
   for (const tinyxml2::XMLElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
     const char* name = j->Attribute("name");
@@ -243,6 +327,9 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
   // Bodies were appended in the order joints were discovered (parent before child, but siblings' subtrees
   // interleaved). Renumber into depth-first order following the document order of the joints.
   const int nb = static_cast<int>(m.body_names.size());
+  if (nb == 0)
+    return fail(error, "no moving link: the root is fixed to the world and no revolute or continuous joint follows "
+                       "it (a floating base would move)");
   std::vector<std::vector<int>> children(nb);
   std::vector<int> roots;
   for (int b = 0; b < nb; ++b) (m.parent[b] < 0 ? roots : children[m.parent[b]]).push_back(b);

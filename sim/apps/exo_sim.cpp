@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "exoid/common/cli.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/sim/config.hpp"
@@ -19,40 +20,63 @@ namespace {
 #define EXOID_CONFIG_DIR "config"
 #endif
 
-constexpr int kExitOk = 0;
-constexpr int kExitRuntime = 1;
-constexpr int kExitBadInput = 2;
+using exoid::common::kExitBadInput;
+using exoid::common::kExitOk;
+using exoid::common::kExitRuntime;
 
 volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
 
-void printHelp() {
-  std::printf(
-      "usage: exo_sim [options]\n"
-      "\n"
+int badInput(const std::string& msg) {
+  std::fprintf(stderr, "exo_sim: %s\n", msg.c_str());
+  return kExitBadInput;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace exoid;
+  using namespace exoid::sim;
+  const std::string config = EXOID_CONFIG_DIR;
+  std::string model_path = config + "/exo.xml";
+  std::string sensors_path = config + "/sensors.yaml";
+  std::string scenario_path = config + "/scenarios/nominal.yaml";
+  std::string url = LcmEndpoint::defaultUrl();
+  RunOptions opt;
+
+  CLI::App app{
       "Simulates the exoskeleton standing on two force plates (MuJoCo 2.2, 1 kHz: one 1 ms step per control\n"
       "tick) and talks LCM. Every tick k it applies the command for tick k, then publishes the samples of\n"
-      "tick k (utime = k * 1000, simulated microseconds). See docs/sim.md.\n"
-      "\n"
-      "options:\n"
-      "  --model FILE             MJCF of the robot and plates (default %s/exo.xml)\n"
-      "  --sensors FILE           realistic sensor noise (default %s/sensors.yaml)\n"
-      "  --scenario FILE          scenario: seed, noise (realistic|off|FILE), undeclared effects, initial state\n"
-      "                           (default %s/scenarios/nominal.yaml)\n"
-      "  --mode lockstep|realtime lockstep (default): wait (bounded) for the command of each tick, run as fast as\n"
-      "                           the CPU allows, deterministic; realtime: 1 kHz wall clock, apply the latest\n"
-      "                           valid command, count stale ticks and missed deadlines\n"
-      "  --duration SECONDS       simulated time (default 10)\n"
-      "  --lcm-url URL            LCM URL (default $LCM_DEFAULT_URL, else %s); a udpm URL must have ttl=0\n"
-      "  --command-timeout-ms MS  lockstep: how long to wait for the command of tick k (default 100)\n"
-      "  --hold-ticks N           fallback when the command of a tick is missing: hold the last valid command for\n"
-      "                           N ticks, then apply zero torque until a fresh command arrives (default 50);\n"
-      "                           every such tick is counted\n"
-      "  --start-timeout-s S      lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
-      "                           for a late controller; if none comes, run open loop without waiting (default 5)\n"
-      "  --quiet                  no progress line (the summary line is always printed)\n"
-      "  --help                   this text\n"
-      "\n"
+      "tick k (utime = k * 1000, simulated microseconds). See docs/sim.md.",
+      "exo_sim"};
+  common::configureCli(app);
+  std::string mode = "lockstep";
+  app.add_option("--model", model_path, "MJCF of the robot and plates")->type_name("FILE");
+  app.add_option("--sensors", sensors_path, "realistic sensor noise")->type_name("FILE");
+  app.add_option("--scenario", scenario_path,
+                 "scenario: seed, noise (realistic|off|FILE), undeclared effects, initial state")
+      ->type_name("FILE");
+  app.add_option("--mode", mode,
+                 "lockstep: wait (bounded) for the command of each tick, run as fast as the CPU\n"
+                 "allows, deterministic; realtime: 1 kHz wall clock, apply the latest valid command,\n"
+                 "count stale ticks and missed deadlines")
+      ->check(CLI::IsMember({"lockstep", "realtime"}))->type_name("lockstep|realtime");
+  app.add_option("--duration", opt.duration_s, "simulated time in seconds")
+      ->transform(common::strictNumber(1e-3, 1e7))->type_name("SECONDS");
+  app.add_option("--lcm-url", url, "LCM URL; a udpm URL must have ttl=0; the default is $LCM_DEFAULT_URL when set")
+      ->type_name("URL");
+  app.add_option("--command-timeout-ms", opt.command_timeout_ms, "lockstep: how long to wait for the command of tick k")
+      ->transform(common::strictInteger(0, 3600000))->type_name("MS");
+  app.add_option("--hold-ticks", opt.hold_ticks,
+                 "fallback when the command of a tick is missing: hold the last valid command for\n"
+                 "N ticks, then apply zero torque until a fresh command arrives; every such tick is counted")
+      ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_option("--start-timeout-s", opt.start_timeout_s,
+                 "lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
+                 "for a late controller; if none comes, run open loop without waiting")
+      ->transform(common::strictNumber(0.0, 3600.0))->type_name("S");
+  app.add_flag("--quiet", opt.quiet, "no progress line (the summary line is always printed)");
+  app.footer(
       "channels (LCM, package exoid_lcm, SI units, docs/lcm.md):\n"
       "  publishes  EXO_STATE        robot_state_t    encoders rad, joint torques N m, IMU (quaternion world<-IMU\n"
       "                                               w,x,y,z, gyro rad/s, specific force m/s^2, IMU frame)\n"
@@ -69,98 +93,10 @@ void printHelp() {
       "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m).\n"
       "\n"
       "exit codes: 0 run completed (also when interrupted by SIGINT/SIGTERM or when the robot fell),\n"
-      "            1 runtime failure (LCM), 2 bad input (options, MJCF, sensors or scenario file).\n",
-      EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, EXOID_CONFIG_DIR, exoid::channels::kDefaultUrl);
-}
-
-int badInput(const std::string& msg) {
-  std::fprintf(stderr, "exo_sim: %s\n", msg.c_str());
-  return kExitBadInput;
-}
-
-bool parseDouble(const std::string& s, double* out) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  *out = std::strtod(s.c_str(), &end);
-  return end && *end == '\0' && std::isfinite(*out);
-}
-
-bool parseInt(const std::string& s, long* out) {
-  if (s.empty()) return false;
-  char* end = nullptr;
-  *out = std::strtol(s.c_str(), &end, 10);
-  return end && *end == '\0';
-}
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace exoid;
-  using namespace exoid::sim;
-  const std::string config = EXOID_CONFIG_DIR;
-  std::string model_path = config + "/exo.xml";
-  std::string sensors_path = config + "/sensors.yaml";
-  std::string scenario_path = config + "/scenarios/nominal.yaml";
-  std::string url = LcmEndpoint::defaultUrl();
-  RunOptions opt;
-
-  for (int i = 1; i < argc; ++i) {
-    std::string arg = argv[i], value;
-    if (arg == "--help" || arg == "-h") {
-      printHelp();
-      return kExitOk;
-    }
-    if (arg == "--quiet") {
-      opt.quiet = true;
-      continue;
-    }
-    const size_t eq = arg.find('=');
-    if (arg.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = arg.substr(eq + 1);
-      arg = arg.substr(0, eq);
-    } else if (i + 1 < argc) {
-      value = argv[++i];
-    } else {
-      return badInput(arg + ": missing value (see --help)");
-    }
-    double d = 0.0;
-    long n = 0;
-    if (arg == "--model") {
-      model_path = value;
-    } else if (arg == "--sensors") {
-      sensors_path = value;
-    } else if (arg == "--scenario") {
-      scenario_path = value;
-    } else if (arg == "--lcm-url") {
-      url = value;
-    } else if (arg == "--mode") {
-      if (value == "lockstep") {
-        opt.mode = SimMode::Lockstep;
-      } else if (value == "realtime") {
-        opt.mode = SimMode::Realtime;
-      } else {
-        return badInput("--mode: expected lockstep or realtime, got '" + value + "'");
-      }
-    } else if (arg == "--duration") {
-      if (!parseDouble(value, &d) || d <= 0.0 || d > 1e7)
-        return badInput("--duration: expected a positive number of seconds, got '" + value + "'");
-      opt.duration_s = d;
-    } else if (arg == "--command-timeout-ms") {
-      if (!parseInt(value, &n) || n < 0 || n > 3600000)
-        return badInput("--command-timeout-ms: expected milliseconds >= 0, got '" + value + "'");
-      opt.command_timeout_ms = static_cast<int>(n);
-    } else if (arg == "--hold-ticks") {
-      if (!parseInt(value, &n) || n < 0 || n > 1000000000)
-        return badInput("--hold-ticks: expected a tick count >= 0, got '" + value + "'");
-      opt.hold_ticks = static_cast<int>(n);
-    } else if (arg == "--start-timeout-s") {
-      if (!parseDouble(value, &d) || d < 0.0 || d > 3600.0)
-        return badInput("--start-timeout-s: expected seconds in [0, 3600], got '" + value + "'");
-      opt.start_timeout_s = d;
-    } else {
-      return badInput("unknown option '" + arg + "' (see --help)");
-    }
-  }
+      "            1 runtime failure (LCM), 2 bad input (options, MJCF, sensors or scenario file; one line\n"
+      "            on stderr names the problem).");
+  if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
+  opt.mode = mode == "realtime" ? SimMode::Realtime : SimMode::Lockstep;
 
   // Inputs: every problem is one line naming the file and the field.
   std::string err;

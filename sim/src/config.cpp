@@ -1,5 +1,6 @@
 // YAML loaders for the sensor noise model and scenarios. yaml-cpp throws; every call into it is wrapped so
 // that a bad file becomes one line "<file>: <key>: <what>" and never an exception (startup code only).
+// Numbers are strict (common::yamlNumber) and duplicate keys are refused at every level.
 #include "exoid/sim/config.hpp"
 #include "exoid/one_line.hpp"
 
@@ -10,6 +11,8 @@
 #include <cmath>
 #include <initializer_list>
 #include <string>
+
+#include "exoid/common/yaml.hpp"
 
 namespace exoid::sim {
 namespace {
@@ -45,6 +48,8 @@ bool loadFile(const Ctx& c, YAML::Node* root) {
     return c.fail("", std::string("malformed YAML: ") + e.what());
   }
   if (!root->IsMap()) return c.fail("", std::string("top level must be a map, found ") + typeName(*root));
+  std::string duplicate;
+  if (!common::checkNoDuplicateKeys(*root, &duplicate)) return c.fail("", duplicate);
   return true;
 }
 
@@ -75,13 +80,8 @@ bool getRequired(const Ctx& c, const YAML::Node& map, const std::string& path, c
 
 bool toDouble(const Ctx& c, const YAML::Node& n, const std::string& key, double* out) {
   if (!n.IsScalar()) return c.fail(key, std::string("expected a number, found ") + typeName(n));
-  try {
-    *out = n.as<double>();
-  } catch (const YAML::Exception&) {
-    return c.fail(key, "expected a number, found '" + n.Scalar() + "'");
-  }
-  if (!std::isfinite(*out)) return c.fail(key, "must be finite");
-  return true;
+  std::string why;
+  return common::yamlNumber(n, *out, &why) || c.fail(key, why);
 }
 
 bool toNonNegative(const Ctx& c, const YAML::Node& n, const std::string& key, double* out) {
@@ -251,11 +251,10 @@ bool loadScenario(const std::string& path, Scenario* out, std::string* err) {
     if (root["description"] && !toString(c, root["description"], "description", &s.description)) return false;
     if (!getRequired(c, root, "", "seed", &v)) return false;
     if (!v.IsScalar()) return c.fail("seed", std::string("expected an unsigned integer, found ") + typeName(v));
-    try {
-      s.seed = v.as<uint64_t>();
-    } catch (const YAML::Exception&) {
-      return c.fail("seed", "expected an unsigned integer, found '" + v.Scalar() + "'");
-    }
+    int64_t seed = 0;
+    std::string why;
+    if (!common::yamlInteger(v, 0, INT64_MAX, seed, &why)) return c.fail("seed", why);
+    s.seed = static_cast<uint64_t>(seed);
     if (!getRequired(c, root, "", "noise", &v)) return false;
     std::string noise;
     if (!toString(c, v, "noise", &noise)) return false;

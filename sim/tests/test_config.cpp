@@ -39,14 +39,21 @@ TEST(SimConfig, BadSensorFilesNameTheKey) {
   };
   const std::vector<Case> cases = {
       {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: -1.0}", "encoder.sigma: must be >= 0"},
-      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: abc}", "encoder.sigma: expected a number, found 'abc'"},
-      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: .nan}", "encoder.sigma: must be finite"},
+      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: abc}", "encoder.sigma: expected a finite number, got 'abc' (not a number)"},
+      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: '13,5'}", "encoder.sigma: expected a finite number, got '13,5'"},
+      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: .inf}", "encoder.sigma: expected a finite number, got '.inf' (not finite)"},
+      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: 1e400}", "encoder.sigma: expected a finite number, got '1e400' (too large"},
+      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: ''}", "encoder.sigma: expected a finite number, got '' (empty"},
+      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: 1.0e-5, sigma: 2.0}", "encoder.sigma: duplicate key (line"},
+      {"joint_torque: {sigma: 0.2}\n", "joint_torque: {sigma: 0.2}\njoint_torque: {sigma: 0.3}\n",
+       "joint_torque: duplicate key (line"},
+      {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: .nan}", "encoder.sigma: expected a finite number, got '.nan' (not finite)"},
       {"encoder: {sigma: 1.0e-5}", "encoder: {sigma: 1.0e-5, bias: 1}", "encoder.bias: unknown key"},
       {"joint_torque: {sigma: 0.2}\n", "", "joint_torque: missing"},
       {"gyro_sigma: 0.004", "gyro_sigam: 0.004", "imu.gyro_sigam: unknown key"},
       {"orientation_sigma: [0.01, 0.02, 0.03]", "orientation_sigma: [0.01, 0.02]",
        "imu.orientation_sigma: expected a sequence of 3 numbers"},
-      {"force_sigma: [0.1, 0.2, 0.3]", "force_sigma: [0.1, x, 0.3]", "force_plate.force_sigma[1]: expected a number"},
+      {"force_sigma: [0.1, 0.2, 0.3]", "force_sigma: [0.1, x, 0.3]", "force_plate.force_sigma[1]: expected a finite number, got 'x'"},
       {"cop_min_force: 15", "cop_min_force: [1]", "force_plate.cop_min_force: expected a number, found a sequence"},
       {"encoder:", "encoder: [", "malformed YAML"},
   };
@@ -147,12 +154,26 @@ TEST(SimConfig, ErrorsQuotingLineBreaksAreOneLine) {
   }
 }
 
+TEST(SimConfig, SubnormalNumbersAreNumbers) {
+  std::string text = kGoodScenario;
+  text.replace(text.find("armature: {all: 0.01}"), 21, "armature: {all: 1e-320}");
+  const std::string path = writeTemp("subnormal_scenario.yaml", text);
+  Scenario s;
+  std::string err;
+  ASSERT_TRUE(loadScenario(path, &s, &err)) << err;
+  ASSERT_EQ(s.effects.armature.size(), 1u);
+  EXPECT_EQ(s.effects.armature[0].value, std::strtod("1e-320", nullptr));
+  EXPECT_GT(s.effects.armature[0].value, 0.0);
+}
+
 TEST(SimConfig, BadScenariosNameTheKey) {
   struct Case {
     std::string from, to, expect;
   };
   const std::vector<Case> cases = {
-      {"seed: 42", "seed: -3", "seed: expected an unsigned integer, found '-3'"},
+      {"seed: 42", "seed: -3", "seed: expected an integer, got '-3' (out of range, expected an integer >= 0)"},
+      {"seed: 42", "seed: 4.2", "seed: expected an integer, got '4.2' (not an integer)"},
+      {"seed: 42", "seed: 42\nseed: 43", "seed: duplicate key (line"},
       {"seed: 42", "seed: [1]", "seed: expected an unsigned integer, found a sequence"},
       {"seed: 42\n", "", "seed: missing"},
       {"name: demo", "nmae: demo", "nmae: unknown key"},
@@ -161,7 +182,14 @@ TEST(SimConfig, BadScenariosNameTheKey) {
        "effects.joint_damping.all: must be >= 0"},
       {"joint_damping: {all: 0.5, right_knee: 1.0}", "joint_damping: [0.5]",
        "effects.joint_damping: expected a map joint: value, found a sequence"},
-      {"armature: {all: 0.01}", "armature: {all: heavy}", "effects.armature.all: expected a number, found 'heavy'"},
+      {"armature: {all: 0.01}", "armature: {all: heavy}", "effects.armature.all: expected a finite number, got 'heavy'"},
+      {"armature: {all: 0.01}", "armature: {all: 0.01, all: 0.02}", "effects.armature.all: duplicate key (line"},
+      {"right_knee: {gain: 0.9}", "right_knee: {gain: 0.9, gain: 0.8}",
+       "effects.torque_sensor.right_knee.gain: duplicate key (line 13; first on line 13)"},
+      {"payload: {link: body, mass: 3.0, com: [0.1, 0.0, 0.2], inertia: [0.03, 0.02, 0.02, 0, 0, 0]}",
+       "payload: [{link: body, mass: 1.0}, {link: body, mass: 2.0, link: body}]",
+       "effects.payload[1].link: duplicate key"},
+      {"effects:\n", "effects:\n  armature: {all: 0.02}\n", "effects.armature: duplicate key (line 10; first on line 7)"},
       {"armature: {all: 0.01}", "armatures: {all: 0.01}", "effects.armatures: unknown key"},
       {"mass: 3.0", "mass: -3.0", "effects.payload.mass: must be > 0"},
       {"mass: 3.0, ", "", "effects.payload.mass: missing"},

@@ -175,10 +175,14 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
   };
   const std::vector<Case> cases = {
       {"--bogus 1", "unknown option '--bogus'"},
-      {"--duration -1", "--duration: expected a positive number of seconds, got '-1'"},
+      {"--duration -1", "--duration: '-1': out of range"},
+      {"--duration nan", "--duration: 'nan': not finite"},
+      {"--duration 1e400", "--duration: '1e400': too large for a double"},
+      {"--duration 2 stray", "unexpected argument 'stray'"},
       {"--duration", "--duration: missing value"},
-      {"--mode fast", "--mode: expected lockstep or realtime, got 'fast'"},
-      {"--command-timeout-ms x", "--command-timeout-ms: expected milliseconds >= 0"},
+      {"--mode fast", "--mode: fast not in {lockstep,realtime}"},
+      {"--command-timeout-ms x", "--command-timeout-ms: 'x': not an integer"},
+      {"--hold-ticks -1", "--hold-ticks: '-1': out of range, expected an integer in [0, 1000000000]"},
       {"--scenario " + bad_scenario, bad_scenario + ": effects.dampin: unknown key"},
       {"--scenario " + unknown_joint, unknown_joint + ": effects.joint_damping.knee: unknown joint 'knee'"},
       {"--model " + bad_mjcf, bad_mjcf + ": MuJoCo cannot load the model"},

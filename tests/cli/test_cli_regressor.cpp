@@ -147,6 +147,48 @@ TEST_F(RegressorCli, NanAndInfCells) {
   }
 }
 
+TEST_F(RegressorCli, ByteOrderMarkAndCrlfGiveTheSameOutput) {
+  const std::string args = "--model " + test::configPath("exo.urdf") + " --floating-base --states ";
+  ASSERT_EQ(run(args + dir_.file("states.csv") + " --out " + dir_.file("plain.csv")).exit_code, 0);
+  std::string text = test::slurp(dir_.file("states.csv")), crlf;
+  for (char c : text) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  std::ofstream(dir_.file("bom.csv"), std::ios::binary) << "\xEF\xBB\xBF" << crlf;
+  const auto r = run(args + dir_.file("bom.csv") + " --out " + dir_.file("W.csv"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(test::slurp(dir_.file("W.csv")), test::slurp(dir_.file("plain.csv")));
+}
+
+TEST_F(RegressorCli, HeaderOnlyIsRefused) {
+  writeStates(dir_.file("states.csv"), {});
+  expectError(run("--model " + test::configPath("exo.urdf") + " --floating-base --states " + dir_.file("states.csv") +
+                  " --out " + dir_.file("W.csv")),
+              "states.csv: no data row after the header");
+}
+
+TEST_F(RegressorCli, SubnormalCellsAreNumbers) {
+  writeStates(dir_.file("states.csv"), states_, "extra", "1e-320");  // refused as "not a number" before
+  const auto r = run("--model " + test::configPath("exo.urdf") + " --floating-base --states " +
+                     dir_.file("states.csv") + " --out " + dir_.file("W.csv"));
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+}
+
+TEST_F(RegressorCli, BadCellsNameLineColumnAndValue) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"nan", "'nan': not finite"}, {"-inf", "'-inf': not finite"}, {"1e400", "'1e400': too large for a double"},
+      {"13,5", "cells, header has"}, {"", "'': empty"}, {"0x1p3", "'0x1p3': not a number"}};
+  for (const auto& [bad, reason] : cases) {
+    writeStates(dir_.file("states.csv"), states_, "extra", "0");
+    std::string text = test::slurp(dir_.file("states.csv"));
+    text.replace(text.rfind(",0\n"), 3, std::string(",") + bad + "\n");
+    std::ofstream(dir_.file("states.csv")) << text;
+    const std::string where = std::string(bad) == "13,5" ? "line 6: " : "line 6, column " + std::to_string(
+        tools::StateColumns::names(model_).size() + 2) + " 'extra': ";
+    expectError(run("--model " + test::configPath("exo.urdf") + " --floating-base --states " +
+                    dir_.file("states.csv") + " --out " + dir_.file("W.csv")),
+                "states.csv: " + where + (std::string(bad) == "13,5" ? "" : reason));
+  }
+}
+
 TEST_F(RegressorCli, NonUnitQuaternion) {
   states_[2].base_orientation.coeffs() *= 1.5;
   writeStates(dir_.file("states.csv"), states_);

@@ -1,53 +1,61 @@
 #include <cstdio>
 
 #include "commands.hpp"
+#include "exoid/common/cli.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/model/urdf.hpp"
-#include "exoid/tools/args.hpp"
 
 namespace exoid::cli {
 
 namespace {
-constexpr char kHelp[] =
-    "usage: exoid base-params --model URDF [--floating-base] [--samples N] [--seed S] [--tolerance T]\n\n"
-    "Structural base parameters (thesis section II-E, Gautier 1990): the regressor is stacked over N random\n"
-    "states (any configuration, velocity, acceleration and base motion) and factorised by column-pivoted QR.\n"
-    "Prints how many base parameters there are, which standard parameters are identifiable alone, the linear\n"
-    "combinations in which the others are identifiable, and the parameters that have no effect at all.\n\n"
-    "options:\n"
-    "  --model URDF       robot description\n"
-    "  --floating-base    root link on a 6-dof free joint (default: fixed)\n"
-    "  --samples N        random states stacked (default 200)\n"
-    "  --seed S           random seed (default 1)\n"
-    "  --tolerance T      pivots below T times the largest count as zero (default 1e-9)\n"
-    "  --help             this text\n\n"
-    "exit codes: 0 success, 2 bad input.\n";
+// The stacked regressor (samples * nv rows x p columns of doubles) must fit comfortably in memory.
+constexpr double kMaxStackedBytes = 2.0 * (1 << 30);
+
+int fail(const std::string& msg) {
+  std::fprintf(stderr, "exoid base-params: error: %s\n", msg.c_str());
+  return common::kExitBadInput;
+}
 }  // namespace
 
 int cmdBaseParams(int argc, char** argv) {
-  tools::Args args;
-  args.option("model").option("samples", "200").option("seed", "1").option("tolerance", "1e-9");
-  args.flag("floating-base").flag("help");
-  std::string err;
+  CLI::App app{
+      "Structural base parameters (thesis section II-E, Gautier 1990): the regressor is stacked over N random\n"
+      "states (any configuration, velocity, acceleration and base motion) and factorised by column-pivoted QR.\n"
+      "Prints how many base parameters there are, which standard parameters are identifiable alone, the linear\n"
+      "combinations in which the others are identifiable, and the parameters that have no effect at all.",
+      "exoid base-params"};
+  common::configureCli(app);
+  std::string path;
+  bool floating_base = false;
   BaseParameterOptions opt;
-  long samples = 0, seed = 0;
-  const bool ok = args.parse(argc, argv, 2, &err);
-  if (ok && args.has("help")) return std::fputs(kHelp, stdout), 0;
-  if (!ok || !args.getInt("samples", samples, &err) || !args.getInt("seed", seed, &err) ||
-      !args.getDouble("tolerance", opt.tolerance, &err)) {
-    std::fprintf(stderr, "exoid base-params: error: %s\n", err.c_str());
-    return 2;
-  }
-  if (!args.has("model")) return std::fputs("exoid base-params: error: --model URDF is required\n", stderr), 2;
-  if (samples < 1 || opt.tolerance <= 0.0)
-    return std::fputs("exoid base-params: error: --samples must be >= 1 and --tolerance > 0\n", stderr), 2;
+  int64_t samples = opt.samples, seed = static_cast<int64_t>(opt.seed);
+  app.add_option("--model", path, "robot description")->required()->type_name("URDF");
+  app.add_flag("--floating-base", floating_base, "root link on a 6-dof free joint (default: fixed)");
+  app.add_option("--samples", samples,
+                 "random states stacked; N times the number of generalized velocities must reach the number\n"
+                 "of parameters, and the stacked regressor must fit in 2 GiB")
+      ->transform(common::strictInteger(1, 100000000))->type_name("N");
+  app.add_option("--seed", seed, "random seed")->transform(common::strictInteger(0))->type_name("S");
+  app.add_option("--tolerance", opt.tolerance, "pivots below T times the largest count as zero; 0 < T < 1")
+      ->transform(common::strictNumber(0.0, 1.0))->type_name("T");
+  app.footer("exit codes: 0 success, 2 bad input.");
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
+  if (opt.tolerance <= 0.0 || opt.tolerance >= 1.0)
+    return fail("--tolerance: '" + app.get_option("--tolerance")->as<std::string>() +
+                "': out of range, expected 0 < T < 1");
+  std::string err;
+  Model model;
+  if (!buildModelFromUrdfFile(path, floating_base, model, &err)) return fail(err);
+  const int p = model.nparams(), nv = model.nv;
+  if (nv > 0 && samples * nv < p)
+    return fail("--samples " + std::to_string(samples) + ": " + std::to_string(samples * nv) + " regressor rows (" +
+                std::to_string(nv) + " per sample) cannot reveal " + std::to_string(p) +
+                " parameters; use at least " + std::to_string((p + nv - 1) / nv));
+  if (static_cast<double>(samples) * nv * p * sizeof(double) > kMaxStackedBytes)
+    return fail("--samples " + std::to_string(samples) + ": the stacked regressor (" + std::to_string(samples * nv) +
+                " x " + std::to_string(p) + ") would not fit in 2 GiB");
   opt.samples = static_cast<int>(samples);
   opt.seed = static_cast<uint64_t>(seed);
-  Model model;
-  if (!buildModelFromUrdfFile(args.get("model"), args.has("floating-base"), model, &err)) {
-    std::fprintf(stderr, "exoid base-params: error: %s\n", err.c_str());
-    return 2;
-  }
   std::fputs(describeBaseParameters(model, computeBaseParameters(model, opt)).c_str(), stdout);
   return 0;
 }

@@ -11,13 +11,13 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "exoid/common/cli.hpp"
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/config.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/sim.hpp"
-#include "exoid/tools/args.hpp"
 #include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/process.hpp"
 #include "exoid/tools/run_log.hpp"
@@ -26,33 +26,6 @@ namespace exoid::cli {
 
 namespace {
 constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
-
-constexpr char kHelp[] =
-    "usage: exoid experiment --scenario SCENARIO.yaml --out DIR [options]\n\n"
-    "Runs the closed loop: exo_sim (MuJoCo, lockstep) and exo_controller (centroidal balance QP doing the\n"
-    "thesis's CoM moves) as separate processes talking LCM over udpm:// with ttl=0 inside a private network\n"
-    "namespace (unshare -n; multicast routed on its loopback only), recorded without loss. Writes\n"
-    "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger)\n"
-    "  DIR/summary.json     moves_done, fell, com_rmse_m, max_foot_slip_m, qp_solve_us_p50/p99, fallbacks,\n"
-    "                       realtime_factor, missing_ticks, eom_residual_max_rel, ...\n"
-    "  DIR/summary.md       the same as a table (also printed)\n"
-    "  DIR/controller.log, DIR/logger.log   process output (the sim's progress is printed)\n\n"
-    "options:\n"
-    "  --scenario FILE          sim scenario (config/scenarios/*.yaml): noise, undeclared effects\n"
-    "  --out DIR                output directory (created)\n"
-    "  --controller-config FILE controller configuration (default config/controller.yaml)\n"
-    "  --sensors FILE           sensor noise configuration (default config/sensors.yaml)\n"
-    "  --model URDF             controller's model (default config/exo.urdf)\n"
-    "  --mjcf FILE              simulated robot (default config/exo.xml)\n"
-    "  --seed N                 CoM move sequence seed (default 1; use different seeds for training and\n"
-    "                           validation runs)\n"
-    "  --moves N                number of CoM moves (default: the controller configuration's, 20)\n"
-    "  --realtime               run the sim at wall-clock 1 kHz instead of lockstep\n"
-    "  --no-pin                 do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
-    "                           controller share the first allowed CPU; the logger is never pinned)\n"
-    "  --help                   this text\n\n"
-    "needs: root (or unprivileged user namespaces) for unshare, iproute2.\n"
-    "exit codes: 0 run completed (see summary for pass/fail of the targets), 2 bad input or a process failed.\n";
 
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid experiment: error: %s\n", msg.c_str());
@@ -84,34 +57,66 @@ int reexecInPrivateNetns(int argc, char** argv) {
 
 int cmdExperiment(int argc, char** argv) {
   const std::string config = EXOID_CONFIG_DIR;
-  tools::Args args;
-  args.option("scenario").option("out").option("controller-config", config + "/controller.yaml");
-  args.option("sensors", config + "/sensors.yaml").option("model", config + "/exo.urdf");
-  args.option("mjcf", config + "/exo.xml").option("seed", "1").option("moves", "0");
-  args.flag("realtime").flag("no-pin").flag("help");
+  CLI::App app{
+      "Runs the closed loop: exo_sim (MuJoCo, lockstep) and exo_controller (centroidal balance QP doing the\n"
+      "thesis's CoM moves) as separate processes talking LCM over udpm:// with ttl=0 inside a private network\n"
+      "namespace (unshare -n; multicast routed on its loopback only), recorded without loss. Writes\n"
+      "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger)\n"
+      "  DIR/summary.json     moves_done, fell, com_rmse_m, max_foot_slip_m, qp_solve_us_p50/p99, fallbacks,\n"
+      "                       realtime_factor, missing_ticks, eom_residual_max_rel, ...\n"
+      "  DIR/summary.md       the same as a table (also printed)\n"
+      "  DIR/controller.log, DIR/logger.log   process output (the sim's progress is printed)",
+      "exoid experiment"};
+  common::configureCli(app);
+  std::string scenario_path, out_dir, controller_config = config + "/controller.yaml", sensors = config + "/sensors.yaml",
+      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml";
+  int64_t seed = 1, moves = 0;
+  bool realtime = false, no_pin = false;
+  app.add_option("--scenario", scenario_path, "sim scenario (config/scenarios/*.yaml): noise, undeclared effects")
+      ->required()->type_name("FILE");
+  app.add_option("--out", out_dir, "output directory (created)")->required()->type_name("DIR");
+  app.add_option("--controller-config", controller_config, "controller configuration")->type_name("FILE");
+  app.add_option("--sensors", sensors, "sensor noise configuration")->type_name("FILE");
+  app.add_option("--model", model_path, "controller's model")->type_name("URDF");
+  app.add_option("--mjcf", mjcf, "simulated robot")->type_name("FILE");
+  // The same ranges as exo_controller's --seed and --moves, so that exoid refuses what the controller would.
+  app.add_option("--seed", seed,
+                 "CoM move sequence seed (use different seeds for training and validation runs)")
+      ->transform(common::strictInteger(0))->type_name("N");
+  app.add_option("--moves", moves, "number of CoM moves (0: the controller configuration's, 20)")
+      ->transform(common::strictInteger(0, 1000))->type_name("N");
+  app.add_flag("--realtime", realtime, "run the sim at wall-clock 1 kHz instead of lockstep");
+  app.add_flag("--no-pin", no_pin,
+               "do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
+               "controller share the first allowed CPU; the logger is never pinned)");
+  app.footer(
+      "needs: root (or unprivileged user namespaces) for unshare, iproute2.\n"
+      "exit codes: 0 run completed (see summary for pass/fail of the targets), 2 bad input or a process failed.");
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;
-  if (!args.parse(argc, argv, 2, &err)) return fail(err);
-  if (args.has("help")) return std::fputs(kHelp, stdout), 0;
-  if (!args.has("scenario") || !args.has("out")) return fail("--scenario and --out are required (exoid experiment --help)");
-  for (const char* f : {"scenario", "controller-config", "sensors", "model", "mjcf"})
-    if (!std::filesystem::is_regular_file(args.get(f))) return fail("--" + std::string(f) + ": no such file '" + args.get(f) + "'");
-  long seed = 0, moves = 0;
-  if (!args.getInt("seed", seed, &err) || !args.getInt("moves", moves, &err)) return fail(err);
+  const std::pair<const char*, const std::string*> files[] = {{"scenario", &scenario_path},
+                                                              {"controller-config", &controller_config},
+                                                              {"sensors", &sensors},
+                                                              {"model", &model_path},
+                                                              {"mjcf", &mjcf}};
+  for (const auto& [name, file] : files)
+    if (!std::filesystem::is_regular_file(*file)) return fail("--" + std::string(name) + ": no such file '" + *file + "'");
   controller::ControllerConfig cc;
-  if (!controller::loadControllerConfig(args.get("controller-config"), cc, &err)) return fail(err);
-  if (moves < 0) return fail("--moves must be >= 0");
+  if (!controller::loadControllerConfig(controller_config, cc, &err)) return fail(err);
   if (moves == 0) moves = cc.trajectory.moves;
   cc.trajectory.moves = static_cast<int>(moves);
   // The sim runs exactly as long as the controller plans to (start-up latch, moves, holds): a sim that
   // outlives the controller would apply zero torque at the end.
   const double duration = controller::plannedRunDuration(cc);
 
-  {  // Validate the sim's inputs here, before any process starts, so that errors name the file and key.
+  {  // Validate every input here, before any process starts, so that errors name the file and key.
+    Model controller_model;
+    if (!buildModelFromUrdfFile(model_path, true, controller_model, &err)) return fail(err);
     sim::SensorConfig realistic, noise;
     sim::Scenario scenario;
     sim::SimModel probe;
-    if (!sim::loadSensorConfig(args.get("sensors"), &realistic, &err) || !sim::loadScenario(args.get("scenario"), &scenario, &err) ||
-        !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(args.get("mjcf"), noise, scenario, probe, &err))
+    if (!sim::loadSensorConfig(sensors, &realistic, &err) || !sim::loadScenario(scenario_path, &scenario, &err) ||
+        !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(mjcf, noise, scenario, probe, &err))
       return fail(err);
   }
   if (!std::getenv(kNetnsEnv)) return reexecInPrivateNetns(argc, argv);
@@ -119,7 +124,7 @@ int cmdExperiment(int argc, char** argv) {
   if (std::system("ip link set lo up") != 0 || std::system("ip route add 224.0.0.0/4 dev lo") != 0)
     return fail("cannot configure the private network namespace (ip link/route failed; is iproute2 installed?)");
 
-  const std::filesystem::path out = args.get("out");
+  const std::filesystem::path out = out_dir;
   std::filesystem::create_directories(out);
   const std::string log_path = (out / "run.lcmlog").string();
   for (const char* f : {"run.lcmlog", "logger.log", "controller.log", "summary.json", "summary.md"})
@@ -130,7 +135,7 @@ int cmdExperiment(int argc, char** argv) {
   // Lockstep sim and controller take turns, so they share one CPU (cheap hand-overs: 6x real time against
   // 4.5x unpinned on 2 cores); the logger stays free to use every CPU.
   const std::vector<int> cpus = tools::allowedCpus();
-  const int loop_cpu = (!args.has("no-pin") && cpus.size() >= 2) ? cpus.front() : -1;
+  const int loop_cpu = (!no_pin && cpus.size() >= 2) ? cpus.front() : -1;
 
   // exoid_logger, not Debian's lcm-logger: the latter drops bursts in LCM's user-space receive ring at the
   // lockstep rate (~30k messages/s) although the kernel delivers every datagram (docs/lcm.md).
@@ -138,21 +143,21 @@ int cmdExperiment(int argc, char** argv) {
                               (out / "logger.log").string(), &err);
   if (logger < 0) return fail(err);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  pid_t ctrl = tools::spawn({bin + "/exo_controller", "--model", args.get("model"), "--config", args.get("controller-config"),
+  pid_t ctrl = tools::spawn({bin + "/exo_controller", "--model", model_path, "--config", controller_config,
                              "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
-                            (out / "controller.log").string(), &err, args.has("realtime") ? -1 : loop_cpu);
+                            (out / "controller.log").string(), &err, realtime ? -1 : loop_cpu);
   if (ctrl < 0) return tools::stop(logger, SIGINT, 2000), fail(err);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   char dur[32];
   std::snprintf(dur, sizeof dur, "%.3f", duration);
   std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s -> %s\n", moves, duration,
-              args.get("scenario").c_str(), out.c_str());
+              scenario_path.c_str(), out.c_str());
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
-  pid_t sim = tools::spawn({bin + "/exo_sim", "--model", args.get("mjcf"), "--sensors", args.get("sensors"), "--scenario",
-                            args.get("scenario"), "--mode", args.has("realtime") ? "realtime" : "lockstep",
+  pid_t sim = tools::spawn({bin + "/exo_sim", "--model", mjcf, "--sensors", sensors, "--scenario",
+                            scenario_path, "--mode", realtime ? "realtime" : "lockstep",
                             "--duration", dur, "--lcm-url", url},
-                           "", &err, args.has("realtime") ? -1 : loop_cpu);
+                           "", &err, realtime ? -1 : loop_cpu);
   if (sim < 0) return tools::stop(ctrl, SIGTERM, 2000), tools::stop(logger, SIGINT, 2000), fail(err);
   int sim_code = -1, ctrl_code = -1;
   tools::waitFor(sim, -1, &sim_code);
@@ -166,14 +171,14 @@ int cmdExperiment(int argc, char** argv) {
                  (out / "controller.log").c_str());
 
   Model model;
-  if (!buildModelFromUrdfFile(args.get("model"), true, model, &err)) return fail(err);
+  if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail(err);
   tools::RunLog log;
   if (!tools::readRunLog(log_path, model.joint_names, log, &err)) return fail(err);
   tools::ExperimentSummary s;
   if (!tools::summarizeExperiment(model, log, static_cast<int>(moves), wall, s, &err)) return fail(err);
   const std::string table = tools::summaryTable(s);
   std::ofstream(out / "summary.json") << tools::summaryJson(s);
-  std::ofstream(out / "summary.md") << "# Experiment " << args.get("scenario") << " (seed " << seed << ")\n\n" << table;
+  std::ofstream(out / "summary.md") << "# Experiment " << scenario_path << " (seed " << seed << ")\n\n" << table;
   std::printf("\n%s\nwritten: %s, %s, %s\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
               (out / "summary.md").c_str());
   return 0;

@@ -2,47 +2,41 @@
 #include <cstring>
 
 #include "commands.hpp"
+#include "exoid/common/cli.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
-#include "exoid/tools/args.hpp"
 
 namespace exoid::cli {
 
-namespace {
-constexpr char kModelHelp[] =
-    "usage: exoid model --model URDF [--floating-base] [--gravity G]\n\n"
-    "Prints the model exoid builds from a URDF: every moving link (body) in tree order with its parent, joint,\n"
-    "joint axis, mass and centre of mass; the total mass; the centre of mass in the standing pose (all joints\n"
-    "at 0, base at the origin with identity orientation); and the number of structural base parameters.\n\n"
-    "options:\n"
-    "  --model URDF       robot description (revolute, continuous and fixed joints; fixed links are lumped)\n"
-    "  --floating-base    the root link is a floating base (6-dof free joint); default: fixed to the world\n"
-    "  --gravity G        gravity magnitude in m/s^2 along -z of the world (default 9.81)\n"
-    "  --help             this text\n\n"
-    "exit codes: 0 success, 2 bad input (unreadable or malformed URDF, bad option).\n";
-}  // namespace
-
 int cmdModel(int argc, char** argv) {
-  tools::Args args;
-  args.option("model").option("gravity", "9.81").flag("floating-base").flag("help");
+  CLI::App app{
+      "Prints the model exoid builds from a URDF: every moving link (body) in tree order with its parent, joint,\n"
+      "joint axis, mass and centre of mass; the total mass; the centre of mass in the standing pose (all joints\n"
+      "at 0, base at the origin with identity orientation); and the number of structural base parameters.",
+      "exoid model"};
+  common::configureCli(app);
+  std::string path;
+  bool floating_base = false;
+  double g = 9.81;
+  app.add_option("--model", path, "robot description (revolute, continuous and fixed joints; fixed links are lumped)")
+      ->required()->type_name("URDF");
+  app.add_flag("--floating-base", floating_base,
+               "the root link is a floating base (6-dof free joint); default: fixed to the world");
+  app.add_option("--gravity", g, "gravity magnitude in m/s^2 along -z of the world")
+      ->transform(common::strictNumber(0.0, 1000.0))->type_name("G");
+  app.footer("exit codes: 0 success, 2 bad input (unreadable or malformed URDF, bad option).");
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;
-  double g = 0.0;
-  if (!args.parse(argc, argv, 2, &err) || (!args.has("help") && !args.getDouble("gravity", g, &err))) {
-    std::fprintf(stderr, "exoid model: error: %s\n", err.c_str());
-    return 2;
-  }
-  if (args.has("help")) return std::fputs(kModelHelp, stdout), 0;
-  if (!args.has("model")) return std::fputs("exoid model: error: --model URDF is required\n", stderr), 2;
   Model model;
-  if (!buildModelFromUrdfFile(args.get("model"), args.has("floating-base"), model, &err, g)) {
+  if (!buildModelFromUrdfFile(path, floating_base, model, &err, g)) {
     std::fprintf(stderr, "exoid model: error: %s\n", err.c_str());
     return 2;
   }
   std::printf("Model '%s' from %s: %s base, %d moving links, %d joints, %d generalized velocities, %d parameters "
               "(10 per link + 2 friction per joint)\n\n",
-              model.name.c_str(), args.get("model").c_str(), model.floating_base ? "floating" : "fixed",
+              model.name.c_str(), path.c_str(), model.floating_base ? "floating" : "fixed",
               model.nbodies, model.njoints, model.nv, model.nparams());
   std::printf(" #  %-22s %-22s %-16s %-22s %9s  %s\n", "link", "parent", "joint", "axis (link frame)", "mass [kg]",
               "CoM in link frame [m]");

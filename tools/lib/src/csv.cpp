@@ -1,11 +1,10 @@
 #include "exoid/tools/csv.hpp"
 
-#include <cerrno>
-#include <cmath>
-#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <sstream>
+
+#include "exoid/common/strict_number.hpp"
 
 namespace exoid::tools {
 
@@ -35,13 +34,15 @@ bool readCsv(const std::string& path, CsvTable& table, std::string* error) {
     if (error) *error = path + ": " + msg;
     return false;
   };
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) return fail("cannot read file");
   table = CsvTable();
   std::string line;
   long line_no = 0;
   while (std::getline(in, line)) {
     ++line_no;
+    // A UTF-8 byte-order mark (spreadsheet exports) is not part of the first column's name.
+    if (line_no == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
     if (blank(line) || line[0] == '#') continue;
     if (table.header.empty()) {
       table.header = split(line);
@@ -58,21 +59,16 @@ bool readCsv(const std::string& path, CsvTable& table, std::string* error) {
                   std::to_string(table.header.size()));
     std::vector<double> row(cells.size());
     for (size_t c = 0; c < cells.size(); ++c) {
-      const char* s = cells[c].c_str();
-      char* end = nullptr;
-      errno = 0;
-      const double v = std::strtod(s, &end);
-      if (cells[c].empty() || end == s || *end != '\0' || errno == ERANGE)
-        return fail("line " + std::to_string(line_no) + ", column '" + table.header[c] + "': not a number ('" +
-                    cells[c] + "')");
-      if (!std::isfinite(v))
-        return fail("line " + std::to_string(line_no) + ", column '" + table.header[c] + "': not finite ('" +
-                    cells[c] + "')");
-      row[c] = v;
+      std::string why;
+      if (!common::parseDouble(cells[c], row[c], &why))
+        return fail("line " + std::to_string(line_no) + ", column " + std::to_string(c + 1) + " '" +
+                    table.header[c] + "': " + common::quoteValue(cells[c]) + ": " + why);
     }
     table.rows.push_back(std::move(row));
   }
+  if (in.bad()) return fail("read error");
   if (table.header.empty()) return fail("no header row");
+  if (table.rows.empty()) return fail("no data row after the header");
   return true;
 }
 

@@ -8,7 +8,9 @@ namespace exoid {
 /// Builds a Model from a URDF file (urdfdom for the tree, document order for the numbering).
 /// floating_base: the root link becomes body 0 on a 6-dof joint; otherwise the root is fixed to the world.
 /// Supported joints: revolute, continuous (1 dof), fixed (lumped into the parent). Other types, a missing
-/// file, malformed XML, a non-tree or a link with negative mass fail with a one-line message in *error.
+/// file, malformed XML, a non-tree, no moving link, and any numeric attribute that is not whole, finite
+/// numbers in range (negative mass, "13,5", "nan", "1e400", empty, ...; common::parseDouble) fail with a
+/// one-line message in *error naming the link or joint, the element, the attribute, its value and line.
 /// gravity_magnitude: |g| in m/s^2, gravity along -z of the world (root link for a fixed base).
 bool buildModelFromUrdfFile(const std::string& path, bool floating_base, Model& model, std::string* error,
                             double gravity_magnitude = 9.81);

@@ -15,9 +15,11 @@ struct CsvTable {
   int column(const std::string& name) const;
 };
 
-/// Reads a numeric CSV. Lines starting with '#' and blank lines are skipped. Fails (false, *error) on an
-/// unreadable file, a missing or duplicated header name, a row with the wrong number of cells, a cell that
-/// is not a number, NaN or Inf.
+/// Reads a numeric CSV. Lines starting with '#' and blank lines are skipped; a UTF-8 byte-order mark and CRLF
+/// line ends are accepted; spaces around a cell are ignored. Every cell is one finite number
+/// (common::parseDouble: subnormals such as 1e-320 are numbers). Fails (false, *error naming the file, line,
+/// column and value) on an unreadable file, a missing or duplicated header name, no data row, a row with
+/// the wrong number of cells, a cell that is not a number, NaN, Inf or too large for a double.
 bool readCsv(const std::string& path, CsvTable& table, std::string* error);
 
 /// Writes rows atomically: open() writes to path + ".tmp", commit() renames it onto path, and the
