@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/controller/run_options.hpp"
 #include "exoid/model/urdf.hpp"
 
 namespace {
@@ -76,10 +77,10 @@ int main(int argc, char** argv) {
   app.add_option("--model", model_path, "URDF of the robot")->type_name("PATH");
   app.add_option("--config", config_path, "controller configuration")->type_name("PATH");
   app.add_option("--moves", moves, "number of CoM moves (0: trajectory.moves of the configuration, 20)")
-      ->transform(common::strictInteger(0, 1000))->type_name("N");
+      ->transform(common::strictInteger(0, kMaxMoves))->type_name("N");
   app.add_option("--seed", seed,
                  "seed of the CoM move sequence; use different seeds for training and validation runs")
-      ->transform(common::strictInteger(0))->type_name("N");
+      ->transform(common::strictInteger(kMinSeed, kMaxSeed))->type_name("N");
   app.add_option("--lcm-url", url,
                  "LCM URL; udpm URLs must have ttl=0 (added when absent); the default is\n$LCM_DEFAULT_URL when set")
       ->type_name("URL");

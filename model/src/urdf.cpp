@@ -94,11 +94,11 @@ bool checkNumbers(const tinyxml2::XMLElement* robot, std::string* error) {
   for (const tinyxml2::XMLElement* top = robot->FirstChildElement(); top; top = top->NextSiblingElement()) {
     const std::string kind = top->Name();
     if (kind != "link" && kind != "joint") continue;
-    std::vector<const tinyxml2::XMLElement*> todo = {top};
+    std::vector<const tinyxml2::XMLElement*> todo = {top};  // depth-first, document order
     while (!todo.empty()) {
       const tinyxml2::XMLElement* e = todo.back();
       todo.pop_back();
-      for (const tinyxml2::XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) todo.push_back(c);
+      for (const tinyxml2::XMLElement* c = e->LastChildElement(); c; c = c->PreviousSiblingElement()) todo.push_back(c);
       for (const NumericAttribute& a : kNumericAttributes) {
         if (std::strcmp(e->Name(), a.element) != 0) continue;
         const char* text = e->Attribute(a.attribute);

@@ -1,5 +1,6 @@
 // exo_sim: the simulated exoskeleton on two force plates, as an LCM process (docs/sim.md).
 #include <csignal>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +24,9 @@ namespace {
 using exoid::common::kExitBadInput;
 using exoid::common::kExitOk;
 using exoid::common::kExitRuntime;
+constexpr int kExitFell = 3;
+constexpr int kExitControllerLost = 4;
+constexpr int kExitInterrupted = 5;
 
 volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
@@ -43,6 +47,7 @@ int main(int argc, char** argv) {
   std::string scenario_path = config + "/scenarios/nominal.yaml";
   std::string url = LcmEndpoint::defaultUrl();
   RunOptions opt;
+  std::string result_path;
 
   CLI::App app{
       "Simulates the exoskeleton standing on two force plates (MuJoCo 2.2, 1 kHz: one 1 ms step per control\n"
@@ -75,6 +80,16 @@ int main(int argc, char** argv) {
                  "lockstep: wait up to S s for the first command, re-sending tick 0 every 100 ms\n"
                  "for a late controller; if none comes, run open loop without waiting")
       ->transform(common::strictNumber(0.0, 3600.0))->type_name("S");
+  app.add_option("--max-missing-commands", opt.max_missing_commands,
+                 "once a controller has answered: end the run (exit 4) when N consecutive\n"
+                 "commands are missing (lockstep: each after a --command-timeout-ms wait, so at most\n"
+                 "N x that; realtime: N x --command-timeout-ms ms without a fresh command); 0 never\n"
+                 "gives up")
+      ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_option("--result", result_path,
+                 "write the summary as JSON to FILE at the end (outcome, fall tick, fallback\n"
+                 "ticks, ...; `exoid experiment` reads it)")
+      ->type_name("FILE");
   app.add_flag("--quiet", opt.quiet, "no progress line (the summary line is always printed)");
   app.footer(
       "channels (LCM, package exoid_lcm, SI units, docs/lcm.md):\n"
@@ -90,13 +105,18 @@ int main(int argc, char** argv) {
       "\n"
       "output: a progress line per simulated second (unless --quiet), then one summary line: ticks, realtime\n"
       "factor, accepted/rejected commands by reason, fallback ticks (held, zero, timeouts), clamped commands,\n"
-      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m).\n"
+      "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m). A fall ends the run at\n"
+      "the fall tick (nothing after it is worth simulating; docs/sim.md).\n"
       "\n"
-      "exit codes: 0 run completed (also when interrupted by SIGINT/SIGTERM or when the robot fell),\n"
-      "            1 runtime failure (LCM), 2 bad input (options, MJCF, sensors or scenario file; one line\n"
-      "            on stderr names the problem).");
+      "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM, --result unwritable),\n"
+      "            2 bad input (options, MJCF, sensors or scenario file; one line on stderr names the problem),\n"
+      "            3 the robot fell (run ended at the fall tick, printed),\n"
+      "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).");
   if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
   opt.mode = mode == "realtime" ? SimMode::Realtime : SimMode::Lockstep;
+  // From here on a stop request ends the run cleanly (exit 5, --result written), also while loading.
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
 
   // Inputs: every problem is one line naming the file and the field.
   std::string err;
@@ -117,8 +137,6 @@ int main(int argc, char** argv) {
     return kExitRuntime;
   }
 
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
   if (!opt.quiet) {
     std::printf("exo_sim: %s, scenario '%s' (%s), noise %s, seed %llu, %s, %.3f s, LCM %s\n", model_path.c_str(),
                 scenario.name.c_str(), scenario_path.c_str(), noise.source.empty() ? "none" : noise.source.c_str(),
@@ -130,9 +148,24 @@ int main(int argc, char** argv) {
   const bool ok = runSim(model, data, *endpoint, opt, &summary, &err, &g_stop);
   std::printf("%s\n", formatSummary(summary).c_str());
   std::fflush(stdout);
+  if (!result_path.empty()) {
+    std::FILE* f = std::fopen(result_path.c_str(), "w");
+    const std::string json = runSummaryJson(summary);
+    if (!f || std::fputs(json.c_str(), f) < 0 || std::fclose(f) != 0) {
+      std::fprintf(stderr, "exo_sim: cannot write --result '%s': %s\n", result_path.c_str(), std::strerror(errno));
+      return kExitRuntime;
+    }
+  }
   if (!ok) {
     std::fprintf(stderr, "exo_sim: %s\n", err.c_str());
     return kExitRuntime;
   }
-  return kExitOk;
+  switch (summary.outcome) {
+    case RunOutcome::Completed: return kExitOk;
+    case RunOutcome::Fell: return kExitFell;
+    case RunOutcome::ControllerLost: return kExitControllerLost;
+    case RunOutcome::Interrupted: return kExitInterrupted;
+    case RunOutcome::LcmFailure: return kExitRuntime;
+  }
+  return kExitRuntime;
 }

@@ -8,6 +8,9 @@
 #include <cerrno>
 #include <cinttypes>
 #include <cmath>
+#include <type_traits>
+
+#include <nlohmann/json.hpp>
 
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
@@ -81,9 +84,16 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
 
   RunSummary s;
   const int64_t ticks = std::llround(opt.duration_s * 1000.0);
+  s.ticks_planned = ticks;
   const int64_t t0 = monoNs();
   int64_t start_deadline = 0;
   bool ok = true;
+  // Consecutive missing commands (only once a controller has answered: no controller at all is open loop).
+  int64_t missing = 0;
+  const int64_t give_up = opt.max_missing_commands <= 0 ? 0
+                          : opt.mode == SimMode::Lockstep
+                              ? opt.max_missing_commands
+                              : int64_t{opt.max_missing_commands} * std::max(1, opt.command_timeout_ms);
 
   // --- loop (no allocation) ---
   for (int64_t k = 0; k < ticks && ok; ++k) {
@@ -102,8 +112,10 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
                  monoNs() < start_deadline && !(stop && *stop))
             ok = publishAll();
           if (!ok) break;
+          if (!arbiterHasFresh(arb, k)) ++s.timeouts;
         } else if (arb.received > 0) {
           r = serviceUntil(ep, monoNs() + int64_t{opt.command_timeout_ms} * 1000000, fresh, stop, err);
+          if (!arbiterHasFresh(arb, k)) ++s.timeouts;
         } else {
           // Never heard from a controller (start timeout over): run open loop without waiting.
           r = ep.handleAvailable(1000, err) < 0 ? -1 : 0;
@@ -112,20 +124,35 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
           ok = false;
           break;
         }
-        if (!arbiterHasFresh(arb, k)) ++s.timeouts;
       }
     } else if (ep.handleAvailable(1000, err) < 0) {
       ok = false;
       break;
     }
+    if (k >= 1 && arb.received > 0) {
+      missing = arbiterHasFresh(arb, k) ? 0 : missing + 1;
+      if (give_up > 0 && missing >= give_up) {
+        s.outcome = RunOutcome::ControllerLost;
+        break;
+      }
+    }
+    if (arbiterHasFresh(arb, k)) s.last_fresh_tick = k;
 
     simStep(sm, sd, arbiterSelect(arb, k));
-    s.fell = s.fell || simFell(sm, sd);
+    const bool fell_now = !s.fell && simFell(sm, sd);
+    if (fell_now) {
+      s.fell = true;
+      s.fall_tick = k;
+    }
     if (!publishAll()) {
       ok = false;
       break;
     }
     s.ticks = k + 1;
+    if (fell_now && opt.stop_on_fall) {
+      s.outcome = RunOutcome::Fell;
+      break;
+    }
 
     if (!opt.quiet && (k + 1) % 1000 == 0) {
       const double wall = (monoNs() - t0) * 1e-9;
@@ -161,24 +188,121 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
   s.refused = sd.stats.rejected_commands;
   s.clamped = sd.stats.clamped_commands;
   s.mujoco_warnings = sd.stats.mujoco_warnings;
+  s.missing_commands = missing;
   if (stop && *stop) s.interrupted = true;
+  if (!ok) {
+    s.outcome = RunOutcome::LcmFailure;
+  } else if (s.interrupted && s.outcome == RunOutcome::Completed && s.ticks < ticks) {
+    s.outcome = RunOutcome::Interrupted;
+  } else if (s.outcome == RunOutcome::Completed && s.fell) {
+    s.outcome = RunOutcome::Fell;  // stop_on_fall off: it still did not complete its run standing
+  }
   if (out) *out = s;
   return ok;
 }
 
+const char* outcomeName(RunOutcome o) {
+  switch (o) {
+    case RunOutcome::Completed: return "completed";
+    case RunOutcome::Fell: return "fell";
+    case RunOutcome::ControllerLost: return "controller_lost";
+    case RunOutcome::Interrupted: return "interrupted";
+    case RunOutcome::LcmFailure: return "lcm_failure";
+  }
+  return "unknown";
+}
+
 std::string formatSummary(const RunSummary& s) {
-  char buf[1024];
-  std::snprintf(buf, sizeof buf,
-                "exo_sim: summary: ticks %" PRId64 ", simulated %.3f s, wall %.3f s, realtime factor %.2f, commands "
+  char buf[1280];
+  int n = std::snprintf(buf, sizeof buf, "exo_sim: summary: %s", outcomeName(s.outcome));
+  if (s.fall_tick >= 0)
+    n += std::snprintf(buf + n, sizeof buf - n, " (fall at tick %" PRId64 ", t %.3f s)", s.fall_tick, s.fall_tick * 1e-3);
+  if (s.outcome == RunOutcome::ControllerLost)
+    n += std::snprintf(buf + n, sizeof buf - n,
+                       " (%" PRId64 " consecutive commands missing; last fresh command at tick %" PRId64 ")",
+                       s.missing_commands, s.last_fresh_tick);
+  std::snprintf(buf + n, sizeof buf - n,
+                ", ticks %" PRId64 " of %" PRId64 ", simulated %.3f s, wall %.3f s, realtime factor %.2f, commands "
                 "accepted %" PRIu64 " rejected %" PRIu64 " (duplicate %" PRIu64 ", out_of_order %" PRIu64
                 ", non_finite %" PRIu64 ", malformed %" PRIu64 "), fallback ticks %" PRId64 " (held %" PRId64
                 ", zero %" PRId64 ", timeouts %" PRId64 "), clamped %" PRId64 ", overruns %" PRId64
                 ", mujoco warnings %" PRId64 ", fell %s%s",
-                s.ticks, s.sim_time_s, s.wall_time_s, s.realtime_factor, s.accepted, s.rejected,
+                s.ticks, s.ticks_planned, s.sim_time_s, s.wall_time_s, s.realtime_factor, s.accepted, s.rejected,
                 s.rejected_by_reason[0], s.rejected_by_reason[1], s.rejected_by_reason[2], s.rejected_by_reason[3],
                 s.fallbackTicks(), s.held_ticks, s.zero_ticks, s.timeouts, s.clamped, s.overruns, s.mujoco_warnings,
                 s.fell ? "yes" : "no", s.interrupted ? ", interrupted" : "");
   return buf;
+}
+
+namespace {
+// One list of the summary's fields, for both directions.
+template <class Json, class Summary, class F>
+void eachField(Json& j, Summary& s, F f) {
+  f(j, "ticks_planned", s.ticks_planned);
+  f(j, "ticks", s.ticks);
+  f(j, "sim_time_s", s.sim_time_s);
+  f(j, "wall_time_s", s.wall_time_s);
+  f(j, "realtime_factor", s.realtime_factor);
+  f(j, "commands_accepted", s.accepted);
+  f(j, "commands_rejected", s.rejected);
+  f(j, "rejected_duplicate", s.rejected_by_reason[0]);
+  f(j, "rejected_out_of_order", s.rejected_by_reason[1]);
+  f(j, "rejected_non_finite", s.rejected_by_reason[2]);
+  f(j, "rejected_malformed", s.rejected_by_reason[3]);
+  f(j, "fresh_ticks", s.fresh_ticks);
+  f(j, "held_ticks", s.held_ticks);
+  f(j, "zero_ticks", s.zero_ticks);
+  f(j, "timeouts", s.timeouts);
+  f(j, "refused", s.refused);
+  f(j, "clamped", s.clamped);
+  f(j, "overruns", s.overruns);
+  f(j, "mujoco_warnings", s.mujoco_warnings);
+  f(j, "fell", s.fell);
+  f(j, "fall_tick", s.fall_tick);
+  f(j, "last_fresh_tick", s.last_fresh_tick);
+  f(j, "missing_commands", s.missing_commands);
+  f(j, "interrupted", s.interrupted);
+}
+}  // namespace
+
+std::string runSummaryJson(const RunSummary& s) {
+  nlohmann::ordered_json j;
+  j["outcome"] = outcomeName(s.outcome);
+  eachField(j, s, [](nlohmann::ordered_json& js, const char* key, const auto& v) { js[key] = v; });
+  return j.dump(2) + "\n";
+}
+
+bool parseRunSummaryJson(const std::string& text, RunSummary* out, std::string* error) {
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  auto fail = [&](const std::string& why) {
+    if (error) *error = "exo_sim result: " + why;
+    return false;
+  };
+  if (!j.is_object()) return fail("not a JSON object");
+  RunSummary s;
+  const auto outcome = j.find("outcome");
+  if (outcome == j.end() || !outcome->is_string()) return fail("no outcome");
+  bool known = false;
+  for (RunOutcome o : {RunOutcome::Completed, RunOutcome::Fell, RunOutcome::ControllerLost, RunOutcome::Interrupted,
+                       RunOutcome::LcmFailure})
+    if (outcome->get<std::string>() == outcomeName(o)) s.outcome = o, known = true;
+  if (!known) return fail("unknown outcome '" + outcome->get<std::string>() + "'");
+  std::string bad;
+  eachField(j, s, [&](const nlohmann::json& js, const char* key, auto& v) {
+    using T = std::decay_t<decltype(v)>;
+    const auto it = js.find(key);
+    const bool ok = it != js.end() && (std::is_same_v<T, bool> ? it->is_boolean()
+                                       : std::is_floating_point_v<T> ? it->is_number()
+                                                                     : it->is_number_integer());
+    if (!ok) {
+      if (bad.empty()) bad = key;
+      return;
+    }
+    v = it->template get<T>();
+  });
+  if (!bad.empty()) return fail("missing or mistyped field '" + bad + "'");
+  *out = s;
+  return true;
 }
 
 }  // namespace exoid::sim

@@ -2,6 +2,8 @@
 // no exceptions). See exoid/sim/sim.hpp and docs/sim.md.
 #include "exoid/sim/sim.hpp"
 
+#include "mjcf_check.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -112,6 +114,7 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
   sm.noise = noise;
   const std::string& f = mjcf_path;
 
+  if (!checkMjcfNumbers(mjcf_path, err)) return false;
   char mjerr[1000] = "";
   sm.m = mj_loadXML(mjcf_path.c_str(), nullptr, mjerr, sizeof(mjerr));
   if (!sm.m) {

@@ -132,6 +132,99 @@ TEST(ExoSimLoop, RealtimeRunsAtWallClockAndCountsStaleTicks) {
   EXPECT_EQ(s.timeouts, 0);               // realtime never waits for a command
 }
 
+// A fall ends the run at the fall tick (the floor does not collide: without this the robot dropped to
+// z = -300 m while the run went on); the tick is reported and the last published tick is the fall tick.
+TEST(ExoSimLoop, AFallEndsTheRunAtTheFallTick) {
+  std::string err;
+  Scenario sc;
+  sc.noise = NoiseMode::Off;
+  SimModel sm;
+  SimData sd;
+  ASSERT_TRUE(simLoad(cfg("exo.xml"), SensorConfig(), sc, sm, &err)) << err;
+  ASSERT_TRUE(simMakeData(sm, sd, &err)) << err;
+  const double z0 = sd.d->qpos[sm.base_qpos + 2];
+  LcmEndpoint ep("memq://");
+  std::vector<double> z;  // truth base height per tick
+  ep.subscribe<exoid_lcm::ground_truth_t>(channels::kTruth, [&](const char*, const exoid_lcm::ground_truth_t& t) {
+    ASSERT_EQ(t.tick, static_cast<int64_t>(z.size()));
+    z.push_back(t.base_position[2]);
+  });
+  RunOptions opt;
+  opt.duration_s = 5.0;
+  opt.start_timeout_s = 0.0;  // no controller: open loop at zero torque, the robot folds up
+  opt.quiet = true;
+  RunSummary s;
+  ASSERT_TRUE(runSim(sm, sd, ep, opt, &s, &err)) << err;
+  while (ep.handleAvailable() > 0) {
+  }
+  EXPECT_EQ(s.outcome, RunOutcome::Fell);
+  EXPECT_TRUE(s.fell);
+  EXPECT_EQ(s.ticks_planned, 5000);
+  ASSERT_GT(s.fall_tick, 0);
+  EXPECT_LT(s.fall_tick, 2000);  // folds within a fraction of a second; 5 s were planned
+  EXPECT_EQ(s.ticks, s.fall_tick + 1);
+  ASSERT_EQ(static_cast<int64_t>(z.size()), s.ticks);
+  // Independent check on the published truth: every tick before the fall tick was above the threshold, and
+  // the state after the fall tick (z of the fall tick + one step at most ~5 mm) is below it.
+  for (int64_t k = 0; k < s.fall_tick; ++k) ASSERT_GE(z[static_cast<size_t>(k)], z0 - kFallDrop) << k;
+  EXPECT_LT(z.back(), z0 - kFallDrop + 0.005);
+  EXPECT_EQ(s.zero_ticks, s.ticks - 1);
+  EXPECT_EQ(s.timeouts, 0);  // open loop never waits
+  EXPECT_NE(formatSummary(s).find("fell (fall at tick " + std::to_string(s.fall_tick)), std::string::npos)
+      << formatSummary(s);
+}
+
+// A controller that answered and then went silent ends the run after max_missing_commands consecutive
+// missing commands, instead of a command_timeout_ms wait on every remaining tick (an hour for a 20-move run).
+TEST(ExoSimLoop, ASilentControllerEndsTheRunAfterMaxMissingCommands) {
+  std::string err;
+  Scenario sc;
+  sc.noise = NoiseMode::Off;
+  SimModel sm;
+  SimData sd;
+  ASSERT_TRUE(simLoad(cfg("exo.xml"), SensorConfig(), sc, sm, &err)) << err;
+  ASSERT_TRUE(simMakeData(sm, sd, &err)) << err;
+  LcmEndpoint ep("memq://");
+  JointCommandSample cmd;
+  cmd.tau.setZero(sm.nj);
+  cmd.tau_ff.setZero(sm.nj);
+  exoid_lcm::joint_command_t msg;
+  ep.subscribe<exoid_lcm::robot_state_t>(channels::kState, [&](const char*, const exoid_lcm::robot_state_t& st) {
+    if (st.tick + 1 > 100) return;  // the controller dies after sending the command for tick 100
+    cmd.tick = st.tick + 1;
+    cmd.source_tick = st.tick;
+    for (int j = 0; j < sm.nj; ++j) cmd.tau[j] = -1000.0 * st.q[static_cast<size_t>(j)];
+    toLcm(cmd, sm.joint_names, msg);
+    ep.publish(channels::kCommand, msg);
+  });
+  RunOptions opt;
+  opt.duration_s = 3600.0;  // an hour planned: only the missing-command limit can end it in time
+  opt.command_timeout_ms = 20;
+  opt.max_missing_commands = 5;
+  opt.quiet = true;
+  RunSummary s;
+  ASSERT_TRUE(runSim(sm, sd, ep, opt, &s, &err)) << err;
+  EXPECT_EQ(s.outcome, RunOutcome::ControllerLost);
+  EXPECT_EQ(s.last_fresh_tick, 100);
+  EXPECT_EQ(s.missing_commands, 5);
+  EXPECT_EQ(s.ticks, 105);  // ticks 101..104 stepped on the fallback, tick 105 would have been the 5th miss
+  EXPECT_EQ(s.timeouts, 5);
+  EXPECT_EQ(s.held_ticks, 4);
+  EXPECT_LT(s.wall_time_s, 2.0);  // 5 waits of 20 ms, not 3.6 million
+  EXPECT_FALSE(s.fell);
+  // The summary survives the JSON round trip exo_sim --result -> exoid experiment.
+  RunSummary back;
+  ASSERT_TRUE(parseRunSummaryJson(runSummaryJson(s), &back, &err)) << err;
+  EXPECT_EQ(back.outcome, RunOutcome::ControllerLost);
+  EXPECT_EQ(back.ticks, s.ticks);
+  EXPECT_EQ(back.last_fresh_tick, 100);
+  EXPECT_EQ(back.held_ticks, 4);
+  EXPECT_EQ(back.wall_time_s, s.wall_time_s);
+  EXPECT_FALSE(parseRunSummaryJson("{\"outcome\": \"completed\"}", &back, &err));
+  EXPECT_NE(err.find("ticks_planned"), std::string::npos) << err;
+  EXPECT_FALSE(parseRunSummaryJson("{\"outcome\": ", &back, &err));
+}
+
 // --- the binary ------------------------------------------------------------------------------------------
 struct CliRun {
   int code = -1;
@@ -160,14 +253,22 @@ TEST(ExoSimCli, HelpListsEveryOptionChannelAndExitCode) {
   const CliRun r = runExoSim("--help");
   EXPECT_EQ(r.code, 0);
   for (const char* s : {"--model", "--sensors", "--scenario", "--mode", "--duration", "--lcm-url",
-                        "--command-timeout-ms", "--hold-ticks", "--start-timeout-s", "--quiet", "--help", "EXO_STATE",
-                        "EXO_PLATE_RIGHT", "EXO_PLATE_LEFT", "EXO_TRUTH", "EXO_COMMAND", "exit codes", "ttl=0"})
+                        "--command-timeout-ms", "--hold-ticks", "--start-timeout-s", "--max-missing-commands",
+                        "--result", "--quiet", "--help", "EXO_STATE",
+                        "EXO_PLATE_RIGHT", "EXO_PLATE_LEFT", "EXO_TRUTH", "EXO_COMMAND", "exit codes", "ttl=0",
+                        "3 the robot fell", "4 the controller stopped answering", "5 interrupted"})
     EXPECT_NE(r.out.find(s), std::string::npos) << s;
 }
 
 TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
   const std::string bad_scenario = writeFile("bad.yaml", "name: x\nseed: 1\nnoise: off\neffects: {dampin: {all: 1}}\n");
   const std::string bad_mjcf = writeFile("bad.xml", "<mujoco><worldbody><body></mujoco>");
+  std::ifstream in(cfg("exo.xml"));
+  std::string mjcf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  mjcf.replace(mjcf.find("mass=\""), mjcf.find('"', mjcf.find("mass=\"") + 6) - mjcf.find("mass=\"") + 1, "mass=\"nan\"");
+  const std::string nan_mjcf = writeFile("nan.xml", mjcf);  // MuJoCo 2.2 alone accepts it with a warning
+  mjcf.replace(mjcf.find("mass=\"nan\""), 10, "mass=\"inf\"");
+  const std::string inf_mjcf = writeFile("inf.xml", mjcf);  // and this one silently
   const std::string unknown_joint =
       writeFile("joint.yaml", "name: x\nseed: 1\nnoise: off\neffects: {joint_damping: {knee: 1}}\n");
   struct Case {
@@ -186,6 +287,8 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
       {"--scenario " + bad_scenario, bad_scenario + ": effects.dampin: unknown key"},
       {"--scenario " + unknown_joint, unknown_joint + ": effects.joint_damping.knee: unknown joint 'knee'"},
       {"--model " + bad_mjcf, bad_mjcf + ": MuJoCo cannot load the model"},
+      {"--model " + nan_mjcf, nan_mjcf + ": body 'right_plate' <inertial mass='nan'> (line 14): not finite"},
+      {"--model " + inf_mjcf, inf_mjcf + ": body 'right_plate' <inertial mass='inf'> (line 14): not finite"},
       {"--sensors /nonexistent/s.yaml", "/nonexistent/s.yaml: cannot open file"},
       {"--lcm-url udpm://239.255.76.67:7667?ttl=1", "--lcm-url: "},
   };
@@ -198,18 +301,30 @@ TEST(ExoSimCli, BadInputExitsWithTwoAndOneLine) {
 }
 
 TEST(ExoSimCli, OpenLoopRunPrintsProgressAndSummary) {
-  // No controller on memq:// and no start wait: open loop at zero torque (the robot folds up).
-  const CliRun r = runExoSim("--lcm-url memq:// --start-timeout-s 0 --duration 2 --scenario " +
-                          cfg("scenarios/ideal.yaml"));
-  EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("exo_sim: t 1.0 s"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("exo_sim: t 2.0 s"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("exo_sim: summary: ticks 2000, simulated 2.000 s"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("fallback ticks 1999 (held 0, zero 1999, timeouts 1999)"), std::string::npos) << r.out;
+  // No controller on memq:// and no start wait: open loop at zero torque; the robot folds up and the run
+  // ends at the fall with exit code 3 (a 0.3 s run ends standing, exit 0).
+  const std::string result = ::testing::TempDir() + "/" + std::to_string(::getpid()) + "_exo_sim_result.json";
+  const CliRun r = runExoSim("--lcm-url memq:// --start-timeout-s 0 --duration 2 --result " + result + " --scenario " +
+                             cfg("scenarios/ideal.yaml"));
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_NE(r.out.find("exo_sim: summary: fell (fall at tick "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" of 2000, simulated"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(held 0, zero "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("timeouts 0)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("fell yes"), std::string::npos) << r.out;
-  const CliRun q = runExoSim("--quiet --lcm-url memq:// --start-timeout-s 0 --duration 0.05");
+  std::ifstream in(result);
+  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  RunSummary s;
+  std::string err;
+  ASSERT_TRUE(parseRunSummaryJson(json, &s, &err)) << err << json;
+  EXPECT_EQ(s.outcome, RunOutcome::Fell);
+  EXPECT_EQ(s.ticks, s.fall_tick + 1);
+  EXPECT_NE(r.out.find("fall at tick " + std::to_string(s.fall_tick) + ","), std::string::npos) << r.out;
+  std::remove(result.c_str());
+  const CliRun q = runExoSim("--quiet --lcm-url memq:// --start-timeout-s 0 --duration 0.3");
   EXPECT_EQ(q.code, 0) << q.out;
-  EXPECT_EQ(q.out.rfind("exo_sim: summary: ticks 50,", 0), 0u) << q.out;  // only the summary line
+  EXPECT_EQ(q.out.rfind("exo_sim: summary: completed, ticks 300 of 300,", 0), 0u) << q.out;  // only the summary
+  EXPECT_EQ(runExoSim("--result /nonexistent/dir/r.json --quiet --lcm-url memq:// --start-timeout-s 0 --duration 0.01").code, 1);
 }
 
 }  // namespace

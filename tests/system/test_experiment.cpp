@@ -4,14 +4,27 @@
 //    torque sensors and force-plate wrenches satisfy W phi_true = y to 1e-8 (the thesis's MuJoCo GRFs did not);
 //  - with an undeclared effect (joint damping + dry friction) the same check shows the error it causes;
 //  - `exoid export --truth` writes a CSV whose columns reproduce the same equation, and `--help` is complete.
+// And every way a run can end early ends it promptly, with the exit code, summary and log it documents: a
+// fall, a controller that dies, exits or hangs, a killed logger, the watchdog, SIGINT, refused options.
+#include <dirent.h>
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
 
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
 
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
+#include "exoid/tools/process.hpp"
 #include "exoid/tools/run_log.hpp"
 #include "exoid/tools/run_table.hpp"
 #include "exoid/tools/state_columns.hpp"
@@ -35,7 +48,9 @@ class Experiment : public ::testing::Test {
                                         test::configPath("scenarios/" + scenario) + " --out " + dir.file("run"),
                                     dir.path);
     std::string err;
-    if (r.exit_code == 0) EXPECT_TRUE(tools::readRunLog(dir.file("run/run.lcmlog"), model_->joint_names, log, &err)) << err;
+    if (r.exit_code == 0) {
+      EXPECT_TRUE(tools::readRunLog(dir.file("run/run.lcmlog"), model_->joint_names, log, &err)) << err;
+    }
     return r;
   }
   static Model* model_;
@@ -47,10 +62,14 @@ TEST_F(Experiment, IdealRunSatisfiesTheEquationsOfMotionFromItsLog) {
   tools::RunLog log;
   const auto r = run("ideal.yaml", dir, log);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const std::string summary = test::slurp(dir.file("run/summary.json"));
-  EXPECT_NE(summary.find("\"moves_done\": 2"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("\"fell\": false"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("\"missing_ticks\": 0"), std::string::npos) << summary;
+  const auto summary = nlohmann::json::parse(test::slurp(dir.file("run/summary.json")));
+  EXPECT_EQ(summary["outcome"], "completed") << summary;
+  EXPECT_EQ(summary["moves_done"], 2) << summary;
+  EXPECT_EQ(summary["fell"], false) << summary;
+  EXPECT_EQ(summary["missing_ticks"], 0) << summary;
+  EXPECT_EQ(summary["log_complete"], true) << summary;
+  EXPECT_EQ(summary["ticks_simulated"], summary["ticks_planned"]) << summary;
+  EXPECT_EQ(summary["ticks_logged"], static_cast<long>(log.truth.size())) << summary;
   // Every tick of every sim channel is in the log, in order.
   ASSERT_GT(log.truth.size(), 5000u);
   EXPECT_EQ(log.states.size(), log.truth.size());
@@ -131,8 +150,271 @@ TEST(ExperimentCli, BadInputIsRejectedWithOneLine) {
   EXPECT_NE(r.exit_code, 0);
   r = test::runCommand(test::exoidBinary() + " experiment --help", dir.path);
   EXPECT_EQ(r.exit_code, 0);
-  for (const char* s : {"--scenario", "--out", "--seed", "--moves", "summary.json", "run.lcmlog", "unshare"})
+  for (const char* s : {"--scenario", "--out", "--seed", "--moves", "summary.json", "run.lcmlog", "unshare",
+                        "--max-missing-commands", "--watchdog-factor", "--watchdog-margin-s", "--inject", "sim.log",
+                        "exit codes", "1 run failed", "2 bad input", "3 the robot fell", "4 interrupted"})
     EXPECT_NE(r.out.find(s), std::string::npos) << s;
+}
+
+// --- runs that end early ---------------------------------------------------------------------------------
+// Each run uses 2 moves (8.2 s simulated). After `exoid experiment` returns, no process of the run may be
+// left, running or unreaped (leftovers()).
+class RunEnd : public ::testing::Test {
+ protected:
+  struct Result {
+    test::CommandResult cmd;
+    nlohmann::json summary, sim;
+    double wall_s = 0.0;
+  };
+  void SetUp() override {
+    ASSERT_EQ(::prctl(PR_SET_CHILD_SUBREAPER, 1), 0);
+  }
+  std::string command(const std::string& scenario, const std::string& extra) const {
+    return test::exoidBinary() + " experiment --moves 2 --scenario " + scenario + " --out " + dir_.file("run") + " " + extra;
+  }
+  Result run(const std::string& scenario, const std::string& extra) {
+    Result r;
+    const auto t0 = std::chrono::steady_clock::now();
+    r.cmd = test::runCommand(command(scenario, extra), dir_.path);
+    r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.summary = nlohmann::json::parse(test::slurp(dir_.file("run/summary.json")), nullptr, false);
+    r.sim = nlohmann::json::parse(test::slurp(dir_.file("run/sim_result.json")), nullptr, false);
+    return r;
+  }
+  /// Descendants of this test that `exoid experiment` left behind, running or unreaped. The test process is a
+  /// child subreaper (SetUp), so every orphan of the run is re-parented to it: after exoid returned, a
+  /// leftover is exactly a child of ours that is not exoid itself. Leftovers are killed and reaped here.
+  std::vector<std::string> leftovers() const {
+    std::vector<std::string> found;
+    for (;;) {  // orphans that exited but were never reaped (zombies)
+      int status = 0;
+      const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+      if (pid <= 0) break;
+      found.push_back(std::to_string(pid) + " (exited, not reaped by exoid)");
+    }
+    DIR* d = ::opendir("/proc");  // orphans still running
+    while (dirent* e = d ? ::readdir(d) : nullptr) {
+      const std::string pid = e->d_name;
+      if (pid.find_first_not_of("0123456789") != std::string::npos) continue;
+      const std::string stat = test::slurp("/proc/" + pid + "/stat");
+      const size_t close = stat.rfind(')');
+      if (close == std::string::npos) continue;
+      std::istringstream rest(stat.substr(close + 2));
+      std::string state;
+      long ppid = 0;
+      rest >> state >> ppid;
+      if (ppid != ::getpid()) continue;
+      found.push_back(pid + " " + stat.substr(stat.find('(') + 1, close - stat.find('(') - 1) + " (still running)");
+      ::kill(static_cast<pid_t>(std::stol(pid)), SIGKILL);
+      ::waitpid(static_cast<pid_t>(std::stol(pid)), nullptr, 0);
+    }
+    if (d) ::closedir(d);
+    return found;
+  }
+  std::string writeScenario(const std::string& name, const std::string& text) const {
+    std::ofstream(dir_.file(name)) << text;
+    return dir_.file(name);
+  }
+  test::TempDir dir_{"exp_end"};
+};
+
+// Observed: after a fall the robot dropped through the floor to z = -300 m and the summary said 20/20 moves
+// with exit 0. A 30 kg payload 0.8 m in front of the base topples any controller.
+TEST_F(RunEnd, AFallEndsTheRunAtOnceAndTheSummarySaysWhenAndAfterWhichMove) {
+  const std::string sc = writeScenario("fall.yaml", "name: fall\nseed: 1\nnoise: off\neffects:\n  payload: {link: body, "
+                                                    "mass: 30.0, com: [0.8, 0.0, 0.0], inertia: [0.1, 0.1, 0.1, 0, 0, 0]}\n");
+  const Result r = run(sc, "");
+  EXPECT_EQ(r.cmd.exit_code, 3) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  ASSERT_TRUE(r.sim.is_object()) << r.cmd.out;
+  EXPECT_EQ(r.summary["outcome"], "fell");
+  EXPECT_EQ(r.summary["fell"], true);
+  EXPECT_EQ(r.sim["outcome"], "fell");
+  const long fall_tick = r.summary["fall_tick"];
+  EXPECT_EQ(fall_tick, r.sim["fall_tick"].get<long>());
+  EXPECT_EQ(r.summary["ticks_simulated"], fall_tick + 1);  // the sim stopped at the fall
+  EXPECT_LT(fall_tick, r.summary["ticks_planned"].get<long>());
+  EXPECT_DOUBLE_EQ(r.summary["fall_time_s"].get<double>(), fall_tick * 1e-3);
+  EXPECT_EQ(r.summary["log_complete"], true) << r.summary;
+  // Independently, from the log: the base was above the threshold before the fall tick, the log ends there,
+  // and moves_done is the controller's count at the fall tick, not at the end of the plan.
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
+  tools::RunLog log;
+  ASSERT_TRUE(tools::readRunLog(dir_.file("run/run.lcmlog"), model.joint_names, log, &err)) << err;
+  ASSERT_FALSE(log.truth.empty());
+  EXPECT_EQ(log.truth.back().tick, fall_tick);
+  const double z0 = log.truth.front().base_position.z();
+  for (const auto& t : log.truth) {
+    if (t.tick < fall_tick) {
+      ASSERT_GE(t.base_position.z(), z0 - 0.25 - 1e-9) << t.tick;
+    }
+  }
+  int moves_at_fall = -1, move_index = -2;
+  for (const auto& st : log.status)
+    if (st.tick <= fall_tick) moves_at_fall = st.moves_done, move_index = st.move_index;
+  EXPECT_EQ(r.summary["moves_done"], moves_at_fall);
+  EXPECT_EQ(r.summary["fall_during_move"], move_index);
+  EXPECT_LT(r.summary["moves_done"].get<int>(), 2);
+  EXPECT_NE(r.cmd.out.find("| fell | yes, at t "), std::string::npos) << r.cmd.out;
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
+// Observed: a killed controller left the sim waiting 100 ms on every remaining tick (an hour for 20 moves)
+// and a zombie behind. Now the run stops at once, names the controller, keeps the partial log.
+TEST_F(RunEnd, AKilledControllerEndsTheRunAndIsNamed) {
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject kill:controller:2");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  EXPECT_EQ(r.summary["outcome"], "failed");
+  ASSERT_FALSE(r.summary["failures"].empty());
+  EXPECT_NE(r.summary["failures"][0].get<std::string>().find("exo_controller was killed by signal 9 (SIGKILL)"),
+            std::string::npos) << r.summary["failures"];
+  EXPECT_NE(r.cmd.err.find("run failed: exo_controller was killed"), std::string::npos) << r.cmd.err;
+  EXPECT_LT(r.summary["ticks_simulated"].get<long>(), r.summary["ticks_planned"].get<long>());
+  // The partial log is kept and readable, and the summary's figures are those of the part that ran.
+  EXPECT_EQ(r.summary["log_complete"], true) << r.summary;
+  EXPECT_EQ(r.summary["ticks_logged"], r.summary["ticks_simulated"]);
+  EXPECT_LT(r.wall_s, 20.0);
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
+// A controller that exits on its own in mid-run (here: the move sequence cannot start from a knee bent to
+// 100 rad, exit code 2) is the same failure.
+TEST_F(RunEnd, AControllerThatExitsEarlyEndsTheRun) {
+  const std::string sc = writeScenario("knee.yaml", "name: knee\nseed: 1\nnoise: off\ninitial_state: {joints: {right_knee: 100.0}}\n");
+  const Result r = run(sc, "");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  EXPECT_NE(r.summary["failures"].dump().find("exo_controller exited with code 2"), std::string::npos) << r.summary;
+  EXPECT_LT(r.wall_s, 20.0);
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
+// A hung controller (SIGSTOP): the sim gives up after --max-missing-commands, the controller is stopped.
+TEST_F(RunEnd, AHungControllerEndsTheRunAfterTheMissingCommandLimit) {
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject stop:controller:2 --max-missing-commands 5");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object() && r.sim.is_object()) << r.cmd.out;
+  EXPECT_EQ(r.sim["outcome"], "controller_lost");
+  EXPECT_EQ(r.sim["missing_commands"], 5);
+  EXPECT_NE(r.summary["failures"].dump().find("exo_controller stopped answering"), std::string::npos) << r.summary;
+  // The sim's fallback ticks reach the summary (the controller's own count stays 0).
+  EXPECT_EQ(r.summary["sim_held_ticks"], r.sim["held_ticks"]);
+  EXPECT_EQ(r.summary["sim_timeouts"], 5);
+  EXPECT_EQ(r.summary["sim_held_ticks"], 4);
+  EXPECT_LT(r.wall_s, 20.0);
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
+// A hung sim (SIGSTOP): the controller's idle timeout (5 s without a state) ends it, the run stops.
+TEST_F(RunEnd, AHungSimIsDetectedThroughTheControllersIdleTimeout) {
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject stop:sim:2");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  EXPECT_NE(r.summary["failures"].dump().find("exo_sim stopped publishing"), std::string::npos) << r.summary;
+  EXPECT_LT(r.wall_s, 30.0);
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
+// Observed: killing exoid_logger gave exit 0 and "moves done 9/20, real-time factor 3.7x, missing ticks -2".
+TEST_F(RunEnd, AKilledLoggerIsReportedAndTheLogMarkedIncomplete) {
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject kill:logger:2");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object() && r.sim.is_object()) << r.cmd.out;
+  EXPECT_EQ(r.summary["outcome"], "failed");
+  EXPECT_EQ(r.summary["log_complete"], false);
+  EXPECT_NE(r.summary["failures"][0].get<std::string>().find("exoid_logger was killed by signal 9"), std::string::npos)
+      << r.summary["failures"];
+  // Figures against the sim's own count, not against what the log holds.
+  EXPECT_EQ(r.summary["ticks_simulated"], r.sim["ticks"]);
+  EXPECT_EQ(r.summary["realtime_factor"], r.sim["realtime_factor"]);
+  const long simulated = r.summary["ticks_simulated"], logged = r.summary["ticks_logged"];
+  EXPECT_GT(r.summary["missing_ticks"].get<long>(), 0);
+  EXPECT_GE(r.summary["missing_ticks"].get<long>(), simulated - logged);
+  EXPECT_NE(r.cmd.out.find("| log | INCOMPLETE"), std::string::npos) << r.cmd.out;
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
+TEST_F(RunEnd, TheWatchdogBoundsTheRun) {
+  const Result r = run(test::configPath("scenarios/ideal.yaml"), "--watchdog-factor 0.01 --watchdog-margin-s 0.2");
+  EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  EXPECT_NE(r.summary["failures"].dump().find("watchdog: the run was still going after"), std::string::npos) << r.summary;
+  // Stopped early (the sim reports the ticks it did; stopped while loading it reports 0).
+  EXPECT_TRUE(r.summary["sim_reported"]) << r.summary;
+  EXPECT_LT(r.summary["ticks_simulated"].get<long>(), r.summary["ticks_planned"].get<long>());
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
+TEST_F(RunEnd, SigintAndSigtermStopEverythingCleanly) {
+  for (const int sig : {SIGINT, SIGTERM}) {
+    const std::string name = sig == SIGINT ? "SIGINT" : "SIGTERM";
+    std::filesystem::remove_all(dir_.file("run"));
+    std::string err;
+    std::vector<std::string> argv;
+    std::istringstream words(command(test::configPath("scenarios/ideal.yaml"), ""));
+    for (std::string w; words >> w;) argv.push_back(w);
+    const pid_t pid = tools::spawn(argv, dir_.file("signal.log"), &err);
+    ASSERT_GT(pid, 0) << err;
+    // Wait for the sim to be running (its progress in sim.log), then interrupt.
+    for (int i = 0; i < 400 && test::slurp(dir_.file("run/sim.log")).find("exo_sim: t 1.0 s") == std::string::npos; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    // pid is exoid itself (it re-executes itself through unshare, keeping its pid).
+    ASSERT_EQ(::kill(pid, sig), 0);
+    int code = -1;
+    ASSERT_TRUE(tools::waitFor(pid, 20000, &code)) << "exoid experiment did not stop within 20 s of " << name;
+    EXPECT_EQ(code, 4) << name << test::slurp(dir_.file("signal.log"));
+    const auto summary = nlohmann::json::parse(test::slurp(dir_.file("run/summary.json")), nullptr, false);
+    ASSERT_TRUE(summary.is_object()) << test::slurp(dir_.file("signal.log"));
+    EXPECT_EQ(summary["outcome"], "interrupted");
+    EXPECT_NE(summary["failures"].dump().find("interrupted by " + name), std::string::npos) << summary;
+    EXPECT_LT(summary["ticks_simulated"].get<long>(), summary["ticks_planned"].get<long>());
+    EXPECT_EQ(summary["log_complete"], true) << summary;  // the logger was stopped last and drained
+    EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+  }
+}
+
+// Options the controller would refuse are refused before anything starts (observed: --moves 1001 ran the sim
+// open loop for minutes and wrote 5 GB); the same limits in both (controller/run_options.hpp).
+TEST_F(RunEnd, OptionsTheControllerRefusesAreRefusedBeforeAnythingStarts) {
+  const std::string sc = test::configPath("scenarios/ideal.yaml");
+  struct Case {
+    std::string args, expect;
+  };
+  const std::vector<Case> cases = {
+      {"--moves 1001", "--moves: '1001': out of range, expected an integer in [0, 1000]"},
+      {"--seed -1", "--seed: '-1': out of range, expected an integer >= 0"},
+      {"--inject kill:everything:1", "--inject: expected kill|stop:sim|controller|logger:SECONDS"},
+      {"--watchdog-factor 0", "--watchdog-factor: '0': out of range"},
+  };
+  for (const Case& c : cases) {
+    const auto r = test::runCommand(command(sc, c.args), dir_.path);
+    EXPECT_EQ(r.exit_code, 2) << c.args << r.err;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir_.file("run"))) << c.args;
+  }
+  for (const Case& c : {cases[0], cases[1]}) {  // the same words from the controller: the same limits
+    const auto r = test::runCommand(std::string(EXOID_BIN_DIR) + "/exo_controller --print-duration " + c.args, dir_.path);
+    EXPECT_EQ(r.exit_code, 2) << c.args;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << r.err;
+  }
+}
+
+// Observed: --out naming an existing file or an unwritable place ended in an uncaught filesystem_error
+// (exit 134). Root ignores permission bits, so the unwritable places are in /proc and /sys.
+TEST_F(RunEnd, AnUnusableOutputDirectoryIsOneLineAndExitTwo) {
+  std::ofstream(dir_.file("a_file")) << "x";
+  for (const std::string& out : {dir_.file("a_file"), std::string("/proc/self/exoid_out"), std::string("/sys/exoid_out")}) {
+    const auto r = test::runCommand(test::exoidBinary() + " experiment --moves 2 --scenario " +
+                                        test::configPath("scenarios/ideal.yaml") + " --out " + out,
+                                    dir_.path);
+    EXPECT_EQ(r.exit_code, 2) << out << r.err;
+    EXPECT_EQ(r.err.rfind("exoid experiment: error: --out '" + out + "'", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
 }
 
 }  // namespace

@@ -5,12 +5,17 @@
 #include <gtest/gtest.h>
 #include <lcm/eventlog.h>
 
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/tools/csv.hpp"
+#include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/run_log.hpp"
 #include "exoid/tools/run_table.hpp"
 #include "support/paths.hpp"
@@ -128,6 +133,220 @@ TEST_F(RunLogTest, EveryEventIsAccountedForAndTicksAreAligned) {
   EXPECT_NE(err.find("EXO_TRUTH"), std::string::npos);
 }
 
+// A log written tick by tick (state + both plates per tick), with the byte offset of every event.
+struct WrittenLog {
+  std::string path;
+  std::vector<long> offsets;  ///< start of each event
+  long size = 0;
+  int ticks = 0;
+};
+
+class DamagedLogTest : public RunLogTest {
+ protected:
+  WrittenLog writeLog(const std::string& name, int ticks) {
+    WrittenLog w;
+    w.path = dir_.file(name);
+    w.ticks = ticks;
+    lcm_eventlog_t* log = lcm_eventlog_create(w.path.c_str(), "w");
+    EXPECT_NE(log, nullptr);
+    exoid_lcm::robot_state_t sm;
+    exoid_lcm::force_plate_t pm;
+    for (int64_t k = 0; k < ticks; ++k) {
+      toLcm(state(k), model_.joint_names, sm);
+      std::fflush(log->f);
+      w.offsets.push_back(std::ftell(log->f));
+      write(log, channels::kState, sm, k);
+      for (int p = 0; p < 2; ++p) {
+        toLcm(plate(p, k), pm);
+        std::fflush(log->f);
+        w.offsets.push_back(std::ftell(log->f));
+        write(log, p == 0 ? channels::kPlateRight : channels::kPlateLeft, pm, k);
+      }
+    }
+    lcm_eventlog_destroy(log);
+    w.size = static_cast<long>(std::filesystem::file_size(w.path));
+    return w;
+  }
+  static void flip(const std::string& path, long offset, uint8_t mask) {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(offset);
+    char c = 0;
+    f.read(&c, 1);
+    c = static_cast<char>(c ^ mask);
+    f.seekp(offset);
+    f.write(&c, 1);
+  }
+  /// Events LCM's own reader returns (it stops at the first damaged one).
+  static long lcmReaderEvents(const std::string& path) {
+    lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "r");
+    long n = 0;
+    while (lcm_eventlog_event_t* e = lcm_eventlog_read_next_event(log)) ++n, lcm_eventlog_free_event(e);
+    lcm_eventlog_destroy(log);
+    return n;
+  }
+};
+
+// Observed: `exoid export` on a log with flipped bits exited 0 having dropped everything after the first
+// damaged event (1134 of 5200 ticks). Now the reader resumes at the next valid event and counts the damage.
+TEST_F(DamagedLogTest, FlippedBitsInEventHeadersLoseOnlyThoseEvents) {
+  WrittenLog w = writeLog("flipped.lcmlog", 100);
+  const int total = 3 * w.ticks;
+  const size_t state_40 = 3 * 40, plate_70 = 3 * 70 + 1;
+  flip(w.path, w.offsets[state_40] + 1, 0x10);        // sync word of the state of tick 40
+  flip(w.path, w.offsets[plate_70] + 20, 0x40);       // channel length of the right plate of tick 70 (huge)
+  const long lcm_events = lcmReaderEvents(w.path);
+  EXPECT_LT(lcm_events, static_cast<long>(state_40) + 1);  // the old reader stopped here
+  tools::RunLog run;
+  std::string err;
+  ASSERT_TRUE(tools::readRunLog(w.path, model_.joint_names, run, &err)) << err;
+  EXPECT_EQ(run.states.size(), static_cast<size_t>(w.ticks - 1));
+  EXPECT_EQ(run.plates[0].size(), static_cast<size_t>(w.ticks - 1));
+  EXPECT_EQ(run.plates[1].size(), static_cast<size_t>(w.ticks));
+  EXPECT_EQ(run.corrupt_events, 2);
+  // Exactly the two damaged events' bytes were skipped.
+  EXPECT_EQ(run.corrupt_bytes, (w.offsets[state_40 + 1] - w.offsets[state_40]) + (w.offsets[plate_70 + 1] - w.offsets[plate_70]));
+  EXPECT_EQ(run.first_corrupt_offset, w.offsets[state_40]);
+  EXPECT_FALSE(run.truncated);
+  EXPECT_EQ(run.readable_end, w.size);
+  EXPECT_EQ(run.last_tick, w.ticks - 1);
+  EXPECT_FALSE(run.intact());
+  const std::string report = run.damageReport();
+  EXPECT_NE(report.find("2 damaged stretches skipped"), std::string::npos) << report;
+  EXPECT_NE(report.find("first at byte " + std::to_string(w.offsets[state_40])), std::string::npos) << report;
+  long events = 0;
+  for (const auto& [ch, n] : run.events) events += n;
+  EXPECT_EQ(events, total - 2);
+  std::printf("events read of %d with two damaged headers: LCM's reader %ld, readRunLog %ld\n", total, lcm_events, events);
+}
+
+TEST_F(DamagedLogTest, ACutOffTailIsReportedWithWhereTheReadablePartEnds) {
+  WrittenLog w = writeLog("cut.lcmlog", 50);
+  const long last = w.offsets.back();  // left plate of tick 49
+  std::filesystem::resize_file(w.path, static_cast<uintmax_t>(last + 30));  // header complete, body cut
+  tools::RunLog run;
+  std::string err;
+  ASSERT_TRUE(tools::readRunLog(w.path, model_.joint_names, run, &err)) << err;
+  EXPECT_TRUE(run.truncated);
+  EXPECT_EQ(run.corrupt_events, 0);
+  EXPECT_EQ(run.readable_end, last);
+  EXPECT_EQ(run.file_bytes, last + 30);
+  EXPECT_EQ(run.states.size(), 50u);
+  EXPECT_EQ(run.plates[1].size(), 49u);
+  EXPECT_EQ(run.last_tick, 49);
+  EXPECT_NE(run.damageReport().find("cut off"), std::string::npos);
+  EXPECT_NE(run.damageReport().find("readable part ends at byte " + std::to_string(last) + " of " +
+                                    std::to_string(last + 30) + ", tick 49"),
+            std::string::npos)
+      << run.damageReport();
+  // Cut inside the sync word of the last event: still a cut-off tail, not damage.
+  std::filesystem::resize_file(w.path, static_cast<uintmax_t>(last + 2));
+  ASSERT_TRUE(tools::readRunLog(w.path, model_.joint_names, run, &err)) << err;
+  EXPECT_TRUE(run.truncated);
+  EXPECT_EQ(run.corrupt_events, 0);
+  EXPECT_EQ(run.readable_end, last);
+  // An intact log is intact.
+  WrittenLog ok = writeLog("ok.lcmlog", 5);
+  ASSERT_TRUE(tools::readRunLog(ok.path, model_.joint_names, run, &err)) << err;
+  EXPECT_TRUE(run.intact());
+  EXPECT_EQ(run.damageReport(), "");
+  EXPECT_EQ(run.readable_end, ok.size);
+}
+
+TEST_F(DamagedLogTest, ExportRefusesADamagedLogUnlessAllowPartial) {
+  WrittenLog w = writeLog("damaged.lcmlog", 30);
+  flip(w.path, w.offsets[3 * 10] + 2, 0x01);
+  std::filesystem::resize_file(w.path, static_cast<uintmax_t>(w.offsets.back() + 5));
+  const std::string cmd = test::exoidBinary() + " export --log " + w.path + " --out " + dir_.file("d.csv");
+  auto r = test::runCommand(cmd, dir_.path);
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("exoid export: error: " + w.path + ": 1 damaged stretch skipped"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("cut off"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("readable part ends at byte " + std::to_string(w.offsets.back())), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.file("d.csv")));
+  r = test::runCommand(cmd + " --allow-partial", dir_.path);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("exoid export: warning: " + w.path + ": 1 damaged stretch skipped"), std::string::npos) << r.err;
+  tools::CsvTable csv;
+  std::string err;
+  ASSERT_TRUE(tools::readCsv(dir_.file("d.csv"), csv, &err)) << err;
+  EXPECT_EQ(csv.rows.size(), 28u);  // tick 10 lost its state, tick 29 its left plate
+}
+
+// The summary's figures against an independent count on a synthetic run: 150 ticks simulated, the log holds
+// ticks 0..99 (the logger died), the robot "fell" at tick 80 during the third move.
+TEST_F(RunLogTest, SummaryFiguresAreMeasuredAgainstTheSimulatedRunNotTheLog) {
+  tools::RunLog log;
+  for (int64_t k = 0; k < 100; ++k) {
+    GroundTruthSample t;
+    t.tick = k;
+    t.base_position = Eigen::Vector3d(0, 0, k < 80 ? 1.0 : 0.5);
+    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
+    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    t.foot_moment = t.foot_force;
+    log.truth.push_back(t);
+    if (k != 50) log.states.push_back(state(k));  // one lost state
+    log.plates[0].push_back(plate(0, k));
+    log.plates[1].push_back(plate(1, k));
+    ControllerStatusSample st;
+    st.tick = k;
+    st.moves_done = static_cast<int>(k / 30);  // moves end at ticks 30, 60, 90
+    st.move_index = st.moves_done;
+    st.fallbacks = k >= 95 ? 7 : 0;
+    log.status.push_back(st);
+  }
+  tools::RunFacts facts;
+  facts.moves_planned = 4;
+  facts.ticks_planned = 200;
+  facts.sim_reported = true;
+  facts.sim_ticks = 150;
+  facts.sim_fall_tick = 80;
+  facts.sim_held_ticks = 3;
+  facts.sim_zero_ticks = 2;
+  facts.sim_timeouts = 4;
+  facts.sim_realtime_factor = 6.5;
+  facts.failures = {"exoid_logger was killed by signal 9 (SIGKILL) at 1.0 s: the log ends there"};
+  tools::ExperimentSummary s = tools::summarizeExperiment(model_, log, facts);
+  EXPECT_EQ(s.outcome, "failed");
+  // 50 unlogged ticks on each of 4 channels, plus the lost state: the old count (against the log's own
+  // tick range) said 1, or -2 when the truth channel ran longer than another.
+  EXPECT_EQ(s.missing_ticks, 4 * 50 + 1);
+  EXPECT_EQ(s.ticks_simulated, 150);
+  EXPECT_EQ(s.ticks_logged, 100);
+  EXPECT_FALSE(s.log_complete);
+  ASSERT_EQ(s.failures.size(), 2u);
+  EXPECT_NE(s.failures[1].find("log incomplete: 201 of 600 sim-channel ticks missing"), std::string::npos) << s.failures[1];
+  EXPECT_TRUE(s.fell);
+  EXPECT_EQ(s.fall_tick, 80);
+  EXPECT_EQ(s.moves_done, 2);        // at tick 80, not the 3 the log's last status says
+  EXPECT_EQ(s.fall_during_move, 2);  // 0-based: the third move
+  EXPECT_EQ(s.controller_fallbacks, 7);
+  EXPECT_EQ(s.sim_held_ticks, 3);
+  EXPECT_EQ(s.sim_zero_ticks, 2);
+  EXPECT_EQ(s.sim_timeouts, 4);
+  EXPECT_DOUBLE_EQ(s.realtime_factor, 6.5);  // the sim's own, not log span / supervisor wall time
+  std::string table = tools::summaryTable(s);
+  EXPECT_NE(table.find("during move 3 (after 2 completed)"), std::string::npos) << table;
+  EXPECT_NE(table.find("| fallback ticks (sim) | 3 held, 2 zero (4 timeouts) |"), std::string::npos) << table;
+  EXPECT_NE(table.find(">= 5x (lockstep)"), std::string::npos) << table;
+  EXPECT_NE(table.find("FAILED: exoid_logger was killed"), std::string::npos) << table;
+  // Realtime mode: no 5x target. No sim report: figures against the planned length, sim figures unknown.
+  facts.lockstep = false;
+  facts.sim_reported = false;
+  facts.failures.clear();
+  s = tools::summarizeExperiment(model_, log, facts);
+  table = tools::summaryTable(s);
+  EXPECT_EQ(table.find(">= 5x"), std::string::npos) << table;
+  EXPECT_EQ(s.missing_ticks, 4 * 100 + 1);
+  EXPECT_EQ(s.sim_held_ticks, -1);
+  EXPECT_NE(table.find("| ticks simulated / planned | unknown (no sim report) / 200 |"), std::string::npos) << table;
+  EXPECT_EQ(s.fall_tick, 80);  // from the log's truth channel this time
+  const auto j = nlohmann::json::parse(tools::summaryJson(s));
+  EXPECT_EQ(j["missing_ticks"], 401);
+  EXPECT_EQ(j["mode"], "realtime");
+  EXPECT_EQ(j["outcome"], "failed");  // the incomplete log is a failure on its own
+  EXPECT_EQ(j["fall_tick"], 80);
+}
+
 TEST_F(RunLogTest, NotALogIsAnError) {
   std::ofstream(dir_.file("text.lcmlog")) << "this is not an LCM log\n";
   tools::RunLog run;
@@ -146,7 +365,8 @@ TEST(ExportCli, HelpDocumentsTheSchemaAndBadInputFails) {
   test::TempDir dir("export_cli");
   auto r = test::runCommand(test::exoidBinary() + " export --help", dir.path);
   EXPECT_EQ(r.exit_code, 0);
-  for (const char* s : {"--log", "--out", "--truth", "--filter", "fp_<right|left>_fx", "base_ax", "tau_<joint>", "exit codes"})
+  for (const char* s : {"--log", "--out", "--truth", "--filter", "fp_<right|left>_fx", "base_ax", "tau_<joint>", "exit codes",
+                        "--allow-partial", "3 the log is damaged"})
     EXPECT_NE(r.out.find(s), std::string::npos) << s;
   r = test::runCommand(test::exoidBinary() + " export --log " + dir.file("none.lcmlog") + " --out " + dir.file("o.csv"), dir.path);
   EXPECT_EQ(r.exit_code, 2);

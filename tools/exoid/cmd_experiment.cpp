@@ -1,22 +1,28 @@
 // exoid experiment: sim + controller (+ estimator once it exists) as separate processes over LCM udpm://
 // inside a private network namespace, in lockstep, logged by exoid_logger, summarised from the log.
+#include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/config.hpp"
+#include "exoid/controller/run_options.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/sim/config.hpp"
+#include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
 #include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/process.hpp"
@@ -27,9 +33,37 @@ namespace exoid::cli {
 namespace {
 constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
 
+constexpr char kDescription[] =
+    "Runs the closed loop: exo_sim (MuJoCo, lockstep) and exo_controller (centroidal balance QP doing the\n"
+    "thesis's CoM moves) as separate processes talking LCM over udpm:// with ttl=0 inside a private network\n"
+    "namespace (unshare -n; multicast routed on its loopback only), recorded without loss. Writes\n"
+    "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger);\n"
+    "                       kept, as far as it got, when a run fails\n"
+    "  DIR/summary.json     outcome, failures, moves_done, fell (tick, time, move), com_rmse_m,\n"
+    "                       max_foot_slip_m, fallbacks of controller and sim, realtime_factor, ticks planned /\n"
+    "                       simulated / logged, missing_ticks, log_complete, eom_residual_max_rel, ...\n"
+    "  DIR/summary.md       the same as a table (also printed)\n"
+    "  DIR/sim.log, DIR/sim_result.json, DIR/controller.log, DIR/logger.log   process output (the sim's\n"
+    "                       progress is also printed)\n\n"
+    "A run ends when the sim has simulated the planned time, or early: the robot fell (the sim stops at the\n"
+    "fall), a process died or stopped answering (the others are stopped within seconds and reaped), the\n"
+    "watchdog expired, or SIGINT/SIGTERM. The summary is written in every case and names what failed.";
+
+constexpr char kFooter[] =
+    "needs: root (or unprivileged user namespaces) for unshare, iproute2.\n"
+    "exit codes: 0 run completed (every planned tick, nothing failed; the summary says whether the targets\n"
+    "              were met)\n"
+    "            1 run failed: a process died, exited early or stopped answering, the watchdog expired, or\n"
+    "              the log is incomplete or damaged (summary names it; partial log kept)\n"
+    "            2 bad input (options, files, output directory), before any process starts\n"
+    "            3 the robot fell (the run ended at the fall; the summary says when and during which move)\n"
+    "            4 interrupted by SIGINT or SIGTERM (processes stopped, summary of the partial run written)";
+
+constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2, kExitFell = 3, kExitInterrupted = 4;
+
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid experiment: error: %s\n", msg.c_str());
-  return 2;
+  return kExitBadInput;
 }
 
 std::string selfPath() {
@@ -53,45 +87,136 @@ int reexecInPrivateNetns(int argc, char** argv) {
   ::execvp("unshare", c.data());
   return fail("cannot run 'unshare' (util-linux) to create a private network namespace");
 }
+
+/// DIR exists as a directory (created if needed) in which we can create files; else a one-line *error.
+bool prepareOutDir(const std::filesystem::path& dir, std::string* error) {
+  std::error_code ec;
+  if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec)) {
+    *error = "--out '" + dir.string() + "' exists and is not a directory";
+    return false;
+  }
+  std::filesystem::create_directories(dir, ec);
+  if (ec) {
+    *error = "--out '" + dir.string() + "': cannot create the directory: " + ec.message();
+    return false;
+  }
+  const std::string probe = (dir / ".exoid_write_test").string();
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) {
+    *error = "--out '" + dir.string() + "': cannot write there: " + std::strerror(errno);
+    return false;
+  }
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return true;
+}
+
+/// A fault to inject (testing): `action` to `process` at `at_s` seconds after the sim started.
+struct Injection {
+  std::string action, process;
+  double at_s = -1.0;
+  bool done = false;
+};
+
+bool parseInjection(const std::string& text, Injection* inj, std::string* error) {
+  std::stringstream ss(text);
+  std::string seconds;
+  std::getline(ss, inj->action, ':');
+  std::getline(ss, inj->process, ':');
+  std::getline(ss, seconds);
+  char* end = nullptr;
+  inj->at_s = std::strtod(seconds.c_str(), &end);
+  if ((inj->action != "kill" && inj->action != "stop") ||
+      (inj->process != "sim" && inj->process != "controller" && inj->process != "logger") || seconds.empty() ||
+      *end != '\0' || !(inj->at_s >= 0.0 && inj->at_s < 1e6)) {
+    *error = "--inject: expected kill|stop:sim|controller|logger:SECONDS, got '" + text + "'";
+    return false;
+  }
+  return true;
+}
+
+volatile sig_atomic_t g_signal = 0;
+void onSignal(int sig) { g_signal = sig; }
+
+/// A child of the run and how it ended.
+struct Child {
+  const char* name;
+  pid_t pid = -1;
+  bool running = false;
+  int code = -1;
+  double ended_at_s = -1.0;  ///< wall seconds after the sim started
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Copies the complete lines the sim appended to its log since the last call to stdout; *sim_time_s: the
+/// simulated time of its latest progress line ("exo_sim: t 3.0 s ...", one per simulated second).
+void echoNewLines(const std::string& path, std::streamoff* offset, double* sim_time_s) {
+  std::ifstream in(path);
+  if (!in) return;
+  in.seekg(*offset);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (in.eof()) break;  // an incomplete last line: next time
+    std::printf("%s\n", line.c_str());
+    double t = 0.0;
+    if (std::sscanf(line.c_str(), "exo_sim: t %lf s", &t) == 1) *sim_time_s = t;
+    *offset = in.tellg();
+  }
+  std::fflush(stdout);
+}
 }  // namespace
 
 int cmdExperiment(int argc, char** argv) {
   const std::string config = EXOID_CONFIG_DIR;
-  CLI::App app{
-      "Runs the closed loop: exo_sim (MuJoCo, lockstep) and exo_controller (centroidal balance QP doing the\n"
-      "thesis's CoM moves) as separate processes talking LCM over udpm:// with ttl=0 inside a private network\n"
-      "namespace (unshare -n; multicast routed on its loopback only), recorded without loss. Writes\n"
-      "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger)\n"
-      "  DIR/summary.json     moves_done, fell, com_rmse_m, max_foot_slip_m, qp_solve_us_p50/p99, fallbacks,\n"
-      "                       realtime_factor, missing_ticks, eom_residual_max_rel, ...\n"
-      "  DIR/summary.md       the same as a table (also printed)\n"
-      "  DIR/controller.log, DIR/logger.log   process output (the sim's progress is printed)",
-      "exoid experiment"};
+  CLI::App app{kDescription, "exoid experiment"};
   common::configureCli(app);
   std::string scenario_path, out_dir, controller_config = config + "/controller.yaml", sensors = config + "/sensors.yaml",
-      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml";
-  int64_t seed = 1, moves = 0;
+      model_path = config + "/exo.urdf", mjcf = config + "/exo.xml", inject_text;
+  int64_t seed = 1, moves = 0, max_missing = 10;
+  double watchdog_factor = 3.0, watchdog_margin = 60.0;
   bool realtime = false, no_pin = false;
   app.add_option("--scenario", scenario_path, "sim scenario (config/scenarios/*.yaml): noise, undeclared effects")
       ->required()->type_name("FILE");
-  app.add_option("--out", out_dir, "output directory (created)")->required()->type_name("DIR");
+  app.add_option("--out", out_dir, "output directory (created; must be a directory we can write)")->required()->type_name("DIR");
   app.add_option("--controller-config", controller_config, "controller configuration")->type_name("FILE");
   app.add_option("--sensors", sensors, "sensor noise configuration")->type_name("FILE");
   app.add_option("--model", model_path, "controller's model")->type_name("URDF");
   app.add_option("--mjcf", mjcf, "simulated robot")->type_name("FILE");
-  // The same ranges as exo_controller's --seed and --moves, so that exoid refuses what the controller would.
+  // exo_controller's own limits (controller/run_options.hpp): exoid refuses what the controller would, before
+  // anything starts (a refused controller left the sim running open loop for minutes).
   app.add_option("--seed", seed,
                  "CoM move sequence seed (use different seeds for training and validation runs)")
-      ->transform(common::strictInteger(0))->type_name("N");
+      ->transform(common::strictInteger(controller::kMinSeed, controller::kMaxSeed))->type_name("N");
   app.add_option("--moves", moves, "number of CoM moves (0: the controller configuration's, 20)")
-      ->transform(common::strictInteger(0, 1000))->type_name("N");
+      ->transform(common::strictInteger(0, controller::kMaxMoves))->type_name("N");
   app.add_flag("--realtime", realtime, "run the sim at wall-clock 1 kHz instead of lockstep");
   app.add_flag("--no-pin", no_pin,
                "do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
                "controller share the first allowed CPU; the logger is never pinned)");
-  app.footer(
-      "needs: root (or unprivileged user namespaces) for unshare, iproute2.\n"
-      "exit codes: 0 run completed (see summary for pass/fail of the targets), 2 bad input or a process failed.");
+  app.add_option("--max-missing-commands", max_missing,
+                 "the sim ends the run when N consecutive commands are missing (1 s at its\n"
+                 "100 ms command timeout; exo_sim --help)")
+      ->transform(common::strictInteger(0, 1000000))->type_name("N");
+  app.add_option("--watchdog-factor", watchdog_factor,
+                 "watchdog: the run is stopped as failed after F x the planned simulated time\n"
+                 "plus --watchdog-margin-s of wall time (a 20-move run, 62.2 s simulated, gets\n"
+                 "247 s; lockstep normally takes a fifth of the simulated time)")
+      ->transform(common::strictNumber(1e-6, 1e6))->type_name("F");
+  app.add_option("--watchdog-margin-s", watchdog_margin, "watchdog margin, seconds")
+      ->transform(common::strictNumber(0.0, 1e7))->type_name("S");
+  app.add_option("--inject", inject_text,
+                 "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"
+                 "once the sim reports SECONDS simulated (its progress lines, 1 s apart), send\n"
+                 "PROCESS (sim, controller or logger) SIGKILL (ACTION kill) or SIGSTOP (ACTION\n"
+                 "stop: it hangs), e.g. --inject kill:controller:2")
+      ->type_name("SPEC");
+  app.footer(kFooter);
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;
   const std::pair<const char*, const std::string*> files[] = {{"scenario", &scenario_path},
@@ -101,6 +226,8 @@ int cmdExperiment(int argc, char** argv) {
                                                               {"mjcf", &mjcf}};
   for (const auto& [name, file] : files)
     if (!std::filesystem::is_regular_file(*file)) return fail("--" + std::string(name) + ": no such file '" + *file + "'");
+  Injection inject;
+  if (!inject_text.empty() && !parseInjection(inject_text, &inject, &err)) return fail(err);
   controller::ControllerConfig cc;
   if (!controller::loadControllerConfig(controller_config, cc, &err)) return fail(err);
   if (moves == 0) moves = cc.trajectory.moves;
@@ -108,10 +235,15 @@ int cmdExperiment(int argc, char** argv) {
   // The sim runs exactly as long as the controller plans to (start-up latch, moves, holds): a sim that
   // outlives the controller would apply zero torque at the end.
   const double duration = controller::plannedRunDuration(cc);
+  const bool lockstep = !realtime;
 
-  {  // Validate every input here, before any process starts, so that errors name the file and key.
-    Model controller_model;
-    if (!buildModelFromUrdfFile(model_path, true, controller_model, &err)) return fail(err);
+  Model model;
+  if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail(err);
+  {  // What exo_controller checks at start-up (configuration against the model, move sequence), here.
+    controller::BalanceController probe(model, cc, static_cast<uint64_t>(seed));
+    if (!probe.ok()) return fail(controller_config + ": " + probe.error());
+  }
+  {  // Validate the sim's inputs here too, before any process starts, so that errors name the file and key.
     sim::SensorConfig realistic, noise;
     sim::Scenario scenario;
     sim::SimModel probe;
@@ -119,69 +251,182 @@ int cmdExperiment(int argc, char** argv) {
         !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(mjcf, noise, scenario, probe, &err))
       return fail(err);
   }
+  const std::filesystem::path out = out_dir;
+  if (!prepareOutDir(out, &err)) return fail(err);
   if (!std::getenv(kNetnsEnv)) return reexecInPrivateNetns(argc, argv);
   // Inside the namespace: loopback up, multicast routed to it; nothing can leave this namespace.
   if (std::system("ip link set lo up") != 0 || std::system("ip route add 224.0.0.0/4 dev lo") != 0)
     return fail("cannot configure the private network namespace (ip link/route failed; is iproute2 installed?)");
 
-  const std::filesystem::path out = out_dir;
-  std::filesystem::create_directories(out);
-  const std::string log_path = (out / "run.lcmlog").string();
-  for (const char* f : {"run.lcmlog", "logger.log", "controller.log", "summary.json", "summary.md"})
-    std::filesystem::remove(out / f);
+  const std::string log_path = (out / "run.lcmlog").string(), sim_log = (out / "sim.log").string();
+  const std::string sim_result = (out / "sim_result.json").string();
+  std::error_code ec;
+  for (const char* f : {"run.lcmlog", "logger.log", "controller.log", "sim.log", "sim_result.json", "summary.json", "summary.md"})
+    std::filesystem::remove(out / f, ec);
   const std::string url = channels::kDefaultUrl;
   const std::string bin = std::filesystem::path(selfPath()).parent_path().string();
   ::setenv("LCM_DEFAULT_URL", url.c_str(), 1);
   // Lockstep sim and controller take turns, so they share one CPU (cheap hand-overs: 6x real time against
   // 4.5x unpinned on 2 cores); the logger stays free to use every CPU.
   const std::vector<int> cpus = tools::allowedCpus();
-  const int loop_cpu = (!no_pin && cpus.size() >= 2) ? cpus.front() : -1;
+  const int loop_cpu = (!no_pin && cpus.size() >= 2 && lockstep) ? cpus.front() : -1;
+  struct sigaction sa {};
+  sa.sa_handler = onSignal;
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
 
   // exoid_logger, not Debian's lcm-logger: the latter drops bursts in LCM's user-space receive ring at the
   // lockstep rate (~30k messages/s) although the kernel delivers every datagram (docs/lcm.md).
-  pid_t logger = tools::spawn({bin + "/exoid_logger", "--lcm-url", url, "--force", "--out", log_path},
-                              (out / "logger.log").string(), &err);
-  if (logger < 0) return fail(err);
+  Child logger{"exoid_logger"}, ctrl{"exo_controller"}, sim{"exo_sim"};
+  logger.pid = tools::spawn({bin + "/exoid_logger", "--lcm-url", url, "--force", "--out", log_path},
+                            (out / "logger.log").string(), &err);
+  if (logger.pid < 0) return fail(err);
+  logger.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  pid_t ctrl = tools::spawn({bin + "/exo_controller", "--model", model_path, "--config", controller_config,
-                             "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
-                            (out / "controller.log").string(), &err, realtime ? -1 : loop_cpu);
-  if (ctrl < 0) return tools::stop(logger, SIGINT, 2000), fail(err);
+  ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", model_path, "--config", controller_config,
+                           "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
+                          (out / "controller.log").string(), &err, loop_cpu);
+  if (ctrl.pid < 0) return tools::stop(logger.pid, SIGINT, 2000), fail(err);
+  ctrl.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   char dur[32];
   std::snprintf(dur, sizeof dur, "%.3f", duration);
-  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s -> %s\n", moves, duration,
-              scenario_path.c_str(), out.c_str());
+  const double watchdog_s = duration * watchdog_factor + watchdog_margin;
+  std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s -> %s (watchdog %.0f s)\n", moves,
+              duration, scenario_path.c_str(), out.c_str(), watchdog_s);
   std::fflush(stdout);
   const auto t0 = std::chrono::steady_clock::now();
-  pid_t sim = tools::spawn({bin + "/exo_sim", "--model", mjcf, "--sensors", sensors, "--scenario",
-                            scenario_path, "--mode", realtime ? "realtime" : "lockstep",
-                            "--duration", dur, "--lcm-url", url},
-                           "", &err, realtime ? -1 : loop_cpu);
-  if (sim < 0) return tools::stop(ctrl, SIGTERM, 2000), tools::stop(logger, SIGINT, 2000), fail(err);
-  int sim_code = -1, ctrl_code = -1;
-  tools::waitFor(sim, -1, &sim_code);
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (!tools::waitFor(ctrl, 5000, &ctrl_code)) ctrl_code = tools::stop(ctrl, SIGTERM, 2000);
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger drain its socket
-  tools::stop(logger, SIGINT, 5000);
-  if (sim_code != 0) return fail("exo_sim exited with code " + std::to_string(sim_code));
-  if (ctrl_code != 0)
-    std::fprintf(stderr, "exoid experiment: warning: exo_controller exited with code %d (see %s)\n", ctrl_code,
-                 (out / "controller.log").c_str());
+  sim.pid = tools::spawn({bin + "/exo_sim", "--model", mjcf, "--sensors", sensors, "--scenario",
+                          scenario_path, "--mode", lockstep ? "lockstep" : "realtime", "--duration", dur,
+                          "--max-missing-commands", std::to_string(max_missing), "--result", sim_result, "--lcm-url", url},
+                         sim_log, &err, loop_cpu);
+  if (sim.pid < 0) return tools::stop(ctrl.pid, SIGTERM, 2000), tools::stop(logger.pid, SIGINT, 2000), fail(err);
+  sim.running = true;
 
-  Model model;
-  if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail(err);
+  // Supervise: the first of {sim done, a process ended early, watchdog, signal} ends the run.
+  tools::RunFacts facts;
+  auto since = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  auto reap = [&](Child& c) {
+    if (c.running && tools::waitFor(c.pid, 0, &c.code)) c.running = false, c.ended_at_s = since();
+    return !c.running;
+  };
+  std::streamoff echoed = 0;
+  double sim_time = 0.0;
+  for (;;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    echoNewLines(sim_log, &echoed, &sim_time);
+    if (inject.at_s >= 0.0 && !inject.done && sim_time >= inject.at_s) {
+      Child& target = inject.process == "sim" ? sim : inject.process == "controller" ? ctrl : logger;
+      ::kill(target.pid, inject.action == "kill" ? SIGKILL : SIGSTOP);
+      inject.done = true;
+    }
+    if (reap(sim)) break;
+    if (g_signal) {
+      facts.interrupted = true;
+      char buf[80];
+      std::snprintf(buf, sizeof buf, "interrupted by %s at %.1f s", g_signal == SIGINT ? "SIGINT" : "SIGTERM", since());
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (since() > watchdog_s) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "watchdog: the run was still going after %.1f s (limit %.0f x %.1f s + %.0f s)",
+                    since(), watchdog_factor, duration, watchdog_margin);
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (reap(logger)) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "exoid_logger %s at %.1f s: the log ends there (see %s)",
+                    tools::describeExit(logger.code).c_str(), logger.ended_at_s, (out / "logger.log").c_str());
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (reap(ctrl) && (ctrl.code != 0 || since() > ctrl.ended_at_s + 10.0)) {
+      char buf[240];
+      if (ctrl.code != 0)
+        std::snprintf(buf, sizeof buf, "exo_controller %s at %.1f s, before the run was over%s (see %s)",
+                      tools::describeExit(ctrl.code).c_str(), ctrl.ended_at_s,
+                      ctrl.code == 3 ? ": no robot state for its idle timeout, exo_sim stopped publishing" : "",
+                      (out / "controller.log").c_str());
+      else
+        std::snprintf(buf, sizeof buf, "exo_sim did not finish within 10 s of exo_controller completing its moves");
+      facts.failures.push_back(buf);
+      break;
+    }
+  }
+  const double wall = since();
+
+  // Stop whatever still runs: sim and controller first, the logger last (it drains what was sent).
+  const bool sim_finished = !sim.running;
+  if (sim.running) sim.code = tools::stop(sim.pid, SIGTERM, 3000), sim.running = false;
+  if (ctrl.running) {
+    if (!(sim_finished && sim.code == 0 && tools::waitFor(ctrl.pid, 5000, &ctrl.code)))
+      ctrl.code = tools::stop(ctrl.pid, SIGTERM, 2000);
+    ctrl.running = false;
+    if (sim_finished && sim.code == 0 && ctrl.code != 0)
+      facts.failures.push_back("exo_controller " + tools::describeExit(ctrl.code) + " at the end of the run (see " +
+                               (out / "controller.log").string() + ")");
+  }
+  if (logger.running) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger drain its socket
+    logger.code = tools::stop(logger.pid, SIGINT, 5000);
+    logger.running = false;
+    if (logger.code != 0)
+      facts.failures.push_back("exoid_logger " + tools::describeExit(logger.code) + " when stopped (see " +
+                               (out / "logger.log").string() + ")");
+  }
+  echoNewLines(sim_log, &echoed, &sim_time);
+
+  // The sim's own report: outcome, fall tick, fallbacks, real-time factor (independent of the log).
+  sim::RunSummary sr;
+  if (sim::parseRunSummaryJson(slurp(sim_result), &sr, &err)) {
+    facts.sim_reported = true;
+    facts.sim_outcome = sim::outcomeName(sr.outcome);
+    facts.sim_ticks = sr.ticks;
+    facts.sim_fall_tick = sr.fall_tick;
+    facts.sim_held_ticks = sr.held_ticks;
+    facts.sim_zero_ticks = sr.zero_ticks;
+    facts.sim_timeouts = sr.timeouts;
+    facts.sim_realtime_factor = sr.realtime_factor;
+    facts.sim_wall_s = sr.wall_time_s;
+    if (sr.outcome == sim::RunOutcome::ControllerLost)
+      facts.failures.push_back("exo_controller stopped answering: exo_sim ended the run after " +
+                               std::to_string(sr.missing_commands) + " consecutive missing commands (last command for tick " +
+                               std::to_string(sr.last_fresh_tick) + ")");
+    else if (sr.outcome == sim::RunOutcome::LcmFailure)
+      facts.failures.push_back("exo_sim: LCM failure (see " + sim_log + ")");
+    else if (sr.outcome == sim::RunOutcome::Interrupted && sim_finished)
+      facts.failures.push_back("exo_sim was interrupted (see " + sim_log + ")");
+  } else if (sim_finished) {
+    facts.failures.push_back("exo_sim " + tools::describeExit(sim.code) + " without a result (see " + sim_log + ")");
+  }
+
+  facts.moves_planned = static_cast<int>(moves);
+  facts.ticks_planned = std::llround(duration * 1000.0);
+  facts.lockstep = lockstep;
   tools::RunLog log;
-  if (!tools::readRunLog(log_path, model.joint_names, log, &err)) return fail(err);
-  tools::ExperimentSummary s;
-  if (!tools::summarizeExperiment(model, log, static_cast<int>(moves), wall, s, &err)) return fail(err);
+  facts.log_readable = tools::readRunLog(log_path, model.joint_names, log, &facts.log_error);
+  const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
   const std::string table = tools::summaryTable(s);
-  std::ofstream(out / "summary.json") << tools::summaryJson(s);
-  std::ofstream(out / "summary.md") << "# Experiment " << scenario_path << " (seed " << seed << ")\n\n" << table;
-  std::printf("\n%s\nwritten: %s, %s, %s\n", table.c_str(), log_path.c_str(), (out / "summary.json").c_str(),
-              (out / "summary.md").c_str());
-  return 0;
+  std::printf("\n%s\n", table.c_str());
+  for (const auto& [file, text] : {std::pair<std::string, std::string>{"summary.json", tools::summaryJson(s)},
+                                   {"summary.md", "# Experiment " + scenario_path + " (seed " + std::to_string(seed) +
+                                                      ")\n\n" + table}}) {
+    std::ofstream f(out / file);
+    if (!(f << text) || (f.close(), f.fail())) {
+      std::fprintf(stderr, "exoid experiment: error: cannot write '%s'\n", (out / file).c_str());
+      return kExitFailed;
+    }
+  }
+  std::printf("written: %s, %s, %s (%.1f s wall)\n", log_path.c_str(), (out / "summary.json").c_str(),
+              (out / "summary.md").c_str(), wall);
+  if (s.outcome == "interrupted") return kExitInterrupted;
+  if (s.outcome == "failed") {
+    for (const std::string& f : s.failures) std::fprintf(stderr, "exoid experiment: run failed: %s\n", f.c_str());
+    return kExitFailed;
+  }
+  return s.outcome == "fell" ? kExitFell : kExitOk;
 }
 
 }  // namespace exoid::cli

@@ -19,7 +19,10 @@ int fail(const std::string& msg) {
 int cmdExport(int argc, char** argv) {
   CLI::App app{
       "Turns a logged run into one CSV row per control tick (1 kHz). Every channel is aligned by tick; a tick\n"
-      "missing a needed message is skipped and counted (reported on stderr), never interpolated.",
+      "missing a needed message is skipped and counted (reported on stderr), never interpolated. A damaged log\n"
+      "(bytes that are not a valid event, events that do not decode, a cut-off last event) is read past the\n"
+      "damage; how many events were damaged and where the readable part ends are reported on stderr, and the\n"
+      "export fails unless --allow-partial is given.",
       "exoid export"};
   common::configureCli(app);
   std::string log_path, out_path, model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";
@@ -33,6 +36,8 @@ int cmdExport(int argc, char** argv) {
   app.add_option("--filter", opt.filter_hz, "sensors only: add the derivative columns, Butterworth cutoff HZ (e.g. 50)")
       ->transform(common::strictNumber(1e-6, 1e6))->type_name("HZ");
   app.add_option("--model", model_path, "robot model naming the joints")->type_name("URDF");
+  bool allow_partial = false;
+  app.add_flag("--allow-partial", allow_partial, "export what is readable from a damaged log (the damage is still reported)");
   app.footer(
       "columns (docs/data-formats.md):\n"
       "  t                              seconds (tick * 1e-3)\n"
@@ -50,13 +55,19 @@ int cmdExport(int argc, char** argv) {
       "  tau_<joint>                    actuated joints: torque sensors (applied torque with --truth), N m\n"
       "  fp_<right|left>_fx,fy,fz       force ON the foot, world coordinates, N (minus the plate's reading)\n"
       "  fp_<right|left>_nx,ny,nz       its moment about the world origin, world coordinates, N m\n\n"
-      "exit codes: 0 success, 2 bad input (unreadable log, no usable tick, bad option).");
+      "exit codes: 0 success (with --allow-partial also from a damaged log), 2 bad input (unreadable log, no\n"
+      "            usable tick, bad option), 3 the log is damaged (nothing written; see --allow-partial).");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;
   Model model;
   if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail(err);
   tools::RunLog log;
   if (!tools::readRunLog(log_path, model.joint_names, log, &err)) return fail(err);
+  if (!log.intact()) {
+    std::fprintf(stderr, "exoid export: %s: %s: %s\n", allow_partial ? "warning" : "error", log_path.c_str(),
+                 log.damageReport().c_str());
+    if (!allow_partial) return 3;
+  }
   tools::RunTable table;
   if (!tools::buildRunTable(model, log, opt, table, &err)) return fail(log_path + ": " + err);
   tools::AtomicCsvWriter out;
@@ -69,8 +80,9 @@ int cmdExport(int argc, char** argv) {
   }
   if (!out.commit(&err)) return fail(err);
   std::fprintf(stderr, "exoid export: %zu ticks -> %s (%ld ticks skipped for a missing message; %ld log events "
-               "rejected%s%s)\n", table.rows.size(), out_path.c_str(), table.skipped_ticks, log.rejected,
-               log.first_rejection.empty() ? "" : ", first: ", log.first_rejection.c_str());
+               "rejected%s%s; %ld damaged stretches%s)\n", table.rows.size(), out_path.c_str(), table.skipped_ticks,
+               log.rejected, log.first_rejection.empty() ? "" : ", first: ", log.first_rejection.c_str(),
+               log.corrupt_events, log.truncated ? "; cut off at the end" : "");
   return 0;
 }
 

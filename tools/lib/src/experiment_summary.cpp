@@ -1,7 +1,9 @@
 #include "exoid/tools/experiment_summary.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <unordered_map>
 
 #include "exoid/model/dynamics.hpp"
@@ -17,21 +19,21 @@ double percentile(std::vector<double> v, double p) {
   const size_t i = std::min(v.size() - 1, static_cast<size_t>(p * (v.size() - 1) + 0.5));
   return v[i];
 }
-}  // namespace
 
-bool summarizeExperiment(const Model& model, const RunLog& log, int moves_planned, double wall_seconds,
-                         ExperimentSummary& s, std::string* error) {
-  s = ExperimentSummary();
-  s.moves_planned = moves_planned;
-  if (log.truth.empty() || log.status.empty()) {
-    if (error) *error = "the log has no ground truth or no controller status: the run did not start";
-    return false;
-  }
+// Ticks of [0, n) that a channel lacks (duplicates and ticks outside the range do not make up for them).
+template <class Sample>
+long missingIn(const std::vector<Sample>& samples, int64_t n) {
+  std::vector<bool> seen(static_cast<size_t>(std::max<int64_t>(n, 0)), false);
+  long present = 0;
+  for (const Sample& s : samples)
+    if (s.tick >= 0 && s.tick < n && !seen[static_cast<size_t>(s.tick)]) seen[static_cast<size_t>(s.tick)] = true, ++present;
+  return static_cast<long>(n) - present;
+}
+
+// Truth-channel figures: CoM tracking against the controller's reference, foot slip, fall.
+void truthFigures(const Model& model, const RunLog& log, ExperimentSummary& s, int64_t* first_drop_tick) {
   const int sole[2] = {model.frameIndex("right_sole"), model.frameIndex("left_sole")};
-  if (sole[0] < 0 || sole[1] < 0) {
-    if (error) *error = "the model has no right_sole / left_sole frames";
-    return false;
-  }
+  if (log.truth.empty() || sole[0] < 0 || sole[1] < 0) return;
   std::unordered_map<int64_t, const ControllerStatusSample*> status;
   for (const auto& st : log.status) status.emplace(st.tick, &st);
   DynamicsData dyn(model);
@@ -51,7 +53,7 @@ bool summarizeExperiment(const Model& model, const RunLog& log, int moves_planne
       if (i == 0) sole0[side] = p;
       s.max_foot_slip_m = std::max(s.max_foot_slip_m, (p - sole0[side]).head<2>().norm());
     }
-    if (t.base_position.z() < z0 - 0.25) s.fell = true;
+    if (t.base_position.z() < z0 - 0.25 && *first_drop_tick < 0) *first_drop_tick = t.tick;
     auto it = status.find(t.tick);
     if (it != status.end() && it->second->move_index >= 0) {
       const double e = (com - it->second->com_ref).norm();
@@ -61,64 +63,169 @@ bool summarizeExperiment(const Model& model, const RunLog& log, int moves_planne
     }
   }
   s.com_rmse_m = n ? std::sqrt(sum_sq / n) : 0.0;
+}
+}  // namespace
+
+ExperimentSummary summarizeExperiment(const Model& model, const RunLog& log, const RunFacts& f) {
+  ExperimentSummary s;
+  s.moves_planned = f.moves_planned;
+  s.lockstep = f.lockstep;
+  s.ticks_planned = f.ticks_planned;
+  s.sim_reported = f.sim_reported;
+  s.ticks_simulated = f.sim_reported ? f.sim_ticks : f.ticks_planned;
+  s.sim_seconds = s.ticks_simulated * 1e-3;
+  s.realtime_factor = f.sim_reported ? f.sim_realtime_factor : 0.0;
+  s.sim_held_ticks = f.sim_reported ? f.sim_held_ticks : -1;
+  s.sim_zero_ticks = f.sim_reported ? f.sim_zero_ticks : -1;
+  s.sim_timeouts = f.sim_reported ? f.sim_timeouts : -1;
+  s.failures = f.failures;
+
+  int64_t first_drop_tick = -1;
+  if (f.log_readable) truthFigures(model, log, s, &first_drop_tick);
+  s.fall_tick = f.sim_reported ? f.sim_fall_tick : first_drop_tick;
+  s.fell = s.fall_tick >= 0;
+  s.fall_time_s = s.fell ? s.fall_tick * 1e-3 : -1.0;
+
+  // Controller figures; moves count up to the fall only.
   std::vector<double> qp, tick;
+  const ControllerStatusSample* at_end = nullptr;
   for (const auto& st : log.status) {
     if (st.qp_status != QpStatus::NotRun) qp.push_back(st.qp_solve_us);
     tick.push_back(st.tick_us);
+    if (!s.fell || st.tick <= s.fall_tick)
+      if (!at_end || st.tick >= at_end->tick) at_end = &st;
   }
   s.qp_solve_us_p50 = percentile(qp, 0.5);
   s.qp_solve_us_p99 = percentile(qp, 0.99);
   s.tick_us_p50 = percentile(tick, 0.5);
   s.tick_us_p99 = percentile(tick, 0.99);
-  const ControllerStatusSample& last = log.status.back();
-  s.moves_done = last.moves_done;
-  s.fallbacks = last.fallbacks;
-  s.controller_rejected = last.rejected_inputs;
-  s.ticks = static_cast<long>(log.truth.size());
-  s.sim_seconds = (log.truth.back().tick - log.truth.front().tick + 1) * 1e-3;
-  s.realtime_factor = wall_seconds > 0 ? s.sim_seconds / wall_seconds : 0.0;
-  // Lost messages: every sim channel must have every tick of the truth range.
-  const int64_t first = log.truth.front().tick, last_tick = log.truth.back().tick;
-  const long expected = static_cast<long>(last_tick - first + 1);
-  s.missing_ticks = (expected - static_cast<long>(log.truth.size())) + (expected - static_cast<long>(log.states.size())) +
-                    (expected - static_cast<long>(log.plates[0].size())) + (expected - static_cast<long>(log.plates[1].size()));
+  if (at_end) {
+    s.moves_done = at_end->moves_done;
+    if (s.fell) s.fall_during_move = at_end->move_index >= s.moves_planned ? s.moves_planned : at_end->move_index;
+  }
+  if (!log.status.empty()) {  // fallbacks and rejections over the whole run, also after a fall
+    s.controller_fallbacks = std::max_element(log.status.begin(), log.status.end(), [](auto& a, auto& b) {
+                               return a.fallbacks < b.fallbacks;
+                             })->fallbacks;
+    s.controller_rejected = std::max_element(log.status.begin(), log.status.end(), [](auto& a, auto& b) {
+                              return a.rejected_inputs < b.rejected_inputs;
+                            })->rejected_inputs;
+  }
+
+  // The log against what the sim simulated (not against what the log happens to hold).
+  s.ticks_logged = static_cast<int64_t>(log.truth.size());
+  const int64_t n = s.ticks_simulated;
+  s.missing_ticks = missingIn(log.truth, n) + missingIn(log.states, n) + missingIn(log.plates[0], n) + missingIn(log.plates[1], n);
   s.log_rejected = log.rejected;
+  s.log_corrupt_events = log.corrupt_events;
+  s.log_damage = log.damageReport();
+  if (!f.log_readable) {
+    s.failures.push_back("the log could not be read: " + f.log_error);
+  } else {
+    if (s.missing_ticks > 0) {
+      char buf[300];
+      std::snprintf(buf, sizeof buf,
+                    "log incomplete: %ld of %lld sim-channel ticks missing (%s %lld ticks; the log's truth channel "
+                    "holds %lld, up to tick %lld)",
+                    s.missing_ticks, 4LL * static_cast<long long>(n),
+                    f.sim_reported ? "the sim ran" : "the sim did not report its count; planned",
+                    static_cast<long long>(n), static_cast<long long>(s.ticks_logged),
+                    static_cast<long long>(log.truth.empty() ? -1 : log.truth.back().tick));
+      s.failures.push_back(buf);
+    }
+    if (!log.intact()) s.failures.push_back("log damaged: " + s.log_damage);
+  }
+  s.log_complete = f.log_readable && s.missing_ticks == 0 && log.intact();
   EomResidual eom;
-  if (eomResidual(model, model.phi, log, eom, nullptr)) s.eom_residual_max_rel = eom.max_relative;
-  return true;
+  if (f.log_readable && eomResidual(model, model.phi, log, eom, nullptr)) s.eom_residual_max_rel = eom.max_relative;
+
+  s.outcome = f.interrupted ? "interrupted" : !s.failures.empty() ? "failed" : s.fell ? "fell" : "completed";
+  return s;
 }
 
 std::string summaryJson(const ExperimentSummary& s) {
-  char buf[2048];
-  std::snprintf(buf, sizeof buf,
-                "{\n  \"moves_planned\": %d,\n  \"moves_done\": %d,\n  \"fell\": %s,\n  \"com_rmse_m\": %.6g,\n"
-                "  \"com_max_error_m\": %.6g,\n  \"max_foot_slip_m\": %.6g,\n  \"qp_solve_us_p50\": %.4g,\n"
-                "  \"qp_solve_us_p99\": %.4g,\n  \"tick_us_p50\": %.4g,\n  \"tick_us_p99\": %.4g,\n"
-                "  \"fallbacks\": %ld,\n  \"controller_rejected_inputs\": %ld,\n  \"realtime_factor\": %.4g,\n"
-                "  \"sim_seconds\": %.3f,\n  \"ticks\": %ld,\n  \"missing_ticks\": %ld,\n  \"log_rejected_events\": %ld,\n"
-                "  \"eom_residual_max_rel\": %.3g\n}\n",
-                s.moves_planned, s.moves_done, s.fell ? "true" : "false", s.com_rmse_m, s.com_max_error_m,
-                s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99, s.fallbacks,
-                s.controller_rejected, s.realtime_factor, s.sim_seconds, s.ticks, s.missing_ticks, s.log_rejected,
-                s.eom_residual_max_rel);
-  return buf;
+  nlohmann::ordered_json j;
+  j["outcome"] = s.outcome;
+  j["failures"] = s.failures;
+  j["moves_planned"] = s.moves_planned;
+  j["moves_done"] = s.moves_done;
+  j["fell"] = s.fell;
+  j["fall_tick"] = s.fall_tick;
+  j["fall_time_s"] = s.fall_time_s;
+  j["fall_during_move"] = s.fall_during_move;
+  j["com_rmse_m"] = s.com_rmse_m;
+  j["com_max_error_m"] = s.com_max_error_m;
+  j["max_foot_slip_m"] = s.max_foot_slip_m;
+  j["qp_solve_us_p50"] = s.qp_solve_us_p50;
+  j["qp_solve_us_p99"] = s.qp_solve_us_p99;
+  j["tick_us_p50"] = s.tick_us_p50;
+  j["tick_us_p99"] = s.tick_us_p99;
+  j["controller_fallbacks"] = s.controller_fallbacks;
+  j["sim_held_ticks"] = s.sim_held_ticks;
+  j["sim_zero_ticks"] = s.sim_zero_ticks;
+  j["sim_timeouts"] = s.sim_timeouts;
+  j["controller_rejected_inputs"] = s.controller_rejected;
+  j["realtime_factor"] = s.realtime_factor;
+  j["mode"] = s.lockstep ? "lockstep" : "realtime";
+  j["sim_seconds"] = s.sim_seconds;
+  j["ticks_planned"] = s.ticks_planned;
+  j["sim_reported"] = s.sim_reported;
+  j["ticks_simulated"] = s.ticks_simulated;
+  j["ticks_logged"] = s.ticks_logged;
+  j["missing_ticks"] = s.missing_ticks;
+  j["log_complete"] = s.log_complete;
+  j["log_damage"] = s.log_damage;
+  j["log_rejected_events"] = s.log_rejected;
+  j["log_corrupt_events"] = s.log_corrupt_events;
+  j["eom_residual_max_rel"] = s.eom_residual_max_rel;
+  return j.dump(2) + "\n";
 }
 
 std::string summaryTable(const ExperimentSummary& s) {
-  char buf[2048];
+  char buf[4096];
+  char fall[160] = "no";
+  if (s.fell) {
+    if (s.fall_during_move < 0)
+      std::snprintf(fall, sizeof fall, "yes, at t %.3f s (tick %lld), before the first move", s.fall_time_s,
+                    static_cast<long long>(s.fall_tick));
+    else if (s.fall_during_move >= s.moves_planned)
+      std::snprintf(fall, sizeof fall, "yes, at t %.3f s (tick %lld), after the last move", s.fall_time_s,
+                    static_cast<long long>(s.fall_tick));
+    else
+      std::snprintf(fall, sizeof fall, "yes, at t %.3f s (tick %lld), during move %d (after %d completed)",
+                    s.fall_time_s, static_cast<long long>(s.fall_tick), s.fall_during_move + 1, s.moves_done);
+  }
+  char sim_fb[96] = "unknown (no sim report)";
+  if (s.sim_held_ticks >= 0)
+    std::snprintf(sim_fb, sizeof sim_fb, "%ld held, %ld zero (%ld timeouts)", s.sim_held_ticks, s.sim_zero_ticks,
+                  s.sim_timeouts);
+  char rtf[96] = "unknown (no sim report)";
+  if (s.realtime_factor > 0)
+    std::snprintf(rtf, sizeof rtf, "%.2fx (%.1f s simulated)", s.realtime_factor, s.sim_seconds);
   std::snprintf(buf, sizeof buf,
                 "| metric | value | target |\n|---|---|---|\n"
+                "| outcome | %s | completed |\n"
                 "| moves done | %d / %d | all |\n| fell | %s | no |\n"
                 "| CoM tracking RMSE | %.2f mm (max %.2f mm) | <= 5 mm |\n| max foot slip | %.3f mm | <= 1 mm |\n"
                 "| QP solve p50 / p99 | %.1f / %.1f us | |\n| controller tick p50 / p99 | %.1f / %.1f us | p99 <= 250 us |\n"
-                "| fallback ticks | %ld | 0 |\n| rejected inputs (controller) | %ld | 0 |\n"
-                "| real-time factor | %.2fx (%.1f s simulated) | >= 5x |\n| missing ticks (all sim channels) | %ld | 0 |\n"
+                "| fallback ticks (controller) | %ld | 0 |\n| fallback ticks (sim) | %s | 0 |\n"
+                "| rejected inputs (controller) | %ld | 0 |\n"
+                "| real-time factor | %s | %s |\n"
+                "| ticks simulated / planned | %s / %lld | all |\n"
+                "| missing ticks (4 sim channels, of the simulated ticks) | %ld | 0 |\n"
+                "| log | %s | complete |\n"
                 "| EoM residual max rel (W phi_model - y) | %.2g | <= 1e-8 without noise/effects |\n",
-                s.moves_done, s.moves_planned, s.fell ? "yes" : "no", 1e3 * s.com_rmse_m, 1e3 * s.com_max_error_m,
+                s.outcome.c_str(), s.moves_done, s.moves_planned, fall, 1e3 * s.com_rmse_m, 1e3 * s.com_max_error_m,
                 1e3 * s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99,
-                s.fallbacks, s.controller_rejected, s.realtime_factor, s.sim_seconds, s.missing_ticks,
+                s.controller_fallbacks, sim_fb, s.controller_rejected, rtf, s.lockstep ? ">= 5x (lockstep)" : "",
+                s.sim_reported ? std::to_string(s.ticks_simulated).c_str() : "unknown (no sim report)",
+                static_cast<long long>(s.ticks_planned), s.missing_ticks,
+                s.log_complete ? "complete" : ("INCOMPLETE" + (s.log_damage.empty() ? "" : ": " + s.log_damage)).c_str(),
                 s.eom_residual_max_rel);
-  return buf;
+  std::string out = buf;
+  for (const std::string& f : s.failures) out += "\nFAILED: " + f;
+  if (!s.failures.empty()) out += "\n";
+  return out;
 }
 
 }  // namespace exoid::tools

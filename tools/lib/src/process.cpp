@@ -2,12 +2,14 @@
 
 #include <fcntl.h>
 #include <sched.h>
+#include <sys/prctl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <thread>
 
@@ -35,6 +37,7 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, s
       return -1;
     }
   }
+  const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
     if (error) *error = std::string("fork failed: ") + std::strerror(errno);
@@ -42,6 +45,9 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, s
     return -1;
   }
   if (pid == 0) {
+    ::setpgid(0, 0);
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != parent) ::_exit(127);  // the supervisor died before prctl took effect
     if (cpu >= 0) {
       cpu_set_t set;
       CPU_ZERO(&set);
@@ -82,10 +88,22 @@ bool waitFor(pid_t pid, int timeout_ms, int* exit_code) {
 int stop(pid_t pid, int sig, int grace_ms) {
   int code = -1;
   ::kill(pid, sig);
+  ::kill(pid, SIGCONT);
   if (waitFor(pid, grace_ms, &code)) return code;
   ::kill(pid, SIGKILL);
   waitFor(pid, -1, &code);
   return code;
+}
+
+std::string describeExit(int code) {
+  if (code > 128 && code < 128 + 65) {
+    const int sig = code - 128;
+    const char* name = sig == SIGKILL ? "SIGKILL" : sig == SIGTERM ? "SIGTERM" : sig == SIGINT ? "SIGINT"
+                       : sig == SIGSEGV ? "SIGSEGV" : sig == SIGABRT ? "SIGABRT" : sig == SIGBUS ? "SIGBUS"
+                       : sig == SIGFPE ? "SIGFPE" : nullptr;
+    return "was killed by signal " + std::to_string(sig) + (name ? std::string(" (") + name + ")" : "");
+  }
+  return "exited with code " + std::to_string(code);
 }
 
 }  // namespace exoid::tools

@@ -4,6 +4,8 @@
 // at the 1 kHz deadline), simStep, publish EXO_STATE, EXO_PLATE_RIGHT, EXO_PLATE_LEFT, EXO_TRUTH for tick k.
 // Commands on EXO_COMMAND pass a MessageGate (duplicate, out-of-order, non-finite, malformed: rejected and
 // counted) before the CommandArbiter sees them. No allocation per tick once running.
+// A run ends early, with its outcome, when the robot falls (at the fall tick: nothing after a fall is worth
+// simulating), when a controller that was answering stops (max_missing_commands), or on a stop request.
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
@@ -21,12 +23,24 @@ struct RunOptions {
   int command_timeout_ms = 100;   ///< lockstep: wait this long for the command of tick k, then fall back
   int hold_ticks = 50;            ///< fallback: hold the last valid command this many ticks, then zero torque
   double start_timeout_s = 5.0;   ///< lockstep: wait this long for the first command (re-sending tick 0)
+  /// Once a command arrived: end the run (ControllerLost) when this many consecutive commands are missing.
+  /// Lockstep: a command is missing when it did not arrive within command_timeout_ms (so the sim gives up
+  /// after at most max_missing_commands * command_timeout_ms); realtime: after that many milliseconds
+  /// without a fresh command. 0: never give up.
+  int max_missing_commands = 10;
+  bool stop_on_fall = true;       ///< end the run at the tick the robot fell (Fell)
   bool quiet = false;             ///< no progress lines
   std::FILE* log = stdout;        ///< progress and summary
 };
 
+/// How a run ended (exo_sim's exit code follows it, docs/sim.md).
+enum class RunOutcome { Completed, Fell, ControllerLost, Interrupted, LcmFailure };
+const char* outcomeName(RunOutcome outcome);
+
 struct RunSummary {
-  int64_t ticks = 0;
+  RunOutcome outcome = RunOutcome::Completed;
+  int64_t ticks_planned = 0;       ///< round(duration * 1000)
+  int64_t ticks = 0;               ///< ticks simulated (and published)
   double sim_time_s = 0.0, wall_time_s = 0.0, realtime_factor = 0.0;
   uint64_t accepted = 0;           ///< commands admitted by the gate
   uint64_t rejected = 0;           ///< commands rejected by the gate (sum of the four reasons)
@@ -40,6 +54,9 @@ struct RunSummary {
   int64_t overruns = 0;            ///< realtime: ticks that missed their 1 ms deadline
   int64_t mujoco_warnings = 0;
   bool fell = false;               ///< base dropped more than kFallDrop at some tick
+  int64_t fall_tick = -1;          ///< first tick after which the base was more than kFallDrop down
+  int64_t last_fresh_tick = -1;    ///< last tick that applied a fresh command
+  int64_t missing_commands = 0;    ///< consecutive missing commands when the run ended
   bool interrupted = false;        ///< stopped early by the stop flag (SIGINT/SIGTERM)
   int64_t fallbackTicks() const { return held_ticks + zero_ticks; }
 };
@@ -51,5 +68,10 @@ bool runSim(const SimModel& model, SimData& data, LcmEndpoint& endpoint, const R
 
 /// The final one-line summary (no trailing newline).
 std::string formatSummary(const RunSummary& s);
+
+/// The summary as JSON (exo_sim --result FILE; read back by `exoid experiment`), and back. Every field of
+/// RunSummary, outcome by name.
+std::string runSummaryJson(const RunSummary& s);
+bool parseRunSummaryJson(const std::string& text, RunSummary* s, std::string* error);
 
 }  // namespace exoid::sim

@@ -1,38 +1,73 @@
 #pragma once
 // Figures of merit of a closed-loop run, computed from its log (truth channel for what only the simulator
-// knows, controller status for what the controller reports).
+// knows, controller status for what the controller reports) and from what the run's supervisor knows
+// beyond the log (the sim's own report, which processes failed). Every figure says what it is measured
+// against; nothing is taken from a log that ended early as if the run had.
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "exoid/model/model.hpp"
 #include "exoid/tools/run_log.hpp"
 
 namespace exoid::tools {
 
-struct ExperimentSummary {
+/// What `exoid experiment` knows about a run besides its log.
+struct RunFacts {
   int moves_planned = 0;
-  int moves_done = 0;
-  bool fell = false;               ///< the true base height dropped > 0.25 m below its start
+  int64_t ticks_planned = 0;        ///< planned run length (the sim's --duration in ticks)
+  bool lockstep = true;             ///< the real-time factor target (>= 5x) applies to lockstep only
+  bool sim_reported = false;        ///< the sim wrote its result; the sim_* fields are known
+  std::string sim_outcome;          ///< completed | fell | controller_lost | interrupted | lcm_failure
+  int64_t sim_ticks = 0;            ///< ticks the sim simulated and published
+  int64_t sim_fall_tick = -1;
+  int64_t sim_held_ticks = 0, sim_zero_ticks = 0, sim_timeouts = 0;  ///< the sim's own fallbacks
+  double sim_realtime_factor = 0.0, sim_wall_s = 0.0;
+  std::vector<std::string> failures;  ///< what went wrong, one line each (a process died, the watchdog, ...)
+  bool interrupted = false;           ///< SIGINT/SIGTERM stopped the run
+  bool log_readable = true;           ///< false: the log could not be read at all (log_error says why)
+  std::string log_error;
+};
+
+struct ExperimentSummary {
+  std::string outcome;             ///< completed | fell | failed | interrupted
+  std::vector<std::string> failures;  ///< RunFacts::failures plus the log's own problems
+  int moves_planned = 0;
+  int moves_done = 0;              ///< CoM moves completed before a fall (or the end of the log)
+  bool fell = false;               ///< the true base dropped > 0.25 m below its start
+  int64_t fall_tick = -1;          ///< tick of the fall (the sim's report, else the first such tick in the log)
+  double fall_time_s = -1.0;
+  int fall_during_move = -1;       ///< 0-based move under way at the fall (-1: before the first move)
   double com_rmse_m = 0.0;         ///< true CoM (from the exact state and the model) vs the CoM reference
   double com_max_error_m = 0.0;
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
   double qp_solve_us_p50 = 0.0, qp_solve_us_p99 = 0.0;
   double tick_us_p50 = 0.0, tick_us_p99 = 0.0;
-  long fallbacks = 0;              ///< controller ticks on a fallback command
+  long controller_fallbacks = 0;   ///< controller ticks on a fallback command (its last status)
+  long sim_held_ticks = 0, sim_zero_ticks = 0, sim_timeouts = 0;  ///< the sim's fallback ticks (-1: unknown)
   long controller_rejected = 0;    ///< input messages the controller rejected
-  double realtime_factor = 0.0;    ///< simulated time / wall time
-  double sim_seconds = 0.0;
-  long ticks = 0;                  ///< ticks in the truth channel
-  long missing_ticks = 0;          ///< ticks absent from any sim channel (lost messages) within the run
+  double realtime_factor = 0.0;    ///< the sim's simulated time / its wall time (0: unknown)
+  bool lockstep = true;            ///< the >= 5x target applies
+  double sim_seconds = 0.0;        ///< simulated time (ticks_simulated / 1000)
+  int64_t ticks_planned = 0;
+  bool sim_reported = false;       ///< the sim wrote its result (else its figures are unknown)
+  int64_t ticks_simulated = 0;     ///< the sim's count; the planned count when the sim did not report
+  int64_t ticks_logged = 0;        ///< ticks in the log's truth channel
+  long missing_ticks = 0;          ///< ticks of [0, ticks_simulated) absent from a sim channel, summed over the 4
+  bool log_complete = false;       ///< every simulated tick on every sim channel, nothing damaged or rejected
+  std::string log_damage;          ///< RunLog::damageReport()
   long log_rejected = 0;           ///< logged events that failed decoding or validation
+  long log_corrupt_events = 0;     ///< damaged stretches of the log file
   double eom_residual_max_rel = -1.0;  ///< W phi_model - y, max relative (-1: not computed)
 };
 
-/// moves_planned: the number of CoM moves the controller was asked for; wall_seconds: how long the sim ran.
-bool summarizeExperiment(const Model& model, const RunLog& log, int moves_planned, double wall_seconds,
-                         ExperimentSummary& out, std::string* error);
+/// Summarises a run. Never fails: with an unreadable log (facts.log_readable false) only the facts and the
+/// sim's report fill the summary, and the outcome is failed.
+ExperimentSummary summarizeExperiment(const Model& model, const RunLog& log, const RunFacts& facts);
 
+/// summary.json (nlohmann/json; field names as in ExperimentSummary, docs/data-formats.md).
 std::string summaryJson(const ExperimentSummary& s);
-/// Readable two-column table (also valid Markdown).
+/// Readable table (also valid Markdown), then one line per failure.
 std::string summaryTable(const ExperimentSummary& s);
 
 }  // namespace exoid::tools

@@ -1,5 +1,7 @@
 #pragma once
-// Child processes for `exoid experiment`: spawn with argv (no shell), wait with a deadline, stop.
+// Child processes for `exoid experiment`: spawn with argv (no shell), wait with a deadline, stop. Children
+// run in their own process group (a terminal's Ctrl-C reaches only the supervisor, which stops them in
+// order) and get SIGTERM when the supervisor dies, however it dies (no orphan keeps running).
 #include <sys/types.h>
 
 #include <string>
@@ -18,7 +20,11 @@ std::vector<int> allowedCpus();
 /// code (128 + signal if killed by one) when it exited; false on timeout.
 bool waitFor(pid_t pid, int timeout_ms, int* exit_code);
 
-/// Sends sig, then waits up to grace_ms; if still running, kills it (SIGKILL) and reaps it.
+/// Sends sig (and SIGCONT, so that a stopped process sees it), then waits up to grace_ms; if still running,
+/// kills it (SIGKILL). Always reaps it. Returns its exit code as waitFor does.
 int stop(pid_t pid, int sig, int grace_ms);
+
+/// "exited with code N" or "was killed by signal N (SIGNAME)" for an exit code from waitFor.
+std::string describeExit(int exit_code);
 
 }  // namespace exoid::tools

@@ -1,7 +1,9 @@
 #pragma once
 // Reads an lcm-logger file of a run into plain samples, channel by channel (the offline tools' view of a
 // run). Every event is accounted for: decoded, rejected by the adapters (counted with a reason), or on a
-// channel exoid does not know (counted).
+// channel exoid does not know (counted). Every byte is accounted for too: a damaged stretch (bad sync word,
+// impossible lengths) is skipped up to the next valid event and counted, a cut-off last event is reported;
+// LCM's own reader stopped silently at the first damaged event and dropped the rest of the file.
 #include <map>
 #include <string>
 #include <vector>
@@ -22,10 +24,24 @@ struct RunLog {
   long rejected = 0;                           ///< events that failed decoding or validation
   long unknown_channel = 0;
   std::string first_rejection;                 ///< reason of the first rejected event, if any
+  // Damage to the file itself (event framing; docs/data-formats.md):
+  long corrupt_events = 0;        ///< damaged stretches skipped (each held at least one event)
+  long corrupt_bytes = 0;         ///< bytes in them
+  int64_t first_corrupt_offset = -1;  ///< byte offset of the first one
+  bool truncated = false;         ///< the file ends inside an event (cut off while being written)
+  int64_t readable_end = 0;       ///< byte offset where the last complete valid event ends
+  int64_t file_bytes = 0;
+  int64_t last_tick = -1;         ///< largest tick decoded on any exoid channel (the readable part's end)
+
+  /// True when nothing was damaged, cut off or rejected.
+  bool intact() const { return corrupt_events == 0 && !truncated && rejected == 0; }
+  /// One line on what is damaged and where the readable part ends ("" when intact()).
+  std::string damageReport() const;
 };
 
 /// Reads a log. joint_names: the model's joints (messages must carry exactly these). False with *error if
-/// the file cannot be opened or is not an LCM log.
+/// the file cannot be opened or holds no valid event; a damaged or truncated log is read as far as it can
+/// be and reported in `log` (see intact(), damageReport()), the caller decides whether that is acceptable.
 bool readRunLog(const std::string& path, const std::vector<std::string>& joint_names, RunLog& log, std::string* error);
 
 }  // namespace exoid::tools
