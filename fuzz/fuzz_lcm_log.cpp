@@ -1,6 +1,7 @@
 // LCM event-log reader (tools::readRunLog, what `exoid export` reads) on arbitrary file contents.
 // Properties: a failure is one line; every event read is accounted for exactly once (decoded into a
-// sample, rejected, or on an unknown channel).
+// sample, rejected, or on an unknown channel); the damage figures lie inside the file and the damage
+// report is one line.
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -38,5 +39,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                                        log.truth.size() + log.commands.size() + log.status.size());
   EXOID_FUZZ_CHECK(events == taken + log.rejected + log.unknown_channel, "every event is accounted for once");
   EXOID_FUZZ_CHECK(log.rejected == 0 || !log.first_rejection.empty(), "the first rejection is named");
+  EXOID_FUZZ_CHECK(log.file_bytes == static_cast<int64_t>(size), "the file size is reported");
+  EXOID_FUZZ_CHECK(log.readable_end > 0 && log.readable_end <= log.file_bytes, "the readable part is in the file");
+  EXOID_FUZZ_CHECK(log.corrupt_bytes >= 0 && log.corrupt_bytes <= log.file_bytes, "damaged bytes are in the file");
+  EXOID_FUZZ_CHECK((log.corrupt_events > 0) == (log.first_corrupt_offset >= 0), "the first damage is located");
+  if (log.intact())
+    EXOID_FUZZ_CHECK(log.damageReport().empty(), "an intact log has no damage report");
+  else
+    exoid::fuzz::checkOneLine(log.damageReport(), "the damage report is one line");
   return 0;
 }
