@@ -52,7 +52,7 @@ for t in "${targets[@]}"; do
 done
 
 failed=0
-printf '[fuzz] %-18s %12s %9s %8s  %s\n' target executions exec/s corpus result
+printf '[fuzz] %-24s %12s %9s %8s  %s\n' target executions exec/s corpus result
 for t in "${targets[@]}"; do
   status=0
   wait "${pid[$t]}" || status=$?
@@ -61,7 +61,7 @@ for t in "${targets[@]}"; do
   rate="$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -n1)"
   corpus="$(ls "$work/corpus/$t" | wc -l)"
   if ((status == 0)); then result=ok; else result="CRASH (exit $status)"; failed=1; fi
-  printf '[fuzz] %-18s %12s %9s %8s  %s\n' "fuzz_$t" "${execs:-?}" "${rate:-?}" "$corpus" "$result"
+  printf '[fuzz] %-24s %12s %9s %8s  %s\n' "fuzz_$t" "${execs:-?}" "${rate:-?}" "$corpus" "$result"
 done
 if ((failed)); then
   for t in "${targets[@]}"; do
