@@ -1,7 +1,35 @@
 #!/usr/bin/env bash
-# Runs every test: installs what is missing, builds, then runs the whole ctest suite.
+# Runs every test (what CI runs, .ci/run): installs what is missing, then
+#   1. builds build/ (GCC, Release) and runs the whole ctest suite there,
+#   2. builds build-sanitize/ (clang, AddressSanitizer + UndefinedBehaviorSanitizer) and runs the tests
+#      scripts/test-sanitize.sh selects,
+#   3. runs every libFuzzer target for a bounded time (scripts/fuzz.sh),
+# and prints the time each step took. docs/testing.md describes the steps, labels and variables.
+#   EXOID_SANITIZE_TESTS=0   skip step 2
+#   EXOID_FUZZ_SECONDS=N     seconds per fuzz target in step 3 (default 30; 0 skips step 3)
+#   arguments                passed to the ctest of step 1 (e.g. -L model, -R Regressor)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-bash "$here/scripts/build.sh"
-cd "$here/build"
-ctest --output-on-failure -j "$(nproc)" "$@"
+times=()
+step() {  # step NAME COMMAND...: runs it, records its wall time
+  local name="$1" start=$SECONDS
+  shift
+  echo "[test] ---- $name ----"
+  "$@"
+  times+=("$(printf '%-34s %4d s' "$name" $((SECONDS - start)))")
+}
+report() {
+  echo "[test] ---- time per step ----"
+  local t
+  for t in "${times[@]}"; do echo "[test] $t"; done
+}
+trap report EXIT
+
+step "build (GCC, Release)" bash "$here/scripts/build.sh"
+step "ctest (build/)" bash -c 'cd "$1/build" && shift && ctest --output-on-failure -j "$(nproc)" "$@"' _ "$here" "$@"
+if [ "${EXOID_SANITIZE_TESTS:-1}" != 0 ]; then
+  step "sanitizer build + tests" bash "$here/scripts/test-sanitize.sh"
+fi
+if [ "${EXOID_FUZZ_SECONDS:-30}" != 0 ]; then
+  step "fuzzing" bash "$here/scripts/fuzz.sh"
+fi

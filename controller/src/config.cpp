@@ -1,4 +1,5 @@
 #include "exoid/controller/config.hpp"
+#include "exoid/one_line.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -21,7 +22,7 @@ class Reader {
   bool ok() const { return ok_; }
 
   bool fail(const std::string& field, const std::string& what) {
-    if (ok_ && error_) *error_ = source_ + ": " + field + ": " + what;
+    if (ok_ && error_) *error_ = oneLine(source_ + ": " + field + ": " + what);  // keys quote the file
     ok_ = false;
     return false;
   }
@@ -157,7 +158,7 @@ class Reader {
 };
 
 bool failWith(std::string* error, const std::string& text) {
-  if (error) *error = text;
+  if (error) *error = oneLine(text);
   return false;
 }
 

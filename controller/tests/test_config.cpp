@@ -74,6 +74,18 @@ TEST(ControllerConfig, ErrorsNameTheField) {
   EXPECT_NE(err.find("/nonexistent/controller.yaml"), std::string::npos);
 }
 
+// Found by fuzz_controller_config: an unknown key with a line break in it (a quoted YAML key) made the
+// error two lines. Control characters are now escaped in every message.
+TEST(ControllerConfig, ErrorQuotingAKeyWithALineBreakIsOneLine) {
+  ControllerConfig c;
+  std::string err;
+  EXPECT_FALSE(parseControllerConfig("\"loop\\nx\": 1\n", "cfg", c, &err));
+  EXPECT_EQ(err, "cfg: loop\\nx: unknown key");
+  EXPECT_FALSE(parseControllerConfig(withLine(readDefaultConfig(), "period", "\"per\\riod\": 0.001"), "cfg", c, &err));
+  EXPECT_NE(err.find("loop.per\\riod: unknown key"), std::string::npos) << err;
+  EXPECT_EQ(err.find_first_of("\r\n"), std::string::npos) << "one line: " << err;
+}
+
 TEST(ControllerConfig, NumbersAreStrict) {
   const std::string text = readDefaultConfig();
   ControllerConfig c;

@@ -47,7 +47,12 @@ BaseParameters computeBaseParameters(const Model& model, const BaseParameterOpti
   for (int i = 0; i < p; ++i) (i < m ? out.independent : out.dependent).push_back(perm[i]);
 
   // W P = Q [R11 R12] -> W_dep = W_ind R11^-1 R12.
-  out.beta = R.topLeftCorner(m, m).triangularView<Eigen::Upper>().solve(R.block(0, m, m, p - m));
+  // No dependent column (e.g. one free body, 10 of 10): Eigen's triangular solve of an empty right-hand side
+  // reads coefficient (0, 0) of it, undefined behaviour that the sanitizer build reports.
+  if (p > m)
+    out.beta = R.topLeftCorner(m, m).triangularView<Eigen::Upper>().solve(R.block(0, m, m, p - m));
+  else
+    out.beta.resize(m, 0);
   // Entries that are zero up to rounding are exactly zero (structural combinations have clean coefficients).
   const double clean = 1e-9 * std::max(1.0, out.beta.size() > 0 ? out.beta.cwiseAbs().maxCoeff() : 0.0);
   out.beta = out.beta.unaryExpr([&](double x) { return std::abs(x) < clean ? 0.0 : x; });
@@ -66,7 +71,7 @@ BaseParameters computeBaseParameters(const Model& model, const BaseParameterOpti
   for (int d = 0; d < p - m; ++d)
     out.kind[out.dependent[d]] = out.beta.col(d).isZero(0.0) ? Identifiability::None : Identifiability::InCombination;
   for (int i = 0; i < m; ++i)
-    if (!out.beta.row(i).isZero(0.0)) out.kind[out.independent[i]] = Identifiability::InCombination;
+    if (p > m && !out.beta.row(i).isZero(0.0)) out.kind[out.independent[i]] = Identifiability::InCombination;
   return out;
 }
 
@@ -90,7 +95,7 @@ std::string describeBaseParameters(const Model& model, const BaseParameters& bas
     if (base.kind[i] == Identifiability::Alone) os << " " << names[i];
   os << "\nBase parameters that combine several standard parameters:\n";
   for (int i = 0; i < base.rank; ++i) {
-    if (base.beta.row(i).isZero(0.0)) continue;
+    if (base.beta.cols() == 0 || base.beta.row(i).isZero(0.0)) continue;  // row() of an empty matrix is UB
     os << "  b" << i << " = " << names[base.independent[i]];
     for (int d = 0; d < static_cast<int>(base.dependent.size()); ++d) {
       const double c = base.beta(i, d);

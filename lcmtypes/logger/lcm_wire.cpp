@@ -45,7 +45,7 @@ bool Reassembler::feed(uint64_t sender, const uint8_t* p, size_t n, Message* out
   }
   if (offset + len > size) return ++malformed_, false;
   if (!m.have[index]) {
-    std::memcpy(m.data.data() + offset, data, len);
+    if (len > 0) std::memcpy(m.data.data() + offset, data, len);  // an empty message has no buffer (null)
     m.have[index] = true;
     ++m.received;
   }

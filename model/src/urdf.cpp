@@ -1,4 +1,5 @@
 #include "exoid/model/urdf.hpp"
+#include "exoid/one_line.hpp"
 
 #include "exoid/model/inertial.hpp"
 
@@ -31,7 +32,7 @@ class CaptureHandler : public console_bridge::OutputHandler {
 };
 
 bool fail(std::string* error, const std::string& message) {
-  if (error) *error = message;
+  if (error) *error = oneLine(message);  // tinyxml2's and urdfdom's messages quote the file
   return false;
 }
 
@@ -167,6 +168,14 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
   console_bridge::restorePreviousOutputHandler();
   if (!urdf_model)
     return fail(error, capture.last_error.empty() ? "urdfdom could not parse the robot" : capture.last_error);
+  // urdfdom accepts a kinematic loop detached from the root; its links then own each other (child_links are
+  // shared pointers) and would leak. Break those references whatever this function returns.
+  struct ReleaseLinks {
+    const urdf::ModelInterface& model;
+    ~ReleaseLinks() {
+      for (const auto& entry : model.links_) entry.second->child_links.clear();
+    }
+  } release_links{*urdf_model};
   urdf::LinkConstSharedPtr root = urdf_model->getRoot();
   if (!root) return fail(error, "no root link");
 
@@ -266,6 +275,16 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
         s.R.setIdentity();
         s.p.setZero();
       }
+    }
+  }
+  // Every link must hang from the root: urdfdom does not refuse links on a loop that the walk never reaches.
+  if (m.frames.size() != urdf_model->links_.size()) {
+    for (const auto& entry : urdf_model->links_) {
+      bool reached = false;
+      for (const Model::Frame& f : m.frames) reached = reached || f.name == entry.first;
+      if (!reached)
+        return fail(error, "link '" + entry.first + "' is not connected to the root link '" + root->name +
+                               "' (a kinematic loop?)");
     }
   }
   // Bodies were appended in the order joints were discovered (parent before child, but siblings' subtrees

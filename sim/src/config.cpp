@@ -2,6 +2,7 @@
 // that a bad file becomes one line "<file>: <key>: <what>" and never an exception (startup code only).
 // Numbers are strict (common::yamlNumber) and duplicate keys are refused at every level.
 #include "exoid/sim/config.hpp"
+#include "exoid/one_line.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -21,7 +22,7 @@ struct Ctx {
   std::string file;
   std::string* err;
   bool fail(const std::string& key, const std::string& what) const {
-    if (err) *err = file + ": " + (key.empty() ? "" : key + ": ") + what;
+    if (err) *err = oneLine(file + ": " + (key.empty() ? "" : key + ": ") + what);  // may quote the file
     return false;
   }
 };

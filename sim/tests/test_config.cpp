@@ -148,6 +148,27 @@ TEST(SimConfig, ByteOrderMarkAndCrlfReadTheSame) {
   EXPECT_EQ(windows.initial.joints.size(), plain.initial.joints.size());
 }
 
+// Found by fuzz_sim_config: yaml-cpp's message for the bytes ff 00 0a quotes a line break, and a key or a
+// value with one in it is quoted too; the error was two lines. Control characters are now escaped.
+TEST(SimConfig, ErrorsQuotingLineBreaksAreOneLine) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {std::string("\xff\x00\n", 3), "malformed YAML"},
+      {"name: demo\nseed: 1\nnoise: off\n\"nam\\ne\": x\n", "nam\\ne"},
+      {"name: demo\nseed: \"4\\n2\"\nnoise: off\n", "seed: "},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const std::string path = writeTemp("line_break_" + std::to_string(i) + ".yaml", cases[i].first);
+    Scenario s;
+    SensorConfig c;
+    std::string err;
+    EXPECT_FALSE(loadScenario(path, &s, &err));
+    EXPECT_NE(err.find(cases[i].second), std::string::npos) << err;
+    EXPECT_EQ(err.find_first_of("\r\n"), std::string::npos) << "one line: " << err;
+    EXPECT_FALSE(loadSensorConfig(path, &c, &err));
+    EXPECT_EQ(err.find_first_of("\r\n"), std::string::npos) << "one line: " << err;
+  }
+}
+
 TEST(SimConfig, SubnormalNumbersAreNumbers) {
   std::string text = kGoodScenario;
   text.replace(text.find("armature: {all: 0.01}"), 21, "armature: {all: 1e-320}");

@@ -116,6 +116,16 @@ TEST_F(RobotStateReject, SwappedJointNames) {
   expectRejected(msg, RejectReason::Malformed, "joint_names[0]", before, jointNames());
 }
 
+// Found by fuzz_lcm_decode: a name with a control character in it made the reason two lines. The reason
+// now shows it escaped.
+TEST_F(RobotStateReject, ControlCharacterInJointNameIsEscapedInTheReason) {
+  msg.joint_names[0] = "\nright_hip_aa";
+  expectRejected(encodeDecode(msg), RejectReason::Malformed, "joint_names[0] is '\\nright_hip_aa'", before,
+                 jointNames());
+  msg.joint_names[0] = std::string("right_hip\x01_aa\r");
+  expectRejected(encodeDecode(msg), RejectReason::Malformed, "is 'right_hip\\x01_aa\\r'", before, jointNames());
+}
+
 TEST_F(RobotStateReject, NaNInJointPosition) {
   msg.q[6] = kNaN;
   expectRejected(encodeDecode(msg), RejectReason::NonFinite, "q[6] is nan", before, jointNames());

@@ -106,5 +106,27 @@ TEST(LcmWire, GarbageIsCountedNotCrashing) {
   EXPECT_EQ(r.malformed(), 3);
 }
 
+// Found by fuzz_lcm_wire: a fragmented message announcing 0 bytes made memcpy copy 0 bytes into a null
+// buffer (undefined behaviour, reported by the sanitizer build). It completes as an empty message.
+TEST(LcmWire, EmptyFragmentedMessage) {
+  Reassembler r;
+  Message m;
+  const auto f = fragments(9, "EXO_STATE", {}, 100);
+  ASSERT_TRUE(f.empty());  // the helper makes no fragment for no data: build the single one by hand
+  std::vector<uint8_t> p;
+  put32(p, kMagicLong);
+  put32(p, 9);
+  put32(p, 0);  // size
+  put32(p, 0);  // offset
+  put16(p, 0);  // index
+  put16(p, 1);  // count
+  for (char c : std::string("EXO_STATE")) p.push_back(static_cast<uint8_t>(c));
+  p.push_back(0);
+  ASSERT_TRUE(r.feed(1, p.data(), p.size(), &m));
+  EXPECT_EQ(m.channel, "EXO_STATE");
+  EXPECT_TRUE(m.data.empty());
+  EXPECT_EQ(r.malformed(), 0);
+}
+
 }  // namespace
 }  // namespace exoid::lcmwire

@@ -46,6 +46,21 @@ void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define EXOID_ALLOC_COUNTER_ASAN 1
+#endif
+#endif
+#ifdef EXOID_ALLOC_COUNTER_ASAN
+// The sanitizer build (docs/testing.md): AddressSanitizer owns malloc, so the counter cannot interpose it;
+// ASan's allocation hook sees every malloc, calloc, realloc and aligned allocation instead.
+#include <sanitizer/allocator_interface.h>
+namespace {
+void onMalloc(const volatile void*, std::size_t) { g_mallocs.fetch_add(1, std::memory_order_relaxed); }
+void onFree(const volatile void*) {}
+const int g_hooks_installed = __sanitizer_install_malloc_and_free_hooks(onMalloc, onFree);
+}  // namespace
+#else
 extern "C" {
 void* __libc_malloc(std::size_t);
 void* __libc_calloc(std::size_t, std::size_t);
@@ -81,3 +96,4 @@ int posix_memalign(void** out, std::size_t a, std::size_t n) {
 }
 void free(void* p) { __libc_free(p); }
 }
+#endif

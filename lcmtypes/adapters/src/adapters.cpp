@@ -1,4 +1,5 @@
 #include <exoid/lcm/adapters.hpp>
+#include <exoid/one_line.hpp>
 
 #include <cmath>
 #include <cstdarg>
@@ -37,7 +38,7 @@ class Check {
       va_start(args, fmt);
       std::vsnprintf(text, sizeof text, fmt, args);
       va_end(args);
-      *why_ = std::string(type_) + ": " + text;
+      *why_ = oneLine(std::string(type_) + ": " + text);  // names come from the message
     }
     return false;
   }
