@@ -21,25 +21,30 @@ void triangularize(Eigen::Ref<Eigen::MatrixXd> work, Eigen::Ref<Eigen::MatrixXd>
 }
 }  // namespace
 
-LsqAccumulator::LsqAccumulator(const Model& model, const BaseParameters& base, const AccumulatorOptions& options)
-    : model_(model), base_(base), opt_(options), nv_(model.nv), m_(base.rank) {
-  opt_.folds = std::max(1, opt_.folds);
-  opt_.block = std::max(1, opt_.block);
-  opt_.chunk = std::max(1, opt_.chunk);
-  // Which base columns each coordinate's rows can touch: the structural pattern of K over random states.
-  Eigen::MatrixXd pattern = Eigen::MatrixXd::Zero(nv_, m_);
+std::vector<std::vector<int>> activeBaseColumns(const Model& model, const BaseParameters& base) {
+  const int m = base.rank;
+  Eigen::MatrixXd pattern = Eigen::MatrixXd::Zero(model.nv, m);
   Data data(model);
   State s = State::zero(model);
   std::mt19937_64 rng(7);
   for (int k = 0; k < 8; ++k) {
     randomState(model, rng, s);
     computeJointTorqueRegressor(model, data, s);
-    for (int j = 0; j < m_; ++j) pattern.col(j) += data.K.col(base_.independent[j]).cwiseAbs();
+    for (int j = 0; j < m; ++j) pattern.col(j) += data.K.col(base.independent[j]).cwiseAbs();
   }
-  active_.resize(nv_);
-  for (int c = 0; c < nv_; ++c)
-    for (int j = 0; j < m_; ++j)
-      if (pattern(c, j) > 0.0) active_[c].push_back(j);
+  std::vector<std::vector<int>> active(model.nv);
+  for (int c = 0; c < model.nv; ++c)
+    for (int j = 0; j < m; ++j)
+      if (pattern(c, j) > 0.0) active[c].push_back(j);
+  return active;
+}
+
+LsqAccumulator::LsqAccumulator(const Model& model, const BaseParameters& base, const AccumulatorOptions& options)
+    : model_(model), base_(base), opt_(options), nv_(model.nv), m_(base.rank) {
+  opt_.folds = std::max(1, opt_.folds);
+  opt_.block = std::max(1, opt_.block);
+  opt_.chunk = std::max(1, opt_.chunk);
+  active_ = activeBaseColumns(model, base_);
   factors_.resize(static_cast<size_t>(opt_.folds) * nv_);
   for (int f = 0; f < opt_.folds; ++f)
     for (int c = 0; c < nv_; ++c) {

@@ -4,10 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <random>
 
+#include "exoid/estimator/batch/accumulator.hpp"
 #include "exoid/estimator/batch/solvers.hpp"
-#include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 
 namespace exoid::estimator {
@@ -51,20 +50,7 @@ bool makeRecursiveLs(const Model& model, const BaseParameters& base, const Eigen
   out.p = p;
   out.m = m;
   out.independent = base.independent;
-  // Structural pattern of the base columns per row: |K| summed over random states (as the batch accumulator).
-  Eigen::MatrixXd pattern = Eigen::MatrixXd::Zero(nv, m);
-  Data data(model);
-  State s = State::zero(model);
-  std::mt19937_64 rng(7);
-  for (int k = 0; k < 8; ++k) {
-    randomState(model, rng, s);
-    computeJointTorqueRegressor(model, data, s);
-    for (int j = 0; j < m; ++j) pattern.col(j) += data.K.col(base.independent[j]).cwiseAbs();
-  }
-  out.active.assign(nv, {});
-  for (int c = 0; c < nv; ++c)
-    for (int j = 0; j < m; ++j)
-      if (pattern(c, j) > 0.0) out.active[c].push_back(j);
+  out.active = activeBaseColumns(model, base);  // the batch accumulator's pattern
   out.x0 = base.base_map * prior_phi;
   out.prior_information = 0.5 * (prior_information + prior_information.transpose());
   out.prior_rhs = out.prior_information * out.x0;

@@ -27,6 +27,12 @@ struct AccumulatorOptions {
 };
 
 /// Factor of one coordinate (and fold) in the reduced column space: R_aug [(k+1) x (k+1)] upper triangular
+/// The structural zero pattern of the base columns per generalized coordinate: for each of the model.nv rows of
+/// K, the indices j in [0, base.rank) of the base columns (base.independent[j]) that row can be non-zero in,
+/// from |K| summed over 8 random states (a structural zero is zero in every state). The batch accumulator and
+/// the online estimator update only these columns of each row.
+std::vector<std::vector<int>> activeBaseColumns(const Model& model, const BaseParameters& base);
+
 /// with the factor of the active columns (top-left k x k), z (last column) and sqrt(rss) (bottom-right).
 struct CoordinateFactor {
   std::vector<int> columns;  ///< [k] indices into the base-parameter columns (sorted)
