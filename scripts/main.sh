@@ -2,8 +2,11 @@
 # The main job: installs what is missing, builds, then runs the whole experiment end to end:
 #   1. model summary of the exoskeleton and the regressor self-check (against MuJoCo and KDL),
 #   2. structural base parameters of the exoskeleton and of the KUKA LWR4+ arm,
-#   3. the thesis's 20 CoM moves in closed loop (sim + controller as separate processes over LCM, in a
-#      private network namespace), logged, summarised.
+#   3. the thesis's 20 CoM moves in closed loop (the controller in the sim's loop as a plugin, every channel
+#      on LCM in a private network namespace), logged, summarised,
+#   4. batch identification of that run from its sensors only (WLS-RC from a +-25 % prior, rank from the
+#      training data alone),
+#   5. the residual diagnosis of the real KUKA LWR4+ runs (identify on runs 2 and 3, validate on run 1).
 # Results land in out/ (override with EXOID_OUT=dir).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -27,8 +30,20 @@ sed -n 1,3p "$out/base_parameters_exo.txt"
 "$bin/exoid" base-params --model "$here/data/kuka_lwr4/kuka_lwr4.urdf" > "$out/base_parameters_kuka.txt"
 sed -n 1,3p "$out/base_parameters_kuka.txt"
 echo "(full lists in $out/base_parameters_*.txt)"
-if [ -x "$bin/exo_sim" ] && [ -x "$bin/exo_controller" ]; then
-  echo
-  echo "== 3. Closed-loop experiment: 20 CoM moves (config/scenarios/nominal.yaml) ======"
-  "$bin/exoid" experiment --scenario "$here/config/scenarios/nominal.yaml" --out "$out/nominal"
-fi
+echo
+echo "== 3. Closed-loop experiment: 20 CoM moves (config/scenarios/nominal.yaml) ======"
+"$bin/exoid" experiment --scenario "$here/config/scenarios/nominal.yaml" --out "$out/nominal"
+
+echo
+echo "== 4. Batch identification of that run, sensors only (docs/identification.md) ======"
+"$bin/exoid" identify --data "$out/nominal/run.lcmlog" --prior-perturb 0.25 --cutoff 30 --out "$out/identify_nominal"
+
+echo
+echo "== 5. Residual diagnosis of the real KUKA LWR4+ runs (docs/diagnose.md) ============="
+# Debian's interpreter draws the plots (python3-matplotlib); another python3 on PATH may lack matplotlib.
+py=python3
+[ -x /usr/bin/python3 ] && py=/usr/bin/python3
+"$bin/exoid" diagnose --model "$here/data/kuka_lwr4/kuka_lwr4.urdf" \
+  --train "$here/data/kuka_lwr4/measurements_2.csv" "$here/data/kuka_lwr4/measurements_3.csv" \
+  --validate "$here/data/kuka_lwr4/measurements_1.csv" --python "$py" --out "$out/diagnose_kuka"
+echo "(report: $out/diagnose_kuka/report.md)"
