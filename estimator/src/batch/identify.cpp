@@ -1,5 +1,7 @@
 #include "exoid/estimator/batch/identify.hpp"
 
+#include "exoid/model/inertial.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <cmath>
 
@@ -26,18 +28,12 @@ bool parseRankRule(const std::string& name, RankRule& r) {
 }
 
 LinkVerdict checkLink(const std::string& name, const Eigen::Ref<const Eigen::Matrix<double, 10, 1>>& p) {
+  const LinkConsistency c = checkConsistency(Vector10d(p));  // the pseudo-inertia test of model/inertial.hpp
   LinkVerdict v;
   v.name = name;
   v.mass = p[0];
-  Eigen::Matrix3d I;
-  I << p[4], p[5], p[6], p[5], p[7], p[8], p[6], p[8], p[9];
-  Eigen::Matrix4d J;
-  J.topLeftCorner<3, 3>() = 0.5 * I.trace() * Eigen::Matrix3d::Identity() - I;
-  J.topRightCorner<3, 1>() = p.segment<3>(1);
-  J.bottomLeftCorner<1, 3>() = p.segment<3>(1).transpose();
-  J(3, 3) = p[0];
-  v.min_eigenvalue = Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(J, Eigen::EigenvaluesOnly).eigenvalues()[0];
-  v.consistent = v.min_eigenvalue > 0.0;
+  v.min_eigenvalue = c.min_eigenvalue;
+  v.consistent = c.consistent;
   return v;
 }
 
