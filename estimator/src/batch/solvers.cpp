@@ -145,6 +145,21 @@ RankCurve rankByValidation(const ScaledProblem& sp, const LsqFactor& validation)
   return c;
 }
 
+namespace {
+/// The problem of every fold but k (leave-one-fold-out) into out; returns the rows of fold k (0: empty fold,
+/// out untouched).
+long prepareWithoutFold(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                        int k, ScaledProblem& out) {
+  long n = 0;
+  for (int c = 0; c < acc.coordinates(); ++c) n += acc.rows(c, k);
+  if (n == 0) return 0;
+  std::vector<bool> include(acc.folds(), true);
+  include[k] = false;
+  out = prepare(acc, model, prior, method, include);
+  return n;
+}
+}  // namespace
+
 RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
                                 Method method, CvRule rule) {
   RankCurve c;
@@ -154,12 +169,9 @@ RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, c
   int r = m;
   std::vector<std::vector<double>> mse(K);  // [fold][z]
   for (int k = 0; k < K; ++k) {
-    long n = 0;
-    for (int cc = 0; cc < nv; ++cc) n += acc.rows(cc, k);
-    if (n == 0) continue;
-    std::vector<bool> include(K, true);
-    include[k] = false;
-    const ScaledProblem sp = prepare(acc, model, prior, method, include);
+    ScaledProblem sp;
+    const long n = prepareWithoutFold(acc, model, prior, method, k, sp);
+    if (n == 0) continue;  // an empty fold
     r = std::min(r, static_cast<int>(sp.s.size()));
     for (int z = 0; z <= static_cast<int>(sp.s.size()); ++z) {
       const Eigen::VectorXd xb = B * solveAtRank(sp, z);
@@ -207,15 +219,11 @@ RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const E
   RankCurve c;
   c.rule = "jackknife over time blocks: keep directions whose std is below the prior's";
   const ScaledProblem all = prepare(acc, model, prior, method);
-  const int r = all.numericalRank(), K = acc.folds(), nv = acc.coordinates();
+  const int r = all.numericalRank(), K = acc.folds();
   std::vector<Eigen::VectorXd> a;
   for (int k = 0; k < K; ++k) {
-    long n = 0;
-    for (int cc = 0; cc < nv; ++cc) n += acc.rows(cc, k);
-    if (n == 0) continue;
-    std::vector<bool> include(K, true);
-    include[k] = false;
-    const ScaledProblem sp = prepare(acc, model, prior, method, include);
+    ScaledProblem sp;
+    if (prepareWithoutFold(acc, model, prior, method, k, sp) == 0) continue;  // an empty fold
     const Eigen::VectorXd phi = solveAtRank(sp, sp.numericalRank());
     // Coordinates along the full problem's right singular vectors, in its scaled units.
     a.push_back(all.V.leftCols(r).transpose() * (phi - all.gamma).cwiseQuotient(all.h));
