@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "exoid/estimator/base_parameters.hpp"
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/safe_decode.hpp"
 #include "exoid/model/urdf.hpp"
@@ -14,7 +15,8 @@
 
 namespace {
 
-std::vector<std::string> g_joints, g_params;
+std::vector<std::string> g_joints, g_params, g_coords;
+size_t g_num_base = 0;
 
 template <class Msg>
 std::vector<uint8_t> encode(const Msg& msg) {
@@ -59,6 +61,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   }
   g_joints = model.joint_names;
   g_params = model.paramNames();
+  g_coords = model.coordinateNames();
+  g_num_base = exoid::estimator::computeBaseParameters(model).independent.size();
   return 0;
 }
 
@@ -90,8 +94,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       break;
     case 4:
       roundTrip<exoid_lcm::estimator_output_t, EstimatorOutputSample>(
-          msg, n, [](auto& m, auto& s, auto* w, auto* r) { return fromLcm(m, g_params, g_joints, s, w, r); },
-          [](auto& s, auto& m) { toLcm(s, g_params, g_joints, m); });
+          msg, n, [](auto& m, auto& s, auto* w, auto* r) { return fromLcm(m, g_params, g_num_base, g_coords, s, w, r); },
+          [](auto& s, auto& m) { toLcm(s, g_params, g_coords, m); });
       break;
     case 5:
       roundTrip<exoid_lcm::ground_truth_t, GroundTruthSample>(

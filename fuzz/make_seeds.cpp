@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "exoid/estimator/base_parameters.hpp"
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
@@ -116,9 +117,16 @@ std::vector<std::pair<std::string, std::vector<uint8_t>>> messages(const Model& 
   e.samples_used = 100;
   e.params = model.phi;
   e.param_stddev = Eigen::VectorXd::Constant(model.nparams(), 0.01);
-  e.tau_ff = Eigen::VectorXd::Zero(nj);
+  e.consistent = true;
+  e.excitation = 0.5;
+  e.effective_samples = 100.0;
+  const Eigen::Index nb = static_cast<Eigen::Index>(estimator::computeBaseParameters(model).independent.size());
+  e.base_params = Eigen::VectorXd::Constant(nb, 0.1);
+  e.base_stddev = Eigen::VectorXd::Constant(nb, 0.01);
+  e.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  e.residual_rms = Eigen::VectorXd::Constant(model.nv, 0.1);
   exoid_lcm::estimator_output_t em;
-  toLcm(e, model.paramNames(), joints, em);
+  toLcm(e, model.paramNames(), model.coordinateNames(), em);
   out.emplace_back(channels::kEstimate, encode(em));
   return out;
 }

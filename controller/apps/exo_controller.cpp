@@ -148,6 +148,7 @@ int main(int argc, char** argv) {
 
   const std::vector<std::string>& joint_names = model.joint_names;
   const std::vector<std::string> param_names = model.paramNames();
+  const std::vector<std::string> coord_names = model.coordinateNames();
   MessageGate gate({channels::kState, channels::kEstimate, channels::kPlateRight, channels::kPlateLeft});
   const int ch_state = gate.channelIndex(channels::kState);
   const int ch_estimate = gate.channelIndex(channels::kEstimate);
@@ -162,7 +163,7 @@ int main(int argc, char** argv) {
   EstimatorOutputSample estimate;
   estimate.params = Eigen::VectorXd::Zero(model.nparams());
   estimate.param_stddev = Eigen::VectorXd::Zero(model.nparams());
-  estimate.tau_ff = Eigen::VectorXd::Zero(model.njoints);
+  estimate.tau_ff = Eigen::VectorXd::Zero(model.nv);
   ForcePlateSample plate;
   exoid_lcm::force_plate_t plate_msg;
   exoid_lcm::robot_state_t state_msg;
@@ -242,7 +243,8 @@ int main(int argc, char** argv) {
   }
   if (use_estimate) {
     lcm->subscribeRaw(channels::kEstimate, [&](const char*, const void* data, int size, int64_t) {
-      if (gate.admitEncoded(ch_estimate, data, size, estimate_msg, estimate, nullptr, param_names, joint_names) &&
+      if (gate.admitEncoded(ch_estimate, data, size, estimate_msg, estimate, nullptr, param_names, kAnyNumBase,
+                            coord_names) &&
           estimate.valid)
         ctrl.setFeedforward(estimate.tau_ff, estimate.tick);
     });

@@ -34,6 +34,14 @@ std::vector<std::string> Model::paramNames() const {
   return names;
 }
 
+std::vector<std::string> Model::coordinateNames() const {
+  std::vector<std::string> names;
+  names.reserve(nv);
+  if (floating_base) names = {"base_nx", "base_ny", "base_nz", "base_fx", "base_fy", "base_fz"};
+  names.insert(names.end(), joint_names.begin(), joint_names.end());
+  return names;
+}
+
 double Model::totalMass() const {
   double m = 0.0;
   for (int b = 0; b < nbodies; ++b) m += phi[bodyParamIndex(b)];

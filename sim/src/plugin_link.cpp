@@ -18,11 +18,15 @@ PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vec
     param_names_ = model.paramNames();
     estimate_.params = Eigen::VectorXd::Zero(model.nparams());
     estimate_.param_stddev = Eigen::VectorXd::Zero(model.nparams());
-    estimate_.tau_ff = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(joint_names_.size()));
+    coord_names_ = model.coordinateNames();
+    estimate_.tau_ff = Eigen::VectorXd::Zero(model.nv);
     subscription_ = ep_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
-      if (gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, joint_names_) &&
-          estimate_.valid)
-        plugin_.setFeedforward(estimate_.tau_ff.data(), static_cast<int>(estimate_.tau_ff.size()), estimate_.tick);
+      if (gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
+                             coord_names_) &&
+          estimate_.valid) {
+        const int nj = static_cast<int>(joint_names_.size());
+        plugin_.setFeedforward(estimate_.tau_ff.data() + (estimate_.tau_ff.size() - nj), nj, estimate_.tick);
+      }
     });
   }
 }

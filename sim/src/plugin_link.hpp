@@ -32,7 +32,7 @@ class PluginLink {
   ControllerPlugin& plugin_;
   LcmEndpoint& ep_;
   const std::vector<std::string>& joint_names_;
-  std::vector<std::string> param_names_;
+  std::vector<std::string> param_names_, coord_names_;
   MessageGate gate_;
   int subscription_ = 0;
   EstimatorOutputSample estimate_;

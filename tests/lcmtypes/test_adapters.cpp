@@ -10,6 +10,7 @@ namespace {
 
 using test::encodeDecode;
 using test::jointNames;
+using test::coordNames;
 using test::paramNames;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -372,41 +373,67 @@ TEST(ControllerStatusAdapter, Rejections) {
 TEST(EstimatorOutputAdapter, RoundTrip) {
   const EstimatorOutputSample in = test::makeEstimate();
   exoid_lcm::estimator_output_t msg;
-  toLcm(in, paramNames(), jointNames(), msg);
+  toLcm(in, paramNames(), coordNames(), msg);
   const auto wire = encodeDecode(msg);
   EXPECT_EQ(wire.param_names, paramNames());
-  EXPECT_EQ(wire.joint_names, jointNames());
+  EXPECT_EQ(wire.coord_names, coordNames());
   EXPECT_EQ(wire.params, msg.params);
   EstimatorOutputSample out;
   std::string why;
-  ASSERT_TRUE(fromLcm(wire, paramNames(), jointNames(), out, &why)) << why;
-  EXPECT_EQ(out.utime, in.utime);
-  EXPECT_EQ(out.tick, in.tick);
-  EXPECT_EQ(out.valid, in.valid);
-  EXPECT_EQ(out.samples_used, in.samples_used);
-  EXPECT_EQ(out.samples_rejected, in.samples_rejected);
-  EXPECT_EQ(out.params, in.params);
-  EXPECT_EQ(out.param_stddev, in.param_stddev);
-  EXPECT_EQ(out.tau_ff, in.tau_ff);
+  ASSERT_TRUE(fromLcm(wire, paramNames(), test::kNumBase, coordNames(), out, &why)) << why;
+  EXPECT_TRUE(test::same(out, in));
+  EXPECT_EQ(out.tau_ff.size(), 16);
+  EXPECT_EQ(out.base_params.size(), 3);
 }
 
 TEST(EstimatorOutputAdapter, Rejections) {
   const EstimatorOutputSample before;
   exoid_lcm::estimator_output_t good;
-  toLcm(test::makeEstimate(), paramNames(), jointNames(), good);
+  toLcm(test::makeEstimate(), paramNames(), coordNames(), good);
+  const auto& pn = paramNames();
+  const auto& cn = coordNames();
+  const size_t nb = test::kNumBase;
   auto msg = good;
   msg.param_names[2] = "right_thigh.Iyy";
-  expectRejected(msg, RejectReason::Malformed, "param_names[2] is 'right_thigh.Iyy'", before, paramNames(),
-                 jointNames());
+  expectRejected(msg, RejectReason::Malformed, "param_names[2] is 'right_thigh.Iyy'", before, pn, nb, cn);
+  msg = good;
+  msg.coord_names[0] = "base_fx";
+  expectRejected(msg, RejectReason::Malformed, "coord_names[0] is 'base_fx'", before, pn, nb, cn);
   msg = good;
   msg.param_stddev[1] = -0.1;
-  expectRejected(msg, RejectReason::Malformed, "param_stddev[1]", before, paramNames(), jointNames());
+  expectRejected(msg, RejectReason::Malformed, "param_stddev[1]", before, pn, nb, cn);
+  msg = good;
+  msg.base_stddev[2] = -0.1;
+  expectRejected(msg, RejectReason::Malformed, "base_stddev[2]", before, pn, nb, cn);
+  msg = good;
+  msg.residual_rms[4] = -1.0;
+  expectRejected(msg, RejectReason::Malformed, "residual_rms[4]", before, pn, nb, cn);
   msg = good;
   msg.params[0] = kNaN;
-  expectRejected(encodeDecode(msg), RejectReason::NonFinite, "params[0] is nan", before, paramNames(), jointNames());
+  expectRejected(encodeDecode(msg), RejectReason::NonFinite, "params[0] is nan", before, pn, nb, cn);
+  msg = good;
+  msg.base_params[1] = kInf;
+  expectRejected(msg, RejectReason::NonFinite, "base_params[1] is inf", before, pn, nb, cn);
   msg = good;
   msg.tau_ff[9] = kInf;
-  expectRejected(msg, RejectReason::NonFinite, "tau_ff[9] is inf", before, paramNames(), jointNames());
+  expectRejected(msg, RejectReason::NonFinite, "tau_ff[9] is inf", before, pn, nb, cn);
+  msg = good;
+  msg.excitation = 1.5;
+  expectRejected(msg, RejectReason::Malformed, "excitation 1.5 outside [0, 1]", before, pn, nb, cn);
+  msg = good;
+  msg.excitation = kNaN;
+  expectRejected(msg, RejectReason::NonFinite, "excitation", before, pn, nb, cn);
+  msg = good;
+  msg.rejected_duplicate += 1;
+  expectRejected(msg, RejectReason::Malformed, "not the sum of its reasons", before, pn, nb, cn);
+  msg = good;
+  msg.num_base = 4;
+  msg.base_params.push_back(0.0);
+  msg.base_stddev.push_back(0.0);
+  expectRejected(encodeDecode(msg), RejectReason::Malformed, "num_base is 4, expected 3", before, pn, nb, cn);
+  msg = good;
+  msg.residual_rms.pop_back();
+  expectRejected(msg, RejectReason::Malformed, "residual_rms has 15 entries", before, pn, nb, cn);
 }
 
 // ----------------------------------------------------------------------------------------------------

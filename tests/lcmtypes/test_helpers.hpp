@@ -22,6 +22,16 @@ inline const std::vector<std::string>& paramNames() {
   return names;
 }
 
+inline const std::vector<std::string>& coordNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n = {"base_nx", "base_ny", "base_nz", "base_fx", "base_fy", "base_fz"};
+    n.insert(n.end(), jointNames().begin(), jointNames().end());
+    return n;
+  }();
+  return names;
+}
+inline constexpr size_t kNumBase = 3;
+
 /// Distinct, non-round values so a swapped or dropped field shows up.
 inline double value(int field, int i) { return 0.1 * field + 0.013 * (i + 1) - 0.5 * (i % 3); }
 
@@ -134,17 +144,35 @@ inline EstimatorOutputSample makeEstimate() {
   s.utime = 2000;
   s.tick = 20;
   s.valid = true;
+  s.consistent = true;
   s.samples_used = 1234567890123;
+  s.rejected_nonfinite = 5;
+  s.rejected_out_of_order = 4;
+  s.rejected_duplicate = 3;
   s.samples_rejected = 12;
-  const int np = static_cast<int>(paramNames().size()), nj = static_cast<int>(jointNames().size());
+  s.samples_missing = 7;
+  s.excitation = 0.625;
+  s.effective_samples = 9999.5;
+  const int np = static_cast<int>(paramNames().size()), nc = static_cast<int>(coordNames().size());
+  const int nb = static_cast<int>(kNumBase);
   s.params.resize(np);
   s.param_stddev.resize(np);
   for (int i = 0; i < np; ++i) {
     s.params[i] = value(13, i);
     s.param_stddev[i] = 0.001 * (i + 1);
   }
-  s.tau_ff.resize(nj);
-  for (int i = 0; i < nj; ++i) s.tau_ff[i] = value(14, i);
+  s.base_params.resize(nb);
+  s.base_stddev.resize(nb);
+  for (int i = 0; i < nb; ++i) {
+    s.base_params[i] = value(15, i);
+    s.base_stddev[i] = 0.002 * (i + 1);
+  }
+  s.tau_ff.resize(nc);
+  s.residual_rms.resize(nc);
+  for (int i = 0; i < nc; ++i) {
+    s.tau_ff[i] = value(14, i);
+    s.residual_rms[i] = 0.01 * (i + 1);
+  }
   return s;
 }
 
@@ -190,9 +218,13 @@ inline bool same(const ControllerStatusSample& a, const ControllerStatusSample& 
          a.fallbacks == b.fallbacks && a.rejected_inputs == b.rejected_inputs && a.stale_inputs == b.stale_inputs;
 }
 inline bool same(const EstimatorOutputSample& a, const EstimatorOutputSample& b) {
-  return a.utime == b.utime && a.tick == b.tick && a.valid == b.valid && a.samples_used == b.samples_used &&
-         a.samples_rejected == b.samples_rejected && sameMat(a.params, b.params) &&
-         sameMat(a.param_stddev, b.param_stddev) && sameMat(a.tau_ff, b.tau_ff);
+  return a.utime == b.utime && a.tick == b.tick && a.valid == b.valid && a.consistent == b.consistent &&
+         a.samples_used == b.samples_used && a.samples_rejected == b.samples_rejected &&
+         a.rejected_nonfinite == b.rejected_nonfinite && a.rejected_out_of_order == b.rejected_out_of_order &&
+         a.rejected_duplicate == b.rejected_duplicate && a.samples_missing == b.samples_missing &&
+         a.excitation == b.excitation && a.effective_samples == b.effective_samples && sameMat(a.params, b.params) &&
+         sameMat(a.param_stddev, b.param_stddev) && sameMat(a.base_params, b.base_params) &&
+         sameMat(a.base_stddev, b.base_stddev) && sameMat(a.tau_ff, b.tau_ff) && sameMat(a.residual_rms, b.residual_rms);
 }
 
 /// Encodes with LCM's own encoder and decodes into a fresh message.

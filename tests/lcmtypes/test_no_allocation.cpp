@@ -11,6 +11,7 @@ namespace exoid {
 namespace {
 
 using test::jointNames;
+using test::coordNames;
 using test::paramNames;
 
 TEST(NoAllocation, ReceiveValidateGateAndSendSteadyState) {
@@ -29,14 +30,14 @@ TEST(NoAllocation, ReceiveValidateGateAndSendSteadyState) {
     state.tick = command.tick = command.source_tick = estimate.tick = plate.tick = tick;
     toLcm(state, jointNames(), state_msg);
     toLcm(command, jointNames(), command_msg);
-    toLcm(estimate, paramNames(), jointNames(), estimate_msg);
+    toLcm(estimate, paramNames(), coordNames(), estimate_msg);
     toLcm(plate, plate_msg);
     int n = state_msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
     *ok = gate.admitEncoded(0, buf.data(), n, state_rx, state, nullptr, jointNames());
     n = command_msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
     *ok = *ok && gate.admitEncoded(1, buf.data(), n, command_rx, command, nullptr, jointNames());
     n = estimate_msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    *ok = *ok && gate.admitEncoded(2, buf.data(), n, estimate_rx, estimate, nullptr, paramNames(), jointNames());
+    *ok = *ok && gate.admitEncoded(2, buf.data(), n, estimate_rx, estimate, nullptr, paramNames(), test::kNumBase, coordNames());
     n = plate_msg.encode(buf.data(), 0, static_cast<int>(buf.size()));
     *ok = *ok && gate.admitEncoded(3, buf.data(), n, plate_rx, plate, nullptr, 0);
     // Rejections (empty bytes, then a duplicate) without a reason string: no allocation either.

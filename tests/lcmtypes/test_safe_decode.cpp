@@ -12,6 +12,7 @@ namespace exoid {
 namespace {
 
 using test::jointNames;
+using test::coordNames;
 using test::paramNames;
 
 template <class Msg>
@@ -61,7 +62,7 @@ TEST(SafeDecode, EveryTypeRoundTripsAndRefusesTruncation) {
   toLcm(test::makeStatus(), cs);
   checkType(cs);
   exoid_lcm::estimator_output_t eo;
-  toLcm(test::makeEstimate(), paramNames(), jointNames(), eo);
+  toLcm(test::makeEstimate(), paramNames(), coordNames(), eo);
   checkType(eo);
   exoid_lcm::ground_truth_t gt;
   toLcm(test::makeTruth(), jointNames(), gt);
@@ -99,7 +100,7 @@ TEST(SafeDecode, ZeroLengthStringIsRefusedWhereLcmDecodeThrows) {
 
 TEST(SafeDecode, RandomCorruptionNeverThrows) {
   exoid_lcm::estimator_output_t eo;
-  toLcm(test::makeEstimate(), paramNames(), jointNames(), eo);
+  toLcm(test::makeEstimate(), paramNames(), coordNames(), eo);
   exoid_lcm::robot_state_t rs;
   toLcm(test::makeState(), jointNames(), rs);
   const std::vector<uint8_t> eo_bytes = bytesOf(eo), rs_bytes = bytesOf(rs);

@@ -67,9 +67,7 @@ int cmdRegressor(int argc, char** argv) {
   tools::StateColumns columns;
   if (!columns.bind(model, table, &err)) return fail(states_path + ": " + err);
 
-  std::vector<std::string> row_names;
-  if (model.floating_base) row_names = {"base_nx", "base_ny", "base_nz", "base_fx", "base_fy", "base_fz"};
-  row_names.insert(row_names.end(), model.joint_names.begin(), model.joint_names.end());
+  const std::vector<std::string> row_names = model.coordinateNames();
 
   tools::AtomicCsvWriter out;
   if (!out.open(out_path, &err)) return fail(err);

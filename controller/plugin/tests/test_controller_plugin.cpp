@@ -426,13 +426,14 @@ TEST(PluginInTheLoop, PublishesCommandAndStatusAndTakesTheEstimate) {
   est.valid = true;
   est.params = model.phi;
   est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
-  est.tau_ff = Eigen::VectorXd::Zero(model.njoints);
+  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  est.residual_rms = Eigen::VectorXd::Zero(model.nv);
   exoid_lcm::estimator_output_t est_msg;
   ep.subscribe<exoid_lcm::robot_state_t>(channels::kState, [&](const char*, const exoid_lcm::robot_state_t& s) {
     if (s.tick != 300 && s.tick != 301) return;
     est.tick = s.tick;
-    est.tau_ff[2] = s.tick == 300 ? 0.5 : NAN;  // the second one is rejected by the gate
-    toLcm(est, model.paramNames(), model.joint_names, est_msg);
+    est.tau_ff[model.jointRow(2)] = s.tick == 300 ? 0.5 : NAN;  // the second one is rejected by the gate
+    toLcm(est, model.paramNames(), model.coordinateNames(), est_msg);
     ep.publish(channels::kEstimate, est_msg);
   });
   sim::RunOptions opt;

@@ -428,56 +428,101 @@ void toLcm(const ControllerStatusSample& s, exoid_lcm::controller_status_t& msg)
 
 // ======================================= estimator_output_t ===========================================
 bool fromLcm(const exoid_lcm::estimator_output_t& msg, const std::vector<std::string>& expected_param_names,
-             const std::vector<std::string>& expected_joint_names, EstimatorOutputSample& out, std::string* why,
-             RejectReason* reason) {
+             size_t expected_num_base, const std::vector<std::string>& expected_coord_names,
+             EstimatorOutputSample& out, std::string* why, RejectReason* reason) {
   Check c("estimator_output_t", why, reason);
   if (!c.nonNegative(msg.utime, "utime") || !c.nonNegative(msg.tick, "tick") ||
-      !c.nonNegative(msg.samples_used, "samples_used") || !c.nonNegative(msg.samples_rejected, "samples_rejected"))
+      !c.nonNegative(msg.samples_used, "samples_used") || !c.nonNegative(msg.samples_rejected, "samples_rejected") ||
+      !c.nonNegative(msg.rejected_nonfinite, "rejected_nonfinite") ||
+      !c.nonNegative(msg.rejected_out_of_order, "rejected_out_of_order") ||
+      !c.nonNegative(msg.rejected_duplicate, "rejected_duplicate") ||
+      !c.nonNegative(msg.samples_missing, "samples_missing"))
     return false;
+  if (static_cast<int64_t>(msg.rejected_nonfinite) + msg.rejected_out_of_order + msg.rejected_duplicate !=
+      msg.samples_rejected)
+    return c.fail(RejectReason::Malformed, "samples_rejected %d is not the sum of its reasons", msg.samples_rejected);
+  if (!c.finite(msg.excitation, "excitation") || !c.finite(msg.effective_samples, "effective_samples")) return false;
+  if (msg.excitation < 0.0 || msg.excitation > 1.0)
+    return c.fail(RejectReason::Malformed, "excitation %g outside [0, 1]", msg.excitation);
+  if (msg.effective_samples < 0.0)
+    return c.fail(RejectReason::Malformed, "effective_samples %g is negative", msg.effective_samples);
   if (!c.count(msg.num_params, expected_param_names.size(), "num_params") ||
-      !c.count(msg.num_joints, expected_joint_names.size(), "num_joints"))
+      (expected_num_base != kAnyNumBase && !c.count(msg.num_base, expected_num_base, "num_base")) ||
+      !c.nonNegative(msg.num_base, "num_base") ||
+      !c.count(msg.num_coords, expected_coord_names.size(), "num_coords"))
     return false;
   if (!c.length(msg.param_names.size(), msg.num_params, "param_names") ||
       !c.length(msg.params.size(), msg.num_params, "params") ||
       !c.length(msg.param_stddev.size(), msg.num_params, "param_stddev") ||
-      !c.length(msg.joint_names.size(), msg.num_joints, "joint_names") ||
-      !c.length(msg.tau_ff.size(), msg.num_joints, "tau_ff"))
+      !c.length(msg.base_params.size(), msg.num_base, "base_params") ||
+      !c.length(msg.base_stddev.size(), msg.num_base, "base_stddev") ||
+      !c.length(msg.coord_names.size(), msg.num_coords, "coord_names") ||
+      !c.length(msg.tau_ff.size(), msg.num_coords, "tau_ff") ||
+      !c.length(msg.residual_rms.size(), msg.num_coords, "residual_rms"))
     return false;
   if (!c.names(msg.param_names, expected_param_names, "param_names") ||
-      !c.names(msg.joint_names, expected_joint_names, "joint_names"))
+      !c.names(msg.coord_names, expected_coord_names, "coord_names"))
     return false;
-  if (!c.finite(msg.params, "params") || !c.finite(msg.param_stddev, "param_stddev") || !c.finite(msg.tau_ff, "tau_ff"))
+  if (!c.finite(msg.params, "params") || !c.finite(msg.param_stddev, "param_stddev") ||
+      !c.finite(msg.base_params, "base_params") || !c.finite(msg.base_stddev, "base_stddev") ||
+      !c.finite(msg.tau_ff, "tau_ff") || !c.finite(msg.residual_rms, "residual_rms"))
     return false;
-  if (!c.nonNegative(msg.param_stddev.data(), msg.param_stddev.size(), "param_stddev")) return false;
+  if (!c.nonNegative(msg.param_stddev.data(), msg.param_stddev.size(), "param_stddev") ||
+      !c.nonNegative(msg.base_stddev.data(), msg.base_stddev.size(), "base_stddev") ||
+      !c.nonNegative(msg.residual_rms.data(), msg.residual_rms.size(), "residual_rms"))
+    return false;
 
   out.utime = msg.utime;
   out.tick = msg.tick;
   out.valid = msg.valid != 0;
+  out.consistent = msg.consistent != 0;
   out.samples_used = msg.samples_used;
   out.samples_rejected = msg.samples_rejected;
+  out.rejected_nonfinite = msg.rejected_nonfinite;
+  out.rejected_out_of_order = msg.rejected_out_of_order;
+  out.rejected_duplicate = msg.rejected_duplicate;
+  out.samples_missing = msg.samples_missing;
+  out.excitation = msg.excitation;
+  out.effective_samples = msg.effective_samples;
   copyVector(msg.params, out.params);
   copyVector(msg.param_stddev, out.param_stddev);
+  copyVector(msg.base_params, out.base_params);
+  copyVector(msg.base_stddev, out.base_stddev);
   copyVector(msg.tau_ff, out.tau_ff);
+  copyVector(msg.residual_rms, out.residual_rms);
   return true;
 }
 
 void toLcm(const EstimatorOutputSample& s, const std::vector<std::string>& param_names,
-           const std::vector<std::string>& joint_names, exoid_lcm::estimator_output_t& msg) {
+           const std::vector<std::string>& coord_names, exoid_lcm::estimator_output_t& msg) {
   requireSize(s.params.size(), param_names.size(), "EstimatorOutputSample.params");
   requireSize(s.param_stddev.size(), param_names.size(), "EstimatorOutputSample.param_stddev");
-  requireSize(s.tau_ff.size(), joint_names.size(), "EstimatorOutputSample.tau_ff");
+  requireSize(s.base_stddev.size(), static_cast<size_t>(s.base_params.size()), "EstimatorOutputSample.base_stddev");
+  requireSize(s.tau_ff.size(), coord_names.size(), "EstimatorOutputSample.tau_ff");
+  requireSize(s.residual_rms.size(), coord_names.size(), "EstimatorOutputSample.residual_rms");
   msg.utime = s.utime;
   msg.tick = s.tick;
   msg.valid = s.valid ? 1 : 0;
+  msg.consistent = s.consistent ? 1 : 0;
   msg.samples_used = s.samples_used;
   msg.samples_rejected = s.samples_rejected;
+  msg.rejected_nonfinite = s.rejected_nonfinite;
+  msg.rejected_out_of_order = s.rejected_out_of_order;
+  msg.rejected_duplicate = s.rejected_duplicate;
+  msg.samples_missing = s.samples_missing;
+  msg.excitation = s.excitation;
+  msg.effective_samples = s.effective_samples;
   msg.num_params = count32(param_names.size());
   copyNames(param_names, msg.param_names);
   copyVector(s.params, msg.params);
   copyVector(s.param_stddev, msg.param_stddev);
-  msg.num_joints = count32(joint_names.size());
-  copyNames(joint_names, msg.joint_names);
+  msg.num_base = count32(static_cast<size_t>(s.base_params.size()));
+  copyVector(s.base_params, msg.base_params);
+  copyVector(s.base_stddev, msg.base_stddev);
+  msg.num_coords = count32(coord_names.size());
+  copyNames(coord_names, msg.coord_names);
   copyVector(s.tau_ff, msg.tau_ff);
+  copyVector(s.residual_rms, msg.residual_rms);
 }
 
 }  // namespace exoid

@@ -114,13 +114,17 @@ bool safeDecode(const void* data, int size, exoid_lcm::controller_status_t& msg)
 
 bool safeDecode(const void* data, int size, exoid_lcm::estimator_output_t& msg) {
   Walker w(data, size);
-  w.skip(kHash + 8 + 8 + 1 + 8 + 4);  // utime, tick, valid, samples_used, samples_rejected
+  // utime, tick, valid, consistent, samples_used, samples_rejected, the three reasons, samples_missing,
+  // excitation, effective_samples
+  w.skip(kHash + 8 + 8 + 1 + 1 + 8 + 4 + 4 + 4 + 4 + 8 + 8 + 8);
   const int32_t np = w.readCount();
   w.skipStrings(np);
   w.skipDoubles(2 * int64_t{np});
-  const int32_t nj = w.readCount();
-  w.skipStrings(nj);
-  w.skipDoubles(nj);
+  const int32_t nb = w.readCount();
+  w.skipDoubles(2 * int64_t{nb});
+  const int32_t nc = w.readCount();
+  w.skipStrings(nc);
+  w.skipDoubles(2 * int64_t{nc});
   return decodeChecked(w, data, size, msg);
 }
 

@@ -39,13 +39,23 @@ struct ControllerStatusSample {
 /// Estimator output (exoid_lcm.estimator_output_t, channel EXO_ESTIMATE).
 struct EstimatorOutputSample {
   int64_t utime = 0;
-  int64_t tick = 0;            ///< last tick folded into the estimate
-  bool valid = false;          ///< estimate may be used by the controller
-  int64_t samples_used = 0;
-  int32_t samples_rejected = 0;
+  int64_t tick = 0;              ///< last tick folded into the estimate (tau_ff is evaluated at its state)
+  bool valid = false;            ///< finite, physically consistent and excited: the controller may use it
+  bool consistent = false;       ///< every link's pseudo-inertia positive definite (model/inertial.hpp)
+  int64_t samples_used = 0;      ///< accepted samples
+  int32_t samples_rejected = 0;  ///< rejected_nonfinite + rejected_out_of_order + rejected_duplicate
+  int32_t rejected_nonfinite = 0;
+  int32_t rejected_out_of_order = 0;
+  int32_t rejected_duplicate = 0;
+  int64_t samples_missing = 0;   ///< ticks skipped between accepted samples
+  double excitation = 0.0;       ///< excited fraction of the base-parameter information, [0, 1]
+  double effective_samples = 0.0;  ///< memory length sum lambda^(N-k)
   Eigen::VectorXd params;        ///< [nparams] estimated standard parameters (base parameters mapped back)
   Eigen::VectorXd param_stddev;  ///< [nparams] one-sigma uncertainty of each (>= 0)
-  Eigen::VectorXd tau_ff;        ///< [njoints] feedforward torque for the current tick, N m
+  Eigen::VectorXd base_params;   ///< [nbase] estimated base parameters
+  Eigen::VectorXd base_stddev;   ///< [nbase] one-sigma uncertainty of each (>= 0)
+  Eigen::VectorXd tau_ff;        ///< [nv] generalized-force correction K(q, v, dnu)(phi_hat - phi_model), N / N m
+  Eigen::VectorXd residual_rms;  ///< [nv] per-coordinate residual RMS over the estimate's memory (>= 0)
 };
 
 }  // namespace exoid

@@ -74,6 +74,9 @@ struct Model {
   int frameIndex(const std::string& name) const;  ///< -1 if absent
   /// Parameter names: "<link>.<param>" per body, then "<joint>.fv", "<joint>.fc".
   std::vector<std::string> paramNames() const;
+  /// Generalized-coordinate names, one per row of K [nv]: floating base "base_nx", "base_ny", "base_nz",
+  /// "base_fx", "base_fy", "base_fz" (moment then force, base coordinates), then the joint names.
+  std::vector<std::string> coordinateNames() const;
   /// Total mass of the moving bodies, kg.
   double totalMass() const;
 };

@@ -76,11 +76,16 @@ bool fromLcm(const exoid_lcm::controller_status_t& msg, ControllerStatusSample& 
 void toLcm(const ControllerStatusSample& sample, exoid_lcm::controller_status_t& msg);
 
 // --- estimator_output_t <-> EstimatorOutputSample ----------------------------------------------------
-/// Also rejects negative param_stddev, samples_used or samples_rejected.
+/// Sizes are checked against the model: the parameter names (Model::paramNames), the number of base
+/// parameters and the generalized-coordinate names (Model::coordinateNames). Also rejects negative counters,
+/// standard deviations or residuals, a samples_rejected that is not the sum of its reasons, excitation
+/// outside [0, 1]. A consumer that does not use the base parameters (the controller: it needs only params
+/// and tau_ff, and the base-parameter count is estimator maths) passes kAnyNumBase; the lengths must still agree.
+inline constexpr size_t kAnyNumBase = static_cast<size_t>(-1);
 bool fromLcm(const exoid_lcm::estimator_output_t& msg, const std::vector<std::string>& expected_param_names,
-             const std::vector<std::string>& expected_joint_names, EstimatorOutputSample& out,
-             std::string* why = nullptr, RejectReason* reason = nullptr);
+             size_t expected_num_base, const std::vector<std::string>& expected_coord_names,
+             EstimatorOutputSample& out, std::string* why = nullptr, RejectReason* reason = nullptr);
 void toLcm(const EstimatorOutputSample& sample, const std::vector<std::string>& param_names,
-           const std::vector<std::string>& joint_names, exoid_lcm::estimator_output_t& msg);
+           const std::vector<std::string>& coord_names, exoid_lcm::estimator_output_t& msg);
 
 }  // namespace exoid
