@@ -31,6 +31,7 @@ using exoid::common::kExitRuntime;
 constexpr int kExitFell = 3;
 constexpr int kExitControllerLost = 4;
 constexpr int kExitInterrupted = 5;
+constexpr double kMaxPluginRunS = 3600.0;  // cap of a plugin run that never reports finished
 
 volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
@@ -76,7 +77,9 @@ int main(int argc, char** argv) {
                  "allows, deterministic; realtime: 1 kHz wall clock, apply the latest valid command,\n"
                  "count stale ticks and missed deadlines")
       ->check(CLI::IsMember({"lockstep", "realtime"}))->type_name("lockstep|realtime");
-  app.add_option("--duration", opt.duration_s, "simulated time in seconds")
+  app.add_option("--duration", opt.duration_s,
+                 "simulated time in seconds (default 10; with --controller-plugin and no --duration:\n"
+                 "until the plugin reports its task finished, at most 3600 s)")
       ->transform(common::strictNumber(1e-3, 1e7))->type_name("SECONDS");
   app.add_option("--lcm-url", url, "LCM URL; a udpm URL must have ttl=0; the default is $LCM_DEFAULT_URL when set")
       ->type_name("URL");
@@ -162,13 +165,17 @@ int main(int argc, char** argv) {
       "good answers, failures by kind, over-budget calls, fallback ticks, call time. Last, the process's CPU\n"
       "time (user, system) and simulated seconds per CPU second (the real-time factor with a core of its own).\n"
       "\n"
-      "exit codes: 0 run completed (every tick of --duration), 1 runtime failure (LCM, --result unwritable),\n"
+      "exit codes: 0 run completed (every tick of --duration, or until the plugin finished), 1 runtime failure (LCM, --result unwritable),\n"
       "            2 bad input (options, MJCF, sensors or scenario file; a plugin that does not load, has another\n"
       "            ABI version or fails to create; one line on stderr names the problem),\n"
       "            3 the robot fell (run ended at the fall tick, printed),\n"
       "            4 the controller stopped answering (--max-missing-commands), 5 interrupted (SIGINT/SIGTERM).");
   if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
   opt.mode = mode == "realtime" ? SimMode::Realtime : SimMode::Lockstep;
+  if (!plugin_opt.path.empty() && app.count("--duration") == 0) {
+    opt.end_when_plugin_finished = true;  // the plugin knows when its task is over (ABI status.finished)
+    opt.duration_s = kMaxPluginRunS;
+  }
   plugin_opt.divisor = 1000 / rate_hz;
   plugin_opt.listen_estimate = !no_estimate;
   // From here on a stop request ends the run cleanly (exit 5, --result written), also while loading.

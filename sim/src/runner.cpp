@@ -158,6 +158,10 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       s.outcome = RunOutcome::Fell;
       break;
     }
+    if (opt.end_when_plugin_finished && opt.plugin && opt.plugin->finished()) {
+      s.plugin_finished = true;  // its task is over: the run is complete (outcome stays Completed)
+      break;
+    }
 
     if (!opt.quiet && (k + 1) % 1000 == 0) {
       const double wall = (monoNs() - t0) * 1e-9;
@@ -235,11 +239,12 @@ std::string formatSummary(const RunSummary& s) {
                 "accepted %" PRIu64 " rejected %" PRIu64 " (duplicate %" PRIu64 ", out_of_order %" PRIu64
                 ", non_finite %" PRIu64 ", malformed %" PRIu64 "), fallback ticks %" PRId64 " (held %" PRId64
                 ", zero %" PRId64 ", timeouts %" PRId64 "), clamped %" PRId64 ", overruns %" PRId64
-                ", mujoco warnings %" PRId64 ", fell %s%s",
+                ", mujoco warnings %" PRId64 ", fell %s%s%s",
                 s.ticks, s.ticks_planned, s.sim_time_s, s.wall_time_s, s.realtime_factor, s.accepted, s.rejected,
                 s.rejected_by_reason[0], s.rejected_by_reason[1], s.rejected_by_reason[2], s.rejected_by_reason[3],
                 s.fallbackTicks(), s.held_ticks, s.zero_ticks, s.timeouts, s.clamped, s.overruns, s.mujoco_warnings,
-                s.fell ? "yes" : "no", s.interrupted ? ", interrupted" : "");
+                s.fell ? "yes" : "no", s.interrupted ? ", interrupted" : "",
+                s.plugin_finished ? ", ended by the plugin (task finished)" : "");
   return buf;
 }
 
@@ -271,6 +276,7 @@ void eachField(Json& j, Summary& s, F f) {
   f(j, "last_fresh_tick", s.last_fresh_tick);
   f(j, "missing_commands", s.missing_commands);
   f(j, "interrupted", s.interrupted);
+  f(j, "plugin_finished", s.plugin_finished);
 }
 }  // namespace
 

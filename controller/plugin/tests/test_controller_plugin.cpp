@@ -494,3 +494,33 @@ TEST(PluginCli, BadPluginsExitTwoWithOneLineAndHelpListsTheOptions) {
 
 }  // namespace
 }  // namespace exoid
+
+namespace exoid {
+namespace {
+// Without --duration the plugin's own "finished" status ends the run: the balance plugin with one move stops
+// at the end of its planned task (latch, initial hold, one move and hold, final hold), exit 0.
+TEST(PluginCli, WithoutDurationTheRunEndsWhenThePluginFinishes) {
+  test::TempDir dir("plugin_finished");
+  controller::ControllerConfig cfg;
+  std::string err;
+  ASSERT_TRUE(controller::loadControllerConfig(std::string(EXOID_CONFIG_DIR) + "/controller.yaml", cfg, &err)) << err;
+  cfg.trajectory.moves = 1;
+  const long planned = std::lround(controller::plannedRunDuration(cfg) * 1000.0);
+  const std::string result = dir.file("result.json");
+  const auto r = test::runCommand(std::string(EXOID_BIN_DIR) + "/exo_sim --quiet --lcm-url memq:// --no-estimate " +
+                                      "--controller-plugin " + pluginLib("exoid_controller_plugin") +
+                                      " --controller-moves 1 --result " + result,
+                                  dir.path);
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("ended by the plugin (task finished)"), std::string::npos) << r.out;
+  sim::RunSummary s;
+  ASSERT_TRUE(sim::parseRunSummaryJson(test::slurp(result), &s, &err)) << err;
+  EXPECT_TRUE(s.plugin_finished);
+  EXPECT_EQ(s.outcome, sim::RunOutcome::Completed);
+  EXPECT_FALSE(s.fell);
+  // The task ends within a controller tick or two of the planned duration (the latch tick is counted once).
+  EXPECT_NEAR(static_cast<double>(s.ticks), static_cast<double>(planned), 2.0) << "planned " << planned;
+  EXPECT_LT(s.ticks, s.ticks_planned);  // the 3600 s cap was not what ended it
+}
+}  // namespace
+}  // namespace exoid

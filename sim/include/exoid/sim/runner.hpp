@@ -35,6 +35,9 @@ struct RunOptions {
   /// In-loop controller (exo_sim --controller-plugin, docs/plugin.md): runs after each step instead of
   /// waiting for EXO_COMMAND; the loop publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS.
   ControllerPlugin* plugin = nullptr;
+  /// With a plugin: end the run (Completed) at the first tick after which the plugin's status says its task
+  /// is finished (balance: moves and final hold done), instead of running all of duration_s.
+  bool end_when_plugin_finished = false;
 };
 
 /// How a run ended (exo_sim's exit code follows it, docs/sim.md).
@@ -62,6 +65,7 @@ struct RunSummary {
   int64_t last_fresh_tick = -1;    ///< last tick that applied a fresh command
   int64_t missing_commands = 0;    ///< consecutive missing commands when the run ended
   bool interrupted = false;        ///< stopped early by the stop flag (SIGINT/SIGTERM)
+  bool plugin_finished = false;    ///< the run ended because the plugin reported its task finished
   int64_t fallbackTicks() const { return held_ticks + zero_ticks; }
 };
 
