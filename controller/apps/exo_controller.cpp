@@ -243,10 +243,10 @@ int main(int argc, char** argv) {
   }
   if (use_estimate) {
     lcm->subscribeRaw(channels::kEstimate, [&](const char*, const void* data, int size, int64_t) {
+      // Every decoded estimate goes to the controller, which refuses (and counts) an unusable one.
       if (gate.admitEncoded(ch_estimate, data, size, estimate_msg, estimate, nullptr, param_names, kAnyNumBase,
-                            coord_names) &&
-          estimate.valid)
-        ctrl.setFeedforward(estimate.tau_ff, estimate.tick);
+                            coord_names))
+        ctrl.setEstimate(estimate);
     });
   }
 
@@ -298,6 +298,7 @@ int main(int argc, char** argv) {
       outcome, seed, status.moves_done, cfg.trajectory.moves, ticks, 1e3 * rmse, 1e3 * max_com_err,
       ticks > 0 ? tick_sum / static_cast<double>(ticks) : 0.0, tick_max, status.fallbacks, status.qp_failures,
       status.rejected_inputs, answered_bad, unanswered, status.stale_inputs, publish_errors);
+  printEstimateUse(stdout, "exo_controller", status.estimate);
   std::fflush(stdout);
   return exit_code;
 }
