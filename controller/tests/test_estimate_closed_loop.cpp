@@ -9,6 +9,7 @@
 // table quoted in docs/controller.md ("Using the estimate: measured").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 #include <vector>
@@ -21,10 +22,12 @@ namespace exoid::controller {
 namespace {
 
 /// The simulated robot's standard parameters in the URDF model's order: each payload (link frame, inertia about
-/// its CoM in the MJCF fullinertia order) added to its link's parameters. Independent of the controller.
-bool truePhi(const Model& model, const sim::Scenario& scenario, Eigen::VectorXd& phi, std::string* err) {
+/// its CoM in the MJCF fullinertia order) added to its link's parameters, those attached by time t (s).
+/// Independent of the controller.
+bool truePhi(const Model& model, const sim::Scenario& scenario, double t, Eigen::VectorXd& phi, std::string* err) {
   phi = model.phi;
   for (const sim::Payload& p : scenario.effects.payloads) {
+    if (p.attach_at_s > t) continue;
     const int b = model.bodyIndex(p.link);
     if (b < 0) return *err = "no link " + p.link + " in the URDF", false;
     Eigen::Matrix3d I;
@@ -46,8 +49,11 @@ Runs runBoth(const Model& model, const ControllerConfig& cfg, const std::string&
   Runs r;
   sim::Scenario scenario;
   if (!sim::loadScenario(testing::configPath("scenarios/" + file), &scenario, err)) return r;
-  Eigen::VectorXd phi;
-  if (!truePhi(model, scenario, phi, err)) return r;
+  Eigen::VectorXd phi, phi_final;
+  if (!truePhi(model, scenario, 0.0, phi, err) || !truePhi(model, scenario, 1e9, phi_final, err)) return r;
+  double attach_s = 1e9;  // a payload attached mid-run: the estimate switches to it 0.5 s later
+  for (const sim::Payload& p : scenario.effects.payloads)
+    if (p.attach_at_s > 0.0) attach_s = std::min(attach_s, p.attach_at_s);
   ControllerConfig off = cfg;
   off.estimate.enabled = false;
   r.without = testing::runScenarioClosedLoop(model, off, scenario, seed, err);
@@ -66,7 +72,9 @@ Runs runBoth(const Model& model, const ControllerConfig& cfg, const std::string&
       },
       [&](long k, const sim::SimModel&, const sim::SimData&, BalanceController& ctrl) {
         if (k == 0 || k % 10 != 0) return;  // 100 Hz, from the first state on
+        if (static_cast<double>(k) * 1e-3 >= attach_s + 0.5) phi = phi_final;
         const State& s = ctrl.observer().state();  // the state of the previous tick, accelerations zero
+        est.params = phi;
         rnea(model, phi, with_phi, s);
         rnea(model, model.phi, with_model, s);
         est.tau_ff = with_phi.tau - with_model.tau;
@@ -122,7 +130,7 @@ TEST(EstimateClosedLoop, EveryPayloadScenarioTwentyMoves) {
   ASSERT_TRUE(testing::loadConfig(cfg, &err)) << err;
   for (const char* file : {"undeclared_payload.yaml", "payload_body_lateral.yaml", "payload_left_shank.yaml",
                            "payload_right_foot.yaml", "payload_right_thigh.yaml", "payload_two_legs.yaml",
-                           "combined_payload_friction.yaml", "combined_worst.yaml"}) {
+                           "combined_payload_friction.yaml", "combined_worst.yaml", "payload_mid_run.yaml"}) {
     const Runs r = runBoth(model, cfg, file, 1, &err);
     ASSERT_TRUE(r.with.loaded) << err;
     print(file, r);
