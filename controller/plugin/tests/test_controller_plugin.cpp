@@ -147,11 +147,33 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   controller::ControllerStatus blind_status;
   exoid_lcm::force_plate_t plate_msg;
   ForcePlateSample plate;
+  // An online estimate at 100 Hz from tick 300 (the model plus 2 kg on the base link, a small correction):
+  // the plugin through set_estimate, the reference as exo_controller gets it (over LCM, every one decoded).
+  EstimatorOutputSample est, est_rx;
+  est.valid = est.consistent = true;
+  est.params = model.phi;
+  est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) += paramsFromInertial(
+      2.0, Eigen::Vector3d(-0.1, 0.03, 0.3), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
+  est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
+  est.tau_ff = Eigen::VectorXd::LinSpaced(model.nv, -0.3, 0.4);
+  est.residual_rms = Eigen::VectorXd::Zero(model.nv);
+  exoid_lcm::estimator_output_t est_msg;
+  const std::vector<std::string> param_names = model.paramNames(), coord_names = model.coordinateNames();
 
   long mismatches = 0, allocations = 0, torque_ticks = 0, blind_differ = 0;
   const int ticks = 2500;  // start-up latch (200), initial hold, into the first move
   closedLoop(exo, *plugin, ticks, [&](int k, const RobotStateSample& s) {
+    const bool send = k >= 300 && k % 10 == 0;
+    if (send) {
+      est.tick = k - 1;
+      est.utime = 1000 * est.tick;
+      toLcm(est, param_names, coord_names, est_msg);
+      ASSERT_TRUE(fromLcm(est_msg, param_names, kAnyNumBase, coord_names, est_rx, &err)) << err;
+      ASSERT_TRUE(ref.setEstimate(est_rx));
+      ASSERT_TRUE(blind.setEstimate(est_rx));
+    }
     test::AllocationCounter count;
+    if (send) ASSERT_TRUE(plugin->setEstimate(est_rx));
     ASSERT_TRUE(plugin->step(s));
     const bool plates_taken = plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet);
     count.stop();
@@ -180,6 +202,8 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   });
   EXPECT_EQ(mismatches, 0);
   EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(ref_status.estimate.weight, 1.0);  // the estimate was in use, fully, by the end
+  EXPECT_EQ(plugin->stats().estimates_accepted, (ticks - 300) / 10);
   EXPECT_EQ(torque_ticks, ticks);  // the controller balanced every tick (no fallback)
   EXPECT_EQ(plugin->stats().calls, ticks);
   EXPECT_EQ(plugin->stats().good, ticks);
