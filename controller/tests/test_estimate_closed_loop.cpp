@@ -16,6 +16,7 @@
 
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/inertial.hpp"
+#include "exoid/tools/perturb_inertials.hpp"
 #include "sim_closed_loop.hpp"
 
 namespace exoid::controller {
@@ -44,13 +45,15 @@ struct Runs {
   EstimateUse use;
 };
 
-Runs runBoth(const Model& model, const ControllerConfig& cfg, const std::string& file, uint64_t seed,
-             std::string* err) {
+/// `model`: the controller's (the URDF, or a wrong prior); `robot`: the URDF the simulated robot is built from
+/// (its parameters plus the scenario's payloads are the truth the estimate carries).
+Runs runBoth(const Model& model, const Model& robot, const ControllerConfig& cfg, const std::string& file,
+             uint64_t seed, std::string* err) {
   Runs r;
   sim::Scenario scenario;
   if (!sim::loadScenario(testing::configPath("scenarios/" + file), &scenario, err)) return r;
   Eigen::VectorXd phi, phi_final;
-  if (!truePhi(model, scenario, 0.0, phi, err) || !truePhi(model, scenario, 1e9, phi_final, err)) return r;
+  if (!truePhi(robot, scenario, 0.0, phi, err) || !truePhi(robot, scenario, 1e9, phi_final, err)) return r;
   double attach_s = 1e9;  // a payload attached mid-run: the estimate switches to it 0.5 s later
   for (const sim::Payload& p : scenario.effects.payloads)
     if (p.attach_at_s > 0.0) attach_s = std::min(attach_s, p.attach_at_s);
@@ -105,7 +108,7 @@ TEST(EstimateClosedLoop, TrueComTracksTheReferenceTwiceAsWellUnderAnUndeclaredPa
   ASSERT_TRUE(cfg.estimate.enabled && cfg.estimate.use_feedforward && cfg.estimate.use_com);
   cfg.trajectory.moves = 3;
   for (const char* file : {"undeclared_payload.yaml", "payload_two_legs.yaml"}) {
-    const Runs r = runBoth(model, cfg, file, 3, &err);
+    const Runs r = runBoth(model, model, cfg, file, 3, &err);
     ASSERT_TRUE(r.with.loaded) << err;
     print(file, r);
     EXPECT_FALSE(r.with.fell) << file;
@@ -131,9 +134,19 @@ TEST(EstimateClosedLoop, EveryPayloadScenarioTwentyMoves) {
   for (const char* file : {"undeclared_payload.yaml", "payload_body_lateral.yaml", "payload_left_shank.yaml",
                            "payload_right_foot.yaml", "payload_right_thigh.yaml", "payload_two_legs.yaml",
                            "combined_payload_friction.yaml", "combined_worst.yaml", "payload_mid_run.yaml"}) {
-    const Runs r = runBoth(model, cfg, file, 1, &err);
+    const Runs r = runBoth(model, model, cfg, file, 1, &err);
     ASSERT_TRUE(r.with.loaded) << err;
     print(file, r);
+  }
+  // The controller on a +-25 % prior (exoid model perturb --relative 0.25 --seed S), the estimate = the truth.
+  for (const uint64_t s : {1, 2}) {
+    Model prior = model;
+    ASSERT_TRUE(tools::perturbInertials(model, 0.25, s, prior.phi, &err)) << err;
+    for (const char* file : {"nominal.yaml", "undeclared_payload.yaml"}) {
+      const Runs r = runBoth(prior, model, cfg, file, 1, &err);
+      ASSERT_TRUE(r.with.loaded) << err;
+      print((std::string("prior seed ") + std::to_string(s) + ", " + file).c_str(), r);
+    }
   }
 }
 
