@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <string>
 #include <vector>
@@ -121,6 +122,63 @@ TEST(EstimateClosedLoop, TrueComTracksTheReferenceTwiceAsWellUnderAnUndeclaredPa
     // The controller's own CoM (now the estimate's) tracks its reference no worse (0.1 mm of noise allowed).
     EXPECT_LE(r.with.model_com_rmse, r.without.model_com_rmse + 1e-4) << file;
   }
+}
+
+// Issue 8's fault on the controller side: the estimator dies mid-run (its estimates stop) and restarts later.
+// The controller withdraws the estimate exactly max_age_ticks after the last one, blends it out over
+// blend_time, keeps balancing on the model (plus the disturbance observer), and takes the estimate back when
+// the estimates return.
+TEST(EstimateClosedLoop, EstimatorKilledMidRunIsWithdrawnInTimeAndTheRobotKeepsBalancing) {
+  std::string err;
+  Model model;
+  ASSERT_TRUE(testing::loadModel(model, &err)) << err;
+  ControllerConfig cfg;
+  ASSERT_TRUE(testing::loadConfig(cfg, &err)) << err;
+  cfg.trajectory.moves = 3;
+  sim::Scenario scenario;
+  ASSERT_TRUE(sim::loadScenario(testing::configPath("scenarios/undeclared_payload.yaml"), &scenario, &err)) << err;
+  Eigen::VectorXd phi;
+  ASSERT_TRUE(truePhi(model, scenario, 0.0, phi, &err)) << err;
+  EstimatorOutputSample est;
+  est.valid = est.consistent = true;
+  est.params = phi;
+  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  DynamicsData with_phi(model), with_model(model);
+  const long kill = 4000, restart = 7000;  // ticks: dead from 4 s to 7 s
+  long last_sent = -1, first_drop = -1, first_zero = -1, back_to_one = -1;
+  int withdrawn = 0;
+  const testing::ScenarioRunMetrics m = testing::runScenarioClosedLoop(
+      model, cfg, scenario, 1, &err,
+      [&](long k, const sim::SimModel&, const sim::SimData&, const BalanceController&, const ControllerStatus& st) {
+        if (k > kill && first_drop < 0 && st.estimate.weight < 1.0) first_drop = k;
+        if (k > kill && first_zero < 0 && st.estimate.weight == 0.0) first_zero = k;
+        if (k > restart && back_to_one < 0 && st.estimate.weight == 1.0) back_to_one = k;
+        withdrawn = st.estimate.withdrawn_stale;
+      },
+      [&](long k, const sim::SimModel&, const sim::SimData&, BalanceController& ctrl) {
+        if (k == 0 || k % 10 != 0 || (k > kill && k < restart)) return;
+        const State& s = ctrl.observer().state();
+        rnea(model, phi, with_phi, s);
+        rnea(model, model.phi, with_model, s);
+        est.tau_ff = with_phi.tau - with_model.tau;
+        est.tick = k - 1;
+        ctrl.setEstimate(est);
+        if (k <= kill) last_sent = est.tick;
+      });
+  ASSERT_TRUE(m.loaded) << err;
+  testing::printMetrics("estimator killed 4-7 s", m);
+  // The state of tick k is ticked at loop index k: the last estimate (tick last_sent) is stale once
+  // k - last_sent > max_age_ticks, and that tick already blends out.
+  EXPECT_EQ(first_drop, last_sent + cfg.estimate.max_age_ticks + 1);
+  const long blend = static_cast<long>(std::lround(cfg.estimate.blend_time / cfg.loop.period));
+  EXPECT_NEAR(static_cast<double>(first_zero - first_drop), static_cast<double>(blend), 2.0);
+  EXPECT_EQ(withdrawn, 1);
+  EXPECT_GT(back_to_one, restart);
+  EXPECT_LT(back_to_one, restart + blend + 20);
+  EXPECT_FALSE(m.fell);
+  EXPECT_EQ(m.moves_done, cfg.trajectory.moves);
+  EXPECT_LE(m.slip, 1e-3);
+  EXPECT_EQ(m.fallbacks, 0);
 }
 
 TEST(EstimateClosedLoop, EveryPayloadScenarioTwentyMoves) {
