@@ -1,7 +1,8 @@
 // exo_controller: the centroidal balance controller as an LCM process (docs/controller.md).
 // EXO_STATE (robot_state_t, tick k) -> BalanceController::tick -> EXO_COMMAND (joint_command_t, tick k + 1) and
-// EXO_CONTROLLER_STATUS (controller_status_t), every tick. EXO_ESTIMATE (estimator_output_t) feeds the
-// feedforward. Exits 0 once the CoM trajectory and the final hold are over, with a one-line summary.
+// EXO_CONTROLLER_STATUS (controller_status_t), every tick. EXO_ESTIMATE (estimator_output_t) goes to
+// BalanceController::setEstimate (feedforward and CoM). Exits 0 once the CoM trajectory and the final hold are
+// over, with a summary line and the estimate's line.
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -86,7 +87,7 @@ int main(int argc, char** argv) {
       ->type_name("URL");
   app.add_option("--idle-timeout-ms", idle_timeout_ms, "exit with code 3 when no robot state arrives for N ms")
       ->transform(common::strictInteger(1, 24LL * 3600 * 1000))->type_name("N");
-  app.add_flag("--no-estimate", no_estimate, "ignore EXO_ESTIMATE (zero feedforward)");
+  app.add_flag("--no-estimate", no_estimate, "ignore EXO_ESTIMATE (the controller runs on its URDF alone)");
   app.add_flag("--quiet", quiet, "no progress lines on stderr (errors and the summary are still printed)");
   app.add_flag("--print-duration", print_duration,
                "print the planned run time in seconds (start-up latch + moves + holds, from the\n"
@@ -95,9 +96,11 @@ int main(int argc, char** argv) {
       "channels:\n"
       "  subscribes  EXO_STATE              exoid_lcm.robot_state_t      robot state of tick k (SI: rad, N m,\n"
       "                                                                  rad/s, m/s^2; IMU quaternion w x y z)\n"
-      "              EXO_ESTIMATE           exoid_lcm.estimator_output_t optional: tau_ff [N m] enters the QP's\n"
-      "                                                                  dynamics while younger than\n"
-      "                                                                  feedforward.max_age_ticks\n"
+      "              EXO_ESTIMATE           exoid_lcm.estimator_output_t optional: while fresh (estimate.\n"
+      "                                                                  max_age_ticks), valid and consistent,\n"
+      "                                                                  tau_ff [nv; N, N m] enters the QP's\n"
+      "                                                                  dynamics and params give the CoM\n"
+      "                                                                  (blended in/out, estimate.blend_time)\n"
       "              EXO_PLATE_RIGHT/LEFT   exoid_lcm.force_plate_t      force plates (N, N m ON the plate, plate\n"
       "                                                                  frame): the disturbance observer's\n"
       "                                                                  measured contact wrenches when\n"
@@ -117,7 +120,8 @@ int main(int argc, char** argv) {
       "safe command, then joint damping); duplicate or out-of-order states are counted and not answered.\n"
       "\n"
       "exit codes:\n"
-      "  0  trajectory done and final hold over (summary line on stdout)\n"
+      "  0  trajectory done and final hold over (summary line on stdout, then\n"
+      "     'exo_controller: estimate: accepted N, refused N (...), withdrawn N (...), weight W, mass M kg')\n"
       "  1  LCM failure or interrupted (SIGINT/SIGTERM)\n"
       "  2  bad input: unknown option or bad value, unreadable/invalid URDF or config (one-line error naming the\n"
       "     field), or no move sequence fits the support polygon with the configured margins\n"
@@ -243,10 +247,10 @@ int main(int argc, char** argv) {
   }
   if (use_estimate) {
     lcm->subscribeRaw(channels::kEstimate, [&](const char*, const void* data, int size, int64_t) {
+      // Every decoded estimate goes to the controller, which refuses (and counts) an unusable one.
       if (gate.admitEncoded(ch_estimate, data, size, estimate_msg, estimate, nullptr, param_names, kAnyNumBase,
-                            coord_names) &&
-          estimate.valid)
-        ctrl.setFeedforward(estimate.tau_ff, estimate.tick);
+                            coord_names))
+        ctrl.setEstimate(estimate);
     });
   }
 
@@ -298,6 +302,7 @@ int main(int argc, char** argv) {
       outcome, seed, status.moves_done, cfg.trajectory.moves, ticks, 1e3 * rmse, 1e3 * max_com_err,
       ticks > 0 ? tick_sum / static_cast<double>(ticks) : 0.0, tick_max, status.fallbacks, status.qp_failures,
       status.rejected_inputs, answered_bad, unanswered, status.stale_inputs, publish_errors);
+  printEstimateUse(stdout, "exo_controller", status.estimate);
   std::fflush(stdout);
   return exit_code;
 }

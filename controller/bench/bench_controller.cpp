@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/model/inertial.hpp"
 #include "mujoco_exo.hpp"
 
 namespace exoid::controller {
@@ -77,7 +78,19 @@ void BM_ControllerTick(benchmark::State& state) {
     state.SkipWithError("recording failed");
     return;
   }
-  auto ctrl = std::make_unique<BalanceController>(rec.model, rec.config, 1);
+  // Argument 1: an online estimate in use at full weight (the model plus 1 kg on the base link, a correction on
+  // every row), handed over every 10th tick as the estimator's 100 Hz (setEstimate's per-body consistency
+  // checks cost ~10 us each time) and timed with the tick; the estimate's centroidal pass runs every tick.
+  const bool with_estimate = state.range(0) == 1;
+  ControllerConfig cfg = rec.config;
+  cfg.estimate.blend_time = 0.0;
+  EstimatorOutputSample est;
+  est.valid = est.consistent = true;
+  est.params = rec.model.phi;
+  est.params.segment<kParamsPerBody>(rec.model.bodyParamIndex(0)) += paramsFromInertial(
+      1.0, Eigen::Vector3d(-0.1, 0.0, 0.3), Eigen::Matrix3d::Identity(), 0.005 * Eigen::Matrix3d::Identity());
+  est.tau_ff = Eigen::VectorXd::Constant(rec.model.nv, 0.1);
+  auto ctrl = std::make_unique<BalanceController>(rec.model, cfg, 1);
   JointCommandSample cmd;
   ctrl->prepare(cmd);
   ControllerStatus st;
@@ -88,11 +101,15 @@ void BM_ControllerTick(benchmark::State& state) {
   for (auto _ : state) {
     if (i == rec.samples.size()) {  // replay again from a fresh controller
       state.PauseTiming();
-      ctrl = std::make_unique<BalanceController>(rec.model, rec.config, 1);
+      ctrl = std::make_unique<BalanceController>(rec.model, cfg, 1);
       i = 0;
       state.ResumeTiming();
     }
     const auto t0 = std::chrono::steady_clock::now();
+    if (with_estimate && i % 10 == 0) {
+      est.tick = rec.samples[i].tick;
+      ctrl->setEstimate(est);
+    }
     ctrl->tick(rec.samples[i++], cmd, st);
     const auto t1 = std::chrono::steady_clock::now();
     benchmark::DoNotOptimize(cmd.tau.data());
@@ -108,8 +125,9 @@ void BM_ControllerTick(benchmark::State& state) {
   state.counters["qp_p50_us"] = percentile(qp_us, 0.5);
   state.counters["qp_p99_us"] = percentile(qp_us, 0.99);
   state.counters["fallbacks"] = st.fallbacks;
+  state.counters["estimate_weight"] = st.estimate.weight;
 }
-BENCHMARK(BM_ControllerTick)->Unit(benchmark::kMicrosecond)->MinTime(3.0);
+BENCHMARK(BM_ControllerTick)->Arg(0)->Arg(1)->ArgName("estimate")->Unit(benchmark::kMicrosecond)->MinTime(3.0);
 
 void BM_DynamicsOnly(benchmark::State& state) {
   const Recording& rec = recording();

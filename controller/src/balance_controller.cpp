@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "exoid/controller/proxqp_solver.hpp"
+#include "exoid/model/inertial.hpp"
 
 namespace exoid::controller {
 
@@ -19,6 +20,34 @@ const char* toString(FallbackReason reason) {
     case FallbackReason::Recovering: return "recovering";
   }
   return "?";
+}
+
+const char* toString(EstimateRejection reason) {
+  switch (reason) {
+    case EstimateRejection::None: return "none";
+    case EstimateRejection::Disabled: return "disabled";
+    case EstimateRejection::WrongSize: return "wrong size";
+    case EstimateRejection::NonFinite: return "non-finite";
+    case EstimateRejection::NotValid: return "not valid";
+    case EstimateRejection::Inconsistent: return "inconsistent";
+    case EstimateRejection::Mass: return "total mass";
+    case EstimateRejection::Count: break;
+  }
+  return "?";
+}
+
+void printEstimateUse(std::FILE* out, const char* who, const EstimateUse& u) {
+  int refused = 0;
+  for (const int32_t n : u.rejected) refused += n;
+  std::fprintf(out, "%s: estimate: accepted %d, refused %d (", who, u.accepted, refused);
+  bool first = true;
+  for (size_t r = 1; r < u.rejected.size(); ++r) {
+    if (u.rejected[r] == 0) continue;
+    std::fprintf(out, "%s%s %d", first ? "" : ", ", toString(static_cast<EstimateRejection>(r)), u.rejected[r]);
+    first = false;
+  }
+  std::fprintf(out, "), withdrawn %d (stale %d, refused %d), weight %.3f, mass %.3f kg\n",
+               u.withdrawn_stale + u.withdrawn_refused, u.withdrawn_stale, u.withdrawn_refused, u.weight, u.mass);
 }
 
 double plannedRunDuration(const ControllerConfig& c) {
@@ -85,6 +114,7 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
   wrench_residual_ = Eigen::VectorXd::Zero(model.nv);
   planned_tick_.fill(-1);
   ff_input_ = Eigen::VectorXd::Zero(model.nv);
+  phi_hat_ = model.phi;
   joint_actuated_ = Eigen::VectorXi::Zero(model.njoints);
   joint_limit_ = Eigen::VectorXd::Zero(model.njoints);
   const auto& act = formulation_.actuatedRows();
@@ -103,25 +133,78 @@ void BalanceController::prepare(JointCommandSample& c) const {
   c.tau_ff = Eigen::VectorXd::Zero(model_.njoints);
 }
 
-bool BalanceController::setFeedforward(const Eigen::Ref<const Eigen::VectorXd>& tau_ff, int64_t tick) {
-  if (!tau_ff.allFinite()) return false;
-  if (tau_ff.size() == model_.nv) {
-    ff_input_ = tau_ff;
-  } else if (tau_ff.size() == model_.njoints) {
-    ff_input_.head<6>().setZero();
-    ff_input_.tail(model_.njoints) = tau_ff;
-  } else {
+bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
+  const auto refuse = [this](EstimateRejection why) {
+    ++estimate_use_.rejected[static_cast<size_t>(why)];
+    last_refusal_ = why;
+    has_estimate_ = false;  // a newer estimate says no: stop using the older one (blended out from its values)
     return false;
+  };
+  if (!cfg_.estimate.enabled) return refuse(EstimateRejection::Disabled);
+  if (e.params.size() != model_.nparams() || e.tau_ff.size() != model_.nv) return refuse(EstimateRejection::WrongSize);
+  if (!e.params.allFinite() || !e.tau_ff.allFinite()) return refuse(EstimateRejection::NonFinite);
+  if (!e.valid) return refuse(EstimateRejection::NotValid);
+  if (!e.consistent) return refuse(EstimateRejection::Inconsistent);
+  double mass = 0.0;
+  for (int b = 0; b < model_.nbodies; ++b) {
+    const Vector10d phi = e.params.segment<kParamsPerBody>(model_.bodyParamIndex(b));
+    // The model may carry massless bodies (fixed frames); the estimator keeps them at the prior.
+    if (model_.phi[model_.bodyParamIndex(b)] <= 0.0 && phi.isZero(0.0)) continue;
+    if (!checkConsistency(phi).consistent) return refuse(EstimateRejection::Inconsistent);
+    mass += phi[0];
   }
-  ff_input_ = ff_input_.cwiseMax(-cfg_.feedforward.max_abs).cwiseMin(cfg_.feedforward.max_abs);
-  has_feedforward_ = true;
-  feedforward_tick_ = tick;
+  double model_mass = 0.0;
+  for (int b = 0; b < model_.nbodies; ++b) model_mass += model_.phi[model_.bodyParamIndex(b)];
+  if (!(std::abs(mass - model_mass) <= cfg_.estimate.max_relative_mass_change * model_mass))
+    return refuse(EstimateRejection::Mass);
+  phi_hat_ = e.params;
+  ff_input_ = e.tau_ff.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
+  estimate_tick_ = e.tick;
+  has_estimate_ = true;
+  ++estimate_use_.accepted;
+  estimate_use_.mass = mass;
   return true;
 }
 
-void BalanceController::clearFeedforward() {
-  has_feedforward_ = false;
-  ff_input_.setZero();
+void BalanceController::clearEstimate() { has_estimate_ = false; }
+
+void BalanceController::advanceEstimateBlend(int64_t tick) {
+  // On while the last accepted estimate stands and is fresh; the ramp moves toward on/off at 1 / blend_time.
+  const bool on = has_estimate_ && tick - estimate_tick_ <= cfg_.estimate.max_age_ticks;
+  if (estimate_on_ && !on) {
+    if (has_estimate_) ++estimate_use_.withdrawn_stale;
+    else ++estimate_use_.withdrawn_refused;
+  }
+  estimate_on_ = on;
+  const double step = cfg_.estimate.blend_time > 0.0
+                          ? static_cast<double>(gap_) * cfg_.loop.period / cfg_.estimate.blend_time
+                          : 1.0;
+  blend_ramp_ = on ? std::min(1.0, blend_ramp_ + step) : std::max(0.0, blend_ramp_ - step);
+  estimate_use_.active = on;
+  estimate_use_.weight = blend_ramp_ * blend_ramp_ * (3.0 - 2.0 * blend_ramp_);  // smoothstep: no kick at the ends
+}
+
+void BalanceController::updateDynamics(const State& state) {
+  computeRobotDynamics(model_, soles_, dyn_, state);
+  const double w = estimate_use_.weight;
+  vertical_shift_ = 0.0;
+  vertical_shift_rate_ = 0.0;
+  dyn_.tau_ff.setZero();
+  if (w <= 0.0) return;
+  if (cfg_.estimate.use_feedforward) dyn_.tau_ff = w * ff_input_;
+  if (!cfg_.estimate.use_com) return;
+  double mass;
+  Eigen::Vector3d com, com_velocity;
+  Vector6d momentum;
+  centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
+  // The estimate's vertical CoM offset moves the reference height with it: with straight knees the stance,
+  // not the controller, sets the height, so only the horizontal CoM changes what is tracked.
+  vertical_shift_ = w * (com.z() - dyn_.com.z());
+  vertical_shift_rate_ = w * (com_velocity.z() - dyn_.com_velocity.z());
+  dyn_.mass += w * (mass - dyn_.mass);
+  dyn_.com += w * (com - dyn_.com);
+  dyn_.com_velocity += w * (com_velocity - dyn_.com_velocity);
+  dyn_.momentum += w * (momentum - dyn_.momentum);
 }
 
 bool BalanceController::setForcePlate(const ForcePlateSample& p) {
@@ -167,12 +250,13 @@ void BalanceController::startTrajectory(int64_t tick) {
   posture_.setReference(observer_->initialPosture());
   contact_right_.setReference(observer_->solePosition(0), observer_->soleRotation(0));
   contact_left_.setReference(observer_->solePosition(1), observer_->soleRotation(1));
-  computeRobotDynamics(model_, soles_, dyn_, observer_->state());
+  updateDynamics(observer_->state());
   const auto yaw = [](const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); };
   const SupportPolygon polygon = SupportPolygon::fromSoles(
       observer_->solePosition(0).head<2>(), yaw(observer_->soleRotation(0)), observer_->solePosition(1).head<2>(),
       yaw(observer_->soleRotation(1)), cfg_.contact.sole_half_length, cfg_.contact.sole_half_width);
-  trajectory_.generate(cfg_.trajectory, seed_, dyn_.com, polygon);  // not ready() on failure: holds the start
+  const Eigen::Vector3d start = dyn_.com - Eigen::Vector3d(0.0, 0.0, vertical_shift_);
+  trajectory_.generate(cfg_.trajectory, seed_, start, polygon);  // not ready() on failure: holds the start
   trajectory_start_tick_ = tick;
 }
 
@@ -230,6 +314,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     last_tick_ = in.tick;
     fresh = true;
     if (gap - 1 > cfg_.fallback.max_missed_ticks) reason = FallbackReason::Stale;
+    advanceEstimateBlend(in.tick);
     if (observer_->latched() && !was_latched) startTrajectory(in.tick);
   }
 
@@ -237,27 +322,26 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   st.qp_iterations = 0;
   st.qp_solve_us = 0.0;
   if (fresh) {
-    // Reference: the trajectory once the feet are latched; before that, hold the current CoM.
+    // Dynamics with the estimate blended in: tau_ff (estimator) in h + tau_ff, the controller's CoM.
+    updateDynamics(observer_->state());
+    // Reference: the trajectory once the feet are latched (its height moved with the estimate's vertical CoM
+    // offset); before that, hold the current CoM.
     if (observer_->latched()) {
       const double t = static_cast<double>(in.tick - trajectory_start_tick_) * cfg_.loop.period;
       trajectory_.sample(t, ref_);
       if (!trajectory_.ready()) ref_.position = trajectory_.start();
+      ref_.position.z() += vertical_shift_;
+      ref_.velocity.z() += vertical_shift_rate_;
       st.trajectory_time = t;
     } else {
-      computeRobotDynamics(model_, soles_, dyn_, observer_->state());
       ref_ = CoMReference{};
       ref_.position = dyn_.com;
       contact_right_.setReference(observer_->solePosition(0), observer_->soleRotation(0));
       contact_left_.setReference(observer_->solePosition(1), observer_->soleRotation(1));
       posture_.setReference(observer_->initialPosture());
     }
-    computeRobotDynamics(model_, soles_, dyn_, observer_->state());
-    // Feedforward from the estimator enters the dynamics (h + tau_ff), zero when absent or too old; the
-    // disturbance observer's estimate of what the model still misses is added to it.
-    const bool use_ff = cfg_.feedforward.enabled && has_feedforward_ &&
-                        in.tick - feedforward_tick_ <= cfg_.feedforward.max_age_ticks;
-    if (use_ff) dyn_.tau_ff = ff_input_;
-    else dyn_.tau_ff.setZero();
+    // The disturbance observer's estimate of what the model (and the estimate) still misses is added.
+    const bool use_ff = cfg_.estimate.use_feedforward && estimate_use_.weight > 0.0;
     if (cfg_.disturbance.enabled) {
       const bool plates = cfg_.disturbance.force_plates && plateResidual();
       disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_, plates ? &wrench_residual_ : nullptr);
@@ -278,7 +362,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
       if (!tau_cmd_.allFinite() && reason == FallbackReason::None) reason = FallbackReason::NonFiniteTorque;
       // command.tau_ff reports the estimator's feedforward only (not the disturbance observer's estimate).
       for (Eigen::Index j = 0; j < tau_ff_joint_.size(); ++j)
-        tau_ff_joint_[j] = joint_actuated_[j] && use_ff ? ff_input_[6 + j] : 0.0;
+        tau_ff_joint_[j] = joint_actuated_[j] && use_ff ? estimate_use_.weight * ff_input_[6 + j] : 0.0;
     }
     // Status: estimate, reference, momentum and the QP's wrenches.
     st.com_ref = ref_.position;
@@ -345,6 +429,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   st.qp_failures = qp_failures_;
   st.hold_ticks = hold_ticks_;
   st.damping_ticks = damping_ticks_;
+  st.estimate = estimate_use_;
   st.tick_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
 }
 

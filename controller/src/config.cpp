@@ -182,7 +182,7 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
   Reader r(source, error);
   try {
     r.checkKeys(root, "", {"loop", "trajectory", "observer", "momentum", "posture", "contact", "torque", "solver",
-                           "fallback", "feedforward", "disturbance"});
+                           "fallback", "estimate", "disturbance"});
     {
       const auto s = r.section(root, "loop", {"period"});
       r.number(s, "loop", "period", c.loop.period);
@@ -280,11 +280,17 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
       r.number(s, n, "max_quaternion_norm_error", f.max_quaternion_norm_error);
     }
     {
-      const char* n = "feedforward";
-      const auto s = r.section(root, n, {"enabled", "max_abs", "max_age_ticks"});
-      r.boolean(s, n, "enabled", c.feedforward.enabled);
-      r.number(s, n, "max_abs", c.feedforward.max_abs);
-      r.integer(s, n, "max_age_ticks", c.feedforward.max_age_ticks);
+      const char* n = "estimate";
+      const auto s = r.section(root, n,
+                               {"enabled", "use_feedforward", "use_com", "max_abs", "max_age_ticks", "blend_time",
+                                "max_relative_mass_change"});
+      r.boolean(s, n, "enabled", c.estimate.enabled);
+      r.boolean(s, n, "use_feedforward", c.estimate.use_feedforward);
+      r.boolean(s, n, "use_com", c.estimate.use_com);
+      r.number(s, n, "max_abs", c.estimate.max_abs);
+      r.integer(s, n, "max_age_ticks", c.estimate.max_age_ticks);
+      r.number(s, n, "blend_time", c.estimate.blend_time);
+      r.number(s, n, "max_relative_mass_change", c.estimate.max_relative_mass_change);
     }
     {
       const char* n = "disturbance";
@@ -375,8 +381,10 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
          (f.recovery_ticks >= 1 ? true : failWith(error, "fallback.recovery_ticks: must be >= 1")) &&
          (f.max_missed_ticks >= 0 ? true : failWith(error, "fallback.max_missed_ticks: must be >= 0")) &&
          positive(f.max_quaternion_norm_error, "fallback.max_quaternion_norm_error") &&
-         nonneg(c.feedforward.max_abs, "feedforward.max_abs") &&
-         (c.feedforward.max_age_ticks >= 0 ? true : failWith(error, "feedforward.max_age_ticks: must be >= 0")) &&
+         nonneg(c.estimate.max_abs, "estimate.max_abs") &&
+         (c.estimate.max_age_ticks >= 0 ? true : failWith(error, "estimate.max_age_ticks: must be >= 0")) &&
+         nonneg(c.estimate.blend_time, "estimate.blend_time") &&
+         positive(c.estimate.max_relative_mass_change, "estimate.max_relative_mass_change") &&
          positive(c.disturbance.time_constant, "disturbance.time_constant") &&
          nonneg(c.disturbance.max_abs, "disturbance.max_abs") &&
          (c.disturbance.max_plate_age_ticks >= 0 ? true

@@ -36,15 +36,17 @@ void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rat
   qp.H.topLeftCorner(nv, nv).diagonal() = dnu_weights;
   qp.g.head(nv) = -dnu_weights.cwiseProduct(dnu_desired);
   MomentumTask::wrenchMap(dyn, Af_);
+  // Newton-Euler about the controller's CoM c (the model's, or the estimate's): the gravity of h acts at the
+  // model's CoM, the correction's base rows [moment; force] (base coordinates, about the base origin) are an
+  // external wrench -tau_ff on the robot (with an estimate: the payload's weight). The contact wrenches must
+  // produce the desired rate against both (else the dynamics could absorb a CoM error into the correction).
   Vector6d target = rate_desired;
-  target.head<3>() -= dyn.mass * gravity_;
-  // The correction's base rows [moment; force] (base coordinates, about the base origin) are an external
-  // wrench -tau_ff on the robot: the contact wrenches must produce the desired rate against it too (else the
-  // dynamics could absorb a CoM error into it, and the momentum task would no longer see the real robot).
+  const Eigen::Vector3d weight = dyn.model_mass * gravity_;
+  target.head<3>() -= weight;
+  target.tail<3>() -= (dyn.model_com - dyn.com).cross(weight);
   const Eigen::Vector3d F = -(dyn.R * dyn.tau_ff.segment<3>(3));
-  const Eigen::Vector3d base_minus_com = -(dyn.R * dyn.dyn.com);
   target.head<3>() -= F;
-  target.tail<3>() -= -(dyn.R * dyn.tau_ff.head<3>()) + base_minus_com.cross(F);
+  target.tail<3>() -= -(dyn.R * dyn.tau_ff.head<3>()) + (dyn.base_position - dyn.com).cross(F);
   // H_ff = A_f^T W A_f + w_f I,  g_f = -A_f^T W target
   const Eigen::Matrix<double, 6, 12> WAf = w_mom.asDiagonal() * Af_;
   Hff_.noalias() = Af_.transpose() * WAf;

@@ -10,6 +10,20 @@ RobotDynamicsData::RobotDynamicsData(const Model& model)
       Jc{Matrix6Xd::Zero(6, model.nv), Matrix6Xd::Zero(6, model.nv)},
       J_scratch(Matrix6Xd::Zero(6, model.nv)) {}
 
+namespace {
+// d.dyn's centroidal fields (base coordinates, momentum about the base origin) -> world, about the CoM.
+void toWorld(const RobotDynamicsData& d, double& mass, Eigen::Vector3d& com, Eigen::Vector3d& com_velocity,
+             Vector6d& momentum) {
+  const Eigen::Vector3d P = d.dyn.momentum_origin.tail<3>();  // linear momentum, base coordinates
+  const Eigen::Vector3d L_origin = d.dyn.momentum_origin.head<3>();
+  mass = d.dyn.mass;
+  com = d.base_position + d.R * d.dyn.com;
+  com_velocity = d.R * P / mass;
+  momentum.head<3>() = d.R * P;
+  momentum.tail<3>() = d.R * (L_origin - d.dyn.com.cross(P));
+}
+}  // namespace
+
 void computeRobotDynamics(const Model& model, const std::array<SoleFrame, 2>& soles, RobotDynamicsData& d,
                           const State& state) {
   // h = M*0 + C nu + g: rnea with zero accelerations (the State's base/joint accelerations are ignored here).
@@ -36,14 +50,23 @@ void computeRobotDynamics(const Model& model, const std::array<SoleFrame, 2>& so
     d.foot_position[i] = state.base_position + R * (d.dyn.kin.p[b] + d.dyn.kin.R[b] * s.position);
     d.foot_rotation[i] = R * d.dyn.kin.R[b] * s.rotation;
   }
+  d.base_position = state.base_position;
   centroidal(model, d.dyn);
-  d.mass = d.dyn.mass;
-  d.com = state.base_position + R * d.dyn.com;
-  const Eigen::Vector3d P = d.dyn.momentum_origin.tail<3>();  // linear momentum, base coordinates
-  const Eigen::Vector3d L_origin = d.dyn.momentum_origin.head<3>();
-  d.com_velocity = R * P / d.mass;
-  d.momentum.head<3>() = R * P;
-  d.momentum.tail<3>() = R * (L_origin - d.dyn.com.cross(P));
+  toWorld(d, d.mass, d.com, d.com_velocity, d.momentum);
+  d.model_mass = d.mass;
+  d.model_com = d.com;
+}
+
+void centroidalWorld(const Model& model, const Eigen::VectorXd& phi, RobotDynamicsData& d, double& mass,
+                     Eigen::Vector3d& com, Eigen::Vector3d& com_velocity, Vector6d& momentum) {
+  const double mass0 = d.dyn.mass;
+  const Eigen::Vector3d com0 = d.dyn.com;
+  const Vector6d momentum0 = d.dyn.momentum_origin;
+  centroidal(model, phi, d.dyn);
+  toWorld(d, mass, com, com_velocity, momentum);
+  d.dyn.mass = mass0;
+  d.dyn.com = com0;
+  d.dyn.momentum_origin = momentum0;
 }
 
 }  // namespace exoid::controller

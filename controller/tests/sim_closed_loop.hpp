@@ -23,6 +23,7 @@ struct ScenarioRunMetrics {
   double model_com_max = 0.0;   ///< m
   double true_com_rmse = 0.0;   ///< m, MuJoCo's CoM (with undeclared payloads) vs the reference
   double true_com_max = 0.0;    ///< m
+  double true_com_rmse_xy = 0.0;  ///< m, the same, horizontal only
   double slip = 0.0;            ///< m, largest horizontal sole displacement since tick 0
   int fallbacks = 0;
   int qp_failures = 0;
@@ -41,10 +42,11 @@ inline void printMetrics(const char* label, const ScenarioRunMetrics& m) {
 
 /// Runs `cfg`'s protocol (plus 0.5 s) with move seed `seed` on the simulator loaded with `scenario`
 /// (its noise resolved against config/sensors.yaml). Stops at a fall. *error set if something failed to load.
-/// `observe(k, sim_model, sim_data, controller, status)` is called after every tick (tests' traces).
-template <class Observer>
+/// `observe(k, sim_model, sim_data, controller, status)` is called after every tick (tests' traces);
+/// `feed(k, sim_model, sim_data, controller)` before every tick (e.g. an online estimate, as over LCM).
+template <class Observer, class Feed>
 ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerConfig& cfg, const sim::Scenario& scenario,
-                                         uint64_t seed, std::string* error, Observer&& observe) {
+                                         uint64_t seed, std::string* error, Observer&& observe, Feed&& feed) {
   ScenarioRunMetrics m;
   sim::SensorConfig realistic, noise;
   sim::SimModel sm;
@@ -63,11 +65,12 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
   JointCommandSample cmd = sim::simZeroCommand(sm);
   ControllerStatus st;
   Eigen::Vector3d sole0[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-  double se_model = 0.0, se_true = 0.0;
+  double se_model = 0.0, se_true = 0.0, se_true_xy = 0.0;
   long n = 0;
   const long ticks = static_cast<long>((plannedRunDuration(cfg) + 0.5) / cfg.loop.period);
   for (long k = 0; k < ticks; ++k) {
     sim::simStep(sm, sd, cmd);
+    feed(k, sm, sd, ctrl);
     ctrl.tick(sd.state, cmd, st);
     // As over LCM: the plates of tick k reach the controller after its answer to the state of tick k.
     for (const ForcePlateSample& p : sd.plates) ctrl.setForcePlate(p);
@@ -83,6 +86,7 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
       const double em = (st.com - st.com_ref).norm(), et = (true_com - st.com_ref).norm();
       se_model += em * em;
       se_true += et * et;
+      se_true_xy += (true_com - st.com_ref).head<2>().squaredNorm();
       m.model_com_max = std::max(m.model_com_max, em);
       m.true_com_max = std::max(m.true_com_max, et);
       ++n;
@@ -96,12 +100,20 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
   if (n > 0) {
     m.model_com_rmse = std::sqrt(se_model / static_cast<double>(n));
     m.true_com_rmse = std::sqrt(se_true / static_cast<double>(n));
+    m.true_com_rmse_xy = std::sqrt(se_true_xy / static_cast<double>(n));
   }
   m.moves_done = st.moves_done;
   m.fallbacks = st.fallbacks;
   m.qp_failures = st.qp_failures;
   m.duration_s = static_cast<double>(n) * cfg.loop.period;
   return m;
+}
+
+template <class Observer>
+ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerConfig& cfg, const sim::Scenario& scenario,
+                                         uint64_t seed, std::string* error, Observer&& observe) {
+  return runScenarioClosedLoop(model, cfg, scenario, seed, error, observe,
+                               [](long, const sim::SimModel&, const sim::SimData&, BalanceController&) {});
 }
 
 inline ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerConfig& cfg,

@@ -46,6 +46,11 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_DOUBLE_EQ(c.contact.sole_half_width, 0.06);
   EXPECT_EQ(c.momentum.kp_com.size(), 3);
   EXPECT_GT(c.momentum.kp_com.minCoeff(), 0.0);
+  EXPECT_TRUE(c.estimate.enabled && c.estimate.use_feedforward && c.estimate.use_com);
+  EXPECT_DOUBLE_EQ(c.estimate.max_abs, 150.0);
+  EXPECT_EQ(c.estimate.max_age_ticks, 50);
+  EXPECT_DOUBLE_EQ(c.estimate.blend_time, 1.0);
+  EXPECT_DOUBLE_EQ(c.estimate.max_relative_mass_change, 0.5);
   EXPECT_TRUE(validateControllerConfig(c, &err)) << err;
 }
 
@@ -67,6 +72,15 @@ TEST(ControllerConfig, ErrorsNameTheField) {
   EXPECT_NE(err.find("trajectory.moves"), std::string::npos) << err;
   EXPECT_FALSE(parseControllerConfig(withLine(text, "joint_velocity_cutoff_hz", "joint_velocity_cutoff_hz: 900"), "cfg", c, &err));
   EXPECT_NE(err.find("Nyquist"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "blend_time", "blend_time: -1"), "cfg", c, &err));
+  EXPECT_NE(err.find("estimate.blend_time: must be >= 0"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "max_relative_mass_change", "max_relative_mass_change: 0"), "cfg",
+                                     c, &err));
+  EXPECT_NE(err.find("estimate.max_relative_mass_change: must be > 0"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "use_com", "use_centre: true"), "cfg", c, &err));
+  EXPECT_NE(err.find("estimate.use_centre: unknown key"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "use_feedforward", "use_feedforward: maybe"), "cfg", c, &err));
+  EXPECT_NE(err.find("estimate.use_feedforward"), std::string::npos) << err;
   EXPECT_FALSE(parseControllerConfig("loop: [1, 2", "cfg", c, &err));
   EXPECT_NE(err.find("YAML"), std::string::npos) << err;
   EXPECT_EQ(err.find('\n'), std::string::npos) << "one line";

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/model/inertial.hpp"
 #include "mujoco_exo.hpp"
 #include "support/netns.hpp"
 
@@ -156,6 +157,17 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
   RobotStateSample state;
   sim.prepare(state);
   exoid_lcm::robot_state_t msg;
+  // EXO_ESTIMATE at 100 Hz for 1 s (the model plus 1 kg on the base link), then one flagged not valid: the
+  // controller takes them from LCM (its summary line counts them) and withdraws on the refusal.
+  EstimatorOutputSample est;
+  est.valid = est.consistent = true;
+  est.params = model.phi;
+  est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) += paramsFromInertial(
+      1.0, Eigen::Vector3d(-0.1, 0.0, 0.3), Eigen::Matrix3d::Identity(), 0.005 * Eigen::Matrix3d::Identity());
+  est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
+  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  est.residual_rms = Eigen::VectorXd::Zero(model.nv);
+  exoid_lcm::estimator_output_t est_msg;
   bool exited = false;
   int exit_code = -1;
   int64_t k = 0;
@@ -165,6 +177,13 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
     sim.sample(state, k, testing::SensorNoise{});
     if (last_command_tick == k) applied = command;  // the answer to tick k - 1
     sim.apply(applied);
+    if ((k >= 300 && k <= 1300 && k % 10 == 0) || k == 1305) {
+      est.tick = k - 1;
+      est.utime = 1000 * est.tick;
+      est.valid = k != 1305;
+      toLcm(est, model.paramNames(), model.coordinateNames(), est_msg);
+      ASSERT_TRUE(lcm->publish(channels::kEstimate, est_msg));
+    }
     toLcm(state, model.joint_names, msg);
     // The first states may be published before the child subscribed: resend until it answers.
     auto sent = std::chrono::steady_clock::now();
@@ -195,6 +214,9 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
   EXPECT_NE(summary.find("exo_controller: done"), std::string::npos) << summary;
   EXPECT_NE(summary.find("moves 2/2"), std::string::npos) << summary;
   EXPECT_NE(summary.find("fallbacks 0"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("estimate: accepted 101, refused 1 (not valid 1), withdrawn 1 (stale 0, refused 1)"),
+            std::string::npos)
+      << summary;
 }
 
 }  // namespace

@@ -9,6 +9,9 @@
 #include "controller_test_util.hpp"
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/proxqp_solver.hpp"
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/inertial.hpp"
+#include "exoid/model/regressor.hpp"
 
 namespace exoid::controller {
 namespace {
@@ -206,24 +209,123 @@ TEST_F(FallbackTest, InfeasibleProblemFromTheConfigFallsBack) {
   EXPECT_EQ(st_.fallbacks, 50);
 }
 
-TEST_F(FallbackTest, FeedforwardIsAppliedReportedAndAgesOut) {
-  // Not a fallback, but the same standing fixture: the estimator's feedforward on an actuated joint enters
+EstimatorOutputSample modelEstimate(const Model& model, int64_t tick) {
+  EstimatorOutputSample e;
+  e.tick = tick;
+  e.valid = e.consistent = true;
+  e.params = model.phi;
+  e.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  return e;
+}
+
+TEST_F(FallbackTest, EstimateFeedforwardIsAppliedReportedAndAgesOut) {
+  // Not a fallback, but the same standing fixture: the estimate's feedforward on an actuated joint enters
   // the dynamics, so the commanded torque moves by exactly that amount; command.tau_ff reports it; a stale
-  // estimate (older than feedforward.max_age_ticks) is ignored.
+  // estimate (older than estimate.max_age_ticks) is withdrawn (no blending here: blend_time 0).
+  ControllerConfig cfg = cfg_;
+  cfg.estimate.blend_time = 0.0;
+  make(cfg);
   int64_t k = settle();
   tick(k++);
   const Eigen::VectorXd tau0 = cmd_.tau;
   const int knee = model_.jointIndex("left_knee");
-  Eigen::VectorXd ff = Eigen::VectorXd::Zero(model_.njoints);
-  ff[knee] = 2.5;
-  ASSERT_TRUE(ctrl_->setFeedforward(ff, k));
+  EstimatorOutputSample e = modelEstimate(model_, k);
+  e.tau_ff[model_.jointRow(knee)] = 2.5;
+  ASSERT_TRUE(ctrl_->setEstimate(e));
   tick(k++);
   EXPECT_NEAR(cmd_.tau_ff[knee], 2.5, 1e-12);
   EXPECT_NEAR(cmd_.tau[knee] - tau0[knee], 2.5, 0.05);  // the state barely changed in one tick
-  EXPECT_FALSE(ctrl_->setFeedforward(Eigen::VectorXd::Zero(3), k));  // wrong size: ignored
-  for (int i = 0; i < cfg_.feedforward.max_age_ticks + 1; ++i) tick(k++);
+  EXPECT_EQ(st_.estimate.weight, 1.0);
+  for (int i = 0; i < cfg.estimate.max_age_ticks + 1; ++i) tick(k++);
   EXPECT_EQ(cmd_.tau_ff.norm(), 0.0);
   EXPECT_NEAR(cmd_.tau[knee], tau0[knee], 0.05);
+  EXPECT_EQ(st_.estimate.withdrawn_stale, 1);
+  EXPECT_EQ(st_.estimate.withdrawn_refused, 0);
+  EXPECT_FALSE(st_.estimate.active);
+}
+
+TEST_F(FallbackTest, UnusableEstimatesAreRefusedByReasonAndWithdrawTheCurrentOne) {
+  int64_t k = settle();
+  const auto refused = [&](EstimateRejection r) { return st_.estimate.rejected[static_cast<size_t>(r)]; };
+  EstimatorOutputSample good = modelEstimate(model_, k);
+  ASSERT_TRUE(ctrl_->setEstimate(good));
+  tick(k++);
+  EXPECT_TRUE(st_.estimate.active);
+  EXPECT_GT(st_.estimate.weight, 0.0);
+  const double model_mass = st_.estimate.mass;
+
+  EstimatorOutputSample e = good;
+  e.params.resize(3);
+  EXPECT_FALSE(ctrl_->setEstimate(e));
+  e = good;
+  e.tau_ff[7] = std::nan("");
+  EXPECT_FALSE(ctrl_->setEstimate(e));
+  e = good;
+  e.valid = false;
+  EXPECT_FALSE(ctrl_->setEstimate(e));
+  e = good;
+  e.consistent = false;
+  EXPECT_FALSE(ctrl_->setEstimate(e));
+  // Flagged consistent but not: a negative principal moment on a thigh (checked here, model/inertial.hpp).
+  e = good;
+  const int thigh = model_.bodyParamIndex(model_.bodyIndex("right_thigh"));
+  e.params[thigh + 4] = -0.5;  // I_xx about the link origin
+  EXPECT_FALSE(ctrl_->setEstimate(e));
+  // Consistent body by body, but twice the robot's mass.
+  e = good;
+  for (int b = 0; b < model_.nbodies; ++b) e.params.segment<kParamsPerBody>(model_.bodyParamIndex(b)) *= 2.0;
+  EXPECT_FALSE(ctrl_->setEstimate(e));
+  tick(k++);
+  EXPECT_EQ(refused(EstimateRejection::WrongSize), 1);
+  EXPECT_EQ(refused(EstimateRejection::NonFinite), 1);
+  EXPECT_EQ(refused(EstimateRejection::NotValid), 1);
+  EXPECT_EQ(refused(EstimateRejection::Inconsistent), 2);
+  EXPECT_EQ(refused(EstimateRejection::Mass), 1);
+  EXPECT_EQ(st_.estimate.accepted, 1);
+  EXPECT_EQ(st_.estimate.withdrawn_refused, 1);  // one switch-off, however many refusals
+  EXPECT_FALSE(st_.estimate.active);
+  EXPECT_EQ(st_.estimate.mass, model_mass);  // the last accepted one's
+
+  ControllerConfig off = cfg_;
+  off.estimate.enabled = false;
+  make(off);
+  EXPECT_FALSE(ctrl_->setEstimate(good));
+}
+
+TEST_F(FallbackTest, EstimatedComBlendsInWithoutAKickAndIsTracked) {
+  // An estimate with 3 kg more on the base link, 10 cm to the side: the controller's CoM moves to the
+  // estimate's (centroidal with its parameters, independent of the controller) over blend_time, smoothly.
+  ControllerConfig cfg = cfg_;
+  cfg.estimate.blend_time = 0.3;
+  cfg.estimate.use_feedforward = false;  // the CoM alone
+  make(cfg);
+  int64_t k = settle();
+  EstimatorOutputSample e = modelEstimate(model_, k);
+  e.params.segment<kParamsPerBody>(model_.bodyParamIndex(0)) += paramsFromInertial(
+      3.0, Eigen::Vector3d(0.0, 0.1, 0.0), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
+  Eigen::Vector3d prev = st_.com;
+  double max_step = 0.0;
+  const int n = static_cast<int>(cfg.estimate.blend_time / cfg.loop.period);
+  for (int i = 0; i < n + 20; ++i) {
+    e.tick = k;
+    ASSERT_TRUE(ctrl_->setEstimate(e));
+    tick(k++);
+    max_step = std::max(max_step, (st_.com - prev).norm());
+    prev = st_.com;
+  }
+  EXPECT_EQ(st_.estimate.weight, 1.0);
+  DynamicsData dd(model_);
+  State s = ctrl_->observer().state();
+  forwardKinematics(model_, dd.kin, s);
+  centroidal(model_, e.params, dd);
+  const Eigen::Vector3d com_est = s.base_position + s.base_orientation.toRotationMatrix() * dd.com;
+  EXPECT_LT((st_.com - com_est).norm(), 1e-9);
+  // The estimate moves the CoM ~7 mm sideways; no tick jumps by more than 1.5 x the mean step of a smoothstep.
+  const double shift = 3.0 * 0.1 / (st_.estimate.mass);
+  EXPECT_GT(shift, 0.005);
+  EXPECT_LT(max_step, 1.5 * 1.5 * shift / n + 2e-5);
+  // The reference height moved with the estimate's height (horizontal reference unchanged).
+  EXPECT_NEAR(st_.com_ref.z() - st_.com.z(), 0.0, 2e-3);
 }
 
 TEST_F(FallbackTest, ImpossibleTrajectoryIsReportedAndTheStartIsHeld) {

@@ -18,6 +18,7 @@
 #include <new>
 
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/model/inertial.hpp"
 #include "exoid/controller/proxqp_solver.hpp"
 #include "mujoco_exo.hpp"
 #include "support/alloc_counter.hpp"
@@ -107,7 +108,16 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
   ctrl.prepare(cmd);
   ctrl.prepare(pending);
   ControllerStatus st;
-  Eigen::VectorXd ff = Eigen::VectorXd::Zero(model.njoints);
+  // The online estimate at 100 Hz (its CoM moves), a small generalized
+  // correction (the model plus 1 kg on the base link), a non-finite one now and then (refused: withdrawn, blended out) and a pause (stale).
+  EstimatorOutputSample est;
+  est.valid = est.consistent = true;
+  est.params = model.phi;
+  est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) +=
+      paramsFromInertial(1.0, Eigen::Vector3d(0.02, 0.05, 0.0), Eigen::Matrix3d::Identity(),
+                         0.001 * Eigen::Matrix3d::Identity());
+  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   // Force plates for the disturbance observer: the wrench the controller planned last tick, as a plate at the
   // world origin reads it (this loop's MuJoCo has no plates), stamped with the tick its command is applied at.
   std::array<ForcePlateSample, 2> plates;
@@ -130,10 +140,12 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
     if (k == gap_at) tick_id += cfg.fallback.max_missed_ticks + 3, state.tick = tick_id;  // stale gap
     failable->fail = k >= qp_fail_at && k < qp_fail_at + 3;
     sim.apply(pending);
-    ff.setConstant(0.01 * static_cast<double>(k % 7));
+    est.tau_ff.setConstant(0.01 * static_cast<double>(k % 7));
+    est.tau_ff[0] = k % 1500 == 700 ? nan : 0.0;
+    est.tick = tick_id;
     {
       NoAllocationScope scope;
-      ctrl.setFeedforward(ff, tick_id);
+      if (k % 10 == 0 && !(k % 3000 > 2000 && k % 3000 < 2200)) ctrl.setEstimate(est);
       for (int i = 0; i < 2; ++i) {
         const Vector6d& w = i == 0 ? st.wrench_right : st.wrench_left;
         const Eigen::Vector3d& p = ctrl.dynamics().foot_position[static_cast<size_t>(i)];
@@ -167,6 +179,11 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
   EXPECT_TRUE(saw_hold);
   EXPECT_TRUE(saw_damping);
   EXPECT_TRUE(saw_torque_after);
+  EXPECT_GT(st.estimate.accepted, 0);
+  EXPECT_GT(st.estimate.rejected[static_cast<size_t>(EstimateRejection::NonFinite)], 0);
+  EXPECT_GT(st.estimate.withdrawn_stale, 0);
+  EXPECT_GT(st.estimate.withdrawn_refused, 0);
+  EXPECT_EQ(st.estimate.weight, 1.0);
   EXPECT_GT(sim.baseHeight(), 1.0);  // and the robot is still standing
   EXPECT_EQ(ticks, total);
 }

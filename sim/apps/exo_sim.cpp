@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
                  "build/lib/libexoid_controller_plugin.so, docs/plugin.md) and call it after each\n"
                  "step: state of tick k in, command for tick k+1 out (the one-tick delay of a\n"
                  "controller process); the loop publishes its EXO_COMMAND and EXO_CONTROLLER_STATUS\n"
-                 "and feeds EXO_ESTIMATE's feedforward to it. A failed, non-finite, malformed or\n"
+                 "and hands it every EXO_ESTIMATE (set_estimate). A failed, non-finite, malformed or\n"
                  "over-budget answer is replaced by a counted fallback: hold the last good torque,\n"
                  "then damping")
       ->type_name("LIB");
@@ -156,7 +156,7 @@ int main(int argc, char** argv) {
       "                                               names, duplicate and out-of-order ticks are rejected and\n"
       "                                               counted; torques are clamped to the actuator ranges\n"
       "                                               (not with --controller-plugin)\n"
-      "             EXO_ESTIMATE     estimator_output_t with --controller-plugin: its tau_ff goes to the plugin\n"
+      "             EXO_ESTIMATE     estimator_output_t with --controller-plugin: the whole estimate goes to the plugin\n"
       "\n"
       "output: a progress line per simulated second (unless --quiet), then one summary line: ticks, realtime\n"
       "factor, accepted/rejected commands by reason, fallback ticks (held, zero, timeouts), clamped commands,\n"

@@ -125,12 +125,17 @@ bool toJointValues(const Ctx& c, const YAML::Node& n, const std::string& key, bo
 }
 
 bool parsePayload(const Ctx& c, const YAML::Node& n, const std::string& key, Payload* p) {
-  if (!checkKeys(c, n, key, {"link", "mass", "com", "inertia"})) return false;
+  if (!checkKeys(c, n, key, {"link", "mass", "com", "inertia", "attach_at_s"})) return false;
   YAML::Node v;
   if (!getRequired(c, n, key, "link", &v) || !toString(c, v, join(key, "link"), &p->link)) return false;
   if (!getRequired(c, n, key, "mass", &v) || !toDouble(c, v, join(key, "mass"), &p->mass)) return false;
   if (p->mass <= 0.0) return c.fail(join(key, "mass"), "must be > 0");
   if (n["com"] && !toVector<3>(c, n["com"], join(key, "com"), &p->com, false)) return false;
+  if (n["attach_at_s"]) {
+    if (!toDouble(c, n["attach_at_s"], join(key, "attach_at_s"), &p->attach_at_s)) return false;
+    if (!(p->attach_at_s >= 0.0 && p->attach_at_s <= 1e6))
+      return c.fail(join(key, "attach_at_s"), "must be in [0, 1e6] s");
+  }
   if (n["inertia"]) {
     if (!toVector<6>(c, n["inertia"], join(key, "inertia"), &p->inertia, false)) return false;
     Eigen::Matrix3d I;

@@ -64,13 +64,15 @@ std::unique_ptr<ControllerPlugin> ControllerPlugin::load(const PluginOptions& o,
     return fail("ABI version " + std::to_string(a->abi_version) + ", this exo_sim needs " +
                 std::to_string(EXOID_CONTROLLER_PLUGIN_ABI_VERSION) + " (rebuild the plugin against controller_plugin.h)");
   if (a->state_size != sizeof(exoid_plugin_state) || a->command_size != sizeof(exoid_plugin_command) ||
-      a->status_size != sizeof(exoid_plugin_status) || a->force_plate_size != sizeof(exoid_plugin_force_plate))
+      a->status_size != sizeof(exoid_plugin_status) || a->force_plate_size != sizeof(exoid_plugin_force_plate) ||
+      a->estimate_size != sizeof(exoid_plugin_estimate))
     return fail("struct sizes (state " + std::to_string(a->state_size) + ", command " +
                 std::to_string(a->command_size) + ", status " + std::to_string(a->status_size) + ", force plate " +
-                std::to_string(a->force_plate_size) + ") differ from this exo_sim's (" +
-                std::to_string(sizeof(exoid_plugin_state)) + ", " + std::to_string(sizeof(exoid_plugin_command)) +
-                ", " + std::to_string(sizeof(exoid_plugin_status)) + ", " +
-                std::to_string(sizeof(exoid_plugin_force_plate)) + "): built against another controller_plugin.h");
+                std::to_string(a->force_plate_size) + ", estimate " + std::to_string(a->estimate_size) +
+                ") differ from this exo_sim's (" + std::to_string(sizeof(exoid_plugin_state)) + ", " +
+                std::to_string(sizeof(exoid_plugin_command)) + ", " + std::to_string(sizeof(exoid_plugin_status)) +
+                ", " + std::to_string(sizeof(exoid_plugin_force_plate)) + ", " +
+                std::to_string(sizeof(exoid_plugin_estimate)) + "): built against another controller_plugin.h");
   if (!a->create || !a->reset || !a->tick || !a->status || !a->destroy)
     return fail("the function table lacks create, reset, tick, status or destroy");
 
@@ -238,10 +240,12 @@ bool ControllerPlugin::step(const RobotStateSample& s) {
   return true;
 }
 
-bool ControllerPlugin::setFeedforward(const double* tau_ff, int num_joints, int64_t tick) {
-  const bool ok = api_->set_feedforward && num_joints == nj_ &&
-                  api_->set_feedforward(self_, tau_ff, num_joints, tick) == EXOID_PLUGIN_OK;
-  ++(ok ? stats_.feedforward_accepted : stats_.feedforward_rejected);
+bool ControllerPlugin::setEstimate(const EstimatorOutputSample& estimate) {
+  if (!api_->set_estimate) return false;  // the plugin does not use it: nothing to count
+  exoid_plugin_estimate e{};
+  plugin_abi::toPlugin(estimate, e);
+  const bool ok = api_->set_estimate(self_, &e) == EXOID_PLUGIN_OK;
+  ++(ok ? stats_.estimates_accepted : stats_.estimates_rejected);
   return ok;
 }
 
@@ -260,11 +264,11 @@ std::string ControllerPlugin::formatStats() const {
   std::snprintf(buf, sizeof buf,
                 "exo_sim: plugin '%s': calls %" PRId64 ", good %" PRId64 ", failed %" PRId64 ", non_finite %" PRId64
                 ", bad_output %" PRId64 ", overruns %" PRId64 " (budget %.0f us), fallback ticks %" PRId64
-                " (held %" PRId64 ", damping %" PRId64 "), bad status %" PRId64 ", feedforward accepted %" PRId64
+                " (held %" PRId64 ", damping %" PRId64 "), bad status %" PRId64 ", estimates accepted %" PRId64
                 " rejected %" PRId64 ", plates accepted %" PRId64 " rejected %" PRId64 ", call mean %.1f us max %.1f us",
                 name(), s.calls, s.good, s.failed, s.non_finite, s.bad_output, s.overruns, opt_.budget_us,
-                s.fallbackTicks(), s.hold_ticks, s.damping_ticks, s.bad_status, s.feedforward_accepted,
-                s.feedforward_rejected, s.plates_accepted, s.plates_rejected, s.calls > 0 ? s.call_us_sum / static_cast<double>(s.calls) : 0.0,
+                s.fallbackTicks(), s.hold_ticks, s.damping_ticks, s.bad_status, s.estimates_accepted,
+                s.estimates_rejected, s.plates_accepted, s.plates_rejected, s.calls > 0 ? s.call_us_sum / static_cast<double>(s.calls) : 0.0,
                 s.call_us_max);
   return buf;
 }

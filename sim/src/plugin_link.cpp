@@ -22,11 +22,8 @@ PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vec
     estimate_.tau_ff = Eigen::VectorXd::Zero(model.nv);
     subscription_ = ep_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
       if (gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
-                             coord_names_) &&
-          estimate_.valid) {
-        const int nj = static_cast<int>(joint_names_.size());
-        plugin_.setFeedforward(estimate_.tau_ff.data() + (estimate_.tau_ff.size() - nj), nj, estimate_.tick);
-      }
+                             coord_names_))
+        plugin_.setEstimate(estimate_);  // every decoded estimate, as exo_controller: the plugin judges it
     });
   }
 }

@@ -2,7 +2,7 @@
 // The LCM side of the plugin stage inside runSim (private to exoid_sim_runner): after each simStep it runs
 // the plugin (state, then force plates), publishes its command (EXO_COMMAND) and status (EXO_CONTROLLER_STATUS) on the controller's
 // ticks, and hands the command to the arbiter; EXO_ESTIMATE (through a MessageGate, names checked against
-// the plugin's URDF) feeds the plugin's feedforward. Allocation-free per tick once constructed.
+// the plugin's URDF) goes to the plugin's set_estimate. Allocation-free per tick once constructed.
 #include <string>
 #include <vector>
 

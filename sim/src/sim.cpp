@@ -237,7 +237,10 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
     if (b <= 0 || m->body_weldid[b] == 0)
       return fail(err, src + ": " + key + ".link: unknown robot link '" + p.link + "'");
     if (!(p.mass > 0.0)) return fail(err, src + ": " + key + ".mass: must be > 0");
-    addPayload(m, b, p);
+    if (p.attach_at_s > 0.0)
+      sm.timed_payloads.push_back({b, static_cast<int64_t>(std::llround(p.attach_at_s / m->opt.timestep)), p});
+    else
+      addPayload(m, b, p);
   }
   if (!e.torque_sensor.empty()) {
     // Offsets and gains share the "all first, then named joints" rule.
@@ -279,6 +282,14 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
   mjData* d = mj_makeData(m);
   if (!d) return fail(err, f + ": MuJoCo cannot allocate mjData");
   mj_setConst(m, d);
+  if (!sm.timed_payloads.empty()) {
+    const auto save = [](const mjtNum* a, int n) { return std::vector<double>(a, a + n); };
+    sm.body_mass0 = save(m->body_mass, m->nbody);
+    sm.body_ipos0 = save(m->body_ipos, 3 * m->nbody);
+    sm.body_iquat0 = save(m->body_iquat, 4 * m->nbody);
+    sm.body_inertia0 = save(m->body_inertia, 3 * m->nbody);
+    sm.body_subtreemass0 = save(m->body_subtreemass, m->nbody);
+  }
   std::copy(sm.qpos_init.begin(), sm.qpos_init.end(), d->qpos);
   const int flags = m->opt.disableflags;
   m->opt.disableflags |= mjDSBL_CONTACT;
@@ -313,6 +324,14 @@ bool simMakeData(const SimModel& sm, SimData& sd, std::string* err) {
 }
 
 void simReset(const SimModel& sm, SimData& sd) {
+  if (!sm.timed_payloads.empty()) {  // back to the model before the timed payloads
+    mjModel* mm = sm.m;
+    std::copy(sm.body_mass0.begin(), sm.body_mass0.end(), mm->body_mass);
+    std::copy(sm.body_ipos0.begin(), sm.body_ipos0.end(), mm->body_ipos);
+    std::copy(sm.body_iquat0.begin(), sm.body_iquat0.end(), mm->body_iquat);
+    std::copy(sm.body_inertia0.begin(), sm.body_inertia0.end(), mm->body_inertia);
+    std::copy(sm.body_subtreemass0.begin(), sm.body_subtreemass0.end(), mm->body_subtreemass);
+  }
   const mjModel* m = sm.m;
   mjData* d = sd.d;
   mj_resetData(m, d);
@@ -499,6 +518,17 @@ void stagePlates(const SimModel& sm, SimData& sd) {
 }
 
 bool simStep(const SimModel& sm, SimData& sd, const JointCommandSample& command) {
+  for (const SimModel::TimedPayload& tp : sm.timed_payloads) {
+    if (tp.tick != sd.tick) continue;
+    // Attached at the start of this tick: its state, truth CoM (mj_comPos divides by the subtree masses, a
+    // derived constant updated here along the chain to the world) and plates include it. The constraint
+    // solver's invweight0 (a regularisation scale) keeps its value. Fixed-size Eigen only: no allocation.
+    mjModel* mm = sm.m;
+    addPayload(mm, tp.body, tp.payload);
+    for (int b = tp.body; b > 0; b = mm->body_parentid[b]) mm->body_subtreemass[b] += tp.payload.mass;
+    mm->body_subtreemass[0] += tp.payload.mass;
+    ++sd.stats.payloads_attached;
+  }
   const mjModel* m = sm.m;
   mjData* d = sd.d;
   mj_step1(m, d);

@@ -207,6 +207,8 @@ TEST(SimConfig, BadScenariosNameTheKey) {
       {"effects:\n", "effects:\n  armature: {all: 0.02}\n", "effects.armature: duplicate key (line 10; first on line 7)"},
       {"armature: {all: 0.01}", "armatures: {all: 0.01}", "effects.armatures: unknown key"},
       {"mass: 3.0", "mass: -3.0", "effects.payload.mass: must be > 0"},
+      {"mass: 3.0", "mass: 3.0, attach_at_s: -1", "effects.payload.attach_at_s: must be in [0, 1e6] s"},
+      {"mass: 3.0", "mass: 3.0, attach_at_s: soon", "effects.payload.attach_at_s: expected a finite number, got 'soon'"},
       {"mass: 3.0, ", "", "effects.payload.mass: missing"},
       {"com: [0.1, 0.0, 0.2]", "com: [0.1, 0.0]", "effects.payload.com: expected a sequence of 3 numbers"},
       {"inertia: [0.03, 0.02, 0.02, 0, 0, 0]", "inertia: [0.03, 0.01, 0.01, 0, 0, 0]",

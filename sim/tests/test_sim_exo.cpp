@@ -240,6 +240,86 @@ TEST_F(SimExo, TruthCoMIncludesUndeclaredPayloads) {
   EXPECT_GT((sd.truth.com - c_model).norm(), 5e-3);  // the payload moved it
 }
 
+// A payload attached mid-run (effects.payload attach_at_s): before its tick the run is bit-identical to one
+// without it; from its tick on the truth CoM is the URDF model's combined with the payload (computed here
+// from the kinematics, not from MuJoCo's subtree CoM), the robot's mass grew by the payload's, the plates
+// carry the new weight once the robot stands still again, and simReset takes it off.
+TEST_F(SimExo, PayloadAttachedMidRunIsAbsentBeforeAndComposedAfter) {
+  Payload p;
+  p.link = "body";
+  p.mass = 3.0;
+  p.com = Eigen::Vector3d(-0.12, 0.0, 0.35);
+  p.inertia << 0.045, 0.025, 0.025, 0.0, 0.0, 0.0;
+  p.attach_at_s = 0.5;
+  const int attach = 500, ticks = 2500;
+  // Reference: the same run without the payload.
+  load(makeScenario(NoiseMode::Off));
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(sm.nj);
+  std::vector<Eigen::Vector3d> com_ref;
+  std::vector<double> fz_ref;
+  std::vector<Eigen::VectorXd> q_ref;
+  JointCommandSample cmd = simZeroCommand(sm);
+  for (int k = 0; k < attach + 1; ++k) {
+    cmd.tick = k;
+    pd(sm, sd, zero, kStandGains, cmd);
+    simStep(sm, sd, cmd);
+    com_ref.push_back(sd.truth.com);
+    q_ref.push_back(sd.truth.q);
+    fz_ref.push_back(sd.plates[0].force.z() + sd.plates[1].force.z());
+  }
+  const double mass0 = sm.m->body_subtreemass[sm.base_body];
+
+  Scenario sc = makeScenario(NoiseMode::Off);
+  sc.effects.payloads = {p};
+  load(sc);
+  ASSERT_EQ(sm.timed_payloads.size(), 1u);
+  EXPECT_EQ(sm.timed_payloads[0].tick, attach);
+  const int b = model.bodyIndex("body");
+  ASSERT_GE(b, 0);
+  double worst = 0.0;
+  for (int round = 0; round < 2; ++round) {  // the second round after simReset: the payload comes off first
+    simReset(sm, sd);
+    EXPECT_EQ(sm.m->body_subtreemass[sm.base_body], mass0);
+    cmd = simZeroCommand(sm);
+    for (int k = 0; k < ticks; ++k) {
+      cmd.tick = k;
+      pd(sm, sd, zero, kStandGains, cmd);
+      simStep(sm, sd, cmd);
+      if (k < attach) {
+        ASSERT_EQ(sd.truth.com, com_ref[static_cast<size_t>(k)]) << "tick " << k;
+        ASSERT_EQ(sd.truth.q, q_ref[static_cast<size_t>(k)]) << "tick " << k;
+        ASSERT_EQ(sd.plates[0].force.z() + sd.plates[1].force.z(), fz_ref[static_cast<size_t>(k)]) << "tick " << k;
+        continue;
+      }
+      if (k == attach) {
+        EXPECT_EQ(sd.stats.payloads_attached, 1);
+        EXPECT_NEAR(sm.m->body_subtreemass[sm.base_body], mass0 + p.mass, 1e-12);
+        EXPECT_EQ(sd.truth.q, q_ref[static_cast<size_t>(k)]);  // the positions of its tick are not yet affected
+      }
+      if (k == attach || k == ticks - 1) {
+        State s = State::zero(model);
+        s.base_position = sd.truth.base_position;
+        s.base_orientation = sd.truth.base_orientation;
+        s.q = sd.truth.q;
+        DynamicsData dyn(model);
+        forwardKinematics(model, dyn.kin, s);
+        centroidal(model, dyn);
+        const Eigen::Matrix3d R = s.base_orientation.toRotationMatrix();
+        const Eigen::Vector3d c_model = s.base_position + R * dyn.com;
+        const Eigen::Vector3d c_payload = s.base_position + R * (dyn.kin.p[b] + dyn.kin.R[b] * p.com);
+        const Eigen::Vector3d expected = (dyn.mass * c_model + p.mass * c_payload) / (dyn.mass + p.mass);
+        EXPECT_LE((sd.truth.com - expected).norm(), 1e-9) << "tick " << k;
+        EXPECT_GT((sd.truth.com - c_model).norm(), 0.02);  // 3 kg 0.37 m from the base: ~ 2.6 cm
+      }
+      if (k >= ticks - 500) {  // standing still again: the plates carry the new weight
+        const double W = (kRobotMass + p.mass) * kG;
+        worst = std::max(worst, std::abs(sd.plates[0].force.z() + sd.plates[1].force.z() + W) / W);
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-4);
+}
+
 // drive_torque_loop: sensor turns the torque-sensor errors into actuation errors: the drive applies
 // (command - offset) / gain, which its sensor reads as the command; ideal applies the command.
 TEST_F(SimExo, DriveTorqueLoopOnTheSensorAppliesTheSensorsError) {

@@ -189,7 +189,7 @@ int cmdExperiment(int argc, char** argv) {
   common::configureCli(app);
   std::string scenario_path, out_dir, controller_config = config + "/controller.yaml", sensors = config + "/sensors.yaml",
       model_path = config + "/exo.urdf", mjcf = config + "/exo.xml", inject_text, controller_mode = "plugin",
-      plugin_lib = pluginPath();
+      plugin_lib = pluginPath(), controller_model;
   int64_t seed = 1, moves = 0, max_missing = 10;
   double watchdog_factor = 3.0, watchdog_margin = 60.0;
   bool realtime = false, no_pin = false;
@@ -198,7 +198,12 @@ int cmdExperiment(int argc, char** argv) {
   app.add_option("--out", out_dir, "output directory (created; must be a directory we can write)")->required()->type_name("DIR");
   app.add_option("--controller-config", controller_config, "controller configuration")->type_name("FILE");
   app.add_option("--sensors", sensors, "sensor noise configuration")->type_name("FILE");
-  app.add_option("--model", model_path, "controller's model")->type_name("URDF");
+  app.add_option("--model", model_path,
+                 "the robot's URDF: the summary's model (model CoM, EoM residual), and the\n"
+                 "controller's unless --controller-model")->type_name("URDF");
+  app.add_option("--controller-model", controller_model,
+                 "the URDF the controller runs on (both shapes; default --model), e.g. a wrong\n"
+                 "prior from exoid model perturb; same joints as --model")->type_name("URDF");
   app.add_option("--mjcf", mjcf, "simulated robot")->type_name("FILE");
   // exo_controller's own limits (controller/run_options.hpp): exoid refuses what the controller would, before
   // anything starts (a refused controller left the sim running open loop for minutes).
@@ -244,7 +249,9 @@ int cmdExperiment(int argc, char** argv) {
                                                               {"controller-config", &controller_config},
                                                               {"sensors", &sensors},
                                                               {"model", &model_path},
+                                                              {"controller-model", &controller_model},
                                                               {"mjcf", &mjcf}};
+  if (controller_model.empty()) controller_model = model_path;
   for (const auto& [name, file] : files)
     if (std::error_code ec; !std::filesystem::is_regular_file(*file, ec))  // the throwing overload aborted on odd paths
       return fail("--" + std::string(name) + ": no such file '" + *file + "'" + (ec ? " (" + ec.message() + ")" : ""));
@@ -265,9 +272,14 @@ int cmdExperiment(int argc, char** argv) {
   const bool lockstep = !realtime;
 
   Model model;
-  if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail(err);
+  Model ctrl_model;
+  if (!buildModelFromUrdfFile(model_path, true, model, &err) ||
+      !buildModelFromUrdfFile(controller_model, true, ctrl_model, &err))
+    return fail(err);
+  if (ctrl_model.joint_names != model.joint_names || ctrl_model.body_names != model.body_names)
+    return fail("--controller-model " + controller_model + ": other links or joints than --model " + model_path);
   {  // What exo_controller checks at start-up (configuration against the model, move sequence), here.
-    controller::BalanceController probe(model, cc, static_cast<uint64_t>(seed));
+    controller::BalanceController probe(ctrl_model, cc, static_cast<uint64_t>(seed));
     if (!probe.ok()) return fail(controller_config + ": " + probe.error());
   }
   {  // Validate the sim's inputs here too, before any process starts, so that errors name the file and key.
@@ -311,7 +323,7 @@ int cmdExperiment(int argc, char** argv) {
   logger.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   if (!use_plugin) {
-    ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", model_path, "--config", controller_config,
+    ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", controller_model, "--config", controller_config,
                              "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
                             (out / "controller.log").string(), &err, loop_cpu);
     if (ctrl.pid < 0) return tools::stop(logger.pid, SIGINT, 2000), fail(err);
@@ -331,7 +343,7 @@ int cmdExperiment(int argc, char** argv) {
                                        "--lcm-url", url};
   if (!lockstep) sim_args.insert(sim_args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
   if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
-    sim_args.insert(sim_args.end(), {"--controller-plugin", plugin_lib, "--controller-model", model_path,
+    sim_args.insert(sim_args.end(), {"--controller-plugin", plugin_lib, "--controller-model", controller_model,
                                      "--controller-config", controller_config, "--controller-seed", std::to_string(seed),
                                      "--controller-moves", std::to_string(moves),
                                      "--no-estimate"});  // no estimator runs: the loop need not receive at all

@@ -1,16 +1,72 @@
 #include <cstdio>
 #include <cstring>
+#include <limits>
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/regressor.hpp"
+#include "exoid/model/inertial.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/tools/perturb_inertials.hpp"
+#include "exoid/tools/urdf_inertials.hpp"
 
 namespace exoid::cli {
 
+namespace {
+
+// exoid model perturb: a +-r prior URDF (tools/perturb_inertials.hpp).
+int cmdModelPerturb(int argc, char** argv) {
+  CLI::App app{
+      "Writes a copy of a URDF with every link's inertial parameters perturbed at random, physically consistent:\n"
+      "mass, each centre-of-mass coordinate (link frame) and each principal moment of inertia about the CoM\n"
+      "(nominal principal axes) multiplied by an independent factor 1 + u, u uniform in [-R, R], the moments\n"
+      "redrawn until they satisfy the triangle inequality. Deterministic for a seed. For running the controller\n"
+      "(exoid experiment --controller-model) and the estimator from a wrong prior (issue 8's +-25 % prior).",
+      "exoid model perturb"};
+  common::configureCli(app);
+  std::string path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", out;
+  double relative = 0.25;
+  int64_t seed = 1;
+  bool floating_base = true;
+  app.add_option("--model", path, "robot description to perturb (default config/exo.urdf)")->type_name("URDF");
+  app.add_option("--relative", relative, "largest relative change R of each quantity (default 0.25)")
+      ->transform(common::strictNumber(0.0, 0.9))->type_name("R");
+  app.add_option("--seed", seed, "random seed (default 1)")
+      ->transform(common::strictInteger(0, std::numeric_limits<int64_t>::max()))->type_name("N");
+  app.add_option("--out", out, "the perturbed URDF to write")->required()->type_name("URDF");
+  app.add_flag("--fixed-base{false}", floating_base,
+               "the root link is fixed to the world (default: a floating base, as the exoskeleton)");
+  app.footer("Prints one line per link: nominal and perturbed mass. exit codes: 0 success, 2 bad input\n"
+             "(unreadable or malformed URDF, bad option, unwritable output).");
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
+  std::string err;
+  Model model;
+  Eigen::VectorXd phi;
+  if (!buildModelFromUrdfFile(path, floating_base, model, &err) ||
+      !tools::perturbInertials(model, relative, static_cast<uint64_t>(seed), phi, &err) ||
+      !tools::writeUrdfWithInertials(path, model, phi, out, &err)) {
+    std::fprintf(stderr, "exoid model perturb: error: %s\n", err.c_str());
+    return 2;
+  }
+  double m0 = 0.0, m1 = 0.0;
+  for (int b = 0; b < model.nbodies; ++b) {
+    const double a = model.phi[model.bodyParamIndex(b)], p = phi[model.bodyParamIndex(b)];
+    m0 += a;
+    m1 += p;
+    std::printf("%-22s mass %8.4f -> %8.4f kg (%+5.1f %%)\n", model.body_names[static_cast<size_t>(b)].c_str(), a, p,
+                a > 0.0 ? 100.0 * (p / a - 1.0) : 0.0);
+  }
+  std::printf("total mass %.4f -> %.4f kg; wrote %s (seed %lld, relative %.3f)\n", m0, m1, out.c_str(),
+              static_cast<long long>(seed), relative);
+  return 0;
+}
+
+}  // namespace
+
 int cmdModel(int argc, char** argv) {
+  if (argc >= 3 && std::strcmp(argv[2], "perturb") == 0) return cmdModelPerturb(argc - 1, argv + 1);
   CLI::App app{
       "Prints the model exoid builds from a URDF: every moving link (body) in tree order with its parent, joint,\n"
       "joint axis, mass and centre of mass; the total mass; the centre of mass in the standing pose (all joints\n"
@@ -26,7 +82,8 @@ int cmdModel(int argc, char** argv) {
                "the root link is a floating base (6-dof free joint); default: fixed to the world");
   app.add_option("--gravity", g, "gravity magnitude in m/s^2 along -z of the world")
       ->transform(common::strictNumber(0.0, 1000.0))->type_name("G");
-  app.footer("exit codes: 0 success, 2 bad input (unreadable or malformed URDF, bad option).");
+  app.footer("exoid model perturb --help: write a randomly perturbed (+-R, consistent) copy of a URDF.\n"
+             "exit codes: 0 success, 2 bad input (unreadable or malformed URDF, bad option).");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;
   Model model;

@@ -121,10 +121,11 @@ static const exoid_controller_plugin_api kApi = {
     pd_reset,
     pd_tick,
     pd_status,
-    NULL, /* no feedforward */
+    NULL, /* no online estimate */
     pd_destroy,
     sizeof(exoid_plugin_force_plate),
     NULL, /* no force plates */
+    sizeof(exoid_plugin_estimate),
 };
 
 __attribute__((visibility("default"))) const exoid_controller_plugin_api* exoid_controller_plugin(void) {

@@ -27,7 +27,7 @@ struct BalancePlugin {
   exoid::RobotStateSample state;       // [nj] sized at create
   exoid::JointCommandSample command;   // [nj]
   ControllerStatus status;
-  Eigen::VectorXd feedforward;         // [nj]
+  exoid::EstimatorOutputSample estimate;  // params [nparams], tau_ff [nv], sized at create
   exoid::ForcePlateSample plate;
   double finished_after_s = 0.0;       // trajectory time at which the task is over (moves + final hold)
 };
@@ -91,7 +91,8 @@ void* create(const exoid_plugin_config* c, char* error, size_t error_size) {
     p->state.q = Eigen::VectorXd::Zero(nj);
     p->state.tau = Eigen::VectorXd::Zero(nj);
     p->state.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(nj, false);
-    p->feedforward = Eigen::VectorXd::Zero(nj);
+    p->estimate.params = Eigen::VectorXd::Zero(p->model.nparams());
+    p->estimate.tau_ff = Eigen::VectorXd::Zero(p->model.nv);
     if (!build(*p, &err)) return writeError(error, error_size, config_path + ": " + err), nullptr;
     return p.release();
   } catch (const std::exception& e) {
@@ -178,11 +179,11 @@ int status(const void* self, exoid_plugin_status* out) noexcept {
   return EXOID_PLUGIN_OK;
 }
 
-int setFeedforward(void* self, const double* tau_ff, int32_t n, int64_t tick) noexcept {
+// exo_controller's EXO_ESTIMATE handler: every estimate to BalanceController::setEstimate, which judges it.
+int setEstimate(void* self, const exoid_plugin_estimate* e) noexcept {
   auto& p = *static_cast<BalancePlugin*>(self);
-  if (!tau_ff || n != p.model.njoints) return EXOID_PLUGIN_ERROR;
-  for (int j = 0; j < n; ++j) p.feedforward[j] = tau_ff[j];
-  return p.ctrl->setFeedforward(p.feedforward, tick) ? EXOID_PLUGIN_OK : EXOID_PLUGIN_ERROR;
+  if (!e || !exoid::plugin_abi::fromPlugin(*e, p.estimate)) return EXOID_PLUGIN_ERROR;
+  return p.ctrl->setEstimate(p.estimate) ? EXOID_PLUGIN_OK : EXOID_PLUGIN_ERROR;
 }
 
 // exo_controller's EXO_PLATE_RIGHT/LEFT handlers: subscribed only when the observer uses the plates, each sample
@@ -210,10 +211,11 @@ const exoid_controller_plugin_api kApi = {
     reset,
     tick,
     status,
-    setFeedforward,
+    setEstimate,
     destroy,
     sizeof(exoid_plugin_force_plate),
     setForcePlates,
+    sizeof(exoid_plugin_estimate),
 };
 
 }  // namespace

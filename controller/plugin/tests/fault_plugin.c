@@ -100,7 +100,7 @@ static void f_destroy(void* self) { free(self); }
 static const exoid_controller_plugin_api kApi __attribute__((used)) = {
     EXOID_FAULT_ABI_VERSION, EXOID_FAULT_STATE_SIZE, sizeof(exoid_plugin_command), sizeof(exoid_plugin_status),
     "fault injection", f_create, f_reset, f_tick, f_status, NULL, f_destroy, sizeof(exoid_plugin_force_plate),
-    f_set_force_plates,
+    f_set_force_plates, sizeof(exoid_plugin_estimate),
 };
 
 #ifndef EXOID_FAULT_NO_ENTRY

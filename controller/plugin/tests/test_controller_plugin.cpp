@@ -19,6 +19,7 @@
 #include <string>
 
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/model/inertial.hpp"
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
@@ -89,7 +90,7 @@ TEST(PluginLoad, ErrorsNameTheLibraryAndTheProblem) {
   sim::PluginOptions wrong = faultOptions("ok 0 0");
   wrong.path = pluginLib("exoid_fault_plugin_abi1");
   EXPECT_EQ(load(wrong, exo, &err), nullptr);
-  EXPECT_NE(err.find("ABI version 1, this exo_sim needs 2"), std::string::npos) << err;
+  EXPECT_NE(err.find("ABI version 1, this exo_sim needs 3"), std::string::npos) << err;
   wrong.path = pluginLib("exoid_fault_plugin_size");
   EXPECT_EQ(load(wrong, exo, &err), nullptr);
   EXPECT_NE(err.find("struct sizes (state " + std::to_string(sizeof(exoid_plugin_state) + 8)), std::string::npos) << err;
@@ -146,11 +147,33 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   controller::ControllerStatus blind_status;
   exoid_lcm::force_plate_t plate_msg;
   ForcePlateSample plate;
+  // An online estimate at 100 Hz from tick 300 (the model plus 2 kg on the base link, a small correction):
+  // the plugin through set_estimate, the reference as exo_controller gets it (over LCM, every one decoded).
+  EstimatorOutputSample est, est_rx;
+  est.valid = est.consistent = true;
+  est.params = model.phi;
+  est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) += paramsFromInertial(
+      2.0, Eigen::Vector3d(-0.1, 0.03, 0.3), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
+  est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
+  est.tau_ff = Eigen::VectorXd::LinSpaced(model.nv, -0.3, 0.4);
+  est.residual_rms = Eigen::VectorXd::Zero(model.nv);
+  exoid_lcm::estimator_output_t est_msg;
+  const std::vector<std::string> param_names = model.paramNames(), coord_names = model.coordinateNames();
 
   long mismatches = 0, allocations = 0, torque_ticks = 0, blind_differ = 0;
   const int ticks = 2500;  // start-up latch (200), initial hold, into the first move
   closedLoop(exo, *plugin, ticks, [&](int k, const RobotStateSample& s) {
+    const bool send = k >= 300 && k % 10 == 0;
+    if (send) {
+      est.tick = k - 1;
+      est.utime = 1000 * est.tick;
+      toLcm(est, param_names, coord_names, est_msg);
+      ASSERT_TRUE(fromLcm(est_msg, param_names, kAnyNumBase, coord_names, est_rx, &err)) << err;
+      ASSERT_TRUE(ref.setEstimate(est_rx));
+      ASSERT_TRUE(blind.setEstimate(est_rx));
+    }
     test::AllocationCounter count;
+    if (send) ASSERT_TRUE(plugin->setEstimate(est_rx));
     ASSERT_TRUE(plugin->step(s));
     const bool plates_taken = plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet);
     count.stop();
@@ -179,6 +202,8 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   });
   EXPECT_EQ(mismatches, 0);
   EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(ref_status.estimate.weight, 1.0);  // the estimate was in use, fully, by the end
+  EXPECT_EQ(plugin->stats().estimates_accepted, (ticks - 300) / 10);
   EXPECT_EQ(torque_ticks, ticks);  // the controller balanced every tick (no fallback)
   EXPECT_EQ(plugin->stats().calls, ticks);
   EXPECT_EQ(plugin->stats().good, ticks);
@@ -230,7 +255,7 @@ TEST(BalancePlugin, RunsAtADivisorOfThePhysicsRateHoldingTheCommand) {
   EXPECT_FALSE(sim::simFell(exo.model, exo.data));
 }
 
-TEST(FeedforwardThroughTheAbi, EntersTheBalanceControllerAndIsRefusedWhenMalformed) {
+TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenUnusable) {
   Exo exo;
   std::string err;
   auto plugin = load(balanceOptions(), exo, &err);
@@ -244,28 +269,44 @@ TEST(FeedforwardThroughTheAbi, EntersTheBalanceControllerAndIsRefusedWhenMalform
   JointCommandSample ref_cmd;
   ref.prepare(ref_cmd);
   controller::ControllerStatus ref_status;
-  Eigen::VectorXd ff = Eigen::VectorXd::Zero(model.njoints);
-  ff[2] = 1.5;  // N m on an actuated joint
+  // The model plus 2 kg on the base link, and a feedforward on an actuated joint.
+  EstimatorOutputSample est;
+  est.valid = est.consistent = true;
+  est.params = model.phi;
+  est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) += paramsFromInertial(
+      2.0, Eigen::Vector3d(0.0, 0.05, 0.1), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
+  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  est.tau_ff[model.jointRow(2)] = 1.5;  // N m on an actuated joint
   long differ = 0, with_ff = 0;
+  double max_ff = 0.0;
   closedLoop(exo, *plugin, 400, [&](int k, const RobotStateSample& s) {
     if (k == 250) {
-      EXPECT_TRUE(plugin->setFeedforward(ff.data(), static_cast<int>(ff.size()), k));
-      EXPECT_TRUE(ref.setFeedforward(ff, k));
-      Eigen::VectorXd nan = ff;
-      nan[0] = std::nan("");
-      EXPECT_FALSE(plugin->setFeedforward(nan.data(), static_cast<int>(nan.size()), k));  // refused, ignored
-      EXPECT_FALSE(plugin->setFeedforward(ff.data(), 3, k));                              // wrong size
+      est.tick = k;
+      EstimatorOutputSample bad = est;
+      bad.params[3] = std::nan("");
+      EXPECT_FALSE(plugin->setEstimate(bad));  // refused by the controller
+      EXPECT_FALSE(ref.setEstimate(bad));
+      bad = est;
+      bad.tau_ff.resize(3);
+      EXPECT_FALSE(plugin->setEstimate(bad));  // wrong size: refused at the boundary
+      EXPECT_TRUE(plugin->setEstimate(est));
+      EXPECT_TRUE(ref.setEstimate(est));
     }
     plugin->step(s);
     ref.tick(s, ref_cmd, ref_status);
     differ += plugin->command().tau == ref_cmd.tau && plugin->command().tau_ff == ref_cmd.tau_ff ? 0 : 1;
-    // Reported as the command's feedforward part while younger than feedforward.max_age_ticks (50).
-    if (plugin->command().tau_ff[2] == 1.5) ++with_ff;
+    // Reported as the command's feedforward part, blended in while fresh, then out (max_age_ticks = 50).
+    if (plugin->command().tau_ff[2] != 0.0) ++with_ff;
+    max_ff = std::max(max_ff, plugin->command().tau_ff[2]);
   });
   EXPECT_EQ(differ, 0);
-  EXPECT_EQ(with_ff, cfg.feedforward.max_age_ticks + 1);
-  EXPECT_EQ(plugin->stats().feedforward_accepted, 1);
-  EXPECT_EQ(plugin->stats().feedforward_rejected, 2);
+  EXPECT_GT(with_ff, cfg.estimate.max_age_ticks);
+  EXPECT_GT(max_ff, 0.0);
+  EXPECT_LT(max_ff, 1.5);  // blended (blend_time 1 s): never the full value within 51 ticks
+  EXPECT_EQ(plugin->command().tau_ff[2], 0.0);  // withdrawn and blended out by tick 400
+  EXPECT_EQ(ref_status.estimate.withdrawn_stale, 1);
+  EXPECT_EQ(plugin->stats().estimates_accepted, 1);
+  EXPECT_EQ(plugin->stats().estimates_rejected, 2);
 }
 
 TEST(JointPdPlugin, AnswersThePdLawAndHoldsTheRobotStanding) {
@@ -423,7 +464,7 @@ TEST(PluginInTheLoop, PublishesCommandAndStatusAndTakesTheEstimate) {
     applied[static_cast<size_t>(t.tick)] = Eigen::Map<const Eigen::VectorXd>(t.tau_applied.data(), t.num_joints);
   });
   EstimatorOutputSample est;
-  est.valid = true;
+  est.valid = est.consistent = true;
   est.params = model.phi;
   est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
   est.tau_ff = Eigen::VectorXd::Zero(model.nv);
@@ -456,7 +497,7 @@ TEST(PluginInTheLoop, PublishesCommandAndStatusAndTakesTheEstimate) {
       if (model.joint_names[static_cast<size_t>(j)].find("_ie") == std::string::npos)
         max_diff = std::max(max_diff, std::abs(applied[static_cast<size_t>(k)][j] - commanded[static_cast<size_t>(k)][j]));
   EXPECT_LE(max_diff, 1e-12);
-  EXPECT_EQ(plugin->stats().feedforward_accepted, 1);
+  EXPECT_EQ(plugin->stats().estimates_accepted, 1);
   EXPECT_EQ(plugin->stats().calls, kTicks);
 }
 
@@ -468,7 +509,7 @@ TEST(PluginCli, BadPluginsExitTwoWithOneLineAndHelpListsTheOptions) {
     std::string args, expect;
   } cases[] = {
       {"--controller-plugin /nonexistent/lib.so", "--controller-plugin /nonexistent/lib.so: cannot load"},
-      {"--controller-plugin " + pluginLib("exoid_fault_plugin_abi1"), "ABI version 1, this exo_sim needs 2"},
+      {"--controller-plugin " + pluginLib("exoid_fault_plugin_abi1"), "ABI version 1, this exo_sim needs 3"},
       {"--controller-plugin " + pluginLib("exoid_not_a_plugin"), "not a controller plugin"},
       {"--controller-plugin " + pluginLib("exoid_controller_plugin") + " --controller-config /nonexistent.yaml",
        "/nonexistent.yaml"},

@@ -6,7 +6,9 @@
 // with a safe fallback (hold the last safe command, then joint damping). tick() never allocates, never throws
 // and never blocks. Timing convention: the command answers state tick k with command.tick = k + 1.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 
@@ -27,6 +29,34 @@ namespace exoid::controller {
 enum class FallbackReason : int8_t { None = 0, InvalidInput, OutOfOrder, Stale, QpFailed, NonFiniteTorque, Recovering };
 const char* toString(FallbackReason reason);
 
+/// Why an estimate was refused (setEstimate) or withdrawn (tick).
+enum class EstimateRejection : int8_t {
+  None = 0,
+  Disabled,      ///< estimate.enabled is false
+  WrongSize,     ///< params not [nparams] or tau_ff not [nv]
+  NonFinite,     ///< a parameter or a feedforward component is NaN/Inf
+  NotValid,      ///< the estimator flags it not valid (not excited, not converged)
+  Inconsistent,  ///< flagged inconsistent, or a body's pseudo-inertia is not positive definite here
+  Mass,          ///< total mass off the model's by more than estimate.max_relative_mass_change
+  Count
+};
+const char* toString(EstimateRejection reason);
+
+/// What the controller did with the online estimate (counters since construction).
+struct EstimateUse {
+  double weight = 0.0;   ///< blend weight in [0, 1] this tick (0: the model alone, 1: the estimate)
+  bool active = false;   ///< the latest estimate is fresh and accepted (the weight moves toward 1)
+  int32_t accepted = 0;  ///< estimates accepted by setEstimate
+  std::array<int32_t, static_cast<size_t>(EstimateRejection::Count)> rejected{};  ///< refused, by reason
+  int32_t withdrawn_stale = 0;    ///< switched off because the latest estimate grew older than max_age_ticks
+  int32_t withdrawn_refused = 0;  ///< switched off because a newer estimate was refused
+  double mass = 0.0;              ///< kg, total mass of the latest accepted estimate
+};
+
+/// One line "<who>: estimate: accepted N, refused N (reason N, ...), withdrawn N (stale N, refused N), weight W,
+/// mass M kg" (the summaries of exo_controller and exo_sim's plugin line). Not real-time.
+void printEstimateUse(std::FILE* out, const char* who, const EstimateUse& use);
+
 /// Everything of controller_status_t plus controller-internal counters (the base part goes on LCM as is).
 struct ControllerStatus : ControllerStatusSample {
   CommandMode mode = CommandMode::Torque;
@@ -40,6 +70,7 @@ struct ControllerStatus : ControllerStatusSample {
   bool trajectory_ready = false;  ///< the move sequence has been generated
   bool trajectory_failed = false; ///< the feet are latched but no move sequence fits (the CoM start is held)
   bool trajectory_done = false;   ///< every move and hold finished
+  EstimateUse estimate;           ///< the online estimate in the control law
 };
 
 /// Seconds from the first state to the end of the final hold, known upfront from the configuration:
@@ -58,11 +89,16 @@ class BalanceController {
 
   /// Sizes a command sample for this model (setup).
   void prepare(JointCommandSample& command) const;
-  /// Sets the estimator's feedforward: a generalized-force correction [nv] or joint torques [njoints] (base
-  /// rows 0), valid from `tick`. It enters the dynamics of the QP when config.feedforward.enabled and is
-  /// younger than max_age_ticks. Returns false (and ignores it) on a wrong size or non-finite values.
-  bool setFeedforward(const Eigen::Ref<const Eigen::VectorXd>& tau_ff, int64_t tick);
-  void clearFeedforward();
+  /// The online estimator's output (EXO_ESTIMATE as a plain sample; base_params etc. are not read). Accepted
+  /// when config.estimate.enabled, params [nparams] and tau_ff [nv] finite, flagged valid and consistent, every
+  /// body's parameters consistent (model/inertial.hpp) and the total mass within max_relative_mass_change of the
+  /// model's. While the accepted estimate is younger than estimate.max_age_ticks (from its tick), tau_ff
+  /// (bounded by max_abs) enters the QP's dynamics and params give the momentum task's CoM and momentum,
+  /// blended in and out over estimate.blend_time. A refused estimate withdraws the current one (counted by
+  /// reason) and returns false. Allocation-free.
+  bool setEstimate(const EstimatorOutputSample& estimate);
+  /// Withdraws the estimate (blended out), e.g. when the estimator is known to have stopped.
+  void clearEstimate();
   /// A force plate sample (plate 0 right, 1 left: the load cell's wrench ON the plate about its sensor origin,
   /// plate frame, with the plate's world pose). The disturbance observer compares it with the wrench the QP
   /// planned for the same tick when config.disturbance.force_plates. False (ignored) on a wrong plate index or
@@ -92,6 +128,8 @@ class BalanceController {
   bool inputValid(const RobotStateSample& in) const;
   void startTrajectory(int64_t tick);
   bool runQp();
+  void updateDynamics(const State& state);  // model dynamics, then the blend toward the estimate
+  void advanceEstimateBlend(int64_t tick);
   void fallbackTorque(JointCommandSample& out);
 
   const Model& model_;
@@ -121,7 +159,8 @@ class BalanceController {
   Eigen::VectorXd tau_cmd_;      // [njoints] command being built
   Eigen::VectorXd tau_last_safe_;  // [njoints]
   Eigen::VectorXd tau_ff_joint_;   // [njoints] feedforward reported in the command
-  Eigen::VectorXd ff_input_;       // [nv] last feedforward received
+  Eigen::VectorXd ff_input_;       // [nv] feedforward of the last accepted estimate (bounded)
+  Eigen::VectorXd phi_hat_;        // [nparams] parameters of the last accepted estimate
   Eigen::VectorXi joint_actuated_;  // [njoints] 1 if actuated
   Eigen::VectorXd joint_limit_;     // [njoints] torque bound (0 on unactuated joints)
 
@@ -139,8 +178,15 @@ class BalanceController {
   bool plateResidual();              // fills wrench_residual_; false if no usable pair
   int64_t trajectory_start_tick_ = 0;
   bool has_last_safe_ = false;
-  bool has_feedforward_ = false;
-  int64_t feedforward_tick_ = 0;
+  // Online estimate: the last accepted one (kept for blending out after a withdrawal), its tick, whether it
+  // still stands (no refusal since), the blend ramp in [0, 1] (weight = smoothstep of it).
+  bool has_estimate_ = false;
+  bool estimate_on_ = false;
+  int64_t estimate_tick_ = 0;
+  double blend_ramp_ = 0.0;
+  EstimateRejection last_refusal_ = EstimateRejection::None;
+  EstimateUse estimate_use_;
+  double vertical_shift_ = 0.0, vertical_shift_rate_ = 0.0;  // m, m/s: reference height follows the estimate
   int bad_streak_ = 0;
   int good_streak_ = 0;
   bool damping_latched_ = false;

@@ -92,11 +92,15 @@ struct FallbackConfig {
   double max_quaternion_norm_error = 0.0;  ///< | |q| - 1 | above this rejects the IMU orientation
 };
 
-/// Feedforward from the online estimator.
-struct FeedforwardConfig {
-  bool enabled = false;       ///< use EXO_ESTIMATE's tau_ff in the dynamics
-  double max_abs = 0.0;       ///< N m, bound of each feedforward component
-  int max_age_ticks = 0;      ///< an estimate older than this many ticks is ignored (zero feedforward)
+/// The online estimator's output (EXO_ESTIMATE) in the control law (docs/controller.md, "Using the estimate").
+struct EstimateConfig {
+  bool enabled = false;          ///< accept estimates at all (setEstimate refuses every one otherwise)
+  bool use_feedforward = false;  ///< its tau_ff [nv] enters the QP's dynamics (h + tau_ff), base rows too
+  bool use_com = false;          ///< its parameters give the CoM and centroidal momentum of the momentum task
+  double max_abs = 0.0;          ///< N, N m: bound of each feedforward component
+  int max_age_ticks = 0;         ///< an estimate older than this many ticks is withdrawn
+  double blend_time = 0.0;       ///< s, switching in and out blends over this time (0: at once)
+  double max_relative_mass_change = 0.0;  ///< refuse an estimate whose total mass differs more from the model's
 };
 
 /// Disturbance observer: the generalized force the model misses (docs/controller.md, "Model error").
@@ -118,7 +122,7 @@ struct ControllerConfig {
   TorqueConfig torque;
   SolverConfig solver;
   FallbackConfig fallback;
-  FeedforwardConfig feedforward;
+  EstimateConfig estimate;
   DisturbanceConfig disturbance;
 };
 

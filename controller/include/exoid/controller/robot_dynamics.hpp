@@ -31,10 +31,15 @@ struct RobotDynamicsData {
   std::array<Vector6d, 2> foot_velocity{};  ///< world [linear; angular] velocity of the sole frames
   std::array<Eigen::Vector3d, 2> foot_position{};  ///< world, from the base estimate and the kinematics
   std::array<Eigen::Matrix3d, 2> foot_rotation{};  ///< world <- sole
+  Eigen::Vector3d base_position = Eigen::Vector3d::Zero();  ///< world
+  // The controller's CoM: the URDF model's, or blended toward the online estimate's (BalanceController).
   double mass = 0.0;
   Eigen::Vector3d com = Eigen::Vector3d::Zero();           ///< world
   Eigen::Vector3d com_velocity = Eigen::Vector3d::Zero();  ///< world
-  Vector6d momentum = Vector6d::Zero();  ///< world, [linear; angular about the CoM]
+  Vector6d momentum = Vector6d::Zero();  ///< world, [linear; angular about com]
+  // The URDF model's mass and CoM: where the gravity of h acts (tau_ff carries the rest).
+  double model_mass = 0.0;
+  Eigen::Vector3d model_com = Eigen::Vector3d::Zero();  ///< world
   Matrix6Xd J_scratch;                   ///< base-frame Jacobian scratch
 };
 
@@ -43,5 +48,11 @@ struct RobotDynamicsData {
 /// centroidal momentum.
 void computeRobotDynamics(const Model& model, const std::array<SoleFrame, 2>& soles, RobotDynamicsData& data,
                           const State& state);
+
+/// World mass, CoM, CoM velocity and momentum [linear; angular about the CoM] of the parameters phi at the
+/// state of the last computeRobotDynamics (its kinematics). data.dyn's centroidal fields are left as they were.
+/// Allocation-free.
+void centroidalWorld(const Model& model, const Eigen::VectorXd& phi, RobotDynamicsData& data, double& mass,
+                     Eigen::Vector3d& com, Eigen::Vector3d& com_velocity, Vector6d& momentum);
 
 }  // namespace exoid::controller

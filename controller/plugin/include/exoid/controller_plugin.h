@@ -1,4 +1,5 @@
-/* exoid controller plugin ABI, version 2 (docs/plugin.md; version 2 added the force plates).
+/* exoid controller plugin ABI, version 3 (docs/plugin.md; version 2 added the force plates, version 3 the
+ * whole online estimate in place of the joint feedforward).
  *
  * A controller plugin is a shared library that exports one C function,
  *
@@ -7,13 +8,13 @@
  * returning a static table of function pointers. The host (exo_sim --controller-plugin PATH) dlopens the
  * library, checks abi_version and the four struct sizes against its own, then calls
  *
- *     create -> reset -> { [tick -> status] -> set_force_plates }*  (set_feedforward at any time between
+ *     create -> reset -> { [tick -> status] -> set_force_plates }*  (set_estimate at any time between
  *     ticks) -> destroy
  *
  * from ONE thread (the simulation loop), never concurrently. Only the plain C structs below cross the
  * boundary: no C++, LCM, MuJoCo or Eigen types, no ownership transfer, no exceptions (a C++ plugin catches
  * everything at its boundary). create and reset run before the loop (or between runs) and may allocate;
- * tick, status, set_feedforward and set_force_plates run inside the 1 kHz loop and must not allocate, block
+ * tick, status, set_estimate and set_force_plates run inside the 1 kHz loop and must not allocate, block
  * or throw.
  *
  * Timing: tick receives the sensor sample of physics tick k and fills the command for tick k + 1
@@ -38,7 +39,7 @@ extern "C" {
 #endif
 
 /* Bumped on any change of the structs or of the function table. */
-#define EXOID_CONTROLLER_PLUGIN_ABI_VERSION 2u
+#define EXOID_CONTROLLER_PLUGIN_ABI_VERSION 3u
 /* Largest joint count a sample carries (the exoskeleton has 10). */
 #define EXOID_PLUGIN_MAX_JOINTS 32
 /* Force plates per set_force_plates call: 0 right, 1 left. */
@@ -50,7 +51,7 @@ extern "C" {
  * previous torque, DAMPING applies the drives' own damping, OFF zero torque. */
 enum { EXOID_MODE_TORQUE = 0, EXOID_MODE_HOLD = 1, EXOID_MODE_DAMPING = 2, EXOID_MODE_OFF = 3 };
 
-/* Return codes of reset/tick/status/set_feedforward. Anything but EXOID_PLUGIN_OK from tick makes the host
+/* Return codes of reset/tick/status/set_estimate/set_force_plates. Anything but EXOID_PLUGIN_OK from tick makes the host
  * discard the command of that tick and apply its counted fallback (hold the last good command, then damping). */
 enum { EXOID_PLUGIN_OK = 0, EXOID_PLUGIN_ERROR = 1 };
 
@@ -80,6 +81,23 @@ typedef struct exoid_plugin_force_plate {
   double plate_position[3];                     /* sensor origin, world, m */
   double plate_orientation[4];                  /* world <- plate unit quaternion, Hamilton, w x y z */
 } exoid_plugin_force_plate;
+
+/* The online estimator's output (exoid_lcm.estimator_output_t, channel EXO_ESTIMATE), as far as a controller
+ * uses it. Arrays are owned by the host and live only during the call (copy what you keep). Orders are the
+ * model's (the URDF given to create as model_path; the host checks EXO_ESTIMATE's parameter and coordinate
+ * names against it): params = [10 per body (m, m c, inertia about the body origin xx xy xz yy yz zz), 2 per
+ * joint (viscous, Coulomb)], tau_ff rows = [6 base (angular; linear, base coordinates); the joints]. */
+typedef struct exoid_plugin_estimate {
+  int64_t utime;                                /* estimate time, microseconds */
+  int64_t tick;                                 /* last physics tick folded into it (tau_ff evaluated there) */
+  int32_t valid;                                /* 1: finite, physically consistent, excited (the estimator's verdict) */
+  int32_t consistent;                           /* 1: every body's pseudo-inertia positive definite */
+  int32_t num_params;                           /* entries of params */
+  int32_t num_coords;                           /* entries of tau_ff (nv = 6 + joints) */
+  const double* params;                         /* [num_params] estimated standard parameters */
+  const double* tau_ff;                         /* [num_coords] generalized-force correction K (phi_hat - phi_model), N / N m */
+  double excitation;                            /* excited fraction of the information, [0, 1] */
+} exoid_plugin_estimate;
 
 /* Command for one tick (exoid_lcm.joint_command_t). The host pre-fills num_joints; tau must be finite. */
 typedef struct exoid_plugin_command {
@@ -143,9 +161,10 @@ typedef struct exoid_controller_plugin_api {
   int (*tick)(void* self, const exoid_plugin_state* state, exoid_plugin_command* command);
   /* Diagnostics of the last tick. */
   int (*status)(const void* self, exoid_plugin_status* status);
-  /* Optional (may be NULL): the estimator's feedforward torque per joint [num_joints], N m, valid from
-   * tick. Returns EXOID_PLUGIN_ERROR (and ignores it) on a wrong size or non-finite values. */
-  int (*set_feedforward)(void* self, const double* tau_ff, int32_t num_joints, int64_t tick);
+  /* Optional (may be NULL): the online estimate, every one the host receives (valid or not: the plugin
+   * decides). Returns EXOID_PLUGIN_ERROR when it does not use this one (wrong size, non-finite, not valid,
+   * inconsistent, ...); the host counts it. Version 3 (version 2 had set_feedforward: joint torques only). */
+  int (*set_estimate)(void* self, const exoid_plugin_estimate* estimate);
   void (*destroy)(void* self);
 
   /* Version 2 (appended, so a table written in positional order for version 1 still lines up). */
@@ -155,6 +174,9 @@ typedef struct exoid_controller_plugin_api {
    * "Force plates" above). The array lives only during the call. Returns EXOID_PLUGIN_ERROR (and ignores
    * the samples) on a wrong count or non-finite values; the host counts it. */
   int (*set_force_plates)(void* self, const exoid_plugin_force_plate* plates, int32_t num_plates);
+
+  /* Version 3. */
+  uint32_t estimate_size;                       /* sizeof(exoid_plugin_estimate) */
 } exoid_controller_plugin_api;
 
 typedef const exoid_controller_plugin_api* (*exoid_controller_plugin_entry_fn)(void);

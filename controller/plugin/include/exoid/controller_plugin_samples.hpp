@@ -6,6 +6,7 @@
 
 #include "exoid/controller_plugin.h"
 #include "exoid/samples.hpp"
+#include "exoid/status_samples.hpp"
 
 namespace exoid::plugin_abi {
 
@@ -48,6 +49,34 @@ inline bool fromPlugin(const exoid_plugin_force_plate& p, int expected_plate, Fo
   s.plate_position = Eigen::Vector3d(p.plate_position[0], p.plate_position[1], p.plate_position[2]);
   s.plate_orientation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
   s.plate_orientation.normalize();
+  return true;
+}
+
+/// The estimate as the ABI carries it: p's arrays point into s (valid while s is unchanged).
+inline void toPlugin(const EstimatorOutputSample& s, exoid_plugin_estimate& p) {
+  p.utime = s.utime;
+  p.tick = s.tick;
+  p.valid = s.valid ? 1 : 0;
+  p.consistent = s.consistent ? 1 : 0;
+  p.num_params = static_cast<int32_t>(s.params.size());
+  p.num_coords = static_cast<int32_t>(s.tau_ff.size());
+  p.params = s.params.data();
+  p.tau_ff = s.tau_ff.data();
+  p.excitation = s.excitation;
+}
+
+/// Copies the ABI's estimate into s, whose params and tau_ff are already sized for the plugin's model (the
+/// values are copied as they are: the controller's setEstimate judges them). False (s untouched) on other
+/// sizes or missing arrays.
+inline bool fromPlugin(const exoid_plugin_estimate& p, EstimatorOutputSample& s) {
+  if (!p.params || !p.tau_ff || p.num_params != s.params.size() || p.num_coords != s.tau_ff.size()) return false;
+  s.utime = p.utime;
+  s.tick = p.tick;
+  s.valid = p.valid != 0;
+  s.consistent = p.consistent != 0;
+  s.excitation = p.excitation;
+  for (int i = 0; i < p.num_params; ++i) s.params[i] = p.params[i];
+  for (int i = 0; i < p.num_coords; ++i) s.tau_ff[i] = p.tau_ff[i];
   return true;
 }
 

@@ -40,6 +40,7 @@ struct Payload {
   Eigen::Vector3d com = Eigen::Vector3d::Zero();     ///< its centre of mass, link frame, m
   Eigen::Matrix<double, 6, 1> inertia = Eigen::Matrix<double, 6, 1>::Zero();  ///< about its com, link frame:
                                                      ///< ixx iyy izz ixy ixz iyz (MJCF fullinertia order)
+  double attach_at_s = 0.0;  ///< s of simulated time at which it is attached (0: from the start; docs/sim.md)
 };
 
 /// Torque sensor error: measured = gain * true + offset (before noise).

@@ -30,7 +30,7 @@ struct PluginOptions {
   int divisor = 1;          ///< the plugin runs every `divisor` physics ticks: 1000 / divisor Hz
   double budget_us = 0.0;   ///< > 0: a call longer than this (wall clock) is discarded and counted
   int hold_ticks = 20;      ///< fallback: controller ticks on the last good torque before damping
-  bool listen_estimate = true;  ///< feed EXO_ESTIMATE's feedforward to the plugin (the runner subscribes)
+  bool listen_estimate = true;  ///< feed EXO_ESTIMATE to the plugin's set_estimate (the runner subscribes)
 };
 
 struct PluginStats {
@@ -43,7 +43,7 @@ struct PluginStats {
   int64_t hold_ticks = 0;      ///< controller ticks on the host's fallback: last good torque held
   int64_t damping_ticks = 0;   ///< controller ticks on the host's fallback: damping
   int64_t bad_status = 0;      ///< status samples with non-finite values or out-of-range fields (not published)
-  int64_t feedforward_accepted = 0, feedforward_rejected = 0;
+  int64_t estimates_accepted = 0, estimates_rejected = 0;  ///< set_estimate calls (none without the entry)
   int64_t plates_accepted = 0, plates_rejected = 0;  ///< set_force_plates calls (none without the entry)
   double call_us_max = 0.0, call_us_sum = 0.0;  ///< wall time of the tick calls
   int64_t fallbackTicks() const { return hold_ticks + damping_ticks; }
@@ -74,9 +74,9 @@ class ControllerPlugin {
   bool statusValid() const { return status_valid_; }
   /// The plugin reports its task over (balance: moves and final hold done).
   bool finished() const { return finished_; }
-  /// The estimator's feedforward [njoints], N m, valid from `tick` (ignored, counted, when the plugin has no
-  /// set_feedforward or refuses it). Allocation-free.
-  bool setFeedforward(const double* tau_ff, int num_joints, int64_t tick);
+  /// The online estimate (EXO_ESTIMATE, in the plugin's model order) through set_estimate. False when the
+  /// plugin has no set_estimate (not counted) or does not use this estimate (counted). Allocation-free.
+  bool setEstimate(const EstimatorOutputSample& estimate);
   /// The force plates of physics tick k [num_plates = EXOID_PLUGIN_NUM_PLATES: right, left], after step(state_k)
   /// (process mode's EXO_STATE-then-EXO_PLATE_* order). False when the plugin has no set_force_plates
   /// (not counted) or refuses them (counted). Allocation-free.

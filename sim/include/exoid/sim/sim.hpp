@@ -98,6 +98,17 @@ struct SimModel {
   std::array<Eigen::Vector3d, kNumFeet> plate_tare_torque;  ///< raw reading of the unloaded plate, site frame
 
   std::vector<double> qpos_init;  ///< [nq] initial configuration (MJCF qpos0 + scenario initial_state)
+
+  /// Payloads attached mid-run (effects.payload attach_at_s > 0): simStep composes each into its link at the
+  /// start of its tick, changing the mjModel in place (the one part of SimModel a run changes); simReset
+  /// restores the inertial arrays saved here (the model before any timed payload).
+  struct TimedPayload {
+    int body = -1;
+    int64_t tick = 0;  ///< first tick simulated with it: round(attach_at_s / timestep)
+    Payload payload;
+  };
+  std::vector<TimedPayload> timed_payloads;
+  std::vector<double> body_mass0, body_ipos0, body_iquat0, body_inertia0, body_subtreemass0;
 };
 
 /// Counters of one run.
@@ -106,6 +117,7 @@ struct SimStats {
   int64_t rejected_commands = 0;   ///< commands refused by simStep (wrong size, non-finite): previous ctrl held
   int64_t clamped_commands = 0;    ///< commands with at least one torque clamped to the actuator range
   int64_t mujoco_warnings = 0;     ///< MuJoCo warnings raised (e.g. bad qacc: MuJoCo then resets the state)
+  int payloads_attached = 0;       ///< timed payloads attached so far (SimModel::timed_payloads)
 };
 
 /// Mutable state: mjData, the noise generator, and the samples of the last tick (sized once).
