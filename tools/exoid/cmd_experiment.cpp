@@ -528,7 +528,7 @@ int cmdExperiment(int argc, char** argv) {
   // Online vs batch on this run's log (the estimator's default options, the controller's model as prior).
   tools::OnlineVsBatch ovb;
   if (!no_estimator && facts.log_readable)
-    ovb = tools::compareOnlineBatch(model, log, model.phi, estimator::OnlineEstimatorOptions{}, est_final);
+    ovb = tools::compareOnlineBatch(model, log, model.phi, estimator::OnlineEstimatorOptions{}, 10, est_final);
   std::string table = tools::summaryTable(s);
   const size_t rows_end = table.rfind("|\n");  // the table's last row (failure lines follow it)
   table.insert(rows_end == std::string::npos ? table.size() : rows_end + 2, tools::onlineVsBatchTable(!no_estimator, ovb));

@@ -61,8 +61,8 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
     fail("prior uncertainty must be > 0");
     return;
   }
-  if (opt_.forget_every < 1) {
-    fail("forget_every must be >= 1");
+  if (opt_.forget_every < 1 || opt_.uncertainty_every < 1) {
+    fail("forget_every and uncertainty_every must be >= 1");
     return;
   }
   if (!(opt_.block_threshold > 0.0) || !(opt_.excited_gain > 0.0) ||
@@ -103,6 +103,8 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
     return;
   }
   rls_ = RecursiveLsData(rls_model_);
+  adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
+  initial_weights_ = rls_model_.row_weight;
   filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz);
   prior_sigma_ = Sx.diagonal().cwiseSqrt();
   // Standard parameters from base parameters: the conditional mean of the prior given x (the same prior),
@@ -114,6 +116,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   x_model_ = base.base_map * model.phi;
   phi_ = prior_phi;
   GC_ = Eigen::MatrixXd::Zero(p, m);
+  param_stddev_ = phi_var0_.cwiseSqrt();
   dx_ = Eigen::VectorXd::Zero(m);
 
   R_ = Eigen::MatrixXd::Zero(m, m);
@@ -307,7 +310,18 @@ void OnlineEstimator::prepare(EstimatorOutputSample& out) const {
 void OnlineEstimator::publish(EstimatorOutputSample& out) {
   const int m = rls_model_.m, nv = model_.nv;
   const bool selective = opt_.forgetting == Forgetting::Selective;
-  const bool solved = selective ? solveRecursiveLs(rls_model_, rls_, true, &R_, &r_) : solveRecursiveLs(rls_model_, rls_, true);
+  // WLS-R (thesis eqs. 29-32) online: sigma_c from the previous solve's residuals over the whole memory. The
+  // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history.
+  if (adaptive_weights_ && rls_.solves > 0 && rls_.effective_samples > 0.0) {
+    for (int c = 0; c < nv; ++c) {
+      const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
+      rls_model_.row_weight[c] = 1.0 / std::max(rls_.residual_rms[c], 1e-6 * y_rms + 1e-12);
+    }
+  }
+  // The covariance costs m^3 (most of a publication): every uncertainty_every-th one, the stddevs kept between.
+  const bool uncertainty = publications_++ % opt_.uncertainty_every == 0;
+  const bool solved = selective ? solveRecursiveLs(rls_model_, rls_, uncertainty, &R_, &r_)
+                                : solveRecursiveLs(rls_model_, rls_, uncertainty);
   // Residual RMS over the estimate's memory (selective: earlier blocks carried, forgetting-weighted).
   if (selective) {
     const double n = n_carry_ + rls_.effective_samples;
@@ -324,9 +338,12 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
   dx_ = rls_.x - rls_model_.x0;
   phi_.noalias() = G_ * dx_;
   phi_ += phi_prior_;
-  GC_.noalias() = G_ * rls_.covariance;
-  for (int i = 0; i < phi_.size(); ++i)
-    out.param_stddev[i] = std::sqrt(std::max(0.0, GC_.row(i).dot(G_.row(i)) + phi_var0_[i]));
+  if (uncertainty) {
+    GC_.noalias() = G_ * rls_.covariance;
+    for (int i = 0; i < phi_.size(); ++i)
+      param_stddev_[i] = std::sqrt(std::max(0.0, GC_.row(i).dot(G_.row(i)) + phi_var0_[i]));
+  }
+  out.param_stddev = param_stddev_;
   out.params = phi_;
   out.base_params = rls_.x;
   out.base_stddev = rls_.sigma;
@@ -385,15 +402,20 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
   extra.insert(extra.end(), rss_carry_.data(), rss_carry_.data() + rss_carry_.size());
   for (long v : rejected_) extra.push_back(double(v));
   extra.push_back(double(incomplete_));
-  return saveRecursiveLs(rls_model_, rls_, path, error, extra);
+  extra.insert(extra.end(), rls_model_.row_weight.data(), rls_model_.row_weight.data() + rls_model_.nv);
+  RecursiveLsModel structure = rls_model_;  // checked against the weights the estimator was built with
+  structure.row_weight = initial_weights_;
+  return saveRecursiveLs(structure, rls_, path, error, extra);
 }
 
 bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error) {
   RecursiveLsData restored = rls_;
   std::vector<double> extra;
-  if (!loadRecursiveLs(rls_model_, restored, path, error, &extra)) return false;
+  RecursiveLsModel structure = rls_model_;
+  structure.row_weight = initial_weights_;
+  if (!loadRecursiveLs(structure, restored, path, error, &extra)) return false;
   const int m = rls_model_.m, nv = rls_model_.nv;
-  const size_t want = 7 + size_t(m) * m + m + nv + 5 + 1;
+  const size_t want = 7 + size_t(m) * m + m + nv + 5 + 1 + nv;
   if (extra.size() != want) {
     if (error) *error = path + ": not an exo_estimator checkpoint (estimator section missing or of another size)";
     return false;
@@ -414,6 +436,7 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   i += nv;
   for (long& v : rejected_) v = long(extra[i++]);
   incomplete_ = long(extra[i++]);
+  for (int c = 0; c < nv; ++c) rls_model_.row_weight[c] = extra[i++];
   rls_ = std::move(restored);
   // The channels resume after the checkpoint's last tick; the differencing history and the filter restart.
   for (long& t : last_tick_) t = rls_.has_tick ? rls_.last_tick + 1 : -1;

@@ -44,13 +44,15 @@ struct OnlineEstimatorOptions {
   double sample_hz = 1000.0;     ///< tick rate of the samples
   double cutoff_hz = 20.0;       ///< causal Butterworth on K rows and y; <= 0: none
   double prior_relative = 0.25;  ///< prior within +-this (relative) of each standard parameter (1 sigma)
-  std::vector<double> row_weight;  ///< [nv] WLS-R weights 1 / sigma_c; empty: ones
+  std::vector<double> row_weight;  ///< [nv] fixed row weights 1 / sigma_c; empty: WLS-R estimated online
+                                   ///< (none / stabilised forgetting; ones with selective forgetting)
   Forgetting forgetting = Forgetting::None;
   double lambda = 0.9995;        ///< per-sample forgetting factor (Stabilised, Selective); memory 1 / (1 - lambda)
   int forget_every = 100;        ///< Selective: samples per block (forgetting step at the first publication after)
   double block_threshold = 1e-3; ///< Selective: axis j excited by a block when its information >= this x Lambda0_jj
   double excited_gain = 3.0;     ///< base parameter j counts as excited when prior var / posterior var >= 1 + this
   double min_excitation = 0.2;   ///< `valid` needs excitation >= this
+  int uncertainty_every = 10;    ///< covariance (m^3) and the stddevs at every N-th publication (kept between)
 };
 
 /// What happened to one input message.
@@ -126,12 +128,15 @@ class OnlineEstimator {
   RecursiveLsData rls_;
   CausalRowFilter filter_;
   Eigen::VectorXd phi_;         ///< [p] standard parameters of the last publication
+  bool adaptive_weights_ = false;  ///< WLS-R: g_c = 1 / sigma_c from the previous solve's residuals
+  Eigen::VectorXd initial_weights_;  ///< [nv] the weights the estimator was built with (checkpoint structure)
   Eigen::VectorXd x_model_;     ///< [m] B phi_model: tau_ff = K_B (x - x_model)
   Eigen::VectorXd phi_prior_;   ///< [p]
   Eigen::MatrixXd G_;           ///< [p x m] phi = phi_prior + G (x - x0), G = Sigma Bt Lambda0
   Eigen::VectorXd phi_var0_;    ///< [p] diag(Sigma - G B Sigma): what no base parameter can tell
   Eigen::VectorXd prior_sigma_; ///< [m]
   Eigen::MatrixXd GC_;          ///< [p x m] workspace
+  Eigen::VectorXd param_stddev_;  ///< [p] of the last uncertainty computation
 
   // Selective forgetting: information carried from earlier blocks.
   Eigen::MatrixXd R_, dD_, R1_, Y_, M_;
@@ -140,6 +145,7 @@ class OnlineEstimator {
   Eigen::VectorXd rss_carry_;   ///< [nv] forgotten-weighted residual sum of squares of earlier blocks
   double n_carry_ = 0.0;        ///< its sample weight
   long block_samples_ = 0;
+  long publications_ = 0;
 
   // Tick assembly.
   long slot_tick_ = -1;

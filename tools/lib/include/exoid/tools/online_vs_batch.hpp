@@ -24,15 +24,17 @@ struct OnlineVsBatch {
   double heldout_rmse_batch = 0.0;   ///< N m, batch WLS-RC on the training part
   double heldout_rmse_prior = 0.0;   ///< N m, the prior
   double param_diff_live_batch = 0.0;   ///< |B (phi_live - phi_batch)| / |B phi_batch|, whole run
-  double param_diff_live_batch_std = 0.0;  ///< mean |phi_live - phi_batch| / |phi_batch| over inertial params != 0
+  double param_diff_live_batch_sigma = 0.0;   ///< RMS over base parameters of |x_live - x_batch| / prior sigma_j
   double param_diff_live_replay = -1.0;    ///< |B (phi_live - phi_replay)| / |B phi_replay|: what the live process lost
+  double param_diff_live_replay_sigma = -1.0;  ///< the same in prior sigmas (RMS)
+  double param_diff_replay_batch_sigma = -1.0; ///< replay (all logged samples) vs batch, prior sigmas (RMS)
 };
 
-/// live_csv: exo_estimator --final output (name,prior,estimate,stddev); "" or unreadable: the live figures are
+/// publish_every: exo_estimator's publication step (the replay publishes alike). live_csv: exo_estimator --final output (name,prior,estimate,stddev); "" or unreadable: the live figures are
 /// left out (live_read false) and the rest is still computed.
 OnlineVsBatch compareOnlineBatch(const Model& model, const RunLog& log, const Eigen::VectorXd& prior,
-                                 const estimator::OnlineEstimatorOptions& options, const std::string& live_csv,
-                                 double train_fraction = 0.75);
+                                 const estimator::OnlineEstimatorOptions& options, int publish_every,
+                                 const std::string& live_csv, double train_fraction = 0.75);
 
 /// summary.json with an "estimator" object added (the comparison, or {"ran": false}).
 std::string summaryJsonWithEstimator(const std::string& summary_json, bool ran, const OnlineVsBatch& c);
