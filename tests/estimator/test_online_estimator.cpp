@@ -18,6 +18,7 @@
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
+#include "exoid/model/inertial.hpp"
 #include "exoid/sim/config.hpp"
 #include "sim_closed_loop.hpp"
 
@@ -234,7 +235,57 @@ TEST(OnlineEstimator, HeldOutJointTorqueRmseWithinTwoPercentOfBatchWlsRc) {
   wlsr.publish(o);
   const double rmse_wlsr = jointRmse(model, held, wlsr.baseEstimate(), rows);
   std::printf("online with its own WLS-R weights: %.4f N m (online / batch %.4f)\n", rmse_wlsr, rmse_wlsr / rmse_batch);
+  const auto links = checkConsistency(model, o.params);
+  for (int b = 0; b < model.nbodies; ++b)
+    if (!links[b].consistent)
+      std::printf("  inconsistent link %d: %s (min eig %.3g) mass %.3f (prior %.3f, sigma %.3f)\n", b, links[b].reason,
+                  links[b].min_eigenvalue, o.params[model.bodyParamIndex(b)], f.prior[model.bodyParamIndex(b)],
+                  o.param_stddev[model.bodyParamIndex(b)]);
   EXPECT_LE(rmse_wlsr, 1.02 * rmse_batch);
+}
+
+// The estimator's equations (causal reconstruction, filter) hold for the model's own parameters (the simulated
+// robot of the nominal scenario) about as well as the batch pipeline's zero-phase parallel-filtered ones: the
+// causal reconstruction adds no error of its own.
+TEST(OnlineEstimator, TheEquationsHoldForTheModelsParametersLikeTheBatchPipelines) {
+  const Fixture& f = fixture();
+  const Model& model = f.model;
+  OnlineEstimatorOptions opt;
+  OnlineEstimator est(model, f.base, model.phi, opt);
+  ASSERT_TRUE(est.ok()) << est.error();
+  Eigen::VectorXd ss = Eigen::VectorXd::Zero(model.nv), yy = Eigen::VectorXd::Zero(model.nv);
+  // The filtered K carries the base columns only: K_B x with x = B phi, as a vector over K's columns.
+  const Eigen::VectorXd x = f.base.base_map * model.phi;
+  Eigen::VectorXd phi_b = Eigen::VectorXd::Zero(model.nparams());
+  for (int j = 0; j < f.base.rank; ++j) phi_b[f.base.independent[j]] = x[j];
+  long last = -1, n = 0;
+  for (size_t i = 0; i < f.train.states.size(); ++i) {
+    feed(est, f.train, i, i + 1);
+    if (est.lastRowTick() != last && i > 200) {  // past the filter's start
+      last = est.lastRowTick();
+      ss += (est.lastK() * phi_b - est.lastY()).cwiseAbs2();
+      yy += est.lastY().cwiseAbs2();
+      ++n;
+    }
+  }
+  DatasetOptions dopt;
+  dopt.cutoff_hz = opt.cutoff_hz;
+  dopt.filter = FilterMode::Parallel;
+  dopt.footholds = defaultFootholds(model);
+  AccumulatorOptions one;
+  one.folds = 1;
+  LsqAccumulator acc(model, f.base, one);
+  const long rows = batchAccumulate(model, f.train, dopt, acc);
+  double so = 0.0, sb = 0.0;
+  for (int c = 0; c < model.nv; ++c) {
+    const double online = std::sqrt(ss[c] / n), batch = std::sqrt(acc.residual(c, x) / rows);
+    std::printf("  %-28s residual RMS online %.4g, batch (zero-phase) %.4g, y RMS %.4g\n", model.coordinateNames()[c].c_str(),
+                online, batch, std::sqrt(yy[c] / n));
+    EXPECT_LE(online, 2.0 * batch + 1e-3) << model.coordinateNames()[c];
+    so += online * online;
+    sb += batch * batch;
+  }
+  EXPECT_LE(so, sb);  // pooled over the coordinates: no worse than the zero-phase pipeline
 }
 
 // 60 s of standing still after the moves: with selective forgetting only what standing still informs is
