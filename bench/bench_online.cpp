@@ -11,11 +11,13 @@
 #include <vector>
 
 #include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
 #include "exoid/estimator/online/row_filter.hpp"
 #include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
+#include "synthetic_sensors.hpp"
 
 namespace {
 using namespace exoid;
@@ -133,5 +135,65 @@ void BM_CovarianceFormReference(benchmark::State& state) {
 BENCHMARK(BM_CovarianceFormReference)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
+
+// The whole per-sample path of exo_estimator's loop (OnlineEstimator): the state and both plates of a tick in,
+// tick assembly, input checks, central differences, leg-kinematics base position, regressor, measured
+// generalized forces, causal filter of K and y, update. Publications are not part of it (below).
+void BM_EstimatorTick(benchmark::State& state) {
+  const Setup& s = setup();
+  const Model& model = s.model;
+  OnlineEstimatorOptions opt;
+  OnlineEstimator est(model, s.base, model.phi, opt);
+  std::vector<estimator::testing::SensorTick> ticks(1000, estimator::testing::makeSensorTick(model));
+  std::mt19937_64 rng(1);
+  for (size_t i = 0; i < ticks.size(); ++i) estimator::testing::fillSensorTick(model, static_cast<long>(i), 0.3, 1.0, rng, ticks[i]);
+  std::vector<double> times;
+  times.reserve(1 << 22);
+  long k = 0;
+  for (auto _ : state) {
+    estimator::testing::SensorTick& t = ticks[static_cast<size_t>(k) % ticks.size()];
+    t.state.tick = t.plate[0].tick = t.plate[1].tick = k;
+    const auto t0 = std::chrono::steady_clock::now();
+    est.addState(t.state);
+    est.addPlate(t.plate[0]);
+    est.addPlate(t.plate[1]);
+    const auto t1 = std::chrono::steady_clock::now();
+    const double dt = std::chrono::duration<double>(t1 - t0).count();
+    state.SetIterationTime(dt);
+    if (times.size() < times.capacity()) times.push_back(dt);
+    ++k;
+  }
+  reportPercentiles(state, times);
+}
+BENCHMARK(BM_EstimatorTick)->UseManualTime()->MinTime(2.0);
+
+// One publication of the loop (solve, standard parameters, consistency, excitation, tau_ff); arg 0: forgetting
+// none (the covariance every 10th publication, as exo_estimator runs), 1: selective (plus its block step every
+// 100 samples). Each iteration folds 10 ticks first (not timed).
+void BM_EstimatorPublish(benchmark::State& state) {
+  const Setup& s = setup();
+  const Model& model = s.model;
+  OnlineEstimatorOptions opt;
+  opt.forgetting = state.range(0) == 0 ? Forgetting::None : Forgetting::Selective;
+  OnlineEstimator est(model, s.base, model.phi, opt);
+  EstimatorOutputSample out;
+  est.prepare(out);
+  estimator::testing::SensorTick t = estimator::testing::makeSensorTick(model);
+  std::mt19937_64 rng(1);
+  long k = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    for (int i = 0; i < 10; ++i, ++k) {
+      estimator::testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
+      est.addState(t.state);
+      est.addPlate(t.plate[0]);
+      est.addPlate(t.plate[1]);
+    }
+    state.ResumeTiming();
+    est.publish(out);
+  }
+  benchmark::DoNotOptimize(out.tau_ff.data());
+}
+BENCHMARK(BM_EstimatorPublish)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

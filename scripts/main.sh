@@ -3,7 +3,8 @@
 #   1. model summary of the exoskeleton and the regressor self-check (against MuJoCo and KDL),
 #   2. structural base parameters of the exoskeleton and of the KUKA LWR4+ arm,
 #   3. the thesis's 20 CoM moves in closed loop (the controller in the sim's loop as a plugin, every channel
-#      on LCM in a private network namespace), logged, summarised,
+#      on LCM in a private network namespace), with the online estimator exo_estimator beside it, logged,
+#      summarised; then online vs batch side by side,
 #   4. batch identification of that run from its sensors only (WLS-RC from a +-25 % prior, rank from the
 #      training data alone),
 #   5. the residual diagnosis of the real KUKA LWR4+ runs (identify on runs 2 and 3, validate on run 1).
@@ -33,6 +34,32 @@ echo "(full lists in $out/base_parameters_*.txt)"
 echo
 echo "== 3. Closed-loop experiment: 20 CoM moves (config/scenarios/nominal.yaml) ======"
 "$bin/exoid" experiment --scenario "$here/config/scenarios/nominal.yaml" --out "$out/nominal"
+
+echo
+echo "== 3b. Online estimator (exo_estimator, live) vs batch WLS-RC on that run (docs/estimator.md) =="
+tail -n 1 "$out/nominal/estimator.log"
+py3=python3
+[ -x /usr/bin/python3 ] && py3=/usr/bin/python3
+"$py3" - "$out/nominal/summary.json" <<'PY'
+import json, sys
+e = json.load(open(sys.argv[1]))["estimator"]
+if not e.get("computed"):
+    print("online vs batch not computed:", e.get("error", "estimator did not run"))
+    sys.exit(0)
+rows = [
+    ("held-out joint-torque RMSE, N m (train: first 75 %, judged on the rest)",
+     "%.4f" % e["heldout_joint_rmse_online_nm"], "%.4f (z %d of %d)" % (e["heldout_joint_rmse_batch_nm"], e["batch_rank"], e["base_params"]),
+     "%.4f" % e["heldout_joint_rmse_prior_nm"]),
+    ("online / batch", "%.3f" % (e["heldout_joint_rmse_online_nm"] / e["heldout_joint_rmse_batch_nm"]), "1", ""),
+    ("final estimate vs batch (whole run), base params, RMS in prior sigmas",
+     "live %.2f, replay %.2f" % (e["base_param_diff_live_vs_batch_prior_sigmas"], e["base_param_diff_replay_vs_batch_prior_sigmas"]), "0", ""),
+    ("live vs replay of the log (samples lost over UDP), prior sigmas", "%.2f" % e["base_param_diff_live_vs_replay_prior_sigmas"], "", ""),
+]
+print("| %-72s | %-22s | %-22s | %-8s |" % ("", "online", "batch WLS-RC", "prior"))
+print("|" + "-" * 74 + "|" + "-" * 24 + "|" + "-" * 24 + "|" + "-" * 10 + "|")
+for r in rows:
+    print("| %-72s | %-22s | %-22s | %-8s |" % r)
+PY
 
 echo
 echo "== 4. Batch identification of that run, sensors only (docs/identification.md) ======"

@@ -132,6 +132,31 @@ void measuredFromSensors(const Model& model, const RobotStateSample& s, const Fo
   contactsFromPlates(plates, feet, out);
 }
 
+std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model) {
+  std::vector<DatasetOptions::Foothold> out;
+  const char* soles[2] = {"right_sole", "left_sole"};
+  for (int i = 0; i < 2; ++i) {
+    const int f = model.frameIndex(soles[i]);
+    if (f < 0) continue;
+    DatasetOptions::Foothold h;
+    h.body = model.frames[f].body;
+    h.point_in_body = model.frames[f].position;
+    h.plate = i;
+    out.push_back(h);
+  }
+  return out;
+}
+
+Eigen::Vector3d basePositionFromFootholds(const std::vector<DatasetOptions::Foothold>& footholds, const Data& kin,
+                                          const Eigen::Matrix3d& Rwb, const Eigen::Vector3d plate_position[2]) {
+  // Leg kinematics: each sole point stays where the lab placed it, p_b = p_world - R_wb p_base(q).
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const DatasetOptions::Foothold& f : footholds)
+    sum += f.world + (f.plate >= 0 ? plate_position[f.plate] : Eigen::Vector3d::Zero()) -
+           Rwb * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
+  return sum / static_cast<double>(footholds.size());
+}
+
 void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_hz, Eigen::MatrixXd* xf,
                             Eigen::MatrixXd* dx, Eigen::MatrixXd* ddx) {
   const bool filter = cutoff_hz > 0.0;
@@ -274,13 +299,8 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       if (s.has_base_position || opt_.footholds.empty()) {
         st.base_position = s.base_position;
       } else {
-        // Leg kinematics: each sole point stays where the lab placed it, p_b = p_world - R_wb p_base(q).
-        const Eigen::Matrix3d Rwb = st.base_orientation.toRotationMatrix();
-        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-        for (const DatasetOptions::Foothold& f : opt_.footholds)
-          sum += f.world + (f.plate >= 0 ? s.plate_position[f.plate] : Eigen::Vector3d::Zero()) -
-                 Rwb * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
-        st.base_position = sum / static_cast<double>(opt_.footholds.size());
+        st.base_position = basePositionFromFootholds(opt_.footholds, kin, st.base_orientation.toRotationMatrix(),
+                                                     s.plate_position);
       }
     }
     generalizedForceFromMeasurements(model, kin, st, s.tau, s.contact, s.ncontacts, y);

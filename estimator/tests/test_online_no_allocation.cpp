@@ -6,12 +6,14 @@
 #include <random>
 
 #include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
 #include "exoid/estimator/online/row_filter.hpp"
 #include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "support/alloc_counter.hpp"
+#include "synthetic_sensors.hpp"
 
 namespace exoid::estimator {
 namespace {
@@ -63,6 +65,52 @@ TEST(OnlineNoAllocation, UpdateSolveAndPredictAllocateNothing) {
   EXPECT_EQ(rd.rejected_duplicate, 2000);
   EXPECT_EQ(rd.rejected_nonfinite, 2000);
   EXPECT_TRUE(rd.x.allFinite());
+}
+
+// The whole loop of exo_estimator: tick assembly, state reconstruction, regressor, filter, update, rejected
+// inputs, and publication (solve, covariance, standard parameters, consistency, tau_ff) with selective
+// forgetting's block step, which runs inside the counted loop too.
+TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) << err;
+  const BaseParameters base = computeBaseParameters(model);
+  for (Forgetting f : {Forgetting::None, Forgetting::Stabilised, Forgetting::Selective}) {
+    OnlineEstimatorOptions opt;
+    opt.forgetting = f;
+    opt.lambda = 0.999;
+    opt.forget_every = 50;
+    OnlineEstimator est(model, base, model.phi, opt);
+    ASSERT_TRUE(est.ok()) << est.error();
+    EstimatorOutputSample out;
+    est.prepare(out);
+    testing::SensorTick t = testing::makeSensorTick(model), bad = t;
+    std::mt19937_64 rng(2);
+    exoid::test::AllocationCounter counter;
+    Eigen::internal::set_is_malloc_allowed(false);
+    for (long k = 0; k < 600; ++k) {
+      testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
+      est.addState(t.state);
+      est.addPlate(t.plate[0]);
+      est.addState(t.state);  // duplicate
+      est.addPlate(t.plate[1]);
+      if (k % 97 == 0) {
+        bad = t;
+        bad.state.tick = k + 1;
+        bad.state.q[3] = std::nan("");
+        est.addState(bad.state);  // non-finite: rejected
+      }
+      if (k % 10 == 9) est.publish(out);
+    }
+    Eigen::internal::set_is_malloc_allowed(true);
+    counter.stop();
+    EXPECT_EQ(counter.mallocs(), 0) << forgettingName(f);
+    EXPECT_EQ(counter.news(), 0) << forgettingName(f);
+    EXPECT_EQ(out.samples_used, 598) << forgettingName(f);  // the first two ticks only start the differences
+    EXPECT_EQ(out.rejected_duplicate, 600);
+    EXPECT_EQ(out.rejected_nonfinite, 7);
+    EXPECT_TRUE(out.params.allFinite() && out.tau_ff.allFinite());
+  }
 }
 
 }  // namespace

@@ -36,6 +36,8 @@ TEST_F(CliOptions, EveryBinaryHasGeneratedHelp) {
       {bin("exoid") + " experiment", {"--scenario", "--out", "--seed", "--moves", "INTEGER in [0, 1000]", "exit codes"}},
       {bin("exo_sim"), {"--duration", "--mode", "--hold-ticks", "INTEGER in [0, 3600000]", "exit codes"}},
       {bin("exo_controller"), {"--moves", "--seed", "--idle-timeout-ms", "--print-duration", "exit codes"}},
+      {bin("exo_estimator"),
+       {"--forgetting", "--checkpoint", "--row-weights", "--publish-hz", "NUMBER in [0.5, 1]", "exit codes"}},
       // The logger's default URL is the project's, ttl=0 included (it used to print it without).
       {bin("exoid_lcm_demo_publisher"), {"--count", "--rate", "--start-tick", "--url", "--channel", "exit codes"}},
       {"env -u LCM_DEFAULT_URL " + bin("exoid_logger"),
@@ -57,7 +59,7 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   for (const std::string& command : {bin("exoid") + " model", bin("exoid") + " base-params",
                                      bin("exoid") + " regressor", bin("exoid") + " export",
                                      bin("exoid") + " experiment", bin("exo_sim"), bin("exo_controller"),
-                                     bin("exoid_logger"), bin("exoid_lcm_demo_publisher")}) {
+                                     bin("exo_estimator"), bin("exoid_logger"), bin("exoid_lcm_demo_publisher")}) {
     expectError(command + " --bogus 1", "unknown option '--bogus'");
     expectError(command + " --bogus=1", "unknown option '--bogus'");
     expectError(command + " stray", "unexpected argument 'stray'");
@@ -71,6 +73,12 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
               "--lcm-url: '239.255.76.67:+7667' is not a multicast GROUP:PORT");
   expectError(bin("exoid_lcm_demo_publisher") + " --count 1.5", "--count: '1.5': not an integer");
   expectError(bin("exoid") + " export --log a --out b --filter nan", "--filter: 'nan': not finite");
+  expectError(bin("exo_estimator") + " --lambda 1.5", "--lambda: '1.5': out of range");
+  expectError(bin("exo_estimator") + " --forgetting sometimes", "--forgetting");
+  expectError(bin("exo_estimator") + " --row-weights '1 2 x'", "--row-weights: ");
+  expectError(bin("exo_estimator") + " --row-weights '1 2 3'", "16 numbers expected");
+  expectError(bin("exo_estimator") + " --checkpoint " + test::configPath("exo.urdf"),
+              "not an estimator checkpoint (bad magic)");
 }
 
 TEST_F(CliOptions, ExperimentRefusesWhatTheControllerWouldBeforeStarting) {

@@ -339,6 +339,33 @@ TEST_F(RunEnd, AKilledLoggerIsReportedAndTheLogMarkedIncomplete) {
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
 
+// The estimator killed mid-run and started again (issue 8, faults): it resumes from its checkpoint (written every
+// 0.5 s of wall time) and the run completes undisturbed; the summary still compares online and batch.
+TEST_F(RunEnd, ARestartedEstimatorResumesFromItsCheckpoint) {
+  const Result r = run(test::configPath("scenarios/nominal.yaml"), "--inject restart:estimator:5");
+  EXPECT_EQ(r.cmd.exit_code, 0) << r.cmd.out << r.cmd.err;
+  ASSERT_TRUE(r.summary.is_object()) << r.cmd.out;
+  EXPECT_EQ(r.summary["outcome"], "completed") << r.summary["failures"];
+  const std::string log = test::slurp(dir_.file("run/estimator.log"));
+  EXPECT_NE(log.find("(killed by --inject restart)"), std::string::npos) << log;
+  const size_t at = log.find(" at tick ", log.find("resumed from "));
+  ASSERT_NE(log.find("resumed from "), std::string::npos) << log;
+  const long resumed_tick = std::stol(log.substr(at + 9));
+  const size_t samples_at = log.find("samples ", log.find("exo_estimator: stopped:"));
+  ASSERT_NE(log.find("exo_estimator: stopped:"), std::string::npos) << log;
+  const long samples = std::stol(log.substr(samples_at + 8));
+  const long simulated = r.summary["ticks_simulated"];
+  EXPECT_GT(resumed_tick, 1000) << log;  // the checkpoint held at least the first simulated second
+  EXPECT_LT(resumed_tick, 5200) << log;
+  EXPECT_GT(samples, resumed_tick);       // it continued counting from the checkpoint...
+  EXPECT_LE(samples, simulated);          // ...and lost what came while it was down
+  EXPECT_GT(samples, simulated / 2);
+  EXPECT_EQ(r.summary["estimator"]["ran"], true);
+  EXPECT_EQ(r.summary["estimator"]["computed"], true) << r.summary["estimator"];
+  EXPECT_EQ(r.summary["estimator"]["live_estimate_read"], true) << r.summary["estimator"];
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
 TEST_F(RunEnd, TheWatchdogBoundsTheRun) {
   const Result r = run(test::configPath("scenarios/ideal.yaml"), "--watchdog-factor 0.01 --watchdog-margin-s 0.2");
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
@@ -388,7 +415,7 @@ TEST_F(RunEnd, OptionsTheControllerRefusesAreRefusedBeforeAnythingStarts) {
   const std::vector<Case> cases = {
       {"--moves 1001", "--moves: '1001': out of range, expected an integer in [0, 1000]"},
       {"--seed -1", "--seed: '-1': out of range, expected an integer >= 0"},
-      {"--inject kill:everything:1", "--inject: expected kill|stop:sim|controller|logger:SECONDS"},
+      {"--inject kill:everything:1", "--inject: expected kill|stop:sim|controller|logger|estimator:SECONDS or restart:estimator:SECONDS"},
       {"--watchdog-factor 0", "--watchdog-factor: '0': out of range"},
   };
   for (const Case& c : cases) {

@@ -1,6 +1,6 @@
-// exoid experiment: sim + controller (+ estimator once it exists) over LCM udpm:// inside a private network
-// namespace, in lockstep, logged by exoid_logger, summarised from the log. The controller runs inside the
-// sim's loop as a plugin (default) or as its own process.
+// exoid experiment: sim + controller + online estimator over LCM udpm:// inside a private network namespace,
+// in lockstep, logged by exoid_logger, summarised from the log (with online-vs-batch figures when the
+// estimator ran). The controller runs inside the sim's loop as a plugin (default) or as its own process.
 #include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
@@ -25,7 +25,9 @@
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
+#include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/tools/experiment_summary.hpp"
+#include "exoid/tools/online_vs_batch.hpp"
 #include "exoid/tools/process.hpp"
 #include "exoid/tools/run_log.hpp"
 
@@ -36,7 +38,8 @@ constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
 
 constexpr char kDescription[] =
     "Runs the closed loop: exo_sim (MuJoCo, lockstep) with the centroidal balance QP doing the thesis's CoM\n"
-    "moves, either inside the sim's loop as a plugin (default) or as the separate exo_controller process; every\n"
+    "moves, either inside the sim's loop as a plugin (default) or as the separate exo_controller process, and\n"
+    "the online estimator exo_estimator (unless --no-estimator) reading the same sensor stream; every\n"
     "channel goes over LCM udpm:// with ttl=0 inside a private network namespace (unshare -n; multicast routed\n"
     "on its loopback only), recorded without loss. Writes\n"
     "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger);\n"
@@ -46,7 +49,12 @@ constexpr char kDescription[] =
     "                       simulated / logged, missing_ticks, log_complete, eom_residual_max_rel, ...\n"
     "  DIR/summary.md       the same as a table (also printed)\n"
     "  DIR/sim.log, DIR/sim_result.json, DIR/controller.log, DIR/logger.log   process output (the sim's\n"
-    "                       progress is also printed; controller.log only with --controller process)\n\n"
+    "                       progress is also printed; controller.log only with --controller process)\n"
+    "  DIR/estimator.log, DIR/estimator.ckpt, DIR/online_estimate.csv   the estimator's output, checkpoint\n"
+    "                       (every 0.5 s; a restarted estimator resumes from it) and final estimate; the\n"
+    "                       summary then adds online vs batch: held-out joint-torque RMSE of the online\n"
+    "                       estimate and of a batch WLS-RC (both learning from the first 75 % of the run,\n"
+    "                       judged on the rest) and the final online estimate's difference from the batch one\n\n"
     "A run ends when the sim has simulated the planned time, or early: the robot fell (the sim stops at the\n"
     "fall), a process died or stopped answering (the others are stopped within seconds and reaped), the\n"
     "watchdog expired, or SIGINT/SIGTERM. The summary is written in every case and names what failed.";
@@ -128,10 +136,13 @@ bool parseInjection(const std::string& text, Injection* inj, std::string* error)
   std::getline(ss, seconds);
   char* end = nullptr;
   inj->at_s = std::strtod(seconds.c_str(), &end);
-  if ((inj->action != "kill" && inj->action != "stop") ||
-      (inj->process != "sim" && inj->process != "controller" && inj->process != "logger") || seconds.empty() ||
-      *end != '\0' || !(inj->at_s >= 0.0 && inj->at_s < 1e6)) {
-    *error = "--inject: expected kill|stop:sim|controller|logger:SECONDS, got '" + text + "'";
+  if ((inj->action != "kill" && inj->action != "stop" && inj->action != "restart") ||
+      (inj->process != "sim" && inj->process != "controller" && inj->process != "logger" &&
+       inj->process != "estimator") ||
+      (inj->action == "restart" && inj->process != "estimator") || seconds.empty() || *end != '\0' ||
+      !(inj->at_s >= 0.0 && inj->at_s < 1e6)) {
+    *error = "--inject: expected kill|stop:sim|controller|logger|estimator:SECONDS or restart:estimator:SECONDS, got '" +
+             text + "'";
     return false;
   }
   return true;
@@ -192,7 +203,7 @@ int cmdExperiment(int argc, char** argv) {
       plugin_lib = pluginPath(), controller_model;
   int64_t seed = 1, moves = 0, max_missing = 10;
   double watchdog_factor = 3.0, watchdog_margin = 60.0;
-  bool realtime = false, no_pin = false;
+  bool realtime = false, no_pin = false, no_estimator = false;
   app.add_option("--scenario", scenario_path, "sim scenario (config/scenarios/*.yaml): noise, undeclared effects")
       ->required()->type_name("FILE");
   app.add_option("--out", out_dir, "output directory (created; must be a directory we can write)")->required()->type_name("DIR");
@@ -235,12 +246,16 @@ int cmdExperiment(int argc, char** argv) {
       ->transform(common::strictNumber(1e-6, 1e6))->type_name("F");
   app.add_option("--watchdog-margin-s", watchdog_margin, "watchdog margin, seconds")
       ->transform(common::strictNumber(0.0, 1e7))->type_name("S");
+  app.add_flag("--no-estimator", no_estimator,
+               "do not run exo_estimator (by default it runs beside the loop, reading the\n"
+               "sensors and publishing EXO_ESTIMATE; the controller does not use it yet)");
   app.add_option("--inject", inject_text,
                  "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"
                  "once the sim reports SECONDS simulated (its progress lines, 1 s apart), send\n"
-                 "PROCESS (sim, controller or logger) SIGKILL (ACTION kill) or SIGSTOP (ACTION\n"
-                 "stop: it hangs), e.g. --inject kill:controller:2 (controller only with\n"
-                 "--controller process)")
+                 "PROCESS (sim, controller, logger or estimator) SIGKILL (ACTION kill) or SIGSTOP\n"
+                 "(ACTION stop: it hangs), or SIGKILL the estimator and start it again (restart:\n"
+                 "it resumes from its checkpoint), e.g. --inject kill:controller:2 (controller\n"
+                 "only with --controller process)")
       ->type_name("SPEC");
   app.footer(kFooter);
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
@@ -262,6 +277,7 @@ int cmdExperiment(int argc, char** argv) {
     return fail("--controller-plugin: no such file '" + plugin_lib + "'" + (ec ? " (" + ec.message() + ")" : ""));
   if (use_plugin && inject.process == "controller")
     return fail("--inject: there is no controller process with --controller plugin");
+  if (no_estimator && inject.process == "estimator") return fail("--inject: there is no estimator with --no-estimator");
   controller::ControllerConfig cc;
   if (!controller::loadControllerConfig(controller_config, cc, &err)) return fail(err);
   if (moves == 0) moves = cc.trajectory.moves;
@@ -300,7 +316,9 @@ int cmdExperiment(int argc, char** argv) {
   const std::string log_path = (out / "run.lcmlog").string(), sim_log = (out / "sim.log").string();
   const std::string sim_result = (out / "sim_result.json").string();
   std::error_code ec;
-  for (const char* f : {"run.lcmlog", "logger.log", "controller.log", "sim.log", "sim_result.json", "summary.json", "summary.md"})
+  // A new run never resumes the previous run's estimator checkpoint.
+  for (const char* f : {"run.lcmlog", "logger.log", "controller.log", "sim.log", "sim_result.json", "summary.json", "summary.md",
+                        "estimator.log", "estimator.ckpt", "estimator.ckpt.tmp", "online_estimate.csv"})
     std::filesystem::remove(out / f, ec);
   const std::string url = channels::kDefaultUrl;
   const std::string bin = std::filesystem::path(selfPath()).parent_path().string();
@@ -316,18 +334,39 @@ int cmdExperiment(int argc, char** argv) {
 
   // exoid_logger, not Debian's lcm-logger: the latter drops bursts in LCM's user-space receive ring at the
   // lockstep rate (~30k messages/s) although the kernel delivers every datagram (docs/lcm.md).
-  Child logger{"exoid_logger"}, ctrl{"exo_controller"}, sim{"exo_sim"};
+  Child logger{"exoid_logger"}, ctrl{"exo_controller"}, sim{"exo_sim"}, est{"exo_estimator"};
   logger.pid = tools::spawn({bin + "/exoid_logger", "--lcm-url", url, "--force", "--out", log_path},
                             (out / "logger.log").string(), &err);
   if (logger.pid < 0) return fail(err);
   logger.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   if (!use_plugin) {
-    ctrl.pid = tools::spawn({bin + "/exo_controller", "--model", controller_model, "--config", controller_config,
-                             "--seed", std::to_string(seed), "--moves", std::to_string(moves), "--lcm-url", url},
+    std::vector<std::string> ctrl_args = {bin + "/exo_controller", "--model", controller_model, "--config",
+                                          controller_config, "--seed", std::to_string(seed), "--moves",
+                                          std::to_string(moves), "--lcm-url", url};
+    if (no_estimator) ctrl_args.push_back("--no-estimate");
+    ctrl.pid = tools::spawn(ctrl_args,
                             (out / "controller.log").string(), &err, loop_cpu);
     if (ctrl.pid < 0) return tools::stop(logger.pid, SIGINT, 2000), fail(err);
     ctrl.running = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  // The estimator with its defaults (the summary replays the same OnlineEstimatorOptions), free on any CPU: the
+  // lockstep loop never waits for it. Its checkpoint every 0.5 s of wall time (~1 s simulated at lockstep speed).
+  const std::string est_ckpt = (out / "estimator.ckpt").string(), est_final = (out / "online_estimate.csv").string();
+  // The estimator's prior and tau_ff reference is the controller's model (the correction is to that model).
+  const std::vector<std::string> est_args = {bin + "/exo_estimator", "--model", controller_model, "--lcm-url", url,
+                                             "--checkpoint", est_ckpt, "--checkpoint-every-s", "0.5",
+                                             "--final", est_final};
+  std::string est_log_text;  // output of an estimator that was restarted (its log is rewritten by the new one)
+  if (!no_estimator) {
+    est.pid = tools::spawn(est_args, (out / "estimator.log").string(), &err);
+    if (est.pid < 0) {
+      if (ctrl.running) tools::stop(ctrl.pid, SIGTERM, 2000);
+      tools::stop(logger.pid, SIGINT, 2000);
+      return fail(err);
+    }
+    est.running = true;
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   char dur[32];
@@ -345,11 +384,12 @@ int cmdExperiment(int argc, char** argv) {
   if (use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
     sim_args.insert(sim_args.end(), {"--controller-plugin", plugin_lib, "--controller-model", controller_model,
                                      "--controller-config", controller_config, "--controller-seed", std::to_string(seed),
-                                     "--controller-moves", std::to_string(moves),
-                                     "--no-estimate"});  // no estimator runs: the loop need not receive at all
+                                     "--controller-moves", std::to_string(moves)});
+  if (use_plugin && no_estimator) sim_args.push_back("--no-estimate");  // the loop need not receive at all
   sim.pid = tools::spawn(sim_args, sim_log, &err, loop_cpu);
   if (sim.pid < 0) {
     if (ctrl.running) tools::stop(ctrl.pid, SIGTERM, 2000);
+    if (est.running) tools::stop(est.pid, SIGTERM, 2000);
     tools::stop(logger.pid, SIGINT, 2000);
     return fail(err);
   }
@@ -370,8 +410,17 @@ int cmdExperiment(int argc, char** argv) {
     echoNewLines(sim_log, &echoed, &sim_time);
     if (sim_time != progress_sim_time) progress_sim_time = sim_time, progress_at_s = since();
     if (inject.at_s >= 0.0 && !inject.done && sim_time >= inject.at_s) {
-      Child& target = inject.process == "sim" ? sim : inject.process == "controller" ? ctrl : logger;
-      if (target.pid > 0) ::kill(target.pid, inject.action == "kill" ? SIGKILL : SIGSTOP);  // never kill(-1, ...)
+      Child& target = inject.process == "sim" ? sim : inject.process == "controller" ? ctrl
+                      : inject.process == "estimator" ? est : logger;
+      if (target.pid > 0) ::kill(target.pid, inject.action == "stop" ? SIGSTOP : SIGKILL);  // never kill(-1, ...)
+      if (inject.action == "restart" && target.pid > 0) {
+        // Reap the killed estimator, keep what it wrote, start it again: it resumes from its checkpoint.
+        tools::waitFor(target.pid, 5000, &target.code);
+        est_log_text += slurp((out / "estimator.log").string()) + "(killed by --inject restart)\n";
+        target.pid = tools::spawn(est_args, (out / "estimator.log").string(), &err);
+        target.running = target.pid > 0;
+        if (!target.running) facts.failures.push_back("exo_estimator could not be restarted: " + err);
+      }
       inject.done = true;
     }
     if (reap(sim)) break;
@@ -386,6 +435,13 @@ int cmdExperiment(int argc, char** argv) {
       char buf[200];
       std::snprintf(buf, sizeof buf, "watchdog: the run was still going after %.1f s (limit %.0f x %.1f s + %.0f s)",
                     since(), watchdog_factor, duration, watchdog_margin);
+      facts.failures.push_back(buf);
+      break;
+    }
+    if (reap(est)) {
+      char buf[240];
+      std::snprintf(buf, sizeof buf, "exo_estimator %s at %.1f s, before the run was over (see %s)",
+                    tools::describeExit(est.code).c_str(), est.ended_at_s, (out / "estimator.log").c_str());
       facts.failures.push_back(buf);
       break;
     }
@@ -431,8 +487,20 @@ int cmdExperiment(int argc, char** argv) {
       facts.failures.push_back("exo_controller " + tools::describeExit(ctrl.code) + " at the end of the run (see " +
                                (out / "controller.log").string() + ")");
   }
+  if (logger.running || est.running)
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger and the estimator drain their sockets
+  if (est.running) {  // SIGTERM: it writes its checkpoint and final estimate, exit 0
+    est.code = tools::stop(est.pid, SIGTERM, 5000);
+    est.running = false;
+    if (est.code != 0)
+      facts.failures.push_back("exo_estimator " + tools::describeExit(est.code) + " when stopped (see " +
+                               (out / "estimator.log").string() + ")");
+  }
+  if (!est_log_text.empty()) {  // the killed estimator's output first, then its successor's
+    const std::string successor = slurp((out / "estimator.log").string());
+    std::ofstream((out / "estimator.log").string()) << est_log_text << successor;
+  }
   if (logger.running) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the logger drain its socket
     logger.code = tools::stop(logger.pid, SIGINT, 5000);
     logger.running = false;
     if (logger.code != 0)
@@ -471,9 +539,15 @@ int cmdExperiment(int argc, char** argv) {
   tools::RunLog log;
   facts.log_readable = tools::readRunLog(log_path, model.joint_names, log, &facts.log_error);
   const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
-  const std::string table = tools::summaryTable(s);
+  // Online vs batch on this run's log (the estimator's default options, the controller's model as prior).
+  tools::OnlineVsBatch ovb;
+  if (!no_estimator && facts.log_readable)
+    ovb = tools::compareOnlineBatch(model, log, ctrl_model.phi, estimator::OnlineEstimatorOptions{}, 10, est_final);
+  std::string table = tools::summaryTable(s);
+  const size_t rows_end = table.rfind("|\n");  // the table's last row (failure lines follow it)
+  table.insert(rows_end == std::string::npos ? table.size() : rows_end + 2, tools::onlineVsBatchTable(!no_estimator, ovb));
   std::printf("\n%s\n", table.c_str());
-  for (const auto& [file, text] : {std::pair<std::string, std::string>{"summary.json", tools::summaryJson(s)},
+  for (const auto& [file, text] : {std::pair<std::string, std::string>{"summary.json", tools::summaryJsonWithEstimator(tools::summaryJson(s), !no_estimator, ovb)},
                                    {"summary.md", "# Experiment " + scenario_path + " (seed " + std::to_string(seed) +
                                                       ")\n\n" + table}}) {
     std::ofstream f(out / file);

@@ -142,18 +142,46 @@ SampleStatus updateRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& d
   return SampleStatus::Accepted;
 }
 
-bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool uncertainty) {
-  data.A = model.prior_information;
-  data.b = model.prior_rhs;
+namespace {
+// A += sum_c g_c^2 s D_c (upper triangle), b += sum_c g_c^2 s d_c.
+void addInformation(const RecursiveLsModel& model, const RecursiveLsData& data, Eigen::MatrixXd& A,
+                    Eigen::VectorXd& b) {
   for (int c = 0; c < model.nv; ++c) {
     const std::vector<int>& cols = model.active[c];
     const int k = static_cast<int>(cols.size());
     const double g2s = model.row_weight[c] * model.row_weight[c] * data.scale;
     for (int j = 0; j < k; ++j) {
-      for (int i = 0; i <= j; ++i) data.A(cols[i], cols[j]) += g2s * data.D[c](i, j);
-      data.b[cols[j]] += g2s * data.d[c][j];
+      for (int i = 0; i <= j; ++i) A(cols[i], cols[j]) += g2s * data.D[c](i, j);
+      b[cols[j]] += g2s * data.d[c][j];
     }
   }
+}
+}  // namespace
+
+void recursiveLsInformation(const RecursiveLsModel& model, const RecursiveLsData& data, Eigen::MatrixXd& D,
+                            Eigen::VectorXd& d) {
+  D.setZero();
+  d.setZero();
+  addInformation(model, data, D, d);
+}
+
+void clearRecursiveLsSums(const RecursiveLsModel& model, RecursiveLsData& data) {
+  for (int c = 0; c < model.nv; ++c) {
+    data.D[c].setZero();
+    data.d[c].setZero();
+  }
+  data.yy.setZero();
+  data.scale = 1.0;
+  data.effective_samples = 0.0;
+}
+
+bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool uncertainty,
+                      const Eigen::MatrixXd* carried_information, const Eigen::VectorXd* carried_rhs) {
+  data.A = model.prior_information;
+  data.b = model.prior_rhs;
+  if (carried_information) data.A.triangularView<Eigen::Upper>() += *carried_information;
+  if (carried_rhs) data.b += *carried_rhs;
+  addInformation(model, data, data.A, data.b);
   data.llt.compute(data.A);
   if (data.llt.info() != Eigen::Success) return false;
   data.x = data.b;
@@ -207,7 +235,7 @@ std::vector<double> structure(const RecursiveLsModel& model) {
 }  // namespace
 
 bool saveRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data, const std::string& path,
-                     std::string* error) {
+                     std::string* error, const std::vector<double>& extra) {
   std::vector<double> v = structure(model);
   const double header_size = double(v.size());
   v.insert(v.begin(), header_size);
@@ -220,6 +248,10 @@ bool saveRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data,
                    double(data.accepted), double(data.rejected_nonfinite), double(data.rejected_out_of_order),
                    double(data.rejected_duplicate), double(data.missing)})
     v.push_back(x);
+  if (!extra.empty()) {
+    v.push_back(double(extra.size()));
+    v.insert(v.end(), extra.begin(), extra.end());
+  }
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -240,7 +272,7 @@ bool saveRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data,
 }
 
 bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const std::string& path,
-                     std::string* error) {
+                     std::string* error, std::vector<double>* extra) {
   auto fail = [&](const std::string& what) {
     if (error) *error = path + ": " + what;
     return false;
@@ -262,8 +294,10 @@ bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const
   size_t i = s.size() + 1;
   size_t need = i + model.nv + 9;
   for (int c = 0; c < model.nv; ++c) need += data.D[c].size() + data.d[c].size();
-  if (v.size() != need) return fail("size " + std::to_string(v.size()) + " does not match the model (" +
-                                    std::to_string(need) + ")");
+  size_t n_extra = 0;
+  if (v.size() > need) n_extra = v[need] >= 1 && v[need] < 1e9 ? size_t(v[need]) : v.size();
+  if (v.size() != need && v.size() != need + 1 + n_extra)
+    return fail("size " + std::to_string(v.size()) + " does not match the model (" + std::to_string(need) + ")");
   for (size_t k = s.size() + 1; k < v.size(); ++k)
     if (!std::isfinite(v[k])) return fail("non-finite value at position " + std::to_string(k));
   RecursiveLsData restored = data;
@@ -286,6 +320,7 @@ bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const
   restored.missing = long(v[i++]);
   if (!(restored.scale > 0.0 && restored.scale <= 1.0)) return fail("scale out of (0, 1]");
   data = std::move(restored);
+  if (extra) extra->assign(v.begin() + static_cast<std::ptrdiff_t>(v.size() - n_extra), v.end());
   return true;
 }
 

@@ -339,18 +339,7 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
       if (error) *error = "a floating-base identification needs the model's right_foot and left_foot links";
       return false;
     }
-    if (dopt.footholds.empty()) {
-      const char* soles[2] = {"right_sole", "left_sole"};
-      for (int i = 0; i < 2; ++i) {
-        const int f = model.frameIndex(soles[i]);
-        if (f < 0) continue;
-        estimator::DatasetOptions::Foothold h;
-        h.body = model.frames[f].body;
-        h.point_in_body = model.frames[f].position;
-        h.plate = i;
-        dopt.footholds.push_back(h);
-      }
-    }
+    if (dopt.footholds.empty()) dopt.footholds = estimator::defaultFootholds(model);
   }
   estimator::DatasetBuilder builder(model, dopt, rows);
   const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) { return builder.add(s, err); };

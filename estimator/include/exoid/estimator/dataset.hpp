@@ -107,6 +107,16 @@ struct DatasetOptions {
   int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
 };
 
+/// The footholds of a lab setup: the model's `right_sole` / `left_sole` frames on their plates' sensor origins
+/// (each sole centred on its plate, as the feet are placed in the lab); frames the model lacks are skipped.
+std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model);
+
+/// Base position (world) from leg kinematics: each foothold's point stays where the lab placed it,
+/// p_b = p_world - R_wb p_base(q), averaged over the footholds. Requires forwardKinematics (kin.p, kin.R) of
+/// the state; plate_position [2]: the plates' sensor origins (world). Allocation-free.
+Eigen::Vector3d basePositionFromFootholds(const std::vector<DatasetOptions::Foothold>& footholds, const Data& kin,
+                                          const Eigen::Matrix3d& R_world_base, const Eigen::Vector3d plate_position[2]);
+
 /// Callback receiving the identification data of one sample: K [nv x p] and y [nv] (both after filtering).
 using RowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y)>;
 

@@ -119,7 +119,20 @@ SampleStatus updateRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& d
 /// Assembles A and b, factors A (Cholesky) and solves for x; with `uncertainty` also A^-1 and sigma (m^3);
 /// fills the per-coordinate residual RMS. Returns false (x unchanged) only if A is not positive definite,
 /// which finite data cannot cause. Allocation-free.
-bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool uncertainty);
+/// carried_information [m x m] (symmetric, full) and carried_rhs [m], when given, are added to A and b: the
+/// information an estimator carries from earlier blocks (selective forgetting, online_estimator.hpp).
+bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool uncertainty,
+                      const Eigen::MatrixXd* carried_information = nullptr,
+                      const Eigen::VectorXd* carried_rhs = nullptr);
+
+/// Empties the accumulated sums (D_c, d_c, yy; scale 1, effective samples 0) and keeps the tick, the counters
+/// and the last solution: the start of a new block. Allocation-free.
+void clearRecursiveLsSums(const RecursiveLsModel& model, RecursiveLsData& data);
+
+/// The data information the sums hold, sum_c g_c^2 s D_c, scattered into the upper triangle of D [m x m]
+/// (overwritten), and the rhs sum_c g_c^2 s d_c into d [m]. Allocation-free.
+void recursiveLsInformation(const RecursiveLsModel& model, const RecursiveLsData& data, Eigen::MatrixXd& D,
+                            Eigen::VectorXd& d);
 
 /// tau = K_B x: the generalized forces the current estimate predicts for the regressor K [nv x p] (e.g. of
 /// the desired motion: the feedforward torque). tau [nv]. Allocation-free.
@@ -130,11 +143,13 @@ void predictRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& da
 /// tick and counters) with the model's structure (nv, m, active sets, forgetting, prior, row weights) to
 /// `path` (binary, native endianness; written to path + ".tmp", then renamed, so a crash never leaves half a
 /// file). Not real-time (file I/O): call it off the per-sample path.
+/// `extra`: values of the caller's own state stored with it (loadRecursiveLs returns them).
 bool saveRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data, const std::string& path,
-                     std::string* error);
+                     std::string* error, const std::vector<double>& extra = {});
 /// Restores a checkpoint written for the same model structure; on any mismatch or a damaged file returns
 /// false with *error naming the file and what differs, and leaves data untouched. Call solveRecursiveLs after.
+/// extra (when not null) receives the values saved with it (empty when none were).
 bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const std::string& path,
-                     std::string* error);
+                     std::string* error, std::vector<double>* extra = nullptr);
 
 }  // namespace exoid::estimator

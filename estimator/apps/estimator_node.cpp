@@ -1,0 +1,91 @@
+#include "estimator_node.hpp"
+
+#include <exoid/lcm/channels.hpp>
+#include <filesystem>
+
+namespace exoid::estimator {
+
+EstimatorNode::EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimator& estimator,
+                             const NodeOptions& options)
+    : lcm_(lcm),
+      model_(model),
+      est_(estimator),
+      opt_(options),
+      gate_({channels::kState, channels::kPlateRight, channels::kPlateLeft}),
+      joint_names_(model.joint_names),
+      param_names_(model.paramNames()),
+      coord_names_(model.coordinateNames()) {
+  ch_state_ = gate_.channelIndex(channels::kState);
+  ch_plate_[0] = gate_.channelIndex(channels::kPlateRight);
+  ch_plate_[1] = gate_.channelIndex(channels::kPlateLeft);
+  state_.q = state_.tau = Eigen::VectorXd::Zero(model.njoints);
+  state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
+  est_.prepare(out_);
+  toLcm(out_, param_names_, coord_names_, out_msg_);  // sizes the message once
+  lcm_.reserve(static_cast<size_t>(out_msg_.getEncodedSize()) + 1024);
+  last_checkpoint_ = last_state_ = std::chrono::steady_clock::now();
+  lcm_.subscribeRaw(channels::kState, [this](const char*, const void* data, int size, int64_t) {
+    last_state_ = std::chrono::steady_clock::now();
+    if (gate_.admitEncoded(ch_state_, data, size, state_msg_, state_, nullptr, joint_names_)) {
+      est_.addState(state_);
+      maybePublish();
+    }
+  });
+  for (int i = 0; i < 2; ++i)
+    lcm_.subscribeRaw(i == 0 ? channels::kPlateRight : channels::kPlateLeft,
+                      [this, i](const char*, const void* data, int size, int64_t) {
+                        if (gate_.admitEncoded(ch_plate_[i], data, size, plate_msg_, plate_, nullptr, i)) {
+                          est_.addPlate(plate_);
+                          maybePublish();
+                        }
+                      });
+}
+
+void EstimatorNode::maybePublish() {
+  if (est_.samplesSincePublication() < opt_.publish_every) return;
+  est_.publish(out_);
+  out_.utime = out_.tick * 1000;  // the simulated (or hardware) time of the tick the estimate reached
+  // Messages the gate refused never reached the estimator: their counts join the estimator's own.
+  out_.rejected_nonfinite += static_cast<int32_t>(gate_.rejected(RejectReason::NonFinite) +
+                                                  gate_.rejected(RejectReason::Malformed));
+  out_.rejected_out_of_order += static_cast<int32_t>(gate_.rejected(RejectReason::OutOfOrder));
+  out_.rejected_duplicate += static_cast<int32_t>(gate_.rejected(RejectReason::Duplicate));
+  out_.samples_rejected = out_.rejected_nonfinite + out_.rejected_out_of_order + out_.rejected_duplicate;
+  toLcm(out_, param_names_, coord_names_, out_msg_);
+  if (lcm_.publish(channels::kEstimate, out_msg_)) ++publications_;
+  else ++publish_errors_;
+}
+
+bool EstimatorNode::resume(bool* resumed, std::string* error) {
+  *resumed = false;
+  if (opt_.checkpoint.empty()) return true;
+  std::error_code ec;
+  if (!std::filesystem::exists(opt_.checkpoint, ec)) return true;
+  if (!est_.loadCheckpoint(opt_.checkpoint, error)) return false;
+  *resumed = true;
+  return true;
+}
+
+bool EstimatorNode::writeCheckpoint(std::string* error) {
+  if (opt_.checkpoint.empty()) return true;
+  last_checkpoint_ = std::chrono::steady_clock::now();
+  if (est_.saveCheckpoint(opt_.checkpoint, &checkpoint_error_)) {
+    ++checkpoints_;
+    return true;
+  }
+  ++checkpoint_errors_;
+  if (error) *error = checkpoint_error_;
+  return false;
+}
+
+int EstimatorNode::poll(int timeout_ms, std::string* error) {
+  const int n = lcm_.handleTimeout(timeout_ms, error);
+  if (n < 0) return n;
+  if (!opt_.checkpoint.empty() && opt_.checkpoint_every_s > 0.0 &&
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - last_checkpoint_).count() >=
+          opt_.checkpoint_every_s)
+    writeCheckpoint(nullptr);
+  return n;
+}
+
+}  // namespace exoid::estimator

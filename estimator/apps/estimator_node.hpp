@@ -1,0 +1,66 @@
+#pragma once
+// exo_estimator's loop over LCM (the thin main parses options; this is what tests drive over memq://):
+// EXO_STATE and EXO_PLATE_RIGHT/LEFT through a MessageGate (undecodable, non-finite, duplicate and out-of-order
+// messages rejected and counted per reason) into the OnlineEstimator; EXO_ESTIMATE every `publish_every`
+// folded samples (inside the receive callback: allocation-free); the checkpoint written between receive calls
+// (never inside the per-sample path), every checkpoint_every_s of wall time and on demand.
+#include <chrono>
+#include <exoid/lcm/adapters.hpp>
+#include <exoid/lcm/lcm_endpoint.hpp>
+#include <exoid/lcm/message_gate.hpp>
+#include <string>
+
+#include "exoid/estimator/online/online_estimator.hpp"
+
+namespace exoid::estimator {
+
+struct NodeOptions {
+  int publish_every = 10;           ///< folded samples per EXO_ESTIMATE (10: 100 Hz at 1 kHz)
+  std::string checkpoint;           ///< path; empty: none
+  double checkpoint_every_s = 5.0;  ///< wall seconds between checkpoints (<= 0: only on demand / exit)
+};
+
+class EstimatorNode {
+ public:
+  /// Subscribes on `lcm` (which must outlive the node).
+  EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimator& estimator, const NodeOptions& options);
+
+  /// Restores the checkpoint when its file exists. False with *error when it exists but is refused (another
+  /// estimator's, damaged): the caller decides (exo_estimator exits 2 rather than silently starting over).
+  bool resume(bool* resumed, std::string* error);
+  /// One receive step (at most timeout_ms), then a due checkpoint. Returns handleTimeout's result (< 0: LCM
+  /// failure, *error set) — a checkpoint that cannot be written is reported in *checkpoint_error and counted.
+  int poll(int timeout_ms, std::string* error);
+  bool writeCheckpoint(std::string* error);
+
+  long publications() const { return publications_; }
+  long publishErrors() const { return publish_errors_; }
+  long checkpointsWritten() const { return checkpoints_; }
+  long checkpointErrors() const { return checkpoint_errors_; }
+  const std::string& lastCheckpointError() const { return checkpoint_error_; }
+  const EstimatorOutputSample& lastOutput() const { return out_; }
+  const MessageGate& gate() const { return gate_; }
+  /// Wall time of the last state message (idle detection).
+  std::chrono::steady_clock::time_point lastState() const { return last_state_; }
+
+ private:
+  void maybePublish();
+  LcmEndpoint& lcm_;
+  const Model& model_;
+  OnlineEstimator& est_;
+  NodeOptions opt_;
+  MessageGate gate_;
+  int ch_state_ = 0, ch_plate_[2] = {0, 0};
+  std::vector<std::string> joint_names_, param_names_, coord_names_;
+  RobotStateSample state_;
+  ForcePlateSample plate_;
+  exoid_lcm::robot_state_t state_msg_;
+  exoid_lcm::force_plate_t plate_msg_;
+  exoid_lcm::estimator_output_t out_msg_;
+  EstimatorOutputSample out_;
+  long publications_ = 0, publish_errors_ = 0, checkpoints_ = 0, checkpoint_errors_ = 0;
+  std::string checkpoint_error_;
+  std::chrono::steady_clock::time_point last_checkpoint_, last_state_;
+};
+
+}  // namespace exoid::estimator

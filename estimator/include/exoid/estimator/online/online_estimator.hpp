@@ -1,0 +1,172 @@
+#pragma once
+// The online estimator's loop as a library (docs/estimator.md): sensor samples in (robot state and both force
+// plates of each tick; never the ground truth), EstimatorOutputSample out at the publication rate. Used by
+// build/bin/exo_estimator (estimator/apps) and in-process by the tests.
+//
+// Per tick k (all three messages of tick k present):
+//   1. causal state reconstruction of tick k-1 by central differences over ticks k-2, k-1, k (the batch
+//      pipeline's differences, one tick late, so q, v, a and y all belong to the same instant: no phase
+//      error between them): v = (q_k - q_{k-2}) / 2dt, a = (q_k - 2 q_{k-1} + q_{k-2}) / dt^2, base angular
+//      acceleration likewise from the gyro, base acceleration = accelerometer + R^T g, base position from
+//      leg kinematics (dataset.hpp), y from the torque sensors and the plates (measurement.hpp);
+//   2. the regressor K(q, v, dnu) [nv x p];
+//   3. the same causal Butterworth on the structural entries of K and on y (CausalRowFilter: the filter is
+//      linear and time-invariant, so its lag and attenuation cancel in F(K) phi = F(y));
+//   4. the recursive WLS update (recursive_ls.hpp).
+// At publication: solve, uncertainty, standard parameters, consistency, excitation, residuals, tau_ff.
+//
+// Real time: everything is sized by the constructor / prepare(); addState, addPlate and publish allocate
+// nothing and throw nothing. Checkpoints do file I/O: call them off the per-sample path.
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/online/recursive_ls.hpp"
+#include "exoid/estimator/online/row_filter.hpp"
+#include "exoid/model/model.hpp"
+#include "exoid/samples.hpp"
+#include "exoid/status_samples.hpp"
+
+namespace exoid::estimator {
+
+enum class Forgetting {
+  None,        ///< lambda = 1: the exact minimiser of the batch regularised cost
+  Stabilised,  ///< every direction's data information decays by lambda per sample, the prior never does
+  Selective,   ///< only the base-parameter axes the latest block excited are forgotten (no windup)
+};
+const char* forgettingName(Forgetting f);          ///< "none", "stabilised", "selective"
+bool parseForgetting(const std::string& name, Forgetting& f);
+
+struct OnlineEstimatorOptions {
+  double sample_hz = 1000.0;     ///< tick rate of the samples
+  double cutoff_hz = 20.0;       ///< causal Butterworth on K rows and y; <= 0: none
+  double prior_relative = 0.25;  ///< prior within +-this (relative) of each standard parameter (1 sigma)
+  std::vector<double> row_weight;  ///< [nv] fixed row weights 1 / sigma_c; empty: WLS-R estimated online
+                                   ///< (none / stabilised forgetting; ones with selective forgetting)
+  Forgetting forgetting = Forgetting::None;
+  double lambda = 0.9995;        ///< per-sample forgetting factor (Stabilised, Selective); memory 1 / (1 - lambda)
+  int forget_every = 100;        ///< Selective: samples per block (forgetting step at the first publication after)
+  double block_threshold = 1e-3; ///< Selective: axis j excited by a block when its information >= this x Lambda0_jj
+  double excited_gain = 3.0;     ///< base parameter j counts as excited when prior var / posterior var >= 1 + this
+  double min_excitation = 0.2;   ///< `valid` needs excitation >= this
+  int uncertainty_every = 10;    ///< covariance (m^3) and the stddevs at every N-th publication (kept between)
+};
+
+/// What happened to one input message.
+enum class InputStatus { Accepted, NonFinite, OutOfOrder, Duplicate, Malformed };
+
+class OnlineEstimator {
+ public:
+  /// prior_phi [p]: the prior (and the model the tau_ff correction is relative to: model.phi).
+  OnlineEstimator(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
+                  const OnlineEstimatorOptions& options);
+  bool ok() const { return error_.empty(); }
+  const std::string& error() const { return error_; }
+
+  /// One message of a tick (any order within the tick). Rejected (counted, state untouched): non-finite
+  /// values, a tick equal to (duplicate) or before (out of order) the channel's last accepted one, wrong sizes.
+  /// A tick is processed once its state and both plates are in; a tick left incomplete by a newer one is
+  /// dropped (it shows up as missing). Allocation-free.
+  InputStatus addState(const RobotStateSample& state);
+  InputStatus addPlate(const ForcePlateSample& plate);
+
+  /// Samples folded in since the last publish().
+  long samplesSincePublication() const { return since_publication_; }
+  /// Sizes `out` (params, stddevs, tau_ff, residuals); call once before publish.
+  void prepare(EstimatorOutputSample& out) const;
+  /// Solves and fills `out` (see docs/estimator.md for each field). utime is left to the caller.
+  /// Allocation-free once `out` is prepared.
+  void publish(EstimatorOutputSample& out);
+
+  /// Checkpoint (estimator structure, accumulated information, carried block information, counters): written to
+  /// PATH.tmp and renamed. load refuses another estimator's checkpoint or a damaged file, leaving the state as
+  /// it was. The differencing history and the filter are not saved: they restart on the next ticks.
+  bool saveCheckpoint(const std::string& path, std::string* error) const;
+  bool loadCheckpoint(const std::string& path, std::string* error);
+
+  // Inspection (tests, tools).
+  const RecursiveLsModel& rlsModel() const { return rls_model_; }
+  const RecursiveLsData& rlsData() const { return rls_; }
+  const Eigen::VectorXd& baseEstimate() const { return rls_.x; }    ///< [m] after publish
+  const Eigen::VectorXd& params() const { return phi_; }           ///< [p] after publish
+  const Eigen::VectorXd& baseStddev() const { return rls_.sigma; } ///< [m] after publish
+  const Eigen::VectorXd& priorBaseStddev() const { return prior_sigma_; }  ///< [m] sqrt(diag Lambda0^-1)
+  const Eigen::MatrixXd& priorInformation() const { return rls_model_.prior_information; }
+  /// Last filtered equations handed to the update (tick, K [nv x p], y [nv]); valid when lastRowTick() >= 0.
+  long lastRowTick() const { return row_tick_; }
+  const Eigen::MatrixXd& lastK() const { return Kf_; }
+  const Eigen::VectorXd& lastY() const { return yf_; }
+  long incompleteTicks() const { return incomplete_; }
+  long rejected(InputStatus why) const;
+
+ private:
+  struct Raw {  // one tick's sensor values, ready for differencing
+    long tick = 0;
+    Eigen::VectorXd q, tau;
+    Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+    Eigen::Vector3d gyro = Eigen::Vector3d::Zero(), acceleration = Eigen::Vector3d::Zero();
+    ExternalWrench contact[2];
+    Eigen::Vector3d plate_position[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  };
+  InputStatus admit(int channel, long tick, bool finite, bool sizes_ok);
+  void openSlot(long tick);
+  void tryProcess();
+  void process();
+  void fold();  // Selective: forgetting step and new block
+
+  const Model& model_;
+  OnlineEstimatorOptions opt_;
+  std::string error_;
+  int feet_[2] = {-1, -1};
+  std::vector<DatasetOptions::Foothold> footholds_;
+  double dt_ = 1e-3;
+
+  RecursiveLsModel rls_model_;
+  RecursiveLsData rls_;
+  CausalRowFilter filter_;
+  Eigen::VectorXd phi_;         ///< [p] standard parameters of the last publication
+  bool adaptive_weights_ = false;  ///< WLS-R: g_c = 1 / sigma_c from the previous solve's residuals
+  Eigen::VectorXd initial_weights_;  ///< [nv] the weights the estimator was built with (checkpoint structure)
+  Eigen::VectorXd x_model_;     ///< [m] B phi_model: tau_ff = K_B (x - x_model)
+  Eigen::VectorXd phi_prior_;   ///< [p]
+  Eigen::MatrixXd G_;           ///< [p x m] phi = phi_prior + G (x - x0), G = Sigma Bt Lambda0
+  Eigen::VectorXd phi_var0_;    ///< [p] diag(Sigma - G B Sigma): what no base parameter can tell
+  Eigen::VectorXd prior_sigma_; ///< [m]
+  Eigen::MatrixXd GC_;          ///< [p x m] workspace
+  Eigen::VectorXd param_stddev_;  ///< [p] of the last uncertainty computation
+
+  // Selective forgetting: information carried from earlier blocks.
+  Eigen::MatrixXd R_, dD_, R1_, Y_, M_;
+  Eigen::VectorXd r_, dd_, u_, mask_;
+  Eigen::LLT<Eigen::MatrixXd> mllt_;
+  Eigen::VectorXd rss_carry_;   ///< [nv] forgotten-weighted residual sum of squares of earlier blocks
+  double n_carry_ = 0.0;        ///< its sample weight
+  long block_samples_ = 0;
+  long publications_ = 0;
+
+  // Tick assembly.
+  long slot_tick_ = -1;
+  bool got_[3] = {false, false, false};  ///< state, right plate, left plate
+  long last_tick_[3] = {-1, -1, -1};
+  RobotStateSample slot_state_;
+  ForcePlateSample slot_plate_[2];
+  Raw raw_[3];                  ///< ring of the last ticks
+  int raw_count_ = 0, raw_head_ = 0;
+  long rejected_[5] = {0, 0, 0, 0, 0};
+  long incomplete_ = 0;
+
+  // Per-sample workspace.
+  Data kin_;
+  State state_, ff_state_;
+  bool has_state_ = false;
+  Eigen::VectorXd y_, yf_;
+  Eigen::MatrixXd Kf_;
+  long row_tick_ = -1;
+  long since_publication_ = 0;
+  Eigen::VectorXd dx_;
+};
+
+}  // namespace exoid::estimator

@@ -1,0 +1,457 @@
+#include "exoid/estimator/online/online_estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "exoid/estimator/batch/solvers.hpp"
+#include "exoid/estimator/measurement.hpp"
+#include "exoid/model/inertial.hpp"
+#include "exoid/model/regressor.hpp"
+
+namespace exoid::estimator {
+
+const char* forgettingName(Forgetting f) {
+  switch (f) {
+    case Forgetting::None: return "none";
+    case Forgetting::Stabilised: return "stabilised";
+    case Forgetting::Selective: return "selective";
+  }
+  return "?";
+}
+
+bool parseForgetting(const std::string& name, Forgetting& f) {
+  for (Forgetting g : {Forgetting::None, Forgetting::Stabilised, Forgetting::Selective})
+    if (name == forgettingName(g)) {
+      f = g;
+      return true;
+    }
+  return false;
+}
+
+namespace {
+enum Channel { kStateChannel = 0, kRightPlate = 1, kLeftPlate = 2 };
+
+bool finite3(const Eigen::Vector3d& v) { return v.allFinite(); }
+}  // namespace
+
+OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
+                                 const OnlineEstimatorOptions& options)
+    : model_(model), opt_(options), rls_(RecursiveLsModel{}), kin_(model) {
+  auto fail = [&](const std::string& what) { error_ = what; };  // then return
+  if (!model.floating_base) {
+    fail("the online estimator needs a floating-base model standing on force plates");
+    return;
+  }
+  feet_[0] = model.bodyIndex("right_foot");
+  feet_[1] = model.bodyIndex("left_foot");
+  if (feet_[0] < 0 || feet_[1] < 0) {
+    fail("the model needs right_foot and left_foot links (the plates' bodies)");
+    return;
+  }
+  footholds_ = defaultFootholds(model);
+  if (footholds_.empty()) {
+    fail("the model needs right_sole / left_sole frames (base position from the legs)");
+    return;
+  }
+  if (!(opt_.sample_hz > 0.0 && std::isfinite(opt_.sample_hz))) {
+    fail("sample rate must be > 0");
+    return;
+  }
+  if (!(opt_.prior_relative > 0.0 && std::isfinite(opt_.prior_relative))) {
+    fail("prior uncertainty must be > 0");
+    return;
+  }
+  if (opt_.forget_every < 1 || opt_.uncertainty_every < 1) {
+    fail("forget_every and uncertainty_every must be >= 1");
+    return;
+  }
+  if (!(opt_.block_threshold > 0.0) || !(opt_.excited_gain > 0.0) ||
+      !(opt_.min_excitation >= 0.0 && opt_.min_excitation <= 1.0))
+    {
+    fail("block threshold and excited gain must be > 0, minimum excitation in [0, 1]");
+    return;
+  }
+  dt_ = 1.0 / opt_.sample_hz;
+  const int p = model.nparams(), m = base.rank, nv = model.nv;
+  if (prior_phi.size() != p || !prior_phi.allFinite()) {
+    fail("the prior must have one finite value per parameter");
+    return;
+  }
+
+  // Prior on the standard parameters: independent, sigma_i = relative * h_i (h the WLS-C scale: |prior|, zero
+  // priors their kind's). On x = B phi it is N(B phi_prior, B Sigma B^T): Lambda0 = (B Sigma B^T)^-1.
+  const Eigen::VectorXd var = (opt_.prior_relative * columnScale(model, prior_phi)).cwiseAbs2();
+  const Eigen::MatrixXd BS = base.base_map * var.asDiagonal();  // [m x p]
+  const Eigen::MatrixXd Sx = BS * base.base_map.transpose();
+  Eigen::LLT<Eigen::MatrixXd> sx(Sx);
+  if (sx.info() != Eigen::Success) {
+    fail("prior covariance of the base parameters is not positive definite");
+    return;
+  }
+  Eigen::MatrixXd Lambda0 = sx.solve(Eigen::MatrixXd::Identity(m, m));
+  Lambda0 = 0.5 * (Lambda0 + Lambda0.transpose());
+  RecursiveLsOptions ro;
+  ro.forgetting = opt_.forgetting == Forgetting::Stabilised ? opt_.lambda : 1.0;
+  ro.row_weight = opt_.row_weight;
+  if (!(opt_.lambda > 0.0 && opt_.lambda <= 1.0)) {
+    fail("forgetting factor must be in (0, 1]");
+    return;
+  }
+  std::string err;
+  if (!makeRecursiveLs(model, base, prior_phi, Lambda0, ro, rls_model_, &err)) {
+    fail(err);
+    return;
+  }
+  rls_ = RecursiveLsData(rls_model_);
+  adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
+  initial_weights_ = rls_model_.row_weight;
+  filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz);
+  prior_sigma_ = Sx.diagonal().cwiseSqrt();
+  // Standard parameters from base parameters: the conditional mean of the prior given x (the same prior),
+  // phi = phi_prior + G (x - x0), G = Sigma B^T Lambda0 (B G = I: the base parameters are reproduced exactly);
+  // what x cannot tell keeps its prior variance diag(Sigma - G B Sigma).
+  phi_prior_ = prior_phi;
+  G_ = BS.transpose() * Lambda0;
+  phi_var0_ = (var - (G_ * BS).diagonal()).cwiseMax(0.0);
+  x_model_ = base.base_map * model.phi;
+  phi_ = prior_phi;
+  GC_ = Eigen::MatrixXd::Zero(p, m);
+  param_stddev_ = phi_var0_.cwiseSqrt();
+  dx_ = Eigen::VectorXd::Zero(m);
+
+  R_ = Eigen::MatrixXd::Zero(m, m);
+  dD_ = R1_ = Y_ = M_ = R_;
+  r_ = dd_ = u_ = mask_ = Eigen::VectorXd::Zero(m);
+  mllt_ = Eigen::LLT<Eigen::MatrixXd>(m);
+  rss_carry_ = Eigen::VectorXd::Zero(nv);
+
+  slot_state_.q = slot_state_.tau = Eigen::VectorXd::Zero(model.njoints);
+  slot_state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
+  for (Raw& r : raw_) r.q = r.tau = Eigen::VectorXd::Zero(model.njoints);
+  state_ = ff_state_ = State::zero(model);
+  y_ = yf_ = Eigen::VectorXd::Zero(nv);
+  Kf_ = Eigen::MatrixXd::Zero(nv, p);
+}
+
+long OnlineEstimator::rejected(InputStatus why) const { return rejected_[static_cast<int>(why)]; }
+
+InputStatus OnlineEstimator::admit(int channel, long tick, bool finite, bool sizes_ok) {
+  InputStatus s = InputStatus::Accepted;
+  if (!sizes_ok) s = InputStatus::Malformed;
+  else if (last_tick_[channel] >= 0 && tick == last_tick_[channel]) s = InputStatus::Duplicate;
+  else if (tick < 0 || (last_tick_[channel] >= 0 && tick < last_tick_[channel]) || tick < slot_tick_)
+    s = InputStatus::OutOfOrder;
+  else if (!finite) s = InputStatus::NonFinite;
+  if (s != InputStatus::Accepted) {
+    ++rejected_[static_cast<int>(s)];
+    return s;
+  }
+  last_tick_[channel] = tick;
+  if (tick > slot_tick_) openSlot(tick);
+  got_[channel] = true;
+  return s;
+}
+
+void OnlineEstimator::openSlot(long tick) {
+  if (slot_tick_ >= 0 && (got_[0] || got_[1] || got_[2]) && !(got_[0] && got_[1] && got_[2])) ++incomplete_;
+  slot_tick_ = tick;
+  got_[0] = got_[1] = got_[2] = false;
+}
+
+InputStatus OnlineEstimator::addState(const RobotStateSample& s) {
+  if (!ok()) return InputStatus::Malformed;
+  const int nj = model_.njoints;
+  const bool sizes = s.q.size() == nj && s.tau.size() == nj && s.has_tau.size() == nj;
+  const bool finite = sizes && s.q.allFinite() && s.tau.allFinite() && s.imu_orientation.coeffs().allFinite() &&
+                      finite3(s.imu_gyro) && finite3(s.imu_accel) && s.imu_orientation.norm() > 0.5;
+  const InputStatus st = admit(kStateChannel, s.tick, finite, sizes);
+  if (st != InputStatus::Accepted) return st;
+  slot_state_.tick = s.tick;
+  slot_state_.utime = s.utime;
+  slot_state_.q = s.q;
+  slot_state_.tau = s.tau;
+  slot_state_.has_tau = s.has_tau;
+  slot_state_.imu_orientation = s.imu_orientation;
+  slot_state_.imu_gyro = s.imu_gyro;
+  slot_state_.imu_accel = s.imu_accel;
+  tryProcess();
+  return st;
+}
+
+InputStatus OnlineEstimator::addPlate(const ForcePlateSample& p) {
+  if (!ok()) return InputStatus::Malformed;
+  const bool sizes = p.plate == 0 || p.plate == 1;
+  const bool finite = finite3(p.force) && finite3(p.moment) && finite3(p.plate_position) &&
+                      p.plate_orientation.coeffs().allFinite() && p.plate_orientation.norm() > 0.5;
+  const InputStatus st = admit(sizes ? kRightPlate + p.plate : kRightPlate, p.tick, finite, sizes);
+  if (st != InputStatus::Accepted) return st;
+  slot_plate_[p.plate] = p;
+  tryProcess();
+  return st;
+}
+
+void OnlineEstimator::tryProcess() {
+  if (!(got_[0] && got_[1] && got_[2])) return;
+  got_[0] = got_[1] = got_[2] = false;  // processed: a late duplicate is rejected by the channel's tick
+  // Raw values of this tick into the ring (the oldest slot is overwritten).
+  const int slot = (raw_head_ + raw_count_) % 3;
+  Raw& r = raw_[raw_count_ < 3 ? slot : raw_head_];
+  if (raw_count_ == 3) raw_head_ = (raw_head_ + 1) % 3;
+  else ++raw_count_;
+  const RobotStateSample& s = slot_state_;
+  r.tick = slot_tick_;
+  r.q = s.q;
+  for (int j = 0; j < model_.njoints; ++j) r.tau[j] = s.has_tau[j] ? s.tau[j] : 0.0;
+  r.orientation = s.imu_orientation.normalized();
+  r.gyro = s.imu_gyro;
+  // Accelerometer = R^T (a - g): the classical base acceleration is accel + R^T g (IMU frame = base frame).
+  r.acceleration = s.imu_accel + r.orientation.conjugate() * model_.gravity;
+  for (int i = 0; i < 2; ++i) {
+    r.contact[i].body = feet_[i];
+    footWrenchFromPlate(slot_plate_[i], r.contact[i].force, r.contact[i].moment_world_origin);
+    r.plate_position[i] = slot_plate_[i].plate_position;
+  }
+  // Differences need three consecutive ticks; after a gap the history (and the filter) restart from this one.
+  if (raw_count_ >= 2 && r.tick != raw_[(raw_head_ + raw_count_ - 2) % 3].tick + 1) {
+    raw_head_ = (raw_head_ + raw_count_ - 1) % 3;
+    raw_count_ = 1;
+    filter_.reset();
+    return;
+  }
+  if (raw_count_ == 3) process();
+}
+
+void OnlineEstimator::process() {
+  const Raw& r0 = raw_[raw_head_];
+  const Raw& r1 = raw_[(raw_head_ + 1) % 3];
+  const Raw& r2 = raw_[(raw_head_ + 2) % 3];
+  // The state of the middle tick by central differences (causal: evaluated one tick late).
+  State& st = state_;
+  st.q = r1.q;
+  st.v = (r2.q - r0.q) / (2.0 * dt_);
+  st.a = (r2.q - 2.0 * r1.q + r0.q) / (dt_ * dt_);
+  st.base_orientation = r1.orientation;
+  st.base_omega = r1.gyro;
+  st.base_domega = (r2.gyro - r0.gyro) / (2.0 * dt_);
+  st.base_acceleration = r1.acceleration;
+  st.base_velocity.setZero();  // does not enter the dynamics (docs/conventions.md)
+  computeJointTorqueRegressor(model_, kin_, st);
+  st.base_position = basePositionFromFootholds(footholds_, kin_, st.base_orientation.toRotationMatrix(), r1.plate_position);
+  generalizedForceFromMeasurements(model_, kin_, st, r1.tau, r1.contact, 2, y_);
+  has_state_ = true;
+  filter_.filter(rls_model_, kin_.K, y_, Kf_, yf_);
+  if (updateRecursiveLs(rls_model_, rls_, r1.tick, Kf_, yf_) == SampleStatus::Accepted) {
+    row_tick_ = r1.tick;
+    ++since_publication_;
+    ++block_samples_;
+  } else {
+    ++rejected_[static_cast<int>(InputStatus::NonFinite)];  // e.g. a kinematic singularity made K non-finite
+  }
+}
+
+void OnlineEstimator::fold() {
+  // Selective forgetting (docs/estimator.md): S = base-parameter axes this block informed. The carried data
+  // information R splits into R1 = R_{:S} R_SS^-1 R_{S:} (what R says about S) and R2 = R - R1 >= 0 (what it
+  // says about the rest, R2 e_S = 0; Cao & Schwartz 2000's decomposition, on a coordinate subspace); only R1
+  // is forgotten, with its data centre kept: R <- R - (1 - lb) R1, r <- r - (1 - lb) R_{:S} R_SS^-1 r_S.
+  const int m = rls_model_.m;
+  recursiveLsInformation(rls_model_, rls_, dD_, dd_);
+  for (int j = 0; j < m; ++j)
+    for (int i = j + 1; i < m; ++i) dD_(i, j) = dD_(j, i);
+  const double lb = std::pow(opt_.lambda, static_cast<double>(block_samples_));
+  const Eigen::MatrixXd& L0 = rls_model_.prior_information;
+  int nS = 0;
+  for (int j = 0; j < m; ++j) {
+    // Forget axis j only where this block brings at least what forgetting takes ((1 - lb) R_jj) and a
+    // meaningful amount against the prior: information on an axis never shrinks, so nothing winds up when
+    // the excitation stops, while a persistently excited axis reaches exponential forgetting's steady state.
+    const bool in_S = dD_(j, j) >= std::max(opt_.block_threshold * L0(j, j), (1.0 - lb) * R_(j, j));
+    mask_[j] = in_S ? 1.0 : 0.0;  // P = diag(mask)
+    nS += in_S ? 1 : 0;
+  }
+  if (nS > 0 && lb < 1.0) {
+    // M = P R P + (I - P) + eps P: R_SS padded with the identity; eps keeps R2 >= 0 where R_SS is singular.
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < m; ++i) M_(i, j) = mask_[i] * mask_[j] * R_(i, j);
+    for (int j = 0; j < m; ++j) M_(j, j) += mask_[j] > 0.0 ? 1e-10 * (R_(j, j) + L0(j, j)) : 1.0;
+    mllt_.compute(M_);
+    // Y = M^-1 P R and u = M^-1 P r vanish outside S, so R P Y = R Y and R P u = R u.
+    Y_ = mask_.asDiagonal() * R_;
+    mllt_.solveInPlace(Y_);
+    u_ = mask_.cwiseProduct(r_);
+    mllt_.solveInPlace(u_);
+    R1_.noalias() = R_ * Y_;
+    dd_.noalias() -= (1.0 - lb) * R_ * u_;
+    R_.noalias() -= (1.0 - lb) * R1_;
+    for (int j = 0; j < m; ++j)
+      for (int i = j + 1; i < m; ++i) R_(i, j) = R_(j, i) = 0.5 * (R_(i, j) + R_(j, i));
+  }
+  R_ += dD_;
+  r_ += dd_;
+  // Residual statistics: the block's residual sum of squares at the estimate just published, weighted like the
+  // forgotten information (lb per block).
+  for (int c = 0; c < rls_model_.nv; ++c)
+    rss_carry_[c] = lb * rss_carry_[c] + rls_.residual_rms[c] * rls_.residual_rms[c] * rls_.effective_samples;
+  n_carry_ = lb * n_carry_ + rls_.effective_samples;
+  clearRecursiveLsSums(rls_model_, rls_);
+  block_samples_ = 0;
+}
+
+void OnlineEstimator::prepare(EstimatorOutputSample& out) const {
+  const int p = model_.nparams(), m = rls_model_.m, nv = model_.nv;
+  out.params = Eigen::VectorXd::Zero(p);
+  out.param_stddev = Eigen::VectorXd::Zero(p);
+  out.base_params = Eigen::VectorXd::Zero(m);
+  out.base_stddev = Eigen::VectorXd::Zero(m);
+  out.tau_ff = Eigen::VectorXd::Zero(nv);
+  out.residual_rms = Eigen::VectorXd::Zero(nv);
+}
+
+void OnlineEstimator::publish(EstimatorOutputSample& out) {
+  const int m = rls_model_.m, nv = model_.nv;
+  const bool selective = opt_.forgetting == Forgetting::Selective;
+  // WLS-R (thesis eqs. 29-32) online: sigma_c from the previous solve's residuals over the whole memory. The
+  // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history.
+  if (adaptive_weights_ && rls_.solves > 0 && rls_.effective_samples > 0.0) {
+    for (int c = 0; c < nv; ++c) {
+      const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
+      rls_model_.row_weight[c] = 1.0 / std::max(rls_.residual_rms[c], 1e-6 * y_rms + 1e-12);
+    }
+  }
+  // The covariance costs m^3 (most of a publication): every uncertainty_every-th one, the stddevs kept between.
+  const bool uncertainty = publications_++ % opt_.uncertainty_every == 0;
+  const bool solved = selective ? solveRecursiveLs(rls_model_, rls_, uncertainty, &R_, &r_)
+                                : solveRecursiveLs(rls_model_, rls_, uncertainty);
+  // Residual RMS over the estimate's memory (selective: earlier blocks carried, forgetting-weighted).
+  if (selective) {
+    const double n = n_carry_ + rls_.effective_samples;
+    for (int c = 0; c < nv; ++c)
+      out.residual_rms[c] = n > 0.0 ? std::sqrt((rss_carry_[c] + rls_.residual_rms[c] * rls_.residual_rms[c] *
+                                                                     rls_.effective_samples) / n)
+                                    : 0.0;
+    out.effective_samples = n;
+  } else {
+    out.residual_rms = rls_.residual_rms;
+    out.effective_samples = rls_.effective_samples;
+  }
+  // Standard parameters and their uncertainty: phi = phi_prior + G (x - x0), var = diag(G C G^T) + var0.
+  dx_ = rls_.x - rls_model_.x0;
+  phi_.noalias() = G_ * dx_;
+  phi_ += phi_prior_;
+  if (uncertainty) {
+    GC_.noalias() = G_ * rls_.covariance;
+    for (int i = 0; i < phi_.size(); ++i)
+      param_stddev_[i] = std::sqrt(std::max(0.0, GC_.row(i).dot(G_.row(i)) + phi_var0_[i]));
+  }
+  out.param_stddev = param_stddev_;
+  out.params = phi_;
+  out.base_params = rls_.x;
+  out.base_stddev = rls_.sigma;
+  // Excitation: fraction of base parameters whose variance the data cut to 1 / (1 + excited_gain) of the prior's.
+  int excited = 0;
+  for (int j = 0; j < m; ++j)
+    if (prior_sigma_[j] * prior_sigma_[j] >= (1.0 + opt_.excited_gain) * rls_.sigma[j] * rls_.sigma[j]) ++excited;
+  out.excitation = m > 0 ? static_cast<double>(excited) / m : 0.0;
+  // Consistency of every link (pseudo-inertia positive definite).
+  bool consistent = true;
+  for (int b = 0; b < model_.nbodies; ++b)
+    consistent = consistent &&
+                 checkConsistency(Vector10d(phi_.segment<kParamsPerBody>(model_.bodyParamIndex(b)))).consistent;
+  out.consistent = consistent;
+  // tau_ff = K(q, v, dnu)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed state with
+  // dnu = 0 (gravity and velocity terms only): the estimator does not know the controller's desired
+  // acceleration, and the measured one (encoders differenced twice) is the noisiest signal it has.
+  if (has_state_) {
+    ff_state_ = state_;
+    ff_state_.a.setZero();
+    ff_state_.base_domega.setZero();
+    ff_state_.base_acceleration.setZero();
+    computeJointTorqueRegressor(model_, kin_, ff_state_);
+    dx_ = rls_.x - x_model_;
+    for (int c = 0; c < nv; ++c) {
+      double sum = 0.0;
+      for (int j : rls_model_.active[c]) sum += kin_.K(c, rls_model_.independent[j]) * dx_[j];
+      out.tau_ff[c] = sum;
+    }
+  } else {
+    out.tau_ff.setZero();
+  }
+  out.tick = row_tick_ >= 0 ? row_tick_ : 0;
+  out.samples_used = rls_.accepted;
+  out.rejected_nonfinite = static_cast<int32_t>(rejected_[static_cast<int>(InputStatus::NonFinite)] +
+                                                rejected_[static_cast<int>(InputStatus::Malformed)] +
+                                                rls_.rejected_nonfinite);
+  out.rejected_out_of_order = static_cast<int32_t>(rejected_[static_cast<int>(InputStatus::OutOfOrder)]);
+  out.rejected_duplicate = static_cast<int32_t>(rejected_[static_cast<int>(InputStatus::Duplicate)]);
+  out.samples_rejected = out.rejected_nonfinite + out.rejected_out_of_order + out.rejected_duplicate;
+  out.samples_missing = rls_.missing;
+  const bool finite = solved && out.params.allFinite() && out.param_stddev.allFinite() && out.tau_ff.allFinite() &&
+                      out.residual_rms.allFinite() && out.base_stddev.allFinite();
+  out.valid = finite && consistent && rls_.accepted > 0 && out.excitation >= opt_.min_excitation;
+  since_publication_ = 0;
+  if (selective && block_samples_ >= opt_.forget_every) fold();
+}
+
+bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error) const {
+  // The carried block information (selective forgetting) and the options that shape the estimate travel with
+  // the recursive state; the structure check of loadRecursiveLs covers prior, weights and active sets.
+  std::vector<double> extra = {double(static_cast<int>(opt_.forgetting)), opt_.lambda, double(opt_.forget_every),
+                               opt_.block_threshold, opt_.cutoff_hz, n_carry_, double(block_samples_)};
+  extra.insert(extra.end(), R_.data(), R_.data() + R_.size());
+  extra.insert(extra.end(), r_.data(), r_.data() + r_.size());
+  extra.insert(extra.end(), rss_carry_.data(), rss_carry_.data() + rss_carry_.size());
+  for (long v : rejected_) extra.push_back(double(v));
+  extra.push_back(double(incomplete_));
+  extra.insert(extra.end(), rls_model_.row_weight.data(), rls_model_.row_weight.data() + rls_model_.nv);
+  RecursiveLsModel structure = rls_model_;  // checked against the weights the estimator was built with
+  structure.row_weight = initial_weights_;
+  return saveRecursiveLs(structure, rls_, path, error, extra);
+}
+
+bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error) {
+  RecursiveLsData restored = rls_;
+  std::vector<double> extra;
+  RecursiveLsModel structure = rls_model_;
+  structure.row_weight = initial_weights_;
+  if (!loadRecursiveLs(structure, restored, path, error, &extra)) return false;
+  const int m = rls_model_.m, nv = rls_model_.nv;
+  const size_t want = 7 + size_t(m) * m + m + nv + 5 + 1 + nv;
+  if (extra.size() != want) {
+    if (error) *error = path + ": not an exo_estimator checkpoint (estimator section missing or of another size)";
+    return false;
+  }
+  if (extra[0] != double(static_cast<int>(opt_.forgetting)) || extra[1] != opt_.lambda ||
+      extra[2] != double(opt_.forget_every) || extra[3] != opt_.block_threshold || extra[4] != opt_.cutoff_hz) {
+    if (error) *error = path + ": written with other options (forgetting, lambda, block, threshold or cutoff differ)";
+    return false;
+  }
+  size_t i = 5;
+  n_carry_ = extra[i++];
+  block_samples_ = long(extra[i++]);
+  std::copy(extra.begin() + i, extra.begin() + i + m * m, R_.data());
+  i += size_t(m) * m;
+  std::copy(extra.begin() + i, extra.begin() + i + m, r_.data());
+  i += m;
+  std::copy(extra.begin() + i, extra.begin() + i + nv, rss_carry_.data());
+  i += nv;
+  for (long& v : rejected_) v = long(extra[i++]);
+  incomplete_ = long(extra[i++]);
+  for (int c = 0; c < nv; ++c) rls_model_.row_weight[c] = extra[i++];
+  rls_ = std::move(restored);
+  // The channels resume after the checkpoint's last tick; the differencing history and the filter restart.
+  for (long& t : last_tick_) t = rls_.has_tick ? rls_.last_tick + 1 : -1;
+  slot_tick_ = rls_.has_tick ? rls_.last_tick + 1 : -1;
+  got_[0] = got_[1] = got_[2] = false;
+  raw_count_ = 0;
+  raw_head_ = 0;
+  filter_.reset();
+  since_publication_ = 0;
+  const bool selective = opt_.forgetting == Forgetting::Selective;
+  if (!solveRecursiveLs(rls_model_, rls_, true, selective ? &R_ : nullptr, selective ? &r_ : nullptr)) {
+    if (error) *error = path + ": restored information is not positive definite";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace exoid::estimator

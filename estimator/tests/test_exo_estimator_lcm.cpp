@@ -1,0 +1,183 @@
+// exo_estimator's loop (estimator/apps/estimator_node.hpp) in-process over memq://: sensor messages in,
+// EXO_ESTIMATE out equal to the OnlineEstimator fed the same samples directly; bad messages (undecodable,
+// non-finite, duplicate, out of order) rejected and counted in the message; checkpoint written and resumed.
+#include <gtest/gtest.h>
+
+#include <exoid/lcm/adapters.hpp>
+#include <exoid/lcm/channels.hpp>
+#include <filesystem>
+#include <random>
+#include <unistd.h>
+
+#include "estimator_node.hpp"
+#include "exoid/model/urdf.hpp"
+#include "synthetic_sensors.hpp"
+
+namespace exoid::estimator {
+namespace {
+
+struct ExoSetup {
+  Model model;
+  BaseParameters base;
+};
+
+const ExoSetup& setup() {
+  static const ExoSetup s = [] {
+    ExoSetup x;
+    std::string err;
+    EXPECT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, x.model, &err)) << err;
+    x.base = computeBaseParameters(x.model);
+    return x;
+  }();
+  return s;
+}
+
+void drain(EstimatorNode& node) {
+  std::string err;
+  while (node.poll(0, &err) > 0) {
+  }
+}
+
+TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
+  const ExoSetup& s = setup();
+  const Model& model = s.model;
+  LcmEndpoint lcm("memq://");
+  OnlineEstimatorOptions opt;
+  OnlineEstimator est(model, s.base, model.phi, opt), ref(model, s.base, model.phi, opt);
+  ASSERT_TRUE(est.ok()) << est.error();
+  NodeOptions nopt;
+  nopt.publish_every = 20;
+  EstimatorNode node(lcm, model, est, nopt);
+  std::vector<EstimatorOutputSample> received;
+  long refused = 0;
+  const std::vector<std::string> params = model.paramNames(), coords = model.coordinateNames();
+  lcm.subscribe<exoid_lcm::estimator_output_t>(channels::kEstimate, [&](const char*, const exoid_lcm::estimator_output_t& m) {
+    EstimatorOutputSample o;
+    std::string why;
+    if (fromLcm(m, params, static_cast<size_t>(s.base.rank), coords, o, &why)) received.push_back(o);
+    else ADD_FAILURE() << why, ++refused;
+  });
+  EstimatorOutputSample expected;
+  ref.prepare(expected);
+  std::vector<EstimatorOutputSample> expected_all;
+
+  testing::SensorTick t = testing::makeSensorTick(model);
+  std::mt19937_64 rng(3);
+  exoid_lcm::robot_state_t sm;
+  exoid_lcm::force_plate_t pm;
+  auto send_state = [&](const RobotStateSample& st) {
+    toLcm(st, model.joint_names, sm);
+    lcm.publish(channels::kState, sm);
+    drain(node);
+  };
+  auto send_plate = [&](const ForcePlateSample& p) {
+    toLcm(p, pm);
+    lcm.publish(p.plate == 0 ? channels::kPlateRight : channels::kPlateLeft, pm);
+    drain(node);
+  };
+  for (long k = 0; k < 402; ++k) {
+    testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
+    if (k == 100) {  // a NaN state and undecodable bytes before the good state of this tick
+      RobotStateSample bad = t.state;
+      bad.imu_gyro[1] = std::nan("");
+      send_state(bad);
+      const char junk[5] = {1, 2, 3, 4, 5};
+      lcm.publishRaw(channels::kState, junk, sizeof junk);
+      drain(node);
+    }
+    send_state(t.state);
+    if (k == 200) send_state(t.state);  // duplicate
+    send_plate(t.plate[0]);
+    send_plate(t.plate[1]);
+    if (k == 300) {  // an old plate: out of order
+      testing::SensorTick old = t;
+      old.plate[1].tick = k - 10;
+      send_plate(old.plate[1]);
+    }
+    ref.addState(t.state);
+    ref.addPlate(t.plate[0]);
+    ref.addPlate(t.plate[1]);
+    if (ref.samplesSincePublication() >= nopt.publish_every) {
+      ref.publish(expected);
+      expected_all.push_back(expected);
+    }
+  }
+  ASSERT_EQ(received.size(), expected_all.size());
+  ASSERT_EQ(received.size(), 20u);  // 400 folded samples / 20
+  EXPECT_EQ(refused, 0);
+  for (size_t i = 0; i < received.size(); ++i) {
+    EXPECT_EQ(received[i].params, expected_all[i].params) << i;
+    EXPECT_EQ(received[i].tau_ff, expected_all[i].tau_ff) << i;
+    EXPECT_EQ(received[i].tick, expected_all[i].tick);
+    EXPECT_EQ(received[i].utime, 1000 * received[i].tick);
+  }
+  const EstimatorOutputSample& last = received.back();
+  EXPECT_EQ(last.rejected_nonfinite, 2);  // the NaN state and the undecodable bytes
+  EXPECT_EQ(last.rejected_duplicate, 1);
+  EXPECT_EQ(last.rejected_out_of_order, 1);
+  EXPECT_EQ(last.samples_rejected, 4);
+  EXPECT_EQ(last.samples_used, 400);
+  EXPECT_EQ(last.samples_missing, 0);
+  EXPECT_EQ(node.publications(), 20);
+  EXPECT_EQ(node.publishErrors(), 0);
+}
+
+TEST(ExoEstimatorLcm, CheckpointIsWrittenAndResumed) {
+  const ExoSetup& s = setup();
+  const Model& model = s.model;
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("exoid_node_ckpt_" + std::to_string(::getpid()) + ".bin")).string();
+  std::filesystem::remove(path);
+  OnlineEstimatorOptions opt;
+  NodeOptions nopt;
+  nopt.checkpoint = path;
+  nopt.checkpoint_every_s = 0.0;  // only on demand
+  long accepted = 0;
+  {
+    LcmEndpoint lcm("memq://");
+    OnlineEstimator est(model, s.base, model.phi, opt);
+    EstimatorNode node(lcm, model, est, nopt);
+    bool resumed = true;
+    std::string err;
+    ASSERT_TRUE(node.resume(&resumed, &err)) << err;
+    EXPECT_FALSE(resumed);  // no file yet: a fresh start
+    testing::SensorTick t = testing::makeSensorTick(model);
+    std::mt19937_64 rng(4);
+    exoid_lcm::robot_state_t sm;
+    exoid_lcm::force_plate_t pm;
+    for (long k = 0; k < 150; ++k) {
+      testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
+      toLcm(t.state, model.joint_names, sm);
+      lcm.publish(channels::kState, sm);
+      for (int i = 0; i < 2; ++i) {
+        toLcm(t.plate[i], pm);
+        lcm.publish(i == 0 ? channels::kPlateRight : channels::kPlateLeft, pm);
+      }
+      drain(node);
+    }
+    ASSERT_TRUE(node.writeCheckpoint(&err)) << err;
+    EXPECT_EQ(node.checkpointsWritten(), 1);
+    accepted = est.rlsData().accepted;
+    EXPECT_EQ(accepted, 148);
+  }
+  LcmEndpoint lcm("memq://");
+  OnlineEstimator est(model, s.base, model.phi, opt);
+  EstimatorNode node(lcm, model, est, nopt);
+  bool resumed = false;
+  std::string err;
+  ASSERT_TRUE(node.resume(&resumed, &err)) << err;
+  EXPECT_TRUE(resumed);
+  EXPECT_EQ(est.rlsData().accepted, accepted);
+  EXPECT_EQ(est.rlsData().last_tick, 148);
+  // Another estimator's options: refused, the caller decides (exo_estimator exits 2).
+  OnlineEstimatorOptions other = opt;
+  other.forgetting = Forgetting::Selective;
+  OnlineEstimator est2(model, s.base, model.phi, other);
+  EstimatorNode node2(lcm, model, est2, nopt);
+  EXPECT_FALSE(node2.resume(&resumed, &err));
+  EXPECT_NE(err.find("other options"), std::string::npos) << err;
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace exoid::estimator

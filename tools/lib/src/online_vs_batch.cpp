@@ -1,0 +1,199 @@
+#include "exoid/tools/online_vs_batch.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "exoid/common/strict_number.hpp"
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/batch/accumulator.hpp"
+#include "exoid/estimator/batch/identify.hpp"
+#include "exoid/estimator/dataset.hpp"
+
+namespace exoid::tools {
+
+namespace {
+
+// name,prior,estimate,stddev -> estimate per model parameter; false when a parameter is missing or bad.
+bool readLiveEstimate(const std::string& path, const Model& model, Eigen::VectorXd& phi, std::string* error) {
+  std::ifstream in(path);
+  if (!in) return *error = path + ": cannot read the online estimate", false;
+  std::map<std::string, double> values;
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string name, prior, estimate;
+    std::getline(ss, name, ',');
+    std::getline(ss, prior, ',');
+    std::getline(ss, estimate, ',');
+    double v = 0.0;
+    if (!common::parseDouble(estimate, v)) return *error = path + ": bad estimate for '" + name + "'", false;
+    values[name] = v;
+  }
+  const std::vector<std::string> names = model.paramNames();
+  phi.resize(static_cast<Eigen::Index>(names.size()));
+  for (size_t i = 0; i < names.size(); ++i) {
+    auto it = values.find(names[i]);
+    if (it == values.end()) return *error = path + ": no estimate for '" + names[i] + "'", false;
+    phi[static_cast<Eigen::Index>(i)] = it->second;
+  }
+  return true;
+}
+
+double jointRmse(const Model& model, const estimator::LsqAccumulator& acc, const Eigen::VectorXd& x, long rows) {
+  double sum = 0.0;
+  for (int c = model.floating_base ? 6 : 0; c < model.nv; ++c) sum += acc.residual(c, x);
+  const int joints = model.nv - (model.floating_base ? 6 : 0);
+  return rows > 0 ? std::sqrt(sum / (static_cast<double>(rows) * joints)) : 0.0;
+}
+}  // namespace
+
+OnlineVsBatch compareOnlineBatch(const Model& model, const RunLog& log, const Eigen::VectorXd& prior,
+                                 const estimator::OnlineEstimatorOptions& options, int publish_every,
+                                 const std::string& live_csv, double train_fraction) {
+  using namespace estimator;
+  OnlineVsBatch c;
+  long skipped = 0;
+  const std::vector<AlignedTick> ticks = alignByTick(log.states, log.plates[0], log.plates[1], {}, TickNeeds{}, &skipped);
+  c.logged_ticks = static_cast<long>(ticks.size());
+  const BaseParameters base = computeBaseParameters(model);
+  c.base_params = base.rank;
+  if (ticks.size() < 4000) {
+    c.error = "too few logged ticks (" + std::to_string(ticks.size()) + ") for a held-out comparison";
+    return c;
+  }
+  const size_t split = static_cast<size_t>(train_fraction * static_cast<double>(ticks.size()));
+  c.split_tick = ticks[split].state->tick;
+  const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
+  // Batch: exoid identify's sensors pipeline (inputs filtered at 30 Hz), over [from, to) into acc.
+  DatasetOptions dopt;
+  dopt.cutoff_hz = 30.0;
+  dopt.filter = FilterMode::Inputs;
+  dopt.footholds = defaultFootholds(model);
+  auto accumulate = [&](size_t from, size_t to, LsqAccumulator& acc) {
+    long rows = 0;
+    DatasetBuilder builder(model, dopt, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+      rows += acc.add(K, y) ? 1 : 0;
+    });
+    MeasuredSample s;
+    std::string err;
+    for (size_t i = from; i < to; ++i) {
+      const ForcePlateSample* plates[2] = {ticks[i].plate[0], ticks[i].plate[1]};
+      measuredFromSensors(model, *ticks[i].state, plates, feet, s);
+      if (!builder.add(s, &err)) return -1L;
+    }
+    if (!builder.finish(&err)) return -1L;
+    acc.flush();
+    return rows;
+  };
+  Eigen::VectorXd prior_sigma;
+  auto replay = [&](size_t to, Eigen::VectorXd& x) {
+    OnlineEstimator est(model, base, prior, options);
+    if (!est.ok()) return false;
+    prior_sigma = est.priorBaseStddev();
+    EstimatorOutputSample out;
+    est.prepare(out);
+    for (size_t i = 0; i < to; ++i) {  // publishing like exo_estimator (the WLS-R weights follow its solves)
+      est.addState(*ticks[i].state);
+      est.addPlate(*ticks[i].plate[0]);
+      est.addPlate(*ticks[i].plate[1]);
+      if (est.samplesSincePublication() >= publish_every) est.publish(out);
+    }
+    est.publish(out);
+    x = out.base_params;
+    return true;
+  };
+  LsqAccumulator train(model, base), whole(model, base);
+  AccumulatorOptions one;
+  one.folds = 1;
+  LsqAccumulator held(model, base, one);
+  const long held_rows = accumulate(split, ticks.size(), held);
+  if (accumulate(0, split, train) < 0 || held_rows <= 0 || accumulate(0, ticks.size(), whole) < 0) {
+    c.error = "the dataset pipeline refused the logged samples";
+    return c;
+  }
+  IdentifyResult batch_train, batch_whole;
+  std::string err;
+  if (!identify(train, model, prior, IdentifyOptions{}, nullptr, batch_train, &err) ||
+      !identify(whole, model, prior, IdentifyOptions{}, nullptr, batch_whole, &err)) {
+    c.error = "batch WLS-RC: " + err;
+    return c;
+  }
+  c.batch_rank = batch_train.rank;
+  Eigen::VectorXd x_online_train, x_replay;
+  if (!replay(split, x_online_train) || !replay(ticks.size(), x_replay)) {
+    c.error = "online estimator options refused";
+    return c;
+  }
+  c.param_diff_replay_batch_sigma = (x_replay - batch_whole.phi_base).cwiseQuotient(prior_sigma).norm() / std::sqrt(base.rank);
+  c.heldout_rmse_online = jointRmse(model, held, x_online_train, held_rows);
+  c.heldout_rmse_batch = jointRmse(model, held, batch_train.phi_base, held_rows);
+  c.heldout_rmse_prior = jointRmse(model, held, base.base_map * prior, held_rows);
+  Eigen::VectorXd phi_live;
+  if (!live_csv.empty() && readLiveEstimate(live_csv, model, phi_live, &err)) {
+    c.live_read = true;
+    const Eigen::VectorXd x_live = base.base_map * phi_live;
+    c.param_diff_live_batch = (x_live - batch_whole.phi_base).norm() / batch_whole.phi_base.norm();
+    c.param_diff_live_replay = (x_live - x_replay).norm() / x_replay.norm();
+    c.param_diff_live_batch_sigma = (x_live - batch_whole.phi_base).cwiseQuotient(prior_sigma).norm() / std::sqrt(base.rank);
+    c.param_diff_live_replay_sigma = (x_live - x_replay).cwiseQuotient(prior_sigma).norm() / std::sqrt(base.rank);
+  } else if (!live_csv.empty()) {
+    c.error = err;
+  }
+  c.computed = true;
+  return c;
+}
+
+std::string summaryJsonWithEstimator(const std::string& summary_json, bool ran, const OnlineVsBatch& c) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(summary_json);
+  nlohmann::ordered_json e;
+  e["ran"] = ran;
+  if (ran) {
+    e["computed"] = c.computed;
+    e["error"] = c.error;
+    e["logged_ticks"] = c.logged_ticks;
+    e["split_tick"] = c.split_tick;
+    e["batch_rank"] = c.batch_rank;
+    e["base_params"] = c.base_params;
+    e["heldout_joint_rmse_online_nm"] = c.heldout_rmse_online;
+    e["heldout_joint_rmse_batch_nm"] = c.heldout_rmse_batch;
+    e["heldout_joint_rmse_prior_nm"] = c.heldout_rmse_prior;
+    e["live_estimate_read"] = c.live_read;
+    e["base_param_diff_live_vs_batch"] = c.param_diff_live_batch;
+    e["base_param_diff_live_vs_batch_prior_sigmas"] = c.param_diff_live_batch_sigma;
+    e["base_param_diff_live_vs_replay"] = c.param_diff_live_replay;
+    e["base_param_diff_live_vs_replay_prior_sigmas"] = c.param_diff_live_replay_sigma;
+    e["base_param_diff_replay_vs_batch_prior_sigmas"] = c.param_diff_replay_batch_sigma;
+  }
+  j["estimator"] = e;
+  return j.dump(2) + "\n";
+}
+
+std::string onlineVsBatchTable(bool ran, const OnlineVsBatch& c) {
+  if (!ran) return "";
+  if (!c.computed) return "| online vs batch | not computed: " + c.error + " | |\n";
+  auto pct = [&](double v) {
+    char b[48];
+    if (!c.live_read) return std::string("no live estimate");
+    std::snprintf(b, sizeof b, "%.2f %%", 100.0 * v);
+    return std::string(b);
+  };
+  char buf[1600];
+  std::snprintf(buf, sizeof buf,
+                "| held-out joint-torque RMSE, online / batch WLS-RC (z %d of %d) / prior | %.4f / %.4f / %.4f N m "
+                "(online / batch %.3f) | online <= 1.02 x batch |\n"
+                "| final online (live) vs batch, base parameters | %s, RMS %.3f prior sigmas | |\n"
+                "| final online (replay of the log) vs batch, base parameters | RMS %.3f prior sigmas | |\n"
+                "| live estimator vs its replay (samples lost over UDP) | %s, RMS %.3f prior sigmas | ~0 |\n",
+                c.batch_rank, c.base_params, c.heldout_rmse_online, c.heldout_rmse_batch, c.heldout_rmse_prior,
+                c.heldout_rmse_batch > 0 ? c.heldout_rmse_online / c.heldout_rmse_batch : 0.0,
+                pct(c.param_diff_live_batch).c_str(), c.param_diff_live_batch_sigma, c.param_diff_replay_batch_sigma,
+                pct(c.param_diff_live_replay).c_str(), c.param_diff_live_replay_sigma);
+  return buf;
+}
+
+}  // namespace exoid::tools
