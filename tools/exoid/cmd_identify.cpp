@@ -76,7 +76,7 @@ int cmdIdentify(int argc, char** argv) {
   common::configureCli(app);
   std::vector<std::string> data, validate;
   std::string model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", pipeline = "sensors", vpipeline,
-              filter_mode = "inputs", method_name = "WLS-RC", rank_name = "jackknife", prior_path, out_dir;
+              filter_mode = "inputs", method_name = "WLS-RC-PC", rank_name = "jackknife", prior_path, out_dir;
   bool fixed_base = false, derive = false, skip_bad = false;
   double cutoff = 0.0, noise = 0.0, perturb = 0.0, chunk_s = 2.0;
   uint64_t seed = 1, prior_seed = 1;
@@ -97,7 +97,10 @@ int cmdIdentify(int argc, char** argv) {
   app.add_option("--noise", noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");
   app.add_option("--seed", seed, "noise seed")->transform(common::strictInteger(0, INT64_MAX));
-  app.add_option("--method", method_name, "OLS, WLS-R, WLS-C or WLS-RC (default)")->check(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC"}));
+  app.add_option("--method", method_name, "OLS, WLS-R, WLS-C, WLS-RC, or WLS-RC-PC (default: WLS-RC made physically "
+                 "consistent, every link's pseudo-inertia positive definite; the only one whose identified.urdf is "
+                 "guaranteed); case-insensitive")
+      ->transform(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC", "WLS-RC-PC"}, CLI::ignore_case));
   double prior_uncertainty = 0.25;
   app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
                  "choice), or from the training data alone: 'jackknife' (noise-based cap from time-block jackknife, "
@@ -118,6 +121,8 @@ int cmdIdentify(int argc, char** argv) {
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   const auto t0 = std::chrono::steady_clock::now();
   estimator::IdentifyOptions io;
+  io.physically_consistent = method_name.size() > 3 && method_name.compare(method_name.size() - 3, 3, "-PC") == 0;
+  if (io.physically_consistent) method_name.resize(method_name.size() - 3);
   if (!estimator::parseMethod(method_name, io.method)) return fail("unknown --method '" + method_name + "'");
   if (!estimator::parseRankRule(rank_name, io.rank_rule)) {
     int64_t z = 0;
@@ -201,7 +206,7 @@ int cmdIdentify(int argc, char** argv) {
   // Report.
   const std::vector<std::string> names = model.paramNames();
   std::printf("%s, rank %s: z = %d of %d base parameters (numerical rank %d), condition number %.3g\n",
-              estimator::methodName(r.method), estimator::rankRuleName(r.rank_rule), r.rank, base.rank,
+              estimator::methodLabel(r.method, r.physically_consistent).c_str(), estimator::rankRuleName(r.rank_rule), r.rank, base.rank,
               r.numerical_rank, r.condition);
   std::printf("training: %ld samples, %ld equations, generalized-force RMSE %.6g (RMS of y %.6g)\n", train.samples(),
               r.training_rows, r.training_rmse, r.training_y_rms);
@@ -236,7 +241,8 @@ int cmdIdentify(int argc, char** argv) {
       if (!w.commit(&err)) return fail(err);
     }
     nlohmann::json j;
-    j["method"] = estimator::methodName(r.method);
+    j["method"] = estimator::methodLabel(r.method, r.physically_consistent);
+    if (r.physically_consistent) j["consistent_iterations"] = r.consistent_iterations;
     j["rank_rule"] = estimator::rankRuleName(r.rank_rule);
     j["rank"] = r.rank;
     j["base_parameters"] = base.rank;
