@@ -38,6 +38,13 @@ struct QuadraticTarget {
 QuadraticTarget consistentTarget(const Eigen::VectorXd& s, const Eigen::MatrixXd& V, const Eigen::VectorXd& d,
                                  const Eigen::VectorXd& h, const Eigen::VectorXd& offset,
                                  const Eigen::VectorXd& prior, int z, double nullspace_weight);
+/// The same with the unused directions pulled toward the prior in the fill's metric (solvers.hpp,
+/// ScaledProblem::Q and fill): nullspace_weight ||(I - Q_z Q_z^T) D^-1 (phi - prior)||^2, D = diag(fill), whose
+/// minimiser together with the kept equations is solveAtRank's estimate. Q = V, fill = h gives the above.
+QuadraticTarget consistentTarget(const Eigen::VectorXd& s, const Eigen::MatrixXd& V, const Eigen::VectorXd& d,
+                                 const Eigen::VectorXd& h, const Eigen::VectorXd& offset,
+                                 const Eigen::VectorXd& prior, int z, double nullspace_weight,
+                                 const Eigen::MatrixXd& Q, const Eigen::VectorXd& fill);
 
 struct ConsistentOptions {
   double prior_weight = 0.0;  ///< gamma: weight of ||x - x_prior||^2 in log-Cholesky coordinates (absolute)
