@@ -259,6 +259,13 @@ bool runStudy(const StudyOptions& o, std::string* error) {
   le << "pipeline,cutoff_hz,range,method,prior";
   for (const std::string& n : model.body_names) le << "," << n;
   le << "\n";
+  // The random priors (the same for every pipeline and cutoff), so that every row can be recomputed.
+  std::ofstream pf(o.out_dir + "/priors.csv");
+  pf.precision(17);
+  pf << "range,prior";
+  for (const std::string& n : model.paramNames()) pf << "," << n;
+  pf << "\n";
+  bool priors_written = false;
   for (const std::string& pipe : o.pipelines) {
     for (double cutoff : o.cutoffs) {
       SourceOptions so;
@@ -292,6 +299,11 @@ bool runStudy(const StudyOptions& o, std::string* error) {
           std::mt19937_64 rng(o.seed * 1000003ull + static_cast<uint64_t>(i) * 7919ull +
                               static_cast<uint64_t>(range.value * 1e6) + (range.absolute ? 17ull : 0ull));
           const Eigen::VectorXd prior = randomPrior(model, range, rng);
+          if (!priors_written) {
+            pf << range.name << "," << i;
+            for (int k = 0; k < prior.size(); ++k) pf << "," << prior[k];
+            pf << "\n";
+          }
           auto score = [&](const std::string& method, const Eigen::VectorXd& phi, int z) {
             Row r;
             r.pipeline = pipe;
@@ -360,12 +372,14 @@ bool runStudy(const StudyOptions& o, std::string* error) {
         }
         say("  prior " + range.name + ": " + std::to_string(o.priors) + " priors done");
       }
+      priors_written = true;
     }
   }
 
   // Every estimate.
   {
     std::ofstream f(o.out_dir + "/results.csv");
+    f.precision(12);
     f << "pipeline,cutoff_hz,range,prior,method,z,inconsistent_links,gen_force_rmse,torque_rmse,com_rmse_mm,"
          "momentum_rmse,estimation_error_pct,test_gen_force_rmse,test_torque_rmse,test_com_rmse_mm,"
          "test_momentum_rmse,test_realistic_torque_rmse\n";
