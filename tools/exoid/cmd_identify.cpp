@@ -93,6 +93,13 @@ int cmdIdentify(int argc, char** argv) {
       ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
   app.add_option("--filter-mode", filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
                  "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
+  std::string orientation = "fused";
+  double orientation_cutoff = 5.0;
+  app.add_option("--base-orientation", orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with the "
+                 "feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) or the "
+                 "'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
+  app.add_option("--orientation-cutoff", orientation_cutoff, "--base-orientation fused: Hz below which the IMU, above "
+                 "which the legs give the orientation (default 5)")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
   app.add_flag("--derive", derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
   app.add_option("--noise", noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");
@@ -148,6 +155,8 @@ int cmdIdentify(int argc, char** argv) {
   so.dataset.cutoff_hz = cutoff;
   so.dataset.filter = filter_mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
   so.dataset.derive = derive || noise > 0.0;
+  so.dataset.orientation_from_legs = pipeline == "sensors" && orientation == "fused";
+  so.dataset.orientation_cutoff_hz = orientation_cutoff;
   so.dataset.encoder_noise = noise;
   so.dataset.noise_seed = seed;
   so.skip_bad_rows = skip_bad;
@@ -191,6 +200,7 @@ int cmdIdentify(int argc, char** argv) {
     tools::SourceOptions vo = so;
     vo.pipeline = (vpipeline.empty() ? "truth" : vpipeline) == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
     vo.dataset.encoder_noise = 0.0;
+    vo.dataset.orientation_from_legs = vo.pipeline == tools::LogPipeline::Sensors && orientation == "fused";
     vo.dataset.derive = derive;
     vo.dataset.cutoff_hz = 0.0;  // validation data are ideal (thesis IV-A)
     estimator::AccumulatorOptions va = ao;
@@ -269,6 +279,7 @@ int cmdIdentify(int argc, char** argv) {
     j["not_excited"] = unexcited;
     j["inputs"] = inputs;
     j["options"] = {{"pipeline", pipeline}, {"cutoff_hz", cutoff}, {"filter_mode", filter_mode}, {"noise", noise},
+                    {"base_orientation", orientation}, {"orientation_cutoff_hz", orientation_cutoff},
                     {"folds", folds}, {"chunk_seconds", chunk_s}, {"prior_perturb", perturb}};
     j["timing_s"] = {{"read_filter_factor", t_read}, {"solve", t_solve}};
     // URDF with the identified inertials, only when every link is physically consistent.

@@ -109,6 +109,16 @@ int cmdStudy(int argc, char** argv) {
   app.add_option("--cutoffs", cutoffs, "filter cutoffs in Hz, 0 = none (default 0,30,50,70,100)");
   app.add_option("--pipelines", pipelines, "thesis and/or sensors (default both)");
   app.add_option("--ranges", ranges, "prior ranges: 12.5%, 25% (relative) and abs0.125 (absolute), default all three");
+  std::string sensors_filter = "inputs";
+  app.add_option("--sensors-filter", sensors_filter, "sensors pipeline: 'inputs' (filter q and the gyro, differentiate; "
+                 "default) or 'parallel' (the same zero-phase filter on every column of W and on y)")
+      ->check(CLI::IsMember({"inputs", "parallel"}));
+  std::string orientation = "fused";
+  app.add_option("--base-orientation", orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with "
+                 "the feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) "
+                 "or the 'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
+  app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, "
+                 "above which the legs give the orientation (default 5)")->check(CLI::Range(0.01, 400.0));
   app.add_option("--stride", o.stride, "score every N-th tick of the validation/test runs (default 10)")->check(CLI::Range(1, 1000));
   app.add_option("--pc-iterations", o.pc_iterations, "Newton iterations of WLS-RC-PC (default 100)")->check(CLI::Range(1, 10000));
   app.add_option("--pc-nullspace-weight", o.pc_nullspace,
@@ -130,6 +140,8 @@ int cmdStudy(int argc, char** argv) {
     return fail("give --runs DIR, or --train and --validation (recorded runs)");
   if (!runs.empty() && (!o.train.empty() || !o.validation.empty() || !o.test.empty()))
     return fail("--runs records/reuses its own runs: do not combine it with --train, --validation or --test");
+  o.parallel_filter = sensors_filter == "parallel";
+  o.orientation_from_legs = orientation == "fused";
   if (!parseList(cutoffs, o.cutoffs)) return fail("--cutoffs must be a comma-separated list of numbers");
   for (double c : o.cutoffs)
     if (!(c >= 0.0) || c >= 500.0) return fail("--cutoffs: " + std::to_string(c) + " is not in [0, 500) Hz");

@@ -347,6 +347,7 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
         estimator::DatasetOptions::Foothold h;
         h.body = model.frames[f].body;
         h.point_in_body = model.frames[f].position;
+        h.rotation_in_body = model.frames[f].rotation;
         h.plate = i;
         dopt.footholds.push_back(h);
       }

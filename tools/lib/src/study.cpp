@@ -271,6 +271,9 @@ bool runStudy(const StudyOptions& o, std::string* error) {
       SourceOptions so;
       so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
       so.dataset.cutoff_hz = cutoff;
+      if (pipe == "sensors" && o.parallel_filter) so.dataset.filter = estimator::FilterMode::Parallel;
+      so.dataset.orientation_from_legs = pipe == "sensors" && o.orientation_from_legs;
+      so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
       if (pipe == "thesis") {  // thesis III-E: encoder noise on q, filtered, differentiated
         so.dataset.encoder_noise = 9e-6;
         so.dataset.derive = true;

@@ -34,6 +34,9 @@ struct StudyOptions {
   std::vector<double> cutoffs{0.0, 30.0, 50.0, 70.0, 100.0};  ///< Hz; 0 = no filter
   std::vector<std::string> pipelines{"thesis", "sensors"};     ///< thesis protocol / sensors only
   std::vector<PriorRange> ranges{{"12.5%", 0.125, false}, {"25%", 0.25, false}, {"abs0.125", 0.125, true}};
+  bool parallel_filter = false;
+  bool orientation_from_legs = true;  ///< sensors pipeline: base orientation fused from legs and IMU (dataset.hpp)
+  double orientation_cutoff_hz = 5.0;  ///< its complementary cut (IMU below, legs above)  ///< sensors pipeline: parallel filtering (W and y) instead of filtering the inputs
   int stride = 10;             ///< validation/test metric samples: every stride-th tick (thesis figures: 0.02 s)
   int pc_iterations = 100;     ///< Newton iterations of WLS-RC-PC per estimate
   double pc_nullspace = 1e-3;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
