@@ -201,8 +201,15 @@ RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, c
 
 RankCurve rankByCrossValidation(const TrainingFactors& tf, const LsqAccumulator& acc, const Model& model,
                                 const Eigen::VectorXd& prior, CvRule rule, const FillOptions& fill) {
+  const std::pair<RankCurve, RankCurve> both = rankByCrossValidationBoth(tf, acc, model, prior, fill);
+  return rule == CvRule::Minimum ? both.first : both.second;
+}
+
+std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors& tf, const LsqAccumulator& acc,
+                                                          const Model& model, const Eigen::VectorXd& prior,
+                                                          const FillOptions& fill) {
   RankCurve c;
-  c.rule = rule == CvRule::Minimum ? "time-block cross-validation, minimum" : "time-block cross-validation, paired 1-SE";
+  c.rule = "time-block cross-validation, minimum";
   const int K = acc.folds(), nv = acc.coordinates(), m = acc.baseColumns();
   const Eigen::MatrixXd& B = acc.base().base_map;
   int r = m;
@@ -223,7 +230,11 @@ RankCurve rankByCrossValidation(const TrainingFactors& tf, const LsqAccumulator&
   int used = 0;
   for (int k = 0; k < K; ++k)
     if (!mse[k].empty()) ++used;
-  if (used == 0) return c;
+  if (used == 0) {
+    RankCurve se = c;
+    se.rule = "time-block cross-validation, paired 1-SE";
+    return {c, se};
+  }
   for (int z = 0; z <= r; ++z) {
     double mean = 0.0;
     for (int k = 0; k < K; ++k)
@@ -232,7 +243,9 @@ RankCurve rankByCrossValidation(const TrainingFactors& tf, const LsqAccumulator&
   }
   const int zmin = static_cast<int>(std::min_element(c.score.begin(), c.score.end()) - c.score.begin());
   c.best = zmin;
-  if (rule == CvRule::OneStandardError && used > 1) {
+  RankCurve se = c;
+  se.rule = "time-block cross-validation, paired 1-SE";
+  if (used > 1) {
     // The folds' error levels differ (motion and noise differ between time blocks), but for one fold the
     // comparison of two ranks is paired: judge z by the mean and standard error over folds of
     // MSE_k(z) - MSE_k(zmin), and take the smallest z not significantly worse.
@@ -243,14 +256,13 @@ RankCurve rankByCrossValidation(const TrainingFactors& tf, const LsqAccumulator&
       mean /= used;
       for (int k = 0; k < K; ++k)
         if (!mse[k].empty()) sq += std::pow(mse[k][z] - mse[k][zmin] - mean, 2);
-      const double se = std::sqrt(sq / (used - 1) / used);
-      if (mean <= se) {
-        c.best = z;
+      if (mean <= std::sqrt(sq / (used - 1) / used)) {
+        se.best = z;
         break;
       }
     }
   }
-  return c;
+  return {c, se};
 }
 
 RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,

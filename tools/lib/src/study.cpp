@@ -267,6 +267,16 @@ bool runStudy(const StudyOptions& o, std::string* error) {
   pf << "\n";
   bool priors_written = false;
   for (const std::string& pipe : o.pipelines) {
+    // The training run's measured samples, read once per pipeline; every cutoff filters them anew.
+    std::vector<estimator::MeasuredSample> samples;
+    {
+      SourceOptions so;
+      so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
+      InputStats st;
+      const auto tr = clock();
+      if (!readSamples(o.train, model, so, samples, st, &err)) return fail(error, err);
+      seconds["reading the training run"] += since(tr);
+    }
     for (double cutoff : o.cutoffs) {
       SourceOptions so;
       so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
@@ -285,7 +295,7 @@ bool runStudy(const StudyOptions& o, std::string* error) {
       estimator::LsqAccumulator train(model, base, ao);
       InputStats st;
       const auto ta = clock();
-      if (!accumulateFile(o.train, model, so, train, st, &err)) return fail(error, err);
+      if (!accumulateSamples(samples, model, so, train, st, &err)) return fail(error, o.train + ": " + err);
       train.flush();
       seconds["training factor"] += since(ta);
       say(pipe + " pipeline, cutoff " + (cutoff > 0 ? fmt(cutoff) + " Hz" : std::string("none")) + ": " +
@@ -353,16 +363,20 @@ bool runStudy(const StudyOptions& o, std::string* error) {
           }
           // The training-only rank choices (no ideal data), each scored: time-block cross-validation (minimum
           // and paired one-standard-error), GCV and the jackknife cap (docs/identification.md).
+          std::pair<estimator::RankCurve, estimator::RankCurve> cv;  // one pass gives both cross-validation rules
           for (const char* rule : kTrainingRules) {
             auto tc = clock();
             const std::string r = rule;
             estimator::RankCurve c;
-            if (r == "jackknife") c = estimator::rankByJackknife(weighted, model, prior, range.value);
-            else if (r == "gcv") c = estimator::rankByGcv(rc);
-            else
-              c = estimator::rankByCrossValidation(weighted, train, model, prior,
-                                                   r == "cv" ? estimator::CvRule::Minimum : estimator::CvRule::OneStandardError, fill);
-            seconds["WLS-RC " + r + " rank choice"] += since(tc);
+            if (r == "jackknife") {
+              c = estimator::rankByJackknife(weighted, model, prior, range.value);
+            } else if (r == "gcv") {
+              c = estimator::rankByGcv(rc);
+            } else {
+              if (cv.first.score.empty()) cv = estimator::rankByCrossValidationBoth(weighted, train, model, prior, fill);
+              c = r == "cv" ? cv.first : cv.second;
+            }
+            seconds[r == "jackknife" || r == "gcv" ? "WLS-RC " + r + " rank choice" : "WLS-RC cv rank choices"] += since(tc);
             score("WLS-RC (" + r + ")", estimator::solveAtRank(rc, c.best), c.best);
           }
           estimator::ConsistentOptions co;

@@ -18,6 +18,7 @@
 // directions). Both leave the kept directions' coefficients alpha_z unchanged.
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "exoid/estimator/batch/accumulator.hpp"
@@ -124,6 +125,10 @@ RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, c
                                 Method method, CvRule rule = CvRule::Minimum, const FillOptions& fill = {});
 RankCurve rankByCrossValidation(const TrainingFactors& factors, const LsqAccumulator& acc, const Model& model,
                                 const Eigen::VectorXd& prior, CvRule rule = CvRule::Minimum, const FillOptions& fill = {});
+/// Both rules (minimum, paired 1-SE) from one cross-validation pass.
+std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors& factors, const LsqAccumulator& acc,
+                                                          const Model& model, const Eigen::VectorXd& prior,
+                                                          const FillOptions& fill = {});
 /// (b3) Training data only, noise-based cap: the jackknife over the time-block folds gives the standard
 /// deviation of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of the full-rank estimate (it sees
 /// the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); directions are kept, in singular-value
