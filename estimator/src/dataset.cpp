@@ -262,7 +262,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     }
   }
   // Base orientation fused from the legs and the IMU (DatasetOptions::orientation_from_legs): R_bs(q) per
-  // sample and foot from the (filtered) encoders, R_ws once from the first window, R_legs per sample, the
+  // sample and foot from the (filtered) encoders, R_ws once from the first 1000 samples, R_legs per sample, the
   // IMU's low-passed correction on top; the accelerometer's gravity term re-based on it before filtering.
   std::vector<Eigen::Quaterniond> legs;
   if (fuse) {
@@ -283,8 +283,11 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       return Eigen::Matrix3d(svd.matrixU() * D * svd.matrixV().transpose());
     };
     if (sole_world_.empty()) {
+      // From the first kOrientationSamples samples (a fixed count, so that the block size does not matter;
+      // the first window holds at least the block plus the fusion filter's margin).
+      constexpr int kOrientationSamples = 1000;
       sole_world_.assign(nf, Eigen::Matrix3d::Zero());
-      for (int i = 0; i < n; ++i)
+      for (int i = 0; i < std::min(n, kOrientationSamples); ++i)
         for (int f = 0; f < nf; ++f) sole_world_[f] += buffer_[i].base_orientation.toRotationMatrix() * Rbs[i * nf + f];
       for (int f = 0; f < nf; ++f) sole_world_[f] = project(sole_world_[f]);
     }

@@ -107,7 +107,7 @@ struct DatasetOptions {
   std::vector<Foothold> footholds;
   /// Base orientation fused from the IMU and leg kinematics (samples without a base position only): the
   /// soles stand flat and still, so R_legs = R_ws R_bs(q)^T per foot (chordal mean over the feet; each sole's
-  /// world orientation R_ws estimated once as the chordal mean of R_IMU R_bs(q) over the first window), precise
+  /// world orientation R_ws estimated once as the chordal mean of R_IMU R_bs(q) over the first 1000 samples), precise
   /// (encoders) but biased where the feet tilt on their contacts; the IMU is unbiased but noisy. Complementary:
   /// R_wb = R_legs exp(LP(log(R_legs^T R_IMU))) with LP the zero-phase Butterworth at orientation_cutoff_hz
   /// (the IMU below it, the legs above). The classical base acceleration is re-based on R_wb (accelerometer +
