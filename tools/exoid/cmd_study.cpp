@@ -92,7 +92,7 @@ int cmdStudy(int argc, char** argv) {
   tools::StudyOptions o;
   o.model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";
   o.thesis_table = std::string(EXOID_DATA_DIR) + "/thesis/table2.csv";
-  std::string cutoffs = "0,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
+  std::string cutoffs = "0,10,15,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
   app.add_option("--model", o.model_path, "URDF (default config/exo.urdf, floating base)");
   std::string runs;
   int moves = 0;
@@ -106,7 +106,7 @@ int cmdStudy(int argc, char** argv) {
   app.add_option("--out", o.out_dir, "output directory")->required();
   app.add_option("--priors", o.priors, "random priors per range (default 20)")->check(CLI::Range(1, 1000));
   app.add_option("--seed", o.seed, "seed of the priors and the encoder noise (default 1)");
-  app.add_option("--cutoffs", cutoffs, "filter cutoffs in Hz, 0 = none (default 0,30,50,70,100)");
+  app.add_option("--cutoffs", cutoffs, "filter cutoffs in Hz, 0 = none (default 0,10,15,30,50,70,100: the thesis's none/30/50/70/100 plus 10 and 15)");
   app.add_option("--pipelines", pipelines, "thesis and/or sensors (default both)");
   app.add_option("--ranges", ranges, "prior ranges: 12.5%, 25% (relative) and abs0.125 (absolute), default all three");
   std::string sensors_filter = "inputs";
@@ -119,6 +119,7 @@ int cmdStudy(int argc, char** argv) {
                  "or the 'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
   app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, "
                  "above which the legs give the orientation (default 5)")->check(CLI::Range(0.01, 400.0));
+  app.add_option("--threads", o.threads, "workers over the (pipeline, cutoff) jobs (default 2)")->check(CLI::Range(1, 64));
   app.add_option("--stride", o.stride, "score every N-th tick of the validation/test runs (default 10)")->check(CLI::Range(1, 1000));
   app.add_option("--pc-iterations", o.pc_iterations, "Newton iterations of WLS-RC-PC (default 100)")->check(CLI::Range(1, 10000));
   app.add_option("--pc-nullspace-weight", o.pc_nullspace,

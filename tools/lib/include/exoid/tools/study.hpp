@@ -31,7 +31,9 @@ struct StudyOptions {
   std::string out_dir;
   int priors = 20;
   uint64_t seed = 1;
-  std::vector<double> cutoffs{0.0, 30.0, 50.0, 70.0, 100.0};  ///< Hz; 0 = no filter
+  std::vector<double> cutoffs{0.0, 10.0, 15.0, 30.0, 50.0, 70.0, 100.0};  ///< Hz; 0 = no filter (the thesis's
+                               ///< none/30/50/70/100 plus 10 and 15, where the sensors pipeline does best)
+  int threads = 2;             ///< workers over the (pipeline, cutoff) jobs
   std::vector<std::string> pipelines{"thesis", "sensors"};     ///< thesis protocol / sensors only
   std::vector<PriorRange> ranges{{"12.5%", 0.125, false}, {"25%", 0.25, false}, {"abs0.125", 0.125, true}};
   bool parallel_filter = false;
