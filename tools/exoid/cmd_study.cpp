@@ -123,7 +123,7 @@ int cmdStudy(int argc, char** argv) {
   app.add_option("--stride", o.stride, "score every N-th tick of the validation/test runs (default 10)")->check(CLI::Range(1, 1000));
   app.add_option("--pc-iterations", o.pc_iterations, "Newton iterations of WLS-RC-PC (default 100)")->check(CLI::Range(1, 10000));
   app.add_option("--pc-nullspace-weight", o.pc_nullspace,
-                 "WLS-RC-PC: weight of the prior in the directions WLS-RC does not use, relative to s_z^2 (default 1e-1)")
+                 "WLS-RC-PC: weight of the prior in the directions WLS-RC does not use, relative to s_z^2 (default 3e-2)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--realistic-cutoff", o.realistic_cutoff_hz,
                  "causal velocity filter (Hz) of the realistic torque prediction on the test run (default 50)")

@@ -106,7 +106,7 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
     } else if (!all) {
       ConsistentOptions co;
       co.max_iterations = o.consistent_iterations;
-      const ConsistentResult pc = solveConsistentAtRank(model, sp, out.rank, 1e-1, 1e-6, co);
+      const ConsistentResult pc = solveConsistentAtRank(model, sp, out.rank, 3e-2, 1e-6, co);
       out.consistent_iterations = pc.iterations;
       out.phi = pc.phi;
     }

@@ -90,10 +90,10 @@ ConsistentResult solveConsistent(const Model& model, const QuadraticTarget& targ
 /// WLS-RC-PC on a prepared problem (solvers.hpp; WLS-RC for the thesis's scaling, any method works): the
 /// target of its rank-z fit (consistentTarget with nullspace_weight = nullspace_rel * s_z^2), started at
 /// that fit (solveAtRank), gamma = prior_rel * s_z^2. The unused directions are pulled toward the prior in the
-/// fill's metric (ScaledProblem::Q, fill); nullspace_rel = 1e-1 keeps the estimation error at WLS-RC's
+/// fill's metric (ScaledProblem::Q, fill); nullspace_rel = 3e-2 keeps the estimation error at WLS-RC's
 /// (docs/study.md measures 1e-3 to 1).
 ConsistentResult solveConsistentAtRank(const Model& model, const ScaledProblem& problem, int z,
-                                       double nullspace_rel = 1e-1, double prior_rel = 1e-6,
+                                       double nullspace_rel = 3e-2, double prior_rel = 1e-6,
                                        ConsistentOptions options = {});
 
 }  // namespace exoid::estimator

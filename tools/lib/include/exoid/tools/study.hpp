@@ -41,7 +41,7 @@ struct StudyOptions {
   double orientation_cutoff_hz = 5.0;  ///< its complementary cut (IMU below, legs above)  ///< sensors pipeline: parallel filtering (W and y) instead of filtering the inputs
   int stride = 10;             ///< validation/test metric samples: every stride-th tick (thesis figures: 0.02 s)
   int pc_iterations = 100;     ///< Newton iterations of WLS-RC-PC per estimate
-  double pc_nullspace = 1e-1;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
+  double pc_nullspace = 3e-2;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
   double realistic_cutoff_hz = 50.0;  ///< causal velocity filter of the realistic torque prediction (test run)
   std::function<void(const std::string&)> progress;  ///< one line per step (may be empty)
 };
