@@ -4,7 +4,7 @@
 // (each recorded with a different CoM move seed); for every input pipeline and filter cutoff one streamed
 // training factor; for every prior range 20 random priors; per prior the methods Ref (the prior), OLS,
 // WLS-R, WLS-C, WLS-RC with the rank chosen on the validation data (thesis), WLS-RC with the rank chosen from
-// the training data alone (time-block cross-validation), and WLS-RC-PC (physically consistent, at WLS-RC's
+// the training data alone (jackknife, cv, cv-1se, gcv; each scored), and WLS-RC-PC (physically consistent, at WLS-RC's
 // rank); every estimate scored with the thesis's metrics (estimator/metrics.hpp) on the validation run (and
 // the test run, which also gets chapter 4's realistic torque prediction, eq. 4.1). Writes results.csv (one row per estimate), table_c1.{csv,md} (means over the priors, the
 // thesis's Table C.1), table2.{csv,md} (best over the cutoffs per metric, the thesis's Table II with its
