@@ -56,7 +56,8 @@ void BM_IdentifyLog(benchmark::State& state) {
     const BaseParameters base = computeBaseParameters(model);
     estimator::AccumulatorOptions ao;
     estimator::LsqAccumulator acc(model, base, ao);
-    tools::SourceOptions so;  // sensors pipeline, no filter
+    tools::SourceOptions so;  // sensors pipeline, no filter, base orientation fused (exoid identify's default)
+    so.dataset.orientation_from_legs = true;
     for (int i = 0; i < state.range(0); ++i) {
       tools::InputStats st;
       std::string err;

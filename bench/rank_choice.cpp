@@ -1,6 +1,6 @@
 // exoid_rank_choice: how well each rank rule does (thesis protocol or sensors only) over random priors:
 // estimation error against the URDF's parameters (the simulated truth) and validation generalized-force
-// RMSE, per method and rule. The numbers in docs/identification.md come from this program.
+// RMSE, per method and rule (all four methods; `exoid study` measures WLS-RC with every metric, docs/identification.md).
 #include <CLI/CLI.hpp>
 
 #include <cmath>

@@ -1,5 +1,6 @@
 #include "exoid/estimator/dataset.hpp"
 
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -141,6 +142,7 @@ std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model) {
     DatasetOptions::Foothold h;
     h.body = model.frames[f].body;
     h.point_in_body = model.frames[f].position;
+    h.rotation_in_body = model.frames[f].rotation;
     h.plate = i;
     out.push_back(h);
   }
@@ -222,18 +224,29 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   const int n = static_cast<int>(buffer_.size()), nj = model.njoints, nv = model.nv, p = model.nparams();
   const double dt = medianStep(buffer_);
   const bool filter = opt_.cutoff_hz > 0.0;
-  Biquad lp;
+  const bool fuse = model.floating_base && opt_.orientation_from_legs && !opt_.footholds.empty() &&
+                    !buffer_.empty() && !buffer_.front().has_base_position;
+  Biquad lp, lp_orientation;
+  int want = 0;
   if (filter) {
     if (!(dt > 0.0) || opt_.cutoff_hz >= 0.5 / dt) {
       if (error) *error = "the filter cutoff " + std::to_string(opt_.cutoff_hz) + " Hz is not below the Nyquist frequency " + std::to_string(0.5 / dt) + " Hz";
       return false;
     }
     lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
-    const int want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
-    if (want > margin_ && emitted_ == 0 && !last) {
-      margin_ = want;  // wait for enough lookahead
-      if (n - head_ < opt_.block + margin_) return true;
+    want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
+  }
+  if (fuse) {
+    if (!(dt > 0.0) || !(opt_.orientation_cutoff_hz > 0.0) || opt_.orientation_cutoff_hz >= 0.5 / dt) {
+      if (error) *error = "the orientation fusion cutoff " + std::to_string(opt_.orientation_cutoff_hz) + " Hz is not in (0, Nyquist)";
+      return false;
     }
+    lp_orientation = Biquad::butterworthLowPass(opt_.orientation_cutoff_hz, 1.0 / dt);
+    want += filterMargin(lp_orientation) + 8;
+  }
+  if (want > margin_ && emitted_ == 0 && !last) {
+    margin_ = want;  // wait for enough lookahead
+    if (n - head_ < opt_.block + margin_) return true;
   }
   const int emit_end = last ? n : std::min(n, head_ + opt_.block);
   // Parallel filtering: the regressor's inputs are only differenced (no filter), then W and y both pass the
@@ -273,8 +286,57 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     } else {
       filterAndDifferentiate(w, dt, input_cutoff, &w, &dw, nullptr);
     }
-    acc = filt(acc);
   }
+  // Base orientation fused from the legs and the IMU (DatasetOptions::orientation_from_legs): R_bs(q) per
+  // sample and foot from the (filtered) encoders, R_ws once from the first 1000 samples, R_legs per sample, the
+  // IMU's low-passed correction on top; the accelerometer's gravity term re-based on it before filtering.
+  std::vector<Eigen::Quaterniond> legs;
+  if (fuse) {
+    const int nf = static_cast<int>(opt_.footholds.size());
+    Data fk(model);
+    State sf = State::zero(model);
+    std::vector<Eigen::Matrix3d> Rbs(static_cast<size_t>(n * nf));
+    for (int i = 0; i < n; ++i) {
+      sf.q = q.row(i).transpose();
+      forwardKinematics(model, fk, sf);
+      for (int f = 0; f < nf; ++f)
+        Rbs[i * nf + f] = fk.R[opt_.footholds[f].body] * opt_.footholds[f].rotation_in_body;
+    }
+    auto project = [](const Eigen::Matrix3d& M) {  // nearest rotation (chordal mean)
+      Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+      D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+      return Eigen::Matrix3d(svd.matrixU() * D * svd.matrixV().transpose());
+    };
+    if (sole_world_.empty()) {
+      // From the first kOrientationSamples samples (a fixed count, so that the block size does not matter;
+      // the first window holds at least the block plus the fusion filter's margin).
+      constexpr int kOrientationSamples = 1000;
+      sole_world_.assign(nf, Eigen::Matrix3d::Zero());
+      for (int i = 0; i < std::min(n, kOrientationSamples); ++i)
+        for (int f = 0; f < nf; ++f) sole_world_[f] += buffer_[i].base_orientation.toRotationMatrix() * Rbs[i * nf + f];
+      for (int f = 0; f < nf; ++f) sole_world_[f] = project(sole_world_[f]);
+    }
+    legs.resize(n);
+    Eigen::MatrixXd e(n, 3);  // log(R_legs^T R_IMU): the IMU's correction, low-passed below
+    for (int i = 0; i < n; ++i) {
+      Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+      for (int f = 0; f < nf; ++f) M += sole_world_[f] * Rbs[i * nf + f].transpose();
+      legs[i] = Eigen::Quaterniond(project(M));
+      const Eigen::AngleAxisd d(legs[i].conjugate() * buffer_[i].base_orientation);
+      e.row(i) = (d.angle() * d.axis()).transpose();
+    }
+    e = filtfilt(lp_orientation, e);
+    for (int i = 0; i < n; ++i) {
+      const double angle = e.row(i).norm();
+      if (angle > 0.0) legs[i] = (legs[i] * Eigen::Quaterniond(Eigen::AngleAxisd(angle, e.row(i).transpose() / angle))).normalized();
+      {
+        // accelerometer + R^T g with the IMU's R, re-based: + (R_legs^T - R_imu^T) g.
+        acc.row(i) += (legs[i].conjugate() * model.gravity - buffer_[i].base_orientation.conjugate() * model.gravity).transpose();
+      }
+    }
+  }
+  if (model.floating_base) acc = filt(acc);
   // Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With parallel
   // filtering every sample of the window is computed, then W and y filtered column by column.
   const int from = parallel ? 0 : head_, to = parallel ? n : emit_end;
@@ -289,7 +351,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     st.v = v.row(i).transpose();
     st.a = a.row(i).transpose();
     if (model.floating_base) {
-      st.base_orientation = s.base_orientation;
+      st.base_orientation = legs.empty() ? s.base_orientation : legs[i];
       st.base_omega = w.row(i).transpose();
       st.base_domega = dw.row(i).transpose();
       st.base_acceleration = acc.row(i).transpose();

@@ -5,6 +5,7 @@
 //    (eqs. 20-23, 27, 29-32) evaluated with a dense SVD of the stacked, scaled 130-column W.
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/SVD>
 #include <random>
 
@@ -155,7 +156,10 @@ TEST(BatchSolvers, EveryMethodAtEveryRankEqualsTheDenseSvdOfTheStackedProblem) {
   for (int i = 0; i < prior.size(); ++i) prior[i] *= 1.0 + u(rng);
   const int m = pb.base.rank;
   for (Method method : {Method::Ols, Method::WlsR, Method::WlsC, Method::WlsRC}) {
-    const ScaledProblem sp = prepare(acc, pb.model, prior, method);
+    FillOptions thesis_fill;
+    thesis_fill.metric = FillMetric::Scaled;  // the thesis's fill: eq. 23 (OLS, WLS-R), eq. 27 (C)
+    const ScaledProblem sp = prepare(acc, pb.model, prior, method, {}, thesis_fill);
+    const ScaledProblem spp = prepare(acc, pb.model, prior, method);  // the default: the prior's own metric
     ASSERT_EQ(sp.s.size(), m);
     Eigen::VectorXd s_dense;
     const std::vector<int> ranks = {1, 10, 40, 77, m};
@@ -168,6 +172,20 @@ TEST(BatchSolvers, EveryMethodAtEveryRankEqualsTheDenseSvdOfTheStackedProblem) {
       const int z = ranks[k];
       const Eigen::VectorXd a = solveAtRank(sp, z), b = dense[k];
       EXPECT_LT((a - b).norm() / b.norm(), 1e-8) << methodName(method) << " z " << z;
+      // Prior fill: the same kept equations C phi = C b (C = V_z^T H^-1 from the dense SVD; any estimate of
+      // the thesis's formulas satisfies them), and among those the point closest to the prior in the metric
+      // P^-1, P = diag(sigma^2): phi = prior + P C^T (C P C^T)^-1 C (b - prior), evaluated densely.
+      const bool C = method == Method::WlsC || method == Method::WlsRC;
+      const Eigen::VectorXd h = C ? columnScale(pb.model, prior) : Eigen::VectorXd::Ones(prior.size());
+      const Eigen::VectorXd sigma = priorScale(pb.model, prior, h);
+      Eigen::VectorXd wrow = Eigen::VectorXd::Ones(pb.W.rows());
+      for (int i = 0; i < pb.N; ++i)
+        for (int c = 0; c < pb.nv; ++c) wrow[i * pb.nv + c] = sp.row_weight[c];
+      Eigen::BDCSVD<Eigen::MatrixXd> svd(wrow.asDiagonal() * pb.W * h.asDiagonal(), Eigen::ComputeThinV);
+      const Eigen::MatrixXd Cz = svd.matrixV().leftCols(z).transpose() * h.cwiseInverse().asDiagonal();
+      const Eigen::MatrixXd P = sigma.cwiseAbs2().asDiagonal();
+      const Eigen::VectorXd want = prior + P * Cz.transpose() * (Cz * P * Cz.transpose()).ldlt().solve(Cz * (b - prior));
+      EXPECT_LT((solveAtRank(spp, z) - want).norm() / want.norm(), 1e-8) << methodName(method) << " prior fill, z " << z;
     }
   }
 }

@@ -1,7 +1,8 @@
 // `exoid identify` end to end:
 //  - exact data (ideal run, the simulator's own accelerations, no filter): WLS-RC at full structural rank
 //    predicts y to 1e-8 relative, and its estimate equals the floor set by the unidentifiable directions:
-//    prior + H (B H)^+ B (phi_true - prior), with B the structural base map computed independently of the run;
+//    prior + D (B D)^+ B (phi_true - prior) (D the prior's scale), B the structural base map computed
+//    independently of the run;
 //  - KUKA LWR4+ (identify on runs 2 and 3, validate on run 1): the estimate predicts the held-out run's
 //    torques better than the URDF by more than 2x;
 //  - messy data: every damage named with its row/column and exit 2, or dropped and counted with
@@ -10,6 +11,7 @@
 #include <lcm/eventlog.h>
 #include <unistd.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -72,7 +74,6 @@ TEST(IdentifyCli, ExactDataGiveTheIdentifiableFloor) {
   Eigen::VectorXd prior, est;
   readEstimate(dir.file("id/estimate.csv"), prior, est);
   ASSERT_EQ(est.size(), model.nparams());
-  // Independent floor: the point of {phi : B phi = B phi_true} closest to the prior in the H^-1 metric.
   Eigen::VectorXd h = prior.cwiseAbs();
   {
     // The same scale rule as WLS-C (columnScale), rebuilt here: zero priors of a kind take that kind's median
@@ -90,9 +91,14 @@ TEST(IdentifyCli, ExactDataGiveTheIdentifiableFloor) {
         if (kind(i) == k && !(h[i] > fl)) h[i] = vmax == 0 ? 1.0 : med > fl ? med : vmax;
     }
   }
-  const Eigen::MatrixXd BH = base.base_map * h.asDiagonal();
+  // The fill's metric (the prior's own uncertainty, docs/identification.md): sigma_i = |prior_i| floored at
+  // 1e-2 h_i for the inertial parameters, h_i for friction; floor = prior + D (B D)^+ B (phi_true - prior),
+  // the point of {phi : B phi = B phi_true} closest to the prior in the metric diag(sigma)^-2.
+  Eigen::VectorXd sigma = h;
+  for (int i = 0; i < model.nInertialParams(); ++i) sigma[i] = std::max(std::abs(prior[i]), 1e-2 * h[i]);
+  const Eigen::MatrixXd BD = base.base_map * sigma.asDiagonal();
   const Eigen::VectorXd floor =
-      prior + h.cwiseProduct(BH.completeOrthogonalDecomposition().solve(base.base_map * (model.phi - prior)));
+      prior + sigma.cwiseProduct(BD.completeOrthogonalDecomposition().solve(base.base_map * (model.phi - prior)));
   auto avgErr = [&](const Eigen::VectorXd& x) {
     double s = 0;
     int n = 0;
@@ -103,7 +109,7 @@ TEST(IdentifyCli, ExactDataGiveTheIdentifiableFloor) {
   std::printf("estimation error: WLS-RC %.6f %%, floor %.6f %%, prior %.6f %%; max |est - floor| / max |phi| %.3e\n",
               avgErr(est), avgErr(floor), avgErr(prior), (est - floor).cwiseAbs().maxCoeff() / model.phi.cwiseAbs().maxCoeff());
   EXPECT_NEAR(avgErr(est), avgErr(floor), 1e-3 * avgErr(floor));
-  EXPECT_LT((est - floor).cwiseAbs().maxCoeff(), 1e-6 * model.phi.cwiseAbs().maxCoeff());
+  EXPECT_LT((est - floor).cwiseAbs().maxCoeff(), 1e-8 * model.phi.cwiseAbs().maxCoeff());
   // The URDF written with the identified inertials (when every link is consistent) loads back to them.
   if (!j["identified_urdf"].is_null()) {
     Model back;
@@ -144,6 +150,53 @@ TEST(IdentifyCli, KukaValidationTorquesBeatTheUrdf) {
   const double rmse = j["validation"]["rmse"].get<double>(), prior = j["validation"]["prior_rmse"].get<double>();
   EXPECT_LT(rmse, 0.5 * prior);
   EXPECT_EQ(j["inputs"][0]["samples"].get<long>(), 5027);
+}
+
+TEST(IdentifyCli, WlsRcPcIsConsistentAndWritesTheUrdf) {
+  // KUKA LWR4+ at full rank: WLS-RC gives physically inconsistent links (no URDF); WLS-RC-PC (the default
+  // method) gives every link consistent, and the URDF it writes loads back to its estimate.
+  test::TempDir dir("identify_pc");
+  const std::string common = test::exoidBinary() + " identify --fixed-base --model " + kuka("kuka_lwr4.urdf") +
+                             " --data " + kuka("measurements_2.csv") + " " + kuka("measurements_3.csv") + " --rank full";
+  const auto rc = test::runCommand(common + " --method WLS-RC --out " + dir.file("rc"), dir.path);
+  ASSERT_EQ(rc.exit_code, 0) << rc.err;
+  const nlohmann::json jr = readJson(dir.file("rc/summary.json"));
+  int inconsistent = 0;
+  for (const auto& l : jr["links"]) inconsistent += l["consistent"].get<bool>() ? 0 : 1;
+  EXPECT_GT(inconsistent, 0) << "the test needs an inconsistent WLS-RC estimate";
+  EXPECT_TRUE(jr["identified_urdf"].is_null());
+  EXPECT_FALSE(std::ifstream(dir.file("rc/identified.urdf")).good());
+
+  const auto pc = test::runCommand(common + " --method wls-rc-pc --out " + dir.file("pc"), dir.path);
+  ASSERT_EQ(pc.exit_code, 0) << pc.err;
+  std::printf("%s", pc.out.c_str());
+  const nlohmann::json j = readJson(dir.file("pc/summary.json"));
+  EXPECT_EQ(j["method"].get<std::string>(), "WLS-RC-PC");
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(kuka("kuka_lwr4.urdf"), false, model, &err)) << err;
+  Eigen::VectorXd prior, est;
+  readEstimate(dir.file("pc/estimate.csv"), prior, est);
+  ASSERT_EQ(est.size(), model.nparams());
+  // Verdict recomputed here from the written estimate (pseudo-inertia eigenvalues), not read from the JSON.
+  ASSERT_EQ(static_cast<int>(j["links"].size()), model.nbodies);
+  for (int b = 0; b < model.nbodies; ++b) {
+    const Eigen::Matrix<double, 10, 1> p = est.segment<10>(model.bodyParamIndex(b));
+    Eigen::Matrix4d J;
+    const Eigen::Matrix3d I = (Eigen::Matrix3d() << p[4], p[5], p[6], p[5], p[7], p[8], p[6], p[8], p[9]).finished();
+    J.topLeftCorner<3, 3>() = 0.5 * I.trace() * Eigen::Matrix3d::Identity() - I;
+    J.topRightCorner<3, 1>() = p.segment<3>(1);
+    J.bottomLeftCorner<1, 3>() = p.segment<3>(1).transpose();
+    J(3, 3) = p[0];
+    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(J).eigenvalues().minCoeff(), 0.0) << model.body_names[b];
+    EXPECT_TRUE(j["links"][b]["consistent"].get<bool>()) << model.body_names[b];
+  }
+  ASSERT_FALSE(j["identified_urdf"].is_null());
+  Model back;
+  ASSERT_TRUE(buildModelFromUrdfFile(dir.file("pc/identified.urdf"), false, back, &err)) << err;
+  ASSERT_EQ(back.nparams(), model.nparams());
+  const int ni = model.nInertialParams();
+  EXPECT_LT((back.phi.head(ni) - est.head(ni)).cwiseAbs().maxCoeff(), 1e-9 * est.head(ni).cwiseAbs().maxCoeff());
 }
 
 class IdentifyMessy : public ::testing::Test {

@@ -76,7 +76,7 @@ int cmdIdentify(int argc, char** argv) {
   common::configureCli(app);
   std::vector<std::string> data, validate;
   std::string model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", pipeline = "sensors", vpipeline,
-              filter_mode = "inputs", method_name = "WLS-RC", rank_name = "jackknife", prior_path, out_dir;
+              filter_mode = "inputs", method_name = "WLS-RC-PC", rank_name = "jackknife", prior_path, out_dir;
   bool fixed_base = false, derive = false, skip_bad = false;
   double cutoff = 0.0, noise = 0.0, perturb = 0.0, chunk_s = 2.0;
   uint64_t seed = 1, prior_seed = 1;
@@ -93,11 +93,21 @@ int cmdIdentify(int argc, char** argv) {
       ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
   app.add_option("--filter-mode", filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
                  "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
+  std::string orientation = "fused";
+  double orientation_cutoff = 5.0;
+  app.add_option("--base-orientation", orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with the "
+                 "feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) or the "
+                 "'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
+  app.add_option("--orientation-cutoff", orientation_cutoff, "--base-orientation fused: Hz below which the IMU, above "
+                 "which the legs give the orientation (default 5)")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
   app.add_flag("--derive", derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
   app.add_option("--noise", noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");
   app.add_option("--seed", seed, "noise seed")->transform(common::strictInteger(0, INT64_MAX));
-  app.add_option("--method", method_name, "OLS, WLS-R, WLS-C or WLS-RC (default)")->check(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC"}));
+  app.add_option("--method", method_name, "OLS, WLS-R, WLS-C, WLS-RC, or WLS-RC-PC (default: WLS-RC made physically "
+                 "consistent, every link's pseudo-inertia positive definite; the only one whose identified.urdf is "
+                 "guaranteed); case-insensitive")
+      ->transform(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC", "WLS-RC-PC"}, CLI::ignore_case));
   double prior_uncertainty = 0.25;
   app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
                  "choice), or from the training data alone: 'jackknife' (noise-based cap from time-block jackknife, "
@@ -118,6 +128,8 @@ int cmdIdentify(int argc, char** argv) {
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   const auto t0 = std::chrono::steady_clock::now();
   estimator::IdentifyOptions io;
+  io.physically_consistent = method_name.size() > 3 && method_name.compare(method_name.size() - 3, 3, "-PC") == 0;
+  if (io.physically_consistent) method_name.resize(method_name.size() - 3);
   if (!estimator::parseMethod(method_name, io.method)) return fail("unknown --method '" + method_name + "'");
   if (!estimator::parseRankRule(rank_name, io.rank_rule)) {
     int64_t z = 0;
@@ -143,6 +155,8 @@ int cmdIdentify(int argc, char** argv) {
   so.dataset.cutoff_hz = cutoff;
   so.dataset.filter = filter_mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
   so.dataset.derive = derive || noise > 0.0;
+  so.dataset.orientation_from_legs = pipeline == "sensors" && orientation == "fused";
+  so.dataset.orientation_cutoff_hz = orientation_cutoff;
   so.dataset.encoder_noise = noise;
   so.dataset.noise_seed = seed;
   so.skip_bad_rows = skip_bad;
@@ -186,6 +200,7 @@ int cmdIdentify(int argc, char** argv) {
     tools::SourceOptions vo = so;
     vo.pipeline = (vpipeline.empty() ? "truth" : vpipeline) == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
     vo.dataset.encoder_noise = 0.0;
+    vo.dataset.orientation_from_legs = vo.pipeline == tools::LogPipeline::Sensors && orientation == "fused";
     vo.dataset.derive = derive;
     vo.dataset.cutoff_hz = 0.0;  // validation data are ideal (thesis IV-A)
     estimator::AccumulatorOptions va = ao;
@@ -201,7 +216,7 @@ int cmdIdentify(int argc, char** argv) {
   // Report.
   const std::vector<std::string> names = model.paramNames();
   std::printf("%s, rank %s: z = %d of %d base parameters (numerical rank %d), condition number %.3g\n",
-              estimator::methodName(r.method), estimator::rankRuleName(r.rank_rule), r.rank, base.rank,
+              estimator::methodLabel(r.method, r.physically_consistent).c_str(), estimator::rankRuleName(r.rank_rule), r.rank, base.rank,
               r.numerical_rank, r.condition);
   std::printf("training: %ld samples, %ld equations, generalized-force RMSE %.6g (RMS of y %.6g)\n", train.samples(),
               r.training_rows, r.training_rmse, r.training_y_rms);
@@ -236,7 +251,8 @@ int cmdIdentify(int argc, char** argv) {
       if (!w.commit(&err)) return fail(err);
     }
     nlohmann::json j;
-    j["method"] = estimator::methodName(r.method);
+    j["method"] = estimator::methodLabel(r.method, r.physically_consistent);
+    if (r.physically_consistent) j["consistent_iterations"] = r.consistent_iterations;
     j["rank_rule"] = estimator::rankRuleName(r.rank_rule);
     j["rank"] = r.rank;
     j["base_parameters"] = base.rank;
@@ -263,6 +279,7 @@ int cmdIdentify(int argc, char** argv) {
     j["not_excited"] = unexcited;
     j["inputs"] = inputs;
     j["options"] = {{"pipeline", pipeline}, {"cutoff_hz", cutoff}, {"filter_mode", filter_mode}, {"noise", noise},
+                    {"base_orientation", orientation}, {"orientation_cutoff_hz", orientation_cutoff},
                     {"folds", folds}, {"chunk_seconds", chunk_s}, {"prior_perturb", perturb}};
     j["timing_s"] = {{"read_filter_factor", t_read}, {"solve", t_solve}};
     // URDF with the identified inertials, only when every link is physically consistent.

@@ -1,10 +1,14 @@
 // exoid study: the thesis's comparison protocol in one command (tools/lib study.hpp; docs/study.md).
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 
 #include "commands.hpp"
+#include "exoid/tools/process.hpp"
 #include "exoid/tools/study.hpp"
 
 namespace exoid::cli {
@@ -15,12 +19,15 @@ constexpr char kDescription[] =
     "on exoid's runs: per input pipeline (thesis protocol: ground-truth states with 9e-6 rad encoder noise,\n"
     "filtered and differentiated; sensors only) and cutoff, one streamed training factor; per prior range\n"
     "--priors random priors; per prior Ref, OLS, WLS-R, WLS-C, WLS-RC (rank by the validation run, as the\n"
-    "thesis), WLS-RC (cv: rank from the training data alone) and WLS-RC-PC (physically consistent), scored with\n"
-    "the thesis's metrics on the ideal validation run (and a held-out test run). Record the runs first, each\n"
-    "with its own CoM move seed:\n"
-    "  exoid experiment --scenario config/scenarios/nominal.yaml --seed 1 --out out/train\n"
-    "  exoid experiment --scenario config/scenarios/ideal.yaml --seed 2 --out out/validation\n"
-    "  exoid experiment --scenario config/scenarios/nominal.yaml --seed 3 --out out/test\n"
+    "thesis), WLS-RC with the rank from the training data alone (jackknife, cv, cv-1se, gcv) and WLS-RC-PC\n"
+    "(physically consistent), scored with the thesis's metrics on the ideal validation run (and a held-out\n"
+    "test run). The runs, each with its own CoM\n"
+    "move seed: with --runs DIR the study records those missing itself (reusing DIR/<run>/run.lcmlog when a\n"
+    "finished one is there):\n"
+    "  exoid experiment --scenario config/scenarios/nominal.yaml --seed 11 --out DIR/train\n"
+    "  exoid experiment --scenario config/scenarios/ideal.yaml --seed 12 --out DIR/validation\n"
+    "  exoid experiment --scenario config/scenarios/nominal.yaml --seed 13 --out DIR/test\n"
+    "or give recorded logs with --train, --validation (and --test).\n"
     "Writes results.csv, table_c1.{csv,md}, table2.{csv,md} (thesis numbers beside), singular_values.csv and\n"
     "link_error.csv into --out; scripts/plot_study.py DIR draws the figures.\n\n"
     "exit codes: 0 success, 2 bad input (one-line message on stderr).";
@@ -28,6 +35,42 @@ constexpr char kDescription[] =
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid study: error: %s\n", msg.c_str());
   return 2;
+}
+
+std::string selfPath() {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
+  if (n <= 0) return "exoid";
+  buf[n] = '\0';
+  return buf;
+}
+
+/// DIR/name/run.lcmlog of a finished run (summary.json written at its end), recorded now if missing.
+bool ensureRun(const std::string& dir, const std::string& name, const std::string& scenario, int seed, int moves,
+               std::string& log, std::string* error) {
+  namespace fs = std::filesystem;
+  const std::string out = dir + "/" + name;
+  log = out + "/run.lcmlog";
+  if (fs::exists(log) && fs::exists(out + "/summary.json")) {
+    std::fprintf(stderr, "exoid study: reusing %s\n", log.c_str());
+    return true;
+  }
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return *error = "cannot create " + dir + ": " + ec.message(), false;
+  std::vector<std::string> argv{selfPath(), "experiment", "--scenario",
+                                std::string(EXOID_CONFIG_DIR) + "/scenarios/" + scenario, "--seed",
+                                std::to_string(seed), "--out", out};
+  if (moves > 0) argv.insert(argv.end(), {"--moves", std::to_string(moves)});
+  std::fprintf(stderr, "exoid study: recording %s (%s, seed %d; log %s.log)\n", out.c_str(), scenario.c_str(), seed,
+               out.c_str());
+  fs::remove(out + ".log", ec);
+  const pid_t pid = tools::spawn(argv, out + ".log", error);
+  if (pid <= 0) return false;
+  int code = -1;
+  tools::waitFor(pid, -1, &code);
+  if (code != 0) return *error = "exoid experiment for " + out + " " + tools::describeExit(code) + " (see " + out + ".log)", false;
+  return true;
 }
 
 template <class T>
@@ -50,21 +93,38 @@ int cmdStudy(int argc, char** argv) {
   tools::StudyOptions o;
   o.model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";
   o.thesis_table = std::string(EXOID_DATA_DIR) + "/thesis/table2.csv";
-  std::string cutoffs = "0,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
+  std::string cutoffs = "0,10,15,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
   app.add_option("--model", o.model_path, "URDF (default config/exo.urdf, floating base)");
-  app.add_option("--train", o.train, "LCM log of the training run (noise: nominal.yaml)")->required();
-  app.add_option("--validation", o.validation, "LCM log of the ideal validation run (ideal.yaml, another seed)")->required();
+  std::string runs;
+  int moves = 0;
+  app.add_option("--runs", runs, "directory of the study's runs: train (nominal.yaml, seed 11), validation (ideal.yaml, "
+                 "seed 12), test (nominal.yaml, seed 13); each recorded by exoid experiment when DIR/<run>/run.lcmlog "
+                 "is missing, reused otherwise (instead of --train/--validation/--test)");
+  app.add_option("--moves", moves, "--runs: CoM moves per recorded run (0: the controller's default)")->check(CLI::Range(0, 1000));
+  app.add_option("--train", o.train, "LCM log of the training run (noise: nominal.yaml)");
+  app.add_option("--validation", o.validation, "LCM log of the ideal validation run (ideal.yaml, another seed)");
   app.add_option("--test", o.test, "LCM log of a held-out test run (another seed), scored as well");
   app.add_option("--out", o.out_dir, "output directory")->required();
   app.add_option("--priors", o.priors, "random priors per range (default 20)")->check(CLI::Range(1, 1000));
   app.add_option("--seed", o.seed, "seed of the priors and the encoder noise (default 1)");
-  app.add_option("--cutoffs", cutoffs, "filter cutoffs in Hz, 0 = none (default 0,30,50,70,100)");
+  app.add_option("--cutoffs", cutoffs, "filter cutoffs in Hz, 0 = none (default 0,10,15,30,50,70,100: the thesis's none/30/50/70/100 plus 10 and 15)");
   app.add_option("--pipelines", pipelines, "thesis and/or sensors (default both)");
   app.add_option("--ranges", ranges, "prior ranges: 12.5%, 25% (relative) and abs0.125 (absolute), default all three");
+  std::string sensors_filter = "inputs";
+  app.add_option("--sensors-filter", sensors_filter, "sensors pipeline: 'inputs' (filter q and the gyro, differentiate; "
+                 "default) or 'parallel' (the same zero-phase filter on every column of W and on y)")
+      ->check(CLI::IsMember({"inputs", "parallel"}));
+  std::string orientation = "fused";
+  app.add_option("--base-orientation", orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with "
+                 "the feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) "
+                 "or the 'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
+  app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, "
+                 "above which the legs give the orientation (default 5)")->check(CLI::Range(0.01, 400.0));
+  app.add_option("--threads", o.threads, "workers over the (pipeline, cutoff) jobs (default 2)")->check(CLI::Range(1, 64));
   app.add_option("--stride", o.stride, "score every N-th tick of the validation/test runs (default 10)")->check(CLI::Range(1, 1000));
   app.add_option("--pc-iterations", o.pc_iterations, "Newton iterations of WLS-RC-PC (default 100)")->check(CLI::Range(1, 10000));
   app.add_option("--pc-nullspace-weight", o.pc_nullspace,
-                 "WLS-RC-PC: weight of the prior in the directions WLS-RC does not use, relative to s_z^2 (default 1e-3)")
+                 "WLS-RC-PC: weight of the prior in the directions WLS-RC does not use, relative to s_z^2 (default 3e-2)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--realistic-cutoff", o.realistic_cutoff_hz,
                  "causal velocity filter (Hz) of the realistic torque prediction on the test run (default 50)")
@@ -78,6 +138,12 @@ int cmdStudy(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return fail(e.what());
   }
+  if (runs.empty() && (o.train.empty() || o.validation.empty()))
+    return fail("give --runs DIR, or --train and --validation (recorded runs)");
+  if (!runs.empty() && (!o.train.empty() || !o.validation.empty() || !o.test.empty()))
+    return fail("--runs records/reuses its own runs: do not combine it with --train, --validation or --test");
+  o.parallel_filter = sensors_filter == "parallel";
+  o.orientation_from_legs = orientation == "fused";
   if (!parseList(cutoffs, o.cutoffs)) return fail("--cutoffs must be a comma-separated list of numbers");
   for (double c : o.cutoffs)
     if (!(c >= 0.0) || c >= 500.0) return fail("--cutoffs: " + std::to_string(c) + " is not in [0, 500) Hz");
@@ -94,6 +160,12 @@ int cmdStudy(int argc, char** argv) {
   }
   o.progress = [](const std::string& line) { std::fprintf(stderr, "exoid study: %s\n", line.c_str()); };
   std::string err;
+  if (!runs.empty()) {
+    if (!ensureRun(runs, "train", "nominal.yaml", 11, moves, o.train, &err) ||
+        !ensureRun(runs, "validation", "ideal.yaml", 12, moves, o.validation, &err) ||
+        !ensureRun(runs, "test", "nominal.yaml", 13, moves, o.test, &err))
+      return fail(err);
+  }
   if (!tools::runStudy(o, &err)) return fail(err);
   return 0;
 }

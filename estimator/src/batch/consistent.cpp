@@ -11,6 +11,13 @@ namespace exoid::estimator {
 QuadraticTarget consistentTarget(const Eigen::VectorXd& s, const Eigen::MatrixXd& V, const Eigen::VectorXd& d,
                                  const Eigen::VectorXd& h, const Eigen::VectorXd& offset,
                                  const Eigen::VectorXd& prior, int z, double nullspace_weight) {
+  return consistentTarget(s, V, d, h, offset, prior, z, nullspace_weight, V, h);
+}
+
+QuadraticTarget consistentTarget(const Eigen::VectorXd& s, const Eigen::MatrixXd& V, const Eigen::VectorXd& d,
+                                 const Eigen::VectorXd& h, const Eigen::VectorXd& offset,
+                                 const Eigen::VectorXd& prior, int z, double nullspace_weight,
+                                 const Eigen::MatrixXd& Q, const Eigen::VectorXd& fill) {
   const int p = static_cast<int>(V.rows());
   const int r = static_cast<int>(V.cols());
   z = std::clamp(z, 0, r);
@@ -22,10 +29,11 @@ QuadraticTarget consistentTarget(const Eigen::VectorXd& s, const Eigen::MatrixXd
   // Kept directions: S_z V_z^T H^-1 (phi - offset) = d_z.
   t.A.topRows(z) = s.head(z).asDiagonal() * Vz.transpose() * hinv.asDiagonal();
   t.b.head(z) = d.head(z) + t.A.topRows(z) * offset;
-  // The rest, toward the prior: (I - V_z V_z^T) H^-1 (phi - prior) = 0.
+  // The rest, toward the prior in the fill's metric: (I - Q_z Q_z^T) D^-1 (phi - prior) = 0.
   const double w = std::sqrt(std::max(nullspace_weight, 0.0));
-  const Eigen::MatrixXd Pn = Eigen::MatrixXd::Identity(p, p) - Vz * Vz.transpose();
-  t.A.bottomRows(p) = w * Pn * hinv.asDiagonal();
+  const Eigen::MatrixXd Qz = Q.leftCols(z);
+  const Eigen::MatrixXd Pn = Eigen::MatrixXd::Identity(p, p) - Qz * Qz.transpose();
+  t.A.bottomRows(p) = w * Pn * fill.cwiseInverse().asDiagonal();
   t.b.tail(p) = t.A.bottomRows(p) * prior;
   return t;
 }
@@ -227,7 +235,8 @@ ConsistentResult solveConsistentAtRank(const Model& model, const ScaledProblem& 
                                        double prior_rel, ConsistentOptions options) {
   z = std::clamp(z, 1, static_cast<int>(sp.s.size()));
   const double sz2 = sp.s[z - 1] * sp.s[z - 1];
-  const QuadraticTarget t = consistentTarget(sp.s, sp.V, sp.d, sp.h, sp.gamma, sp.prior, z, nullspace_rel * sz2);
+  const QuadraticTarget t =
+      consistentTarget(sp.s, sp.V, sp.d, sp.h, sp.gamma, sp.prior, z, nullspace_rel * sz2, sp.Q, sp.fill);
   options.prior_weight = prior_rel * sz2;
   return solveConsistent(model, t, sp.prior, solveAtRank(sp, z), options);
 }

@@ -1,5 +1,6 @@
 #include "exoid/estimator/batch/identify.hpp"
 
+#include "exoid/estimator/batch/consistent.hpp"
 #include "exoid/model/inertial.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -27,6 +28,8 @@ bool parseRankRule(const std::string& name, RankRule& r) {
   return false;
 }
 
+std::string methodLabel(Method m, bool pc) { return std::string(methodName(m)) + (pc ? "-PC" : ""); }
+
 LinkVerdict checkLink(const std::string& name, const Eigen::Ref<const Eigen::Matrix<double, 10, 1>>& p) {
   const LinkConsistency c = checkConsistency(Vector10d(p));  // the pseudo-inertia test of model/inertial.hpp
   LinkVerdict v;
@@ -45,6 +48,7 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
   };
   out = IdentifyResult();
   out.method = o.method;
+  out.physically_consistent = o.physically_consistent;
   out.rank_rule = o.rank_rule;
   out.prior = prior;
   const int p = model.nparams(), m = train.baseColumns(), nv = train.coordinates();
@@ -94,6 +98,19 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
   }
   out.rank = std::min(out.rank, out.numerical_rank);
   out.phi = solveAtRank(sp, out.rank);
+  if (o.physically_consistent) {
+    bool all = true;
+    for (const LinkConsistency& c : checkConsistency(model, out.phi)) all = all && c.consistent;
+    if (!all && out.rank == 0) {
+      out.phi = projectConsistent(model, out.phi);  // nothing kept: the prior, made consistent
+    } else if (!all) {
+      ConsistentOptions co;
+      co.max_iterations = o.consistent_iterations;
+      const ConsistentResult pc = solveConsistentAtRank(model, sp, out.rank, 3e-2, 1e-6, co);
+      out.consistent_iterations = pc.iterations;
+      out.phi = pc.phi;
+    }
+  }
   out.phi_base = train.base().base_map * out.phi;
   out.condition = out.rank > 0 ? sp.s[0] / sp.s[out.rank - 1] : 1.0;
   // Excitation of each standard parameter: the norm of its (scaled) unit direction inside span(V_z).

@@ -66,15 +66,20 @@ int ScaledProblem::numericalRank(double tolerance) const {
   return r;
 }
 
-ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
-                      const std::vector<bool>& include) {
+Eigen::VectorXd priorScale(const Model& model, const Eigen::VectorXd& prior, const Eigen::VectorXd& h, bool absolute,
+                           double floor_fraction) {
+  Eigen::VectorXd d = h;
+  for (int i = 0; i < model.nInertialParams(); ++i)
+    d[i] = absolute ? 1.0 : std::max(std::abs(prior[i]), floor_fraction * h[i]);
+  return d;
+}
+
+WeightedFactor weightedFactor(const LsqAccumulator& acc, const Model& model, bool row_scaled,
+                              const std::vector<bool>& include) {
   const int nv = acc.coordinates(), p = model.nparams();
-  const Eigen::MatrixXd& B = acc.base().base_map;
-  ScaledProblem sp;
-  sp.method = method;
-  sp.prior = prior;
-  sp.row_weight.assign(nv, 1.0);
-  if (rowScaled(method)) {
+  WeightedFactor wf;
+  wf.row_weight.assign(nv, 1.0);
+  if (row_scaled) {
     // Eqs. (29)-(30): sigma_i from the OLS residual of coordinate i (the residual does not depend on the
     // nullspace, so the minimum-norm base solution gives it).
     const LsqFactor ols = acc.mergedBase({}, include);
@@ -98,36 +103,80 @@ ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen
     }
     // Exact data leave sigma ~ round-off: floor at 1e-10 of the RMS of y so that weights stay finite.
     const double floor = std::max(1e-10 * std::sqrt(y2 / std::max<long>(1, rows_all)), 1e-6 * maxsig);
-    for (int c = 0; c < nv; ++c) sp.row_weight[c] = sigma[c] > 0.0 || floor > 0.0 ? 1.0 / std::max(sigma[c], floor) : 1.0;
+    for (int c = 0; c < nv; ++c) wf.row_weight[c] = sigma[c] > 0.0 || floor > 0.0 ? 1.0 / std::max(sigma[c], floor) : 1.0;
   }
-  const LsqFactor f = acc.mergedBase(sp.row_weight, include);
+  const LsqFactor f = acc.mergedBase(wf.row_weight, include);
+  wf.rows = f.rows;
+  wf.Rf = f.R.triangularView<Eigen::Upper>() * acc.base().base_map;  // m x p, same singular values and V as G W
+  wf.z = f.z;
+  wf.rss = f.rss;
+  return wf;
+}
+
+TrainingFactors trainingFactors(const LsqAccumulator& acc, const Model& model, Method method) {
+  TrainingFactors t;
+  t.method = method;
+  t.all = weightedFactor(acc, model, rowScaled(method));
+  const int K = acc.folds();
+  t.without.resize(K);
+  t.fold_rows.assign(K, 0);
+  for (int k = 0; k < K; ++k) {
+    for (int c = 0; c < acc.coordinates(); ++c) t.fold_rows[k] += acc.rows(c, k);
+    if (t.fold_rows[k] == 0 || K < 2) continue;  // an empty fold (or nothing would be left)
+    std::vector<bool> include(K, true);
+    include[k] = false;
+    t.without[k] = weightedFactor(acc, model, rowScaled(method), include);
+  }
+  return t;
+}
+
+ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                      const std::vector<bool>& include, const FillOptions& fill) {
+  return prepare(weightedFactor(acc, model, rowScaled(method), include), model, prior, method, fill);
+}
+
+ScaledProblem prepare(const WeightedFactor& f, const Model& model, const Eigen::VectorXd& prior, Method method,
+                      const FillOptions& fill) {
+  const int p = model.nparams();
+  ScaledProblem sp;
+  sp.method = method;
+  sp.prior = prior;
+  sp.row_weight = f.row_weight;
   sp.rows = f.rows;
-  const Eigen::MatrixXd Rf = f.R.triangularView<Eigen::Upper>() * B;  // m x p, same singular values and V as G W
   sp.h = columnScaled(method) ? columnScale(model, prior) : Eigen::VectorXd::Ones(p);
   sp.gamma = columnScaled(method) ? prior : Eigen::VectorXd::Zero(p);
-  const Eigen::VectorXd zt = f.z - Rf * sp.gamma;
-  const Eigen::MatrixXd A = Rf * sp.h.asDiagonal();
+  const Eigen::VectorXd zt = f.z - f.Rf * sp.gamma;
+  const Eigen::MatrixXd A = f.Rf * sp.h.asDiagonal();
   Eigen::BDCSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
   sp.s = svd.singularValues();
   sp.V = svd.matrixV();
   sp.d = svd.matrixU().transpose() * zt;
-  sp.Rw = Rf;
+  sp.Rw = f.Rf;
   sp.zw = f.z;
   sp.rss_w = f.rss;
+  // The fill: kept equations v_i^T H^-1 (phi - gamma) = alpha_i; phi = prior + D u with u the minimum-norm
+  // solution of (D H^-1 V_z)^T u = r_z, r = alpha - V^T H^-1 (prior - gamma). With M = D H^-1 V = Q R
+  // (Householder), u = Q_z R_z^-T r_z: R^T is lower triangular, so w = R^-T r serves every z at once.
+  const int r = static_cast<int>(sp.s.size());
+  sp.fill = fill.metric == FillMetric::Scaled ? sp.h : priorScale(model, prior, sp.h, fill.absolute_prior);
+  Eigen::VectorXd alpha = Eigen::VectorXd::Zero(r);
+  for (int i = 0; i < r; ++i)
+    if (sp.s[i] > 0.0) alpha[i] = sp.d[i] / sp.s[i];
+  const Eigen::VectorXd rv = alpha - sp.V.transpose() * (prior - sp.gamma).cwiseQuotient(sp.h);
+  const Eigen::MatrixXd M = sp.fill.cwiseQuotient(sp.h).asDiagonal() * sp.V;
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(M);
+  sp.Q = qr.householderQ() * Eigen::MatrixXd::Identity(p, r);
+  const Eigen::MatrixXd Rq = qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
+  sp.w = Rq.transpose().triangularView<Eigen::Lower>().solve(rv);
   return sp;
 }
 
 Eigen::VectorXd solveAtRank(const ScaledProblem& sp, int z) {
   z = std::clamp(z, 0, static_cast<int>(sp.s.size()));
   while (z > 0 && !(sp.s[z - 1] > 0.0)) --z;
-  const Eigen::VectorXd alpha = sp.d.head(z).cwiseQuotient(sp.s.head(z));
-  const auto Vz = sp.V.leftCols(z);
-  if (columnScaled(sp.method)) {
-    // phi = gamma + H V_z S_z^-1 d_z: directions not kept stay at the prior (eq. 27, gamma = prior).
-    return sp.gamma + sp.h.cwiseProduct(Vz * alpha);
-  }
-  // Eqs. (21)-(23): phi = V_e alpha_e + V_n V_n^T phi_prior, with V_n the directions not kept.
-  return sp.prior + Vz * (alpha - Vz.transpose() * sp.prior);
+  // Scaled fill: phi = gamma + H V_z S_z^-1 d_z with C (eq. 27), phi = V_z alpha_z + V_n V_n^T phi_prior
+  // without (eqs. 21-23); Prior fill: the P-metric minimum deviation. Both are prior + D Q_z w_z (prepare).
+  return sp.prior + sp.fill.cwiseProduct(sp.Q.leftCols(z) * sp.w.head(z));
 }
 
 double rmse(const LsqFactor& f, const Eigen::VectorXd& phi) {
@@ -145,33 +194,30 @@ RankCurve rankByValidation(const ScaledProblem& sp, const LsqFactor& validation)
   return c;
 }
 
-namespace {
-/// The problem of every fold but k (leave-one-fold-out) into out; returns the rows of fold k (0: empty fold,
-/// out untouched).
-long prepareWithoutFold(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
-                        int k, ScaledProblem& out) {
-  long n = 0;
-  for (int c = 0; c < acc.coordinates(); ++c) n += acc.rows(c, k);
-  if (n == 0) return 0;
-  std::vector<bool> include(acc.folds(), true);
-  include[k] = false;
-  out = prepare(acc, model, prior, method, include);
-  return n;
-}
-}  // namespace
-
 RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
-                                Method method, CvRule rule) {
+                                Method method, CvRule rule, const FillOptions& fill) {
+  return rankByCrossValidation(trainingFactors(acc, model, method), acc, model, prior, rule, fill);
+}
+
+RankCurve rankByCrossValidation(const TrainingFactors& tf, const LsqAccumulator& acc, const Model& model,
+                                const Eigen::VectorXd& prior, CvRule rule, const FillOptions& fill) {
+  const std::pair<RankCurve, RankCurve> both = rankByCrossValidationBoth(tf, acc, model, prior, fill);
+  return rule == CvRule::Minimum ? both.first : both.second;
+}
+
+std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors& tf, const LsqAccumulator& acc,
+                                                          const Model& model, const Eigen::VectorXd& prior,
+                                                          const FillOptions& fill) {
   RankCurve c;
-  c.rule = rule == CvRule::Minimum ? "time-block cross-validation, minimum" : "time-block cross-validation, paired 1-SE";
+  c.rule = "time-block cross-validation, minimum";
   const int K = acc.folds(), nv = acc.coordinates(), m = acc.baseColumns();
   const Eigen::MatrixXd& B = acc.base().base_map;
   int r = m;
   std::vector<std::vector<double>> mse(K);  // [fold][z]
-  for (int k = 0; k < K; ++k) {
-    ScaledProblem sp;
-    const long n = prepareWithoutFold(acc, model, prior, method, k, sp);
+  for (int k = 0; k < K && K > 1; ++k) {
+    const long n = tf.fold_rows[k];
     if (n == 0) continue;  // an empty fold
+    const ScaledProblem sp = prepare(tf.without[k], model, prior, tf.method, fill);
     r = std::min(r, static_cast<int>(sp.s.size()));
     for (int z = 0; z <= static_cast<int>(sp.s.size()); ++z) {
       const Eigen::VectorXd xb = B * solveAtRank(sp, z);
@@ -184,7 +230,11 @@ RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, c
   int used = 0;
   for (int k = 0; k < K; ++k)
     if (!mse[k].empty()) ++used;
-  if (used == 0) return c;
+  if (used == 0) {
+    RankCurve se = c;
+    se.rule = "time-block cross-validation, paired 1-SE";
+    return {c, se};
+  }
   for (int z = 0; z <= r; ++z) {
     double mean = 0.0;
     for (int k = 0; k < K; ++k)
@@ -193,7 +243,9 @@ RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, c
   }
   const int zmin = static_cast<int>(std::min_element(c.score.begin(), c.score.end()) - c.score.begin());
   c.best = zmin;
-  if (rule == CvRule::OneStandardError && used > 1) {
+  RankCurve se = c;
+  se.rule = "time-block cross-validation, paired 1-SE";
+  if (used > 1) {
     // The folds' error levels differ (motion and noise differ between time blocks), but for one fold the
     // comparison of two ranks is paired: judge z by the mean and standard error over folds of
     // MSE_k(z) - MSE_k(zmin), and take the smallest z not significantly worse.
@@ -204,28 +256,33 @@ RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, c
       mean /= used;
       for (int k = 0; k < K; ++k)
         if (!mse[k].empty()) sq += std::pow(mse[k][z] - mse[k][zmin] - mean, 2);
-      const double se = std::sqrt(sq / (used - 1) / used);
-      if (mean <= se) {
-        c.best = z;
+      if (mean <= std::sqrt(sq / (used - 1) / used)) {
+        se.best = z;
         break;
       }
     }
   }
-  return c;
+  return {c, se};
 }
 
 RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
                           double prior_uncertainty) {
+  return rankByJackknife(trainingFactors(acc, model, method), model, prior, prior_uncertainty);
+}
+
+RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const Eigen::VectorXd& prior,
+                          double prior_uncertainty) {
   RankCurve c;
   c.rule = "jackknife over time blocks: keep directions whose std is below the prior's";
-  const ScaledProblem all = prepare(acc, model, prior, method);
-  const int r = all.numericalRank(), K = acc.folds();
+  const ScaledProblem all = prepare(tf.all, model, prior, tf.method);
+  const int r = all.numericalRank(), K = static_cast<int>(tf.without.size());
   std::vector<Eigen::VectorXd> a;
   for (int k = 0; k < K; ++k) {
-    ScaledProblem sp;
-    if (prepareWithoutFold(acc, model, prior, method, k, sp) == 0) continue;  // an empty fold
+    if (tf.fold_rows[k] == 0 || tf.without[k].rows == 0) continue;  // an empty fold
+    const ScaledProblem sp = prepare(tf.without[k], model, prior, tf.method);
+    // Coordinates along the full problem's right singular vectors, in its scaled units (at full rank the
+    // fill does not change them).
     const Eigen::VectorXd phi = solveAtRank(sp, sp.numericalRank());
-    // Coordinates along the full problem's right singular vectors, in its scaled units.
     a.push_back(all.V.leftCols(r).transpose() * (phi - all.gamma).cwiseQuotient(all.h));
   }
   c.score.assign(r + 1, 0.0);

@@ -328,10 +328,12 @@ bool isCsvPath(const std::string& path) {
   return path.size() >= 4 && (path.compare(path.size() - 4, 4, ".csv") == 0 || path.compare(path.size() - 4, 4, ".CSV") == 0);
 }
 
-bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
-                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
-  int feet[2] = {-1, -1};
-  estimator::DatasetOptions dopt = options.dataset;
+namespace {
+// The feet (floating base) and the dataset options with the sole footholds filled in.
+bool datasetSetup(const Model& model, const SourceOptions& options, int feet[2], estimator::DatasetOptions& dopt,
+                  std::string* error) {
+  feet[0] = feet[1] = -1;
+  dopt = options.dataset;
   if (model.floating_base) {
     feet[0] = model.bodyIndex("right_foot");
     feet[1] = model.bodyIndex("left_foot");
@@ -341,15 +343,63 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
     }
     if (dopt.footholds.empty()) dopt.footholds = estimator::defaultFootholds(model);
   }
+  return true;
+}
+
+bool readFile(const std::string& path, const Model& model, const SourceOptions& options, const int feet[2],
+              const SampleSink& sink, InputStats& stats, std::string* error) {
+  return isCsvPath(path) ? streamMeasuredCsv(path, model, feet, options.skip_bad_rows, sink, stats, error)
+                         : streamRunLog(path, model, options.pipeline, feet, sink, stats, error);
+}
+
+estimator::RowSink accumulatorSink(estimator::LsqAccumulator& acc, long& nonfinite) {
+  return [&acc, &nonfinite](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+    if (!acc.add(K, y)) ++nonfinite;
+  };
+}
+}  // namespace
+
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
+  int feet[2];
+  estimator::DatasetOptions dopt;
+  if (!datasetSetup(model, options, feet, dopt, error)) return false;
   estimator::DatasetBuilder builder(model, dopt, rows);
   const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) { return builder.add(s, err); };
-  const bool ok = isCsvPath(path) ? streamMeasuredCsv(path, model, feet, options.skip_bad_rows, sink, stats, error)
-                                  : streamRunLog(path, model, options.pipeline, feet, sink, stats, error);
-  if (!ok) return false;
+  if (!readFile(path, model, options, feet, sink, stats, error)) return false;
   std::string err;
   if (!builder.finish(&err)) {
     if (error) *error = path + ": " + err;
     return false;
+  }
+  return true;
+}
+
+bool readSamples(const std::string& path, const Model& model, const SourceOptions& options,
+                 std::vector<estimator::MeasuredSample>& out, InputStats& stats, std::string* error) {
+  int feet[2];
+  estimator::DatasetOptions dopt;
+  if (!datasetSetup(model, options, feet, dopt, error)) return false;
+  out.clear();
+  const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string*) { return out.push_back(s), true; };
+  return readFile(path, model, options, feet, sink, stats, error);
+}
+
+bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
+                       const SourceOptions& options, estimator::LsqAccumulator& acc, InputStats& stats,
+                       std::string* error) {
+  int feet[2];
+  estimator::DatasetOptions dopt;
+  if (!datasetSetup(model, options, feet, dopt, error)) return false;
+  long nonfinite = 0;
+  estimator::DatasetBuilder builder(model, dopt, accumulatorSink(acc, nonfinite));
+  for (const estimator::MeasuredSample& s : samples)
+    if (!builder.add(s, error)) return false;
+  if (!builder.finish(error)) return false;
+  stats.samples = static_cast<long>(samples.size());
+  if (nonfinite > 0) {
+    stats.skipped += nonfinite;
+    stats.why["non-finite regressor row"] += nonfinite;
   }
   return true;
 }

@@ -9,6 +9,9 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <atomic>
+#include <mutex>
+#include <thread>
 
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/batch/accumulator.hpp"
@@ -45,6 +48,9 @@ struct Row {
   Metrics val, test;
   bool has_test = false;
 };
+
+/// The training-only rank rules scored by the study (the first is the recommended one, Table II's column).
+const char* kTrainingRules[] = {"jackknife", "cv", "cv-1se", "gcv"};
 
 const char* kMetricNames[] = {"gen_force_rmse", "torque_rmse", "com_rmse_mm", "momentum_rmse", "estimation_error_pct",
                               "singular_values"};
@@ -244,107 +250,212 @@ bool runStudy(const StudyOptions& o, std::string* error) {
       " scored, every " + std::to_string(o.stride) + "th)");
 
   std::vector<Row> rows;
-  std::map<std::string, double> seconds;  ///< time spent per step, reported at the end
+  std::map<std::string, double> seconds;  ///< time spent per step (summed over the workers), reported at the end
   auto clock = [] { return std::chrono::steady_clock::now(); };
   auto since = [](std::chrono::steady_clock::time_point a) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
   };
   std::map<std::string, Eigen::VectorXd> first_prior;  ///< "pipeline|cutoff|range|method" -> estimate of prior 0
+  // The random priors (the same for every pipeline and cutoff), written so that every row can be recomputed.
+  std::vector<std::vector<Eigen::VectorXd>> priors(o.ranges.size());
+  {
+    std::ofstream pf(o.out_dir + "/priors.csv");
+    pf.precision(17);
+    pf << "range,prior";
+    for (const std::string& n : model.paramNames()) pf << "," << n;
+    pf << "\n";
+    for (size_t g = 0; g < o.ranges.size(); ++g) {
+      const PriorRange& range = o.ranges[g];
+      for (int i = 0; i < o.priors; ++i) {
+        std::mt19937_64 rng(o.seed * 1000003ull + static_cast<uint64_t>(i) * 7919ull +
+                            static_cast<uint64_t>(range.value * 1e6) + (range.absolute ? 17ull : 0ull));
+        priors[g].push_back(randomPrior(model, range, rng));
+        pf << range.name << "," << i;
+        for (int k = 0; k < priors[g].back().size(); ++k) pf << "," << priors[g].back()[k];
+        pf << "\n";
+      }
+    }
+  }
+  // The training run's measured samples, read once per pipeline; every cutoff filters them anew.
+  std::map<std::string, std::vector<estimator::MeasuredSample>> samples;
+  for (const std::string& pipe : o.pipelines) {
+    SourceOptions so;
+    so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
+    InputStats st;
+    const auto tr = clock();
+    if (!readSamples(o.train, model, so, samples[pipe], st, &err)) return fail(error, err);
+    seconds["reading the training run"] += since(tr);
+  }
+  // One job per (pipeline, cutoff), independent of the others: run by o.threads workers, merged in order.
+  struct Job {
+    std::string pipe;
+    double cutoff = 0.0;
+    std::vector<Row> rows;
+    std::ostringstream sv, le;
+    std::map<std::string, double> seconds;
+    std::map<std::string, Eigen::VectorXd> first;
+    std::string error;
+  };
+  std::vector<std::unique_ptr<Job>> jobs;
+  for (const std::string& pipe : o.pipelines)
+    for (double cutoff : o.cutoffs) {
+      jobs.push_back(std::make_unique<Job>());
+      jobs.back()->pipe = pipe;
+      jobs.back()->cutoff = cutoff;
+    }
+  const int workers = std::max(1, std::min(o.threads, static_cast<int>(jobs.size())));
+  std::mutex say_mutex;
+  auto sayLocked = [&](const std::string& line) {
+    std::lock_guard<std::mutex> lock(say_mutex);
+    say(line);
+  };
+  auto runJob = [&](Job& job) {
+    const std::string& pipe = job.pipe;
+    const double cutoff = job.cutoff;
+    auto& seconds = job.seconds;
+    auto& sv = job.sv;
+    auto& le = job.le;
+    SourceOptions so;
+    so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
+    so.dataset.cutoff_hz = cutoff;
+    if (pipe == "sensors" && o.parallel_filter) so.dataset.filter = estimator::FilterMode::Parallel;
+    so.dataset.orientation_from_legs = pipe == "sensors" && o.orientation_from_legs;
+    so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
+    if (pipe == "thesis") {  // thesis III-E: encoder noise on q, filtered, differentiated
+      so.dataset.encoder_noise = 9e-6;
+      so.dataset.derive = true;
+      so.dataset.noise_seed = o.seed;
+    }
+    estimator::AccumulatorOptions ao;
+    ao.folds = 5;
+    ao.chunk = 2000;
+    ao.threads = workers > 1 ? 1 : 2;  // the workers already share the cores
+    estimator::LsqAccumulator train(model, base, ao);
+    InputStats st;
+    std::string jerr;
+    const auto ta = clock();
+    if (!accumulateSamples(samples.at(pipe), model, so, train, st, &jerr)) {
+      job.error = o.train + ": " + jerr;
+      return;
+    }
+    train.flush();
+    seconds["training factor"] += since(ta);
+    sayLocked(pipe + " pipeline, cutoff " + (cutoff > 0 ? fmt(cutoff) + " Hz" : std::string("none")) + ": " +
+              std::to_string(st.samples) + " training samples");
+    // The row-weighted factors (all folds, each fold left out) do not depend on the prior: once per data set.
+    const auto tf0 = clock();
+    const estimator::TrainingFactors plain = estimator::trainingFactors(train, model, Method::Ols);
+    const estimator::TrainingFactors weighted = estimator::trainingFactors(train, model, Method::WlsRC);
+    seconds["weighted factors"] += since(tf0);
+    for (size_t g = 0; g < o.ranges.size(); ++g) {
+      const PriorRange& range = o.ranges[g];
+      estimator::FillOptions fill;
+      fill.absolute_prior = range.absolute;
+      for (int i = 0; i < o.priors; ++i) {
+        const Eigen::VectorXd& prior = priors[g][static_cast<size_t>(i)];
+        auto score = [&](const std::string& method, const Eigen::VectorXd& phi, int z) {
+          Row r;
+          r.pipeline = pipe;
+          r.range = range.name;
+          r.method = method;
+          r.cutoff = cutoff;
+          r.prior = i;
+          r.z = z;
+          r.inconsistent = countInconsistent(checkConsistency(model, phi));
+          r.val = vm.evaluate(phi);
+          if (tm) {
+            r.test = tm->evaluate(phi);
+            r.has_test = true;
+          }
+          job.rows.push_back(r);
+          if (i == 0) job.first[pipe + "|" + fmt(cutoff) + "|" + range.name + "|" + method] = phi;
+          if (method == "WLS-RC" || method == "WLS-RC-PC" || method == "OLS" || method == "Ref") {
+            const Eigen::VectorXd e = estimator::linkEstimationErrorPercent(model, phi, model.phi);
+            le << pipe << "," << cutoff << "," << range.name << "," << method << "," << i;
+            for (int b = 0; b < model.nbodies; ++b) le << "," << e[b];
+            le << "\n";
+          }
+        };
+        score("Ref", prior, 0);
+        estimator::ScaledProblem rc;
+        int z_rc = 0;
+        for (Method m : {Method::Ols, Method::WlsR, Method::WlsC, Method::WlsRC}) {
+          const auto tp = clock();
+          const bool row_scaled = m == Method::WlsR || m == Method::WlsRC;
+          const estimator::ScaledProblem sp =
+              estimator::prepare(row_scaled ? weighted.all : plain.all, model, prior, m, fill);
+          const estimator::RankCurve curve = estimator::rankByValidation(sp, vfac);
+          seconds["OLS/WLS-R/WLS-C/WLS-RC"] += since(tp);
+          score(estimator::methodName(m), estimator::solveAtRank(sp, curve.best), curve.best);
+          if (i == 0 && range.name == o.ranges.front().name) {
+            for (int k = 0; k < sp.s.size(); ++k)
+              sv << pipe << "," << cutoff << "," << estimator::methodName(m) << "," << k + 1 << "," << sp.s[k]
+                 << "," << curve.best << "\n";
+          }
+          if (m == Method::WlsRC) {
+            rc = sp;
+            z_rc = curve.best;
+          }
+        }
+        // The training-only rank choices (no ideal data), each scored: time-block cross-validation (minimum
+        // and paired one-standard-error), GCV and the jackknife cap (docs/identification.md).
+        std::pair<estimator::RankCurve, estimator::RankCurve> cv;  // one pass gives both cross-validation rules
+        for (const char* rule : kTrainingRules) {
+          auto tc = clock();
+          const std::string r = rule;
+          estimator::RankCurve c;
+          if (r == "jackknife") {
+            c = estimator::rankByJackknife(weighted, model, prior, range.value);
+          } else if (r == "gcv") {
+            c = estimator::rankByGcv(rc);
+          } else {
+            if (cv.first.score.empty()) cv = estimator::rankByCrossValidationBoth(weighted, train, model, prior, fill);
+            c = r == "cv" ? cv.first : cv.second;
+          }
+          seconds[r == "jackknife" || r == "gcv" ? "WLS-RC " + r + " rank choice" : "WLS-RC cv rank choices"] += since(tc);
+          score("WLS-RC (" + r + ")", estimator::solveAtRank(rc, c.best), c.best);
+        }
+        estimator::ConsistentOptions co;
+        co.max_iterations = o.pc_iterations;
+        const auto tpc = clock();
+        const estimator::ConsistentResult pc = estimator::solveConsistentAtRank(model, rc, std::max(z_rc, 1),
+                                                                                o.pc_nullspace, 1e-6, co);
+        seconds["WLS-RC-PC"] += since(tpc);
+        score("WLS-RC-PC", pc.phi, z_rc);
+      }
+      sayLocked(pipe + " pipeline, cutoff " + (cutoff > 0 ? fmt(cutoff) + " Hz" : std::string("none")) + ", prior " +
+                range.name + ": " + std::to_string(o.priors) + " priors done");
+    }
+  };
+  {
+    std::atomic<size_t> next{0};
+    auto worker = [&] {
+      for (size_t k = next++; k < jobs.size(); k = next++) runJob(*jobs[k]);
+    };
+    std::vector<std::thread> pool;
+    for (int w = 1; w < workers; ++w) pool.emplace_back(worker);
+    worker();
+    for (std::thread& t : pool) t.join();
+  }
   std::ofstream sv(o.out_dir + "/singular_values.csv");
   sv << "pipeline,cutoff_hz,method,index,singular_value,z_validation\n";
   std::ofstream le(o.out_dir + "/link_error.csv");
   le << "pipeline,cutoff_hz,range,method,prior";
   for (const std::string& n : model.body_names) le << "," << n;
   le << "\n";
-  for (const std::string& pipe : o.pipelines) {
-    for (double cutoff : o.cutoffs) {
-      SourceOptions so;
-      so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
-      so.dataset.cutoff_hz = cutoff;
-      if (pipe == "thesis") {  // thesis III-E: encoder noise on q, filtered, differentiated
-        so.dataset.encoder_noise = 9e-6;
-        so.dataset.derive = true;
-        so.dataset.noise_seed = o.seed;
-      }
-      estimator::AccumulatorOptions ao;
-      ao.folds = 5;
-      ao.chunk = 2000;
-      estimator::LsqAccumulator train(model, base, ao);
-      InputStats st;
-      const auto ta = clock();
-      if (!accumulateFile(o.train, model, so, train, st, &err)) return fail(error, err);
-      train.flush();
-      seconds["training factor"] += since(ta);
-      say(pipe + " pipeline, cutoff " + (cutoff > 0 ? fmt(cutoff) + " Hz" : std::string("none")) + ": " +
-          std::to_string(st.samples) + " training samples");
-      for (const PriorRange& range : o.ranges) {
-        for (int i = 0; i < o.priors; ++i) {
-          std::mt19937_64 rng(o.seed * 1000003ull + static_cast<uint64_t>(i) * 7919ull +
-                              static_cast<uint64_t>(range.value * 1e6) + (range.absolute ? 17ull : 0ull));
-          const Eigen::VectorXd prior = randomPrior(model, range, rng);
-          auto score = [&](const std::string& method, const Eigen::VectorXd& phi, int z) {
-            Row r;
-            r.pipeline = pipe;
-            r.range = range.name;
-            r.method = method;
-            r.cutoff = cutoff;
-            r.prior = i;
-            r.z = z;
-            r.inconsistent = countInconsistent(checkConsistency(model, phi));
-            r.val = vm.evaluate(phi);
-            if (tm) {
-              r.test = tm->evaluate(phi);
-              r.has_test = true;
-            }
-            rows.push_back(r);
-            if (i == 0) first_prior[pipe + "|" + fmt(cutoff) + "|" + range.name + "|" + method] = phi;
-            if (method == "WLS-RC" || method == "WLS-RC-PC" || method == "OLS" || method == "Ref") {
-              const Eigen::VectorXd e = estimator::linkEstimationErrorPercent(model, phi, model.phi);
-              le << pipe << "," << cutoff << "," << range.name << "," << method << "," << i;
-              for (int b = 0; b < model.nbodies; ++b) le << "," << e[b];
-              le << "\n";
-            }
-          };
-          score("Ref", prior, 0);
-          estimator::ScaledProblem rc;
-          int z_rc = 0;
-          for (Method m : {Method::Ols, Method::WlsR, Method::WlsC, Method::WlsRC}) {
-            const auto tp = clock();
-            const estimator::ScaledProblem sp = estimator::prepare(train, model, prior, m);
-            const estimator::RankCurve curve = estimator::rankByValidation(sp, vfac);
-            seconds["OLS/WLS-R/WLS-C/WLS-RC"] += since(tp);
-            score(estimator::methodName(m), estimator::solveAtRank(sp, curve.best), curve.best);
-            if (i == 0 && range.name == o.ranges.front().name) {
-              for (int k = 0; k < sp.s.size(); ++k)
-                sv << pipe << "," << cutoff << "," << estimator::methodName(m) << "," << k + 1 << "," << sp.s[k]
-                   << "," << curve.best << "\n";
-            }
-            if (m == Method::WlsRC) {
-              rc = sp;
-              z_rc = curve.best;
-            }
-          }
-          // The training-only rank choice (no ideal data): time-block cross-validation.
-          auto tc = clock();
-          const estimator::RankCurve cv = estimator::rankByCrossValidation(train, model, prior, Method::WlsRC);
-          seconds["WLS-RC (cv) rank choice"] += since(tc);
-          score("WLS-RC (cv)", estimator::solveAtRank(rc, cv.best), cv.best);
-          estimator::ConsistentOptions co;
-          co.max_iterations = o.pc_iterations;
-          tc = clock();
-          const estimator::ConsistentResult pc = estimator::solveConsistentAtRank(model, rc, std::max(z_rc, 1),
-                                                                                  o.pc_nullspace, 1e-6, co);
-          seconds["WLS-RC-PC"] += since(tc);
-          score("WLS-RC-PC", pc.phi, z_rc);
-        }
-        say("  prior " + range.name + ": " + std::to_string(o.priors) + " priors done");
-      }
-    }
+  for (const auto& job : jobs) {
+    if (!job->error.empty()) return fail(error, job->error);
+    rows.insert(rows.end(), job->rows.begin(), job->rows.end());
+    sv << job->sv.str();
+    le << job->le.str();
+    for (const auto& [k, v] : job->seconds) seconds[k] += v;
+    first_prior.insert(job->first.begin(), job->first.end());
   }
 
   // Every estimate.
   {
     std::ofstream f(o.out_dir + "/results.csv");
+    f.precision(12);
     f << "pipeline,cutoff_hz,range,prior,method,z,inconsistent_links,gen_force_rmse,torque_rmse,com_rmse_mm,"
          "momentum_rmse,estimation_error_pct,test_gen_force_rmse,test_torque_rmse,test_com_rmse_mm,"
          "test_momentum_rmse,test_realistic_torque_rmse\n";
@@ -364,7 +475,8 @@ bool runStudy(const StudyOptions& o, std::string* error) {
     int n = 0, consistent_priors = 0;
   };
   std::map<std::string, Agg> c1;
-  std::vector<std::string> methods{"Ref", "OLS", "WLS-R", "WLS-C", "WLS-RC", "WLS-RC (cv)", "WLS-RC-PC"};
+  std::vector<std::string> methods{"Ref", "OLS", "WLS-R", "WLS-C", "WLS-RC", "WLS-RC-PC"};
+  for (const char* r : kTrainingRules) methods.push_back(std::string("WLS-RC (") + r + ")");
   auto key = [](const std::string& p, const std::string& r, const std::string& m, double c) {
     return p + "|" + r + "|" + m + "|" + fmt(c);
   };

@@ -100,10 +100,20 @@ struct DatasetOptions {
   struct Foothold {
     int body = -1;
     Eigen::Vector3d point_in_body = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d rotation_in_body = Eigen::Matrix3d::Identity();  ///< body <- sole frame
     Eigen::Vector3d world = Eigen::Vector3d::Zero();  ///< plus the sample's plate_position[plate] if plate >= 0
     int plate = -1;
   };
   std::vector<Foothold> footholds;
+  /// Base orientation fused from the IMU and leg kinematics (samples without a base position only): the
+  /// soles stand flat and still, so R_legs = R_ws R_bs(q)^T per foot (chordal mean over the feet; each sole's
+  /// world orientation R_ws estimated once as the chordal mean of R_IMU R_bs(q) over the first 1000 samples), precise
+  /// (encoders) but biased where the feet tilt on their contacts; the IMU is unbiased but noisy. Complementary:
+  /// R_wb = R_legs exp(LP(log(R_legs^T R_IMU))) with LP the zero-phase Butterworth at orientation_cutoff_hz
+  /// (the IMU below it, the legs above). The classical base acceleration is re-based on R_wb (accelerometer +
+  /// R_wb^T g).
+  bool orientation_from_legs = false;
+  double orientation_cutoff_hz = 5.0;
   int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
 };
 
@@ -140,6 +150,7 @@ class DatasetBuilder {
   DatasetOptions opt_;
   RowSink sink_;
   std::vector<MeasuredSample> buffer_;  ///< [margin_ history][block][margin_ lookahead]
+  std::vector<Eigen::Matrix3d> sole_world_;  ///< [footholds] R_ws (orientation_from_legs), once known
   long emitted_ = 0;
   int head_ = 0;  ///< samples at the front of buffer_ already emitted (history)
   int margin_ = 0;

@@ -23,9 +23,16 @@ enum class RankRule {
 };
 const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "cv-1se", "gcv", "jackknife"
 bool parseRankRule(const std::string& name, RankRule& r);
+/// "OLS", ..., "WLS-RC", and the method's name with "-PC" when made physically consistent ("WLS-RC-PC").
+std::string methodLabel(Method m, bool physically_consistent);
 
 struct IdentifyOptions {
   Method method = Method::WlsRC;
+  /// WLS-RC-PC (consistent.hpp): the method's rank-z fit made physically consistent (every link's
+  /// pseudo-inertia positive definite) by solveConsistentAtRank; the method's estimate is returned unchanged
+  /// when it is consistent already.
+  bool physically_consistent = false;
+  int consistent_iterations = 500;  ///< Newton iterations of WLS-RC-PC
   RankRule rank_rule = RankRule::Jackknife;
   int rank = -1;                  ///< for RankRule::Fixed
   double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: prior within +-this (relative) of the truth
@@ -46,6 +53,8 @@ LinkVerdict checkLink(const std::string& name, const Eigen::Ref<const Eigen::Mat
 
 struct IdentifyResult {
   Method method = Method::WlsRC;
+  bool physically_consistent = false;  ///< WLS-RC-PC was applied
+  int consistent_iterations = 0;       ///< its Newton iterations (0: the fit was consistent already)
   RankRule rank_rule = RankRule::Full;
   Eigen::VectorXd phi;         ///< [p] standard parameters (inertial per body, then fv, fc per joint)
   Eigen::VectorXd phi_base;    ///< [m] structural base parameters base_map * phi

@@ -11,8 +11,14 @@
 //           the scale of their kind (see columnScale)
 //   WLS-RC  both scalings
 // Truncated SVD (III-D): only the z largest singular values of the scaled problem are used.
+// Fill (the directions not kept): FillMetric::Scaled is the thesis's (eq. 23 for OLS / WLS-R, eq. 27's
+// "stay at the prior" in the H^-1 metric for C); FillMetric::Prior (default) is the minimum deviation from the
+// prior in the prior's own metric, phi = prior + P C^T (C P C^T)^-1 (c - C prior) with C phi = c the kept
+// equations and P = diag(sigma^2) the prior's covariance (the Gaussian posterior mean given the kept
+// directions). Both leave the kept directions' coefficients alpha_z unchanged.
 #include <Eigen/Core>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "exoid/estimator/batch/accumulator.hpp"
@@ -29,6 +35,40 @@ bool parseMethod(const std::string& name, Method& m);
 /// product of inertia must not pin its parameter). [p]
 Eigen::VectorXd columnScale(const Model& model, const Eigen::VectorXd& prior, double floor_fraction = 1e-3);
 
+/// The prior's standard deviation per parameter (up to one common factor) for FillMetric::Prior: inertial
+/// parameters |prior_i| (a relative prior), floored at floor_fraction of the column scale h_i (so a zero prior
+/// entry is not pinned); friction (which a URDF does not carry) h_i. absolute: a prior within +-a of the
+/// truth in every inertial parameter, sigma_i = 1 (friction h_i).
+Eigen::VectorXd priorScale(const Model& model, const Eigen::VectorXd& prior, const Eigen::VectorXd& h,
+                           bool absolute = false, double floor_fraction = 1e-2);
+
+enum class FillMetric { Scaled, Prior };
+struct FillOptions {
+  FillMetric metric = FillMetric::Prior;
+  bool absolute_prior = false;  ///< priorScale's absolute variant (chapter 4's +-0.125 priors)
+};
+
+/// The row-weighted training factor of one row weighting (it does not depend on the prior: the WLS-R
+/// weights come from the OLS residual): ||G (W phi - y)||^2 = ||Rf phi - z||^2 + rss, Rf [m x p].
+struct WeightedFactor {
+  std::vector<double> row_weight;  ///< [nv] 1 / sigma_i with R, ones without
+  Eigen::MatrixXd Rf;              ///< [m x p] R_base * base_map
+  Eigen::VectorXd z;               ///< [m]
+  double rss = 0.0;
+  long rows = 0;
+};
+WeightedFactor weightedFactor(const LsqAccumulator& acc, const Model& model, bool row_scaled,
+                              const std::vector<bool>& include = {});
+/// A method's training factors, all folds and each fold left out (the rank rules' input); built once per
+/// data set and reused for every prior.
+struct TrainingFactors {
+  Method method = Method::Ols;
+  WeightedFactor all;
+  std::vector<WeightedFactor> without;  ///< [folds] every fold but k (rows = 0: fold k was empty)
+  std::vector<long> fold_rows;          ///< [folds] rows of fold k
+};
+TrainingFactors trainingFactors(const LsqAccumulator& acc, const Model& model, Method method);
+
 /// A method's problem reduced to its SVD: the scaled problem's singular values s (descending), right
 /// singular vectors V [p x r] (r = m base parameters), d = U^T y~ [r], plus what maps back to phi.
 struct ScaledProblem {
@@ -39,6 +79,9 @@ struct ScaledProblem {
   Eigen::VectorXd h;          ///< [p] column scale (ones without C)
   Eigen::VectorXd gamma;      ///< [p] offset (prior with C, zero without)
   Eigen::VectorXd prior;      ///< [p]
+  Eigen::VectorXd fill;       ///< [p] prior scale sigma of the fill metric (h for FillMetric::Scaled)
+  Eigen::MatrixXd Q;          ///< [p x r] QR of M = diag(fill) H^-1 V: Q
+  Eigen::VectorXd w;          ///< [r] R^-T (alpha - V^T H^-1 (prior - gamma)); phi_z = prior + fill .* Q_z w_z
   std::vector<double> row_weight;  ///< [nv] 1 / sigma_i with R, ones without
   Eigen::MatrixXd Rw;         ///< [m x p] row-weighted factor: ||G (W phi - y)||^2 = ||Rw phi - zw||^2 + rss_w
   Eigen::VectorXd zw;         ///< [m]
@@ -51,7 +94,10 @@ struct ScaledProblem {
 
 /// Builds the scaled problem from the training folds (include: all when empty).
 ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
-                      const std::vector<bool>& include = {});
+                      const std::vector<bool>& include = {}, const FillOptions& fill = {});
+/// The same from a weighted factor of the method's row weighting (no pass over the accumulator).
+ScaledProblem prepare(const WeightedFactor& factor, const Model& model, const Eigen::VectorXd& prior, Method method,
+                      const FillOptions& fill = {});
 
 /// Standard parameters [p] using the z largest singular values (z clamped to [0, r]); the directions not
 /// used are filled from the prior (OLS, WLS-R: eq. 23 with V_n = the unused columns of V; C: gamma), so
@@ -76,13 +122,21 @@ RankCurve rankByValidation(const ScaledProblem& problem, const LsqFactor& valida
 /// (per fold, then mean over folds) is within one standard error.
 enum class CvRule { Minimum, OneStandardError };
 RankCurve rankByCrossValidation(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior,
-                                Method method, CvRule rule = CvRule::Minimum);
+                                Method method, CvRule rule = CvRule::Minimum, const FillOptions& fill = {});
+RankCurve rankByCrossValidation(const TrainingFactors& factors, const LsqAccumulator& acc, const Model& model,
+                                const Eigen::VectorXd& prior, CvRule rule = CvRule::Minimum, const FillOptions& fill = {});
+/// Both rules (minimum, paired 1-SE) from one cross-validation pass.
+std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors& factors, const LsqAccumulator& acc,
+                                                          const Model& model, const Eigen::VectorXd& prior,
+                                                          const FillOptions& fill = {});
 /// (b3) Training data only, noise-based cap: the jackknife over the time-block folds gives the standard
 /// deviation of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of the full-rank estimate (it sees
 /// the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); directions are kept, in singular-value
 /// order, while that deviation is below the prior's own, prior_uncertainty / sqrt(3) (prior uniform within
 /// +-prior_uncertainty relative). Meaningful with column scaling (WLS-C, WLS-RC). score[z] = std of alpha_z.
 RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+                          double prior_uncertainty);
+RankCurve rankByJackknife(const TrainingFactors& factors, const Model& model, const Eigen::VectorXd& prior,
                           double prior_uncertainty);
 /// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2 with the
 /// weighted training residual RSS(z).

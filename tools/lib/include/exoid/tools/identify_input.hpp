@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "exoid/estimator/batch/accumulator.hpp"
 #include "exoid/estimator/dataset.hpp"
@@ -54,6 +55,15 @@ struct SourceOptions {
   estimator::DatasetOptions dataset;
   bool skip_bad_rows = false;                   ///< CSV only
 };
+
+/// The measured samples of one file (the dataset pipeline's input: before noise, filtering and
+/// differentiation), read once; accumulateSamples then turns them into (K, y) under any dataset options (e.g.
+/// one filter cutoff after another, `exoid study`) without reading the file again.
+bool readSamples(const std::string& path, const Model& model, const SourceOptions& options,
+                 std::vector<estimator::MeasuredSample>& out, InputStats& stats, std::string* error);
+bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
+                       const SourceOptions& options, estimator::LsqAccumulator& acc, InputStats& stats,
+                       std::string* error);
 
 /// True if the path names a CSV (by its extension), false for anything else (read as an LCM log).
 bool isCsvPath(const std::string& path);
