@@ -149,9 +149,9 @@ void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_h
 namespace {
 // Samples for the filter's transient to decay to e^-40 (~4e-18): the poles of the biquad have modulus
 // sqrt(a2) (complex pair of a Butterworth), the error after k samples ~ sqrt(a2)^k.
-int filterMargin(const Biquad& c) {
+int filterMargin(const Biquad& c, double decay_e = 40.0) {
   const double r = std::sqrt(std::max(c.a2, 1e-300));
-  return r >= 1.0 ? 1 << 20 : static_cast<int>(std::ceil(40.0 / -std::log(r))) + 8;
+  return r >= 1.0 ? 1 << 20 : static_cast<int>(std::ceil(decay_e / -std::log(r))) + 8;
 }
 
 double medianStep(const std::vector<MeasuredSample>& b) {
@@ -205,6 +205,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     }
     lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
     const int want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
+    if (opt_.trim_edges) edge_ = filterMargin(lp, 14.0);  // <= margin_, so the last edge_ are in the last block
     if (want > margin_ && emitted_ == 0 && !last) {
       margin_ = want;  // wait for enough lookahead
       if (n - head_ < opt_.block + margin_) return true;
@@ -250,6 +251,12 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     }
     acc = filt(acc);
   }
+  // trim_edges: the run's first edge_ samples and, in the last block, its last edge_ are not emitted.
+  auto keep = [&](int i) {
+    const bool drop = edge_ > 0 && (seen_ + i < edge_ || (last && i >= n - edge_));
+    if (drop) ++trimmed_;
+    return !drop;
+  };
   // Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With parallel
   // filtering every sample of the window is computed, then W and y filtered column by column.
   const int from = parallel ? 0 : head_, to = parallel ? n : emit_end;
@@ -287,7 +294,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     if (parallel) {
       for (int c = 0; c < nv; ++c) Kall.block(i - from, c * p, 1, p) = kin.K.row(c);
       Yall.row(i - from) = y.transpose();
-    } else {
+    } else if (keep(i)) {
       sink_(s.t, kin.K, y);
       ++emitted_;
     }
@@ -299,6 +306,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     for (int j = 0; j < nv; ++j) Yall.col(j) = filtfilt(lp, Yall.col(j));
     Eigen::MatrixXd K(nv, p);
     for (int i = head_; i < emit_end; ++i) {
+      if (!keep(i)) continue;
       for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);
       sink_(buffer_[i].t, K, Yall.row(i).transpose());
       ++emitted_;
@@ -307,6 +315,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   // Keep `margin_` samples of history before the next block.
   const int drop = std::max(0, emit_end - margin_);
   buffer_.erase(buffer_.begin(), buffer_.begin() + drop);
+  seen_ += drop;
   head_ = emit_end - drop;
   return true;
 }

@@ -139,9 +139,9 @@ int cmdDiagnose(int argc, char** argv) {
   CLI::App app(kDescription, "exoid diagnose");
   common::configureCli(app);
   std::vector<std::string> train_files, val_files, kinds;
-  std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "inputs";
+  std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "parallel";
   bool floating = false, skip_bad = false, no_plots = false;
-  double gravity = 9.81, cutoff = 0.0;
+  double gravity = 9.81, cutoff = -1.0;
   est::DiagnoseOptions opt;
   int folds = opt.folds, max_effects = opt.max_effects;
   app.add_option("--model", model_path, "robot URDF")->required();
@@ -171,10 +171,12 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--torque-noise", opt.torque_noise, "known torque noise sigma (N m) for the size check (default: "
                  "estimated from the residual's sample-to-sample differences)")->transform(common::strictNumber(0.0, 1e6));
   app.add_option("--pipeline", pipeline, "LCM logs: 'sensors' (default) or 'truth'")->check(CLI::IsMember({"sensors", "truth"}));
-  app.add_option("--cutoff", cutoff, "zero-phase Butterworth cutoff in Hz for the dataset pipeline (0: none; default)")
+  app.add_option("--cutoff", cutoff, "zero-phase Butterworth cutoff in Hz for the dataset pipeline (0: none). Default: 5 Hz "
+                 "with --floating-base (exoskeleton logs: differenced encoders and gyro; docs/diagnose.md), none otherwise")
       ->transform(common::strictNumber(0.0, 1e6));
-  app.add_option("--filter-mode", filter_mode, "'inputs' (filter q, differentiate, filter again; default) or 'parallel' "
-                 "(also the same filter on every column of W and on y); docs/identification.md")
+  app.add_option("--filter-mode", filter_mode, "'parallel' (default: inputs only differenced, the same filter on every "
+                 "column of W and on y, so filter lag and attenuation cancel) or 'inputs' (filter q, differentiate, filter "
+                 "again, y unfiltered: leaves the filtered-away motion in the residual); docs/identification.md")
       ->check(CLI::IsMember({"inputs", "parallel"}));
   app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
   app.add_flag("--no-plots", no_plots, "do not run the plot script (it is still written)");
@@ -197,8 +199,9 @@ int cmdDiagnose(int argc, char** argv) {
   if (!buildModelFromUrdfFile(model_path, floating, model, &err, gravity)) return fail(err);
   tools::SourceOptions so;
   so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
-  so.dataset.cutoff_hz = cutoff;
+  so.dataset.cutoff_hz = cutoff >= 0.0 ? cutoff : floating ? 5.0 : 0.0;
   so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
+  so.dataset.trim_edges = true;  // the filter's start-up transient is no residual of the model
   so.skip_bad_rows = skip_bad;
   std::vector<tools::InputStats> stats(train_files.size() + val_files.size());
   auto makeSegment = [&](const std::string& path, size_t k) {
