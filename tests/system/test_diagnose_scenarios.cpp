@@ -1,0 +1,78 @@
+// `exoid diagnose` on closed-loop exoskeleton runs, sensors only (issue 9 item 2): two short runs per scenario
+// of config/scenarios/diagnose/ (move seeds 1 and 2: train, validate). Every seeded effect chosen here changes
+// its joint's torque by far more than 3x the torque-sensor noise (0.1 N m): viscous 5 N m s/rad x 0.087 rad/s
+// (the right knee's RMS velocity in these runs) = 0.44 N m; dry friction 3 N m. Asserted: the effect is named
+// on the right joint with the right kind and nothing else is found; the clean run (another noise seed) gives
+// no finding; after augmentation the held-out RMSE of the viscous run is within 20 % of the noise floor, the
+// clean run's held-out RMSE through the same pipeline (per joint and pooled). The confusion table over all
+// scenarios (scripts/diagnose_confusion.py) and what is not met (dry friction's residual, offsets, armature)
+// are in docs/diagnose.md.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "support/paths.hpp"
+#include "support/run_command.hpp"
+
+namespace exoid {
+namespace {
+
+nlohmann::json diagnoseScenario(const std::string& scenario, const test::TempDir& dir) {
+  for (int seed : {1, 2}) {
+    const test::CommandResult r =
+        test::runCommand(test::exoidBinary() + " experiment --moves 6 --seed " + std::to_string(seed) + " --scenario " +
+                             test::configPath("scenarios/diagnose/" + scenario + ".yaml") + " --out " +
+                             dir.file("run" + std::to_string(seed)),
+                         dir.path);
+    EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+    if (r.exit_code != 0) return {};
+  }
+  const test::CommandResult r = test::runCommand(
+      test::exoidBinary() + " diagnose --model " + test::configPath("exo.urdf") + " --floating-base --train " +
+          dir.file("run1/run.lcmlog") + " --validate " + dir.file("run2/run.lcmlog") + " --no-plots --out " + dir.file("dg"),
+      dir.path);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  if (r.exit_code != 0) return {};
+  return nlohmann::json::parse(test::slurp(dir.file("dg/summary.json")));
+}
+
+double rmse(const nlohmann::json& js, const std::string& name, const char* which = "rmse_after") {
+  for (const auto& c : js["coordinates"])
+    if (c["name"] == name) return c[which].get<double>();
+  ADD_FAILURE() << "no coordinate " << name;
+  return 0.0;
+}
+
+TEST(DiagnoseScenarios, SeededEffectsAreNamedAndTheCleanRunGivesNoFinding) {
+  test::TempDir clean_dir("diagnose_clean"), viscous_dir("diagnose_viscous"), coulomb_dir("diagnose_coulomb");
+  const nlohmann::json clean = diagnoseScenario("clean_seed11", clean_dir);
+  ASSERT_FALSE(clean.is_null());
+  EXPECT_TRUE(clean["findings"].empty()) << clean["findings"].dump(1);
+
+  const nlohmann::json viscous = diagnoseScenario("viscous_right_knee_5", viscous_dir);
+  ASSERT_FALSE(viscous.is_null());
+  ASSERT_EQ(viscous["findings"].size(), 1u) << viscous["findings"].dump(1);
+  EXPECT_EQ(viscous["findings"][0]["joint"], "right_knee");
+  EXPECT_EQ(viscous["findings"][0]["kind"], "viscous");
+  EXPECT_NEAR(viscous["findings"][0]["value"].get<double>(), 5.0, 0.5);  // measured 4.84
+  // Noise floor: the clean run's held-out residual, same pipeline (measured 0.0536 N m on the right knee).
+  for (const auto& c : clean["coordinates"]) {
+    const std::string name = c["name"];
+    if (name.rfind("base_", 0) == 0) continue;
+    EXPECT_LE(rmse(viscous, name), 1.2 * c["rmse_after"].get<double>()) << name;  // right knee: 0.0605
+  }
+  EXPECT_LE(viscous["pooled_rmse_after"].get<double>(), 1.2 * clean["pooled_rmse_after"].get<double>());
+
+  const nlohmann::json coulomb = diagnoseScenario("coulomb_right_knee_3", coulomb_dir);
+  ASSERT_FALSE(coulomb.is_null());
+  ASSERT_EQ(coulomb["findings"].size(), 1u) << coulomb["findings"].dump(1);
+  EXPECT_EQ(coulomb["findings"][0]["joint"], "right_knee");
+  EXPECT_EQ(coulomb["findings"][0]["kind"], "coulomb");
+  // The knee's held-out residual falls from 1.92 to 0.29 N m (not to the floor: MuJoCo's dry friction sticks,
+  // which tanh(v / w) does not model; docs/diagnose.md).
+  EXPECT_LT(rmse(coulomb, "right_knee"), 0.2 * rmse(coulomb, "right_knee", "rmse_before"));
+}
+
+}  // namespace
+}  // namespace exoid
