@@ -805,4 +805,29 @@ bool readEffects(const std::string& path, const Model& model, EffectSet& set, st
   return true;
 }
 
+// ---------------------------------------------------------------------------------------------------------
+int effectColumnCount(const EffectSet& set) {
+  int n = 0;
+  for (const Effect& e : set.effects) n += isMeasurementEffect(e.kind) ? 0 : 1;
+  return n;
+}
+
+void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
+                   const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E) {
+  E.setZero();
+  int col = 0;
+  for (const Effect& e : set.effects) {
+    if (isMeasurementEffect(e.kind)) continue;
+    E(model.jointRow(e.joint), col++) = effectSignal(e.kind, set.shape, v[e.joint], a[e.joint], 0.0, 0.0);
+  }
+}
+
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y) {
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::Delay) return false;
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::GainError) y[model.jointRow(e.joint)] /= 1.0 + e.value;
+  return true;
+}
+
 }  // namespace exoid::estimator

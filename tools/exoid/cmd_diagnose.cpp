@@ -12,7 +12,9 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/diagnose.hpp"
+#include "exoid/estimator/online/recursive_ls.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/identify_input.hpp"
 
@@ -315,6 +317,67 @@ int cmdDiagnose(int argc, char** argv) {
   if (ec) return fail("cannot copy the URDF: " + ec.message());
   if (!est::writeEffects((out / "effects.yaml").string(), model, set, &err)) return fail(err);
 
+  // The online estimator with and without the sidecar's columns (issue 9 item 4), offline: the training rows fed
+  // sample by sample through RecursiveLs (no forgetting, prior = the URDF +-25 %, effects prior 0 with sigma 10 x
+  // their value), then its torque prediction on the validation rows. Both runs see the same rows, so the
+  // difference is the columns alone. Only with validation data and a finding.
+  double online_before = -1.0, online_after = -1.0;
+  Eigen::VectorXd online_joint_before, online_joint_after;
+  if (!validate.empty() && est::effectColumnCount(set) > 0) {
+    const BaseParameters base = computeBaseParameters(model);
+    const Eigen::MatrixXd info = est::diagonalPriorInformation(model, base, model.phi, 0.25);
+    est::RecursiveLsModel rigid, augmented;
+    if (!est::makeRecursiveLs(model, base, model.phi, info, {}, rigid, &err)) return fail(err);
+    augmented = rigid;
+    std::vector<int> rows;
+    std::vector<double> sig;
+    for (const est::Effect& e : set.effects)
+      if (!est::isMeasurementEffect(e.kind)) rows.push_back(model.jointRow(e.joint)), sig.push_back(10.0 * std::fabs(e.value) + 1e-6);
+    if (!est::addExtraColumns(augmented, rows, Eigen::Map<Eigen::VectorXd>(sig.data(), sig.size()), &err)) return fail(err);
+    est::RecursiveLsData dr(rigid), da(augmented);
+    const int ne = static_cast<int>(rows.size()), p = model.nparams();
+    Eigen::MatrixXd Ka(nv, p + ne);
+    Eigen::VectorXd ya(nv), pr(nv), pa(nv);
+    Eigen::VectorXd sse_b = Eigen::VectorXd::Zero(nv), sse_a = Eigen::VectorXd::Zero(nv);
+    long n_val = 0;
+    for (size_t sgi = 0; sgi < res.series.size(); ++sgi) {
+      const est::ResidualSeries& rs = res.series[sgi];
+      const est::Segment& sg = sgi < train.size() ? train[sgi] : validate[sgi - train.size()];
+      long i = 0, tick = 0;
+      const bool ok = sg.stream(
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+            if (i >= rs.t.size()) return;
+            Ka.leftCols(p) = K;
+            est::effectColumns(model, set, rs.v.row(i).transpose(), rs.a.row(i).transpose(), Ka.rightCols(ne));
+            ya = y;
+            est::correctMeasurement(model, set, ya);
+            if (!rs.validation) {
+              est::updateRecursiveLs(rigid, dr, ++tick, K, y);
+              est::updateRecursiveLs(augmented, da, tick, Ka, ya);
+            } else {
+              est::predictRecursiveLs(rigid, dr, K, pr);
+              est::predictRecursiveLs(augmented, da, Ka, pa);
+              for (int r = 0; r < nv; ++r) pa[r] *= ya[r] != 0.0 ? y[r] / ya[r] : 1.0;  // back to measured units
+              sse_b += (y - pr).cwiseAbs2();
+              sse_a += (y - pa).cwiseAbs2();
+              ++n_val;
+            }
+            ++i;
+          },
+          &err);
+      if (!ok) return fail(err);
+      if (sgi + 1 == train.size()) {
+        est::solveRecursiveLs(rigid, dr, false);
+        est::solveRecursiveLs(augmented, da, false);
+      }
+    }
+    const int j0 = model.floating_base ? 6 : 0;
+    online_joint_before = (sse_b.tail(nv - j0) / std::max(n_val, 1L)).cwiseSqrt();
+    online_joint_after = (sse_a.tail(nv - j0) / std::max(n_val, 1L)).cwiseSqrt();
+    online_before = std::sqrt(sse_b.tail(nv - j0).sum() / std::max(n_val * (nv - j0), 1L));
+    online_after = std::sqrt(sse_a.tail(nv - j0).sum() / std::max(n_val * (nv - j0), 1L));
+  }
+
   // summary.json
   nlohmann::json js;
   js["model"] = model_path;
@@ -330,6 +393,13 @@ int cmdDiagnose(int argc, char** argv) {
   js["pooled_rmse_after"] = res.pooled_after;
   js["train_pooled_rmse_before"] = res.train_pooled_before;
   js["train_pooled_rmse_after"] = res.train_pooled_after;
+  if (online_before >= 0.0) {
+    js["online_joint_rmse_before"] = online_before;
+    js["online_joint_rmse_after"] = online_after;
+    for (int j = 0; j < online_joint_before.size(); ++j)
+      js["online_joints"].push_back({{"name", model.joint_names[j]}, {"rmse_before", online_joint_before[j]},
+                                     {"rmse_after", online_joint_after[j]}});
+  }
   for (const est::Finding& f : res.findings)
     js["findings"].push_back({{"joint", model.joint_names[f.effect.joint]}, {"kind", est::effectKindName(f.effect.kind)},
                               {"value", f.effect.value}, {"unit", est::effectUnit(f.effect.kind)},
@@ -443,6 +513,9 @@ int cmdDiagnose(int argc, char** argv) {
   for (const est::CoordinateSummary& c : res.coordinates) std::printf("%-16s %10.4f %10.4f\n", c.name.c_str(), c.rms_before, c.rms_after);
   std::printf("%-16s %10.4f %10.4f   (%s RMSE, N m)\n", "pooled", res.pooled_before, res.pooled_after,
               res.has_validation ? "held-out" : "training");
+  if (online_before >= 0.0)
+    std::printf("online estimator (RecursiveLs on the training rows, prediction on the validation rows), joints: "
+                "%.4f -> %.4f N m with the sidecar's columns\n", online_before, online_after);
   std::printf("report: %s\n", (out / "report.md").string().c_str());
   return 0;
 }

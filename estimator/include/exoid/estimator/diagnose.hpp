@@ -153,4 +153,16 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
 /// Reads a sidecar; fails naming the entry on an unknown joint or kind or a non-finite value.
 bool readEffects(const std::string& path, const Model& model, EffectSet& set, std::string* error);
 
+/// The sidecar's dynamics effects (viscous, coulomb, stribeck, offset, armature) as extra regressor columns,
+/// one per effect in the sidecar's order (measurement effects have none): the same effectSignal the diagnosis
+/// tested, on the effect's joint row, zero elsewhere. The coefficient of column e is effect e's value.
+int effectColumnCount(const EffectSet& set);
+/// E [nv x effectColumnCount(set)] at one sample: v, a [njoints] joint velocity and acceleration (the
+/// dataset's, e.g. v from the regressor's fv column and a its time derivative). Allocation-free.
+void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
+                   const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E);
+/// Measurement effects on y [nv]: a torque-sensor gain g divides its joint's row by (1 + g). A delay needs the
+/// future of the signal: false (y untouched) if the set holds one. Allocation-free.
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y);
+
 }  // namespace exoid::estimator
