@@ -168,7 +168,9 @@ DatasetBuilder::DatasetBuilder(const Model& model, const DatasetOptions& options
     : model_(model), opt_(options), sink_(std::move(sink)), rng_(options.noise_seed) {
   opt_.block = std::max(16, opt_.block);
   // Parallel filtering holds every column of W over the window: smaller blocks keep that bounded.
-  if (opt_.filter == FilterMode::Parallel && opt_.cutoff_hz > 0.0) opt_.block = std::min(opt_.block, 1024);
+  // (4096 x 2080 doubles for the exoskeleton plus the margins: ~130 MB at 5 Hz, reused from block to block; a
+  // smaller block would recompute the margins more often: they are 1800 samples on each side at 5 Hz).
+  if (opt_.filter == FilterMode::Parallel && opt_.cutoff_hz > 0.0) opt_.block = std::min(opt_.block, 4096);
   margin_ = 4;  // central differences of differences
   if (opt_.cutoff_hz > 0.0) margin_ = 3 * 4 + 3 * 60;  // refined at the first block from the sample rate
 }
@@ -263,8 +265,10 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   Data kin(model);
   State st = State::zero(model);
   Eigen::VectorXd y(nv);
-  Eigen::MatrixXd Kall, Yall;
-  if (parallel) Kall.resize(to - from, nv * p), Yall.resize(to - from, nv);
+  Eigen::MatrixXd& Kall = Kall_;
+  Eigen::MatrixXd& Yall = Yall_;
+  // Kept between blocks: reallocated only when the window size changes (the last block).
+  if (parallel && (Kall.rows() != to - from || Kall.cols() != nv * p)) Kall.resize(to - from, nv * p), Yall.resize(to - from, nv);
   for (int i = from; i < to; ++i) {
     const MeasuredSample& s = buffer_[i];
     st.q = q.row(i).transpose();

@@ -830,4 +830,37 @@ bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eig
   return true;
 }
 
+EffectCorrector::EffectCorrector(const Model& model, const EffectSet& set, DiagnosisRowSink sink)
+    : model_(model), set_(set), sink_(std::move(sink)) {
+  E_ = Eigen::MatrixXd::Zero(model.nv, effectColumnCount(set));
+  v_ = v_prev_ = a_ = Eigen::VectorXd::Zero(model.njoints);
+}
+
+void EffectCorrector::add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+  Eigen::VectorXd v(model_.njoints);
+  for (int j = 0; j < model_.njoints; ++j) v[j] = K(model_.jointRow(j), model_.frictionParamIndex(j));
+  if (pending_) emit(t, v);
+  K_ = K, y_ = y, v_ = v, t_ = t;
+  pending_ = true;
+}
+
+void EffectCorrector::finish() {
+  if (pending_) emit(t_, v_);
+  pending_ = false;
+}
+
+void EffectCorrector::emit(double t_next, const Eigen::VectorXd& v_next) {
+  // Central difference over the neighbours (one-sided at the ends), as the diagnosis's derivative().
+  const double t_lo = has_prev_ ? t_prev_ : t_;
+  const Eigen::VectorXd& v_lo = has_prev_ ? v_prev_ : v_;
+  a_ = t_next > t_lo ? Eigen::VectorXd((v_next - v_lo) / (t_next - t_lo)) : Eigen::VectorXd::Zero(model_.njoints);
+  effectColumns(model_, set_, v_, a_, E_);
+  int col = 0;
+  for (const Effect& e : set_.effects)
+    if (!isMeasurementEffect(e.kind)) y_ -= e.value * E_.col(col++);
+  correctMeasurement(model_, set_, y_);
+  sink_(t_, K_, y_);
+  t_prev_ = t_, v_prev_ = v_, has_prev_ = true;
+}
+
 }  // namespace exoid::estimator

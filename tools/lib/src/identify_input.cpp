@@ -352,7 +352,14 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
       }
     }
   }
-  estimator::DatasetBuilder builder(model, dopt, rows);
+  std::unique_ptr<estimator::EffectCorrector> corrector;
+  if (options.effects)
+    corrector = std::make_unique<estimator::EffectCorrector>(model, *options.effects, rows);
+  estimator::DatasetBuilder builder(model, dopt, corrector ? estimator::RowSink([&](double t, const Eigen::MatrixXd& K,
+                                                                                     const Eigen::VectorXd& y) {
+                                                   corrector->add(t, K, y);
+                                                 })
+                                                           : rows);
   const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) { return builder.add(s, err); };
   const bool ok = isCsvPath(path) ? streamMeasuredCsv(path, model, feet, options.skip_bad_rows, sink, stats, error)
                                   : streamRunLog(path, model, options.pipeline, feet, sink, stats, error);
@@ -362,6 +369,7 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
     if (error) *error = path + ": " + err;
     return false;
   }
+  if (corrector) corrector->finish();
   return true;
 }
 

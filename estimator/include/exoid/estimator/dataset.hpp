@@ -142,6 +142,7 @@ class DatasetBuilder {
   long trimmed_ = 0;
   int edge_ = 0;   ///< samples trimmed at each end of the run (trim_edges with a filter)
   int head_ = 0;  ///< samples at the front of buffer_ already emitted (history)
+  Eigen::MatrixXd Kall_, Yall_;  ///< parallel filtering: W and y over the window, kept between blocks
   int margin_ = 0;
   uint64_t rng_ = 0;
 };

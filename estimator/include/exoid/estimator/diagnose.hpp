@@ -161,6 +161,27 @@ int effectColumnCount(const EffectSet& set);
 /// dataset's, e.g. v from the regressor's fv column and a its time derivative). Allocation-free.
 void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
                    const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E);
+/// A sidecar applied to streamed rows as known corrections (`exoid identify --effects`): every dynamics effect's
+/// torque value x signal is subtracted from its joint's row of y (v from K's fv column, a its central time
+/// difference, one-sided at the ends, as in the diagnosis), then correctMeasurement. Rows leave one sample late;
+/// finish() emits the last. Construct with a set without delay (check correctMeasurement first).
+class EffectCorrector {
+ public:
+  EffectCorrector(const Model& model, const EffectSet& set, DiagnosisRowSink sink);
+  void add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y);
+  void finish();
+
+ private:
+  void emit(double t_next, const Eigen::VectorXd& v_next);
+  const Model& model_;
+  EffectSet set_;
+  DiagnosisRowSink sink_;
+  bool pending_ = false, has_prev_ = false;
+  double t_ = 0.0, t_prev_ = 0.0;
+  Eigen::MatrixXd K_, E_;
+  Eigen::VectorXd y_, v_, v_prev_, a_;
+};
+
 /// Measurement effects on y [nv]: a torque-sensor gain g divides its joint's row by (1 + g). A delay needs the
 /// future of the signal: false (y untouched) if the set holds one. Allocation-free.
 bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y);

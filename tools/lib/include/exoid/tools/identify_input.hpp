@@ -9,6 +9,7 @@
 
 #include "exoid/estimator/batch/accumulator.hpp"
 #include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/diagnose.hpp"
 #include "exoid/model/model.hpp"
 
 namespace exoid::tools {
@@ -53,6 +54,7 @@ struct SourceOptions {
   LogPipeline pipeline = LogPipeline::Sensors;  ///< LCM logs only
   estimator::DatasetOptions dataset;
   bool skip_bad_rows = false;                   ///< CSV only
+  const estimator::EffectSet* effects = nullptr;  ///< a diagnose sidecar applied as known corrections (no delay)
 };
 
 /// True if the path names a CSV (by its extension), false for anything else (read as an LCM log).
