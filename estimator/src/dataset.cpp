@@ -268,7 +268,12 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   Eigen::MatrixXd& Kall = Kall_;
   Eigen::MatrixXd& Yall = Yall_;
   // Kept between blocks: reallocated only when the window size changes (the last block).
-  if (parallel && (Kall.rows() != to - from || Kall.cols() != nv * p)) Kall.resize(to - from, nv * p), Yall.resize(to - from, nv);
+  if (parallel && (Kall.rows() != to - from || Kall.cols() != nv * p))
+    Kall.resize(to - from, nv * p), Yall.resize(to - from, nv), Tall_.resize(to - from, nj);
+  if (sensor_torque_.size() != nv) sensor_torque_ = Eigen::VectorXd::Zero(nv);
+  auto setSensorTorque = [&](const Eigen::VectorXd& tau) {
+    for (int j = 0; j < nj; ++j) sensor_torque_[model.jointRow(j)] = tau[j];
+  };
   for (int i = from; i < to; ++i) {
     const MeasuredSample& s = buffer_[i];
     st.q = q.row(i).transpose();
@@ -298,7 +303,9 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     if (parallel) {
       for (int c = 0; c < nv; ++c) Kall.block(i - from, c * p, 1, p) = kin.K.row(c);
       Yall.row(i - from) = y.transpose();
+      Tall_.row(i - from) = s.tau.transpose();
     } else if (keep(i)) {
+      setSensorTorque(s.tau);
       sink_(s.t, kin.K, y);
       ++emitted_;
     }
@@ -308,10 +315,12 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     for (int j = 0; j < Kall.cols(); ++j)
       if (Kall.col(j).cwiseAbs().maxCoeff() > 0.0) Kall.col(j) = filtfilt(lp, Kall.col(j));
     for (int j = 0; j < nv; ++j) Yall.col(j) = filtfilt(lp, Yall.col(j));
+    for (int j = 0; j < nj; ++j) Tall_.col(j) = filtfilt(lp, Tall_.col(j));
     Eigen::MatrixXd K(nv, p);
     for (int i = head_; i < emit_end; ++i) {
       if (!keep(i)) continue;
       for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);
+      setSensorTorque(Tall_.row(i).transpose());
       sink_(buffer_[i].t, K, Yall.row(i).transpose());
       ++emitted_;
     }

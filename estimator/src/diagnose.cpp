@@ -161,6 +161,7 @@ struct Candidate {
 struct Cache {
   long n = 0;
   std::vector<double> t;
+  Eigen::MatrixXd ext, dext;  // [n x nv] y minus the torque sensors' part (the plates' contribution), d/dt of it
   Eigen::MatrixXd v, a, y, tau0, tau, dtau;  // [n x nj], [n x nj], [n x nv], declared prediction [n x nv],
                                              // reference prediction of the gain/delay signals [n x nv], d/dt of it
 };
@@ -242,9 +243,9 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   std::string size_error;
   for (size_t s = 0; s < train.size(); ++s) {
     Cache& cache = caches[s];
-    std::vector<double> vs, ys;
+    std::vector<double> vs, ys, es;
     const bool ok = train[s].stream(
-        [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+        [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
           if (bad_size(K, y)) {
             size_error = train[s].name + ": a sample does not match the model's size";
             return;
@@ -253,6 +254,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
           for (int r = 0; r < nv; ++r) {
             ys.push_back(y[r]);
+            es.push_back(y[r] - tau_sensor[r]);
             auto row = fa.nextRow();
             for (int c = 0; c < md; ++c) {
               row[c] = K(r, decl[c]);
@@ -268,6 +270,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     if (cache.n < 3) return fail(train[s].name + ": fewer than 3 samples");
     cache.v = Eigen::Map<Eigen::MatrixXd>(vs.data(), nj, cache.n).transpose();
     cache.y = Eigen::Map<Eigen::MatrixXd>(ys.data(), nv, cache.n).transpose();
+    cache.ext = Eigen::Map<Eigen::MatrixXd>(es.data(), nv, cache.n).transpose();
     out.train_samples += cache.n;
   }
   fa.flush();
@@ -303,10 +306,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     for (size_t s = 0; s < caches.size(); ++s) {
       Cache& cache = caches[s];
       const bool is_train = s < train.size();
-      std::vector<double> vs, ys, taus;
+      std::vector<double> vs, ys, es, taus;
       long i = 0;
       const bool ok = segment(s).stream(
-          [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+          [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
             if (bad_size(K, y)) {
               size_error = segment(s).name + ": a sample does not match the model's size";
               return;
@@ -314,7 +317,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
             if (!is_train) {
               cache.t.push_back(t);
               for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
-              for (int r = 0; r < nv; ++r) ys.push_back(y[r]);
+              for (int r = 0; r < nv; ++r) ys.push_back(y[r]), es.push_back(y[r] - tau_sensor[r]);
             }
             for (int r = 0; r < nv; ++r) {
               double pr = 0.0;
@@ -331,6 +334,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         if (cache.n < 3) return fail(segment(s).name + ": fewer than 3 samples");
         cache.v = Eigen::Map<Eigen::MatrixXd>(vs.data(), nj, cache.n).transpose();
         cache.y = Eigen::Map<Eigen::MatrixXd>(ys.data(), nv, cache.n).transpose();
+        cache.ext = Eigen::Map<Eigen::MatrixXd>(es.data(), nv, cache.n).transpose();
         out.validation_samples += cache.n;
       } else if (i != cache.n) {
         return fail(segment(s).name + ": the data changed between two reads");
@@ -338,6 +342,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       cache.tau = Eigen::Map<Eigen::MatrixXd>(taus.data(), nv, cache.n).transpose();
       cache.tau0 = cache.tau;
       cache.a = derivative(cache.t, cache.v);
+      cache.dext = derivative(cache.t, cache.ext);
       cache.dtau = derivative(cache.t, cache.tau);
     }
 
@@ -366,7 +371,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     out.candidates = nc;
     const int P = m + nc + 1, iy = P - 1;
     auto signal = [&](const Cache& c, long i, const Candidate& cd) {
-      return effectSignal(cd.kind, opt.shape, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord), c.dtau(i, cd.coord));
+      // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus
+      // what the plates contribute; all of y for a fixed base).
+      return effectSignal(cd.kind, opt.shape, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord),
+                          c.dtau(i, cd.coord) - c.dext(i, cd.coord));
     };
 
     // Active columns (P-space) of each coordinate and the map back.
@@ -396,7 +404,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       const Cache& cache = caches[s];
       long i = 0;
       const bool ok = train[s].stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
             if (i >= cache.n) return;
             const int f = static_cast<int>(static_cast<long>((cache.t[i] - cache.t[0]) / opt.chunk_seconds) % F);
             for (int r = 0; r < nv; ++r) {
@@ -618,7 +626,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       Cache& cache = caches[s];
       long i = 0;
       const bool ok = segment(s).stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd&) {
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd&, const Eigen::VectorXd&) {
             if (i >= cache.n) return;
             for (int r = 0; r < nv; ++r) {
               double pr = 0.0;
@@ -651,7 +659,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       rs.tau_model = cache.tau;
       long i = 0;
       const bool ok = segment(s).stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
             if (i >= cache.n) return;
             for (int r = 0; r < nv; ++r) {
               double pr = 0.0;
@@ -822,25 +830,37 @@ void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<co
   }
 }
 
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y,
+                        const Eigen::Ref<const Eigen::VectorXd>& tau_sensor) {
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::Delay) return false;
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::GainError) {
+      const int r = model.jointRow(e.joint);
+      y[r] += tau_sensor[r] / (1.0 + e.value) - tau_sensor[r];
+    }
+  return true;
+}
+
 bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y) {
   for (const Effect& e : set.effects)
     if (e.kind == EffectKind::Delay) return false;
   for (const Effect& e : set.effects)
-    if (e.kind == EffectKind::GainError) y[model.jointRow(e.joint)] /= 1.0 + e.value;
+    if (e.kind == EffectKind::GainError) y[model.jointRow(e.joint)] /= 1.0 + e.value;  // y is the sensor torque
   return true;
 }
 
-EffectCorrector::EffectCorrector(const Model& model, const EffectSet& set, DiagnosisRowSink sink)
+EffectCorrector::EffectCorrector(const Model& model, const EffectSet& set, RowSink sink)
     : model_(model), set_(set), sink_(std::move(sink)) {
   E_ = Eigen::MatrixXd::Zero(model.nv, effectColumnCount(set));
   v_ = v_prev_ = a_ = Eigen::VectorXd::Zero(model.njoints);
 }
 
-void EffectCorrector::add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+void EffectCorrector::add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor) {
   Eigen::VectorXd v(model_.njoints);
   for (int j = 0; j < model_.njoints; ++j) v[j] = K(model_.jointRow(j), model_.frictionParamIndex(j));
   if (pending_) emit(t, v);
-  K_ = K, y_ = y, v_ = v, t_ = t;
+  K_ = K, y_ = y, tau_ = tau_sensor ? *tau_sensor : y, v_ = v, t_ = t;
   pending_ = true;
 }
 
@@ -858,7 +878,7 @@ void EffectCorrector::emit(double t_next, const Eigen::VectorXd& v_next) {
   int col = 0;
   for (const Effect& e : set_.effects)
     if (!isMeasurementEffect(e.kind)) y_ -= e.value * E_.col(col++);
-  correctMeasurement(model_, set_, y_);
+  correctMeasurement(model_, set_, y_, tau_);
   sink_(t_, K_, y_);
   t_prev_ = t_, v_prev_ = v_, has_prev_ = true;
 }

@@ -106,7 +106,7 @@ Segment segmentOf(const Model& model, const Run& run, const std::string& name) {
             Data data(model);
             for (size_t i = 0; i < run.states.size(); ++i) {
               computeJointTorqueRegressor(model, data, run.states[i]);
-              sink(run.t[i], data.K, run.y[i]);
+              sink(run.t[i], data.K, run.y[i], run.y[i]);  // fixed base: y is the sensor torque
             }
             return true;
           }};

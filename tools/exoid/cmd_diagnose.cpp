@@ -319,11 +319,12 @@ int cmdDiagnose(int argc, char** argv) {
 
   // The online estimator with and without the sidecar's columns (issue 9 item 4), offline: the training rows fed
   // sample by sample through RecursiveLs (no forgetting, prior = the URDF +-25 %, effects prior 0 with sigma 10 x
-  // their value), then its torque prediction on the validation rows. Both runs see the same rows, so the
-  // difference is the columns alone. Only with validation data and a finding.
+  // their value; gains corrected on the sensor part of y), then its torque prediction on the validation rows,
+  // back in measured units. Both see the same rows, so the difference is the sidecar alone. Only with validation
+  // data and a finding.
   double online_before = -1.0, online_after = -1.0;
   Eigen::VectorXd online_joint_before, online_joint_after;
-  if (!validate.empty() && est::effectColumnCount(set) > 0) {
+  if (!validate.empty() && !set.effects.empty()) {
     const BaseParameters base = computeBaseParameters(model);
     const Eigen::MatrixXd info = est::diagonalPriorInformation(model, base, model.phi, 0.25);
     est::RecursiveLsModel rigid, augmented;
@@ -345,19 +346,24 @@ int cmdDiagnose(int argc, char** argv) {
       const est::Segment& sg = sgi < train.size() ? train[sgi] : validate[sgi - train.size()];
       long i = 0, tick = 0;
       const bool ok = sg.stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
             if (i >= rs.t.size()) return;
             Ka.leftCols(p) = K;
             est::effectColumns(model, set, rs.v.row(i).transpose(), rs.a.row(i).transpose(), Ka.rightCols(ne));
             ya = y;
-            est::correctMeasurement(model, set, ya);
+            est::correctMeasurement(model, set, ya, tau_sensor);
             if (!rs.validation) {
               est::updateRecursiveLs(rigid, dr, ++tick, K, y);
               est::updateRecursiveLs(augmented, da, tick, Ka, ya);
             } else {
               est::predictRecursiveLs(rigid, dr, K, pr);
               est::predictRecursiveLs(augmented, da, Ka, pa);
-              for (int r = 0; r < nv; ++r) pa[r] *= ya[r] != 0.0 ? y[r] / ya[r] : 1.0;  // back to measured units
+              // Back to measured units: the predicted sensor part tau = pa - (y - tau_sensor) scaled by (1 + g).
+              for (const est::Effect& e : set.effects)
+                if (e.kind == est::EffectKind::GainError) {
+                  const int r = model.jointRow(e.joint);
+                  pa[r] += e.value * (pa[r] - (y[r] - tau_sensor[r]));
+                }
               sse_b += (y - pr).cwiseAbs2();
               sse_a += (y - pa).cwiseAbs2();
               ++n_val;

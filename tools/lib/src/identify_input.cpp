@@ -328,8 +328,12 @@ bool isCsvPath(const std::string& path) {
   return path.size() >= 4 && (path.compare(path.size() - 4, 4, ".csv") == 0 || path.compare(path.size() - 4, 4, ".CSV") == 0);
 }
 
-bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
-                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
+namespace {
+using BuilderRowSink = std::function<void(const estimator::DatasetBuilder& builder, double t, const Eigen::MatrixXd& K,
+                                          const Eigen::VectorXd& y)>;
+
+bool streamRows(const std::string& path, const Model& model, const SourceOptions& options, const BuilderRowSink& rows,
+                InputStats& stats, std::string* error) {
   int feet[2] = {-1, -1};
   estimator::DatasetOptions dopt = options.dataset;
   if (model.floating_base) {
@@ -352,14 +356,16 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
       }
     }
   }
+  const estimator::DatasetBuilder* self = nullptr;
+  const estimator::RowSink direct = [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows(*self, t, K, y); };
   std::unique_ptr<estimator::EffectCorrector> corrector;
-  if (options.effects)
-    corrector = std::make_unique<estimator::EffectCorrector>(model, *options.effects, rows);
+  if (options.effects) corrector = std::make_unique<estimator::EffectCorrector>(model, *options.effects, direct);
   estimator::DatasetBuilder builder(model, dopt, corrector ? estimator::RowSink([&](double t, const Eigen::MatrixXd& K,
                                                                                      const Eigen::VectorXd& y) {
-                                                   corrector->add(t, K, y);
+                                                   corrector->add(t, K, y, &self->sensorTorque());
                                                  })
-                                                           : rows);
+                                                           : direct);
+  self = &builder;
   const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) { return builder.add(s, err); };
   const bool ok = isCsvPath(path) ? streamMeasuredCsv(path, model, feet, options.skip_bad_rows, sink, stats, error)
                                   : streamRunLog(path, model, options.pipeline, feet, sink, stats, error);
@@ -371,6 +377,29 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
   }
   if (corrector) corrector->finish();
   return true;
+}
+}  // namespace
+
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
+  return streamRows(
+      path, model, options,
+      [&](const estimator::DatasetBuilder&, double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows(t, K, y); },
+      stats, error);
+}
+
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const TorqueRowSink& rows, InputStats& stats, std::string* error) {
+  if (options.effects) {  // the corrector delays rows by one sample: the builder's torque would be the next one's
+    if (error) *error = "streamFileRows: sensor torques and sidecar corrections together are not supported";
+    return false;
+  }
+  return streamRows(
+      path, model, options,
+      [&](const estimator::DatasetBuilder& b, double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+        rows(t, K, y, b.sensorTorque());
+      },
+      stats, error);
 }
 
 bool accumulateFile(const std::string& path, const Model& model, const SourceOptions& options,

@@ -126,6 +126,10 @@ class DatasetBuilder {
   bool add(const MeasuredSample& sample, std::string* error);
   bool finish(std::string* error);
   long samples() const { return emitted_; }
+  /// The joint torque sensors' part of the y being handed to the sink (S^T tau [nv]: tau_j on joint j's row, 0 on
+  /// the base rows), processed like y (filtered with parallel filtering). Valid only inside the sink call;
+  /// y minus it is the part the external wrenches (plates) contribute.
+  const Eigen::VectorXd& sensorTorque() const { return sensor_torque_; }
   /// Samples not emitted because of trim_edges.
   long trimmed() const { return trimmed_; }
   /// Margin (samples) on each side of a block for the filter's transient to die out.
@@ -142,7 +146,8 @@ class DatasetBuilder {
   long trimmed_ = 0;
   int edge_ = 0;   ///< samples trimmed at each end of the run (trim_edges with a filter)
   int head_ = 0;  ///< samples at the front of buffer_ already emitted (history)
-  Eigen::MatrixXd Kall_, Yall_;  ///< parallel filtering: W and y over the window, kept between blocks
+  Eigen::MatrixXd Kall_, Yall_, Tall_;  ///< parallel filtering: W, y and tau over the window, kept between blocks
+  Eigen::VectorXd sensor_torque_;       ///< see sensorTorque()
   int margin_ = 0;
   uint64_t rng_ = 0;
 };

@@ -65,6 +65,13 @@ bool isCsvPath(const std::string& path);
 bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
                     const estimator::RowSink& sink, InputStats& stats, std::string* error);
 
+/// The same, with the joint torque sensors' part of each y (estimator::DatasetBuilder::sensorTorque()) as the
+/// sink's fourth argument: y minus it is what the plates contribute (zero for a fixed base).
+using TorqueRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
+                                         const Eigen::VectorXd& tau_sensor)>;
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const TorqueRowSink& sink, InputStats& stats, std::string* error);
+
 /// Streams one file (LCM log or CSV) through the dataset pipeline (filtering, K and y) into the accumulator.
 /// Floating base: the feet are the model's right_foot / left_foot bodies; without a measured base position
 /// the footholds are the right_sole / left_sole frames on their plates' sensor origins (each sole centred on
