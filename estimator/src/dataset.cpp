@@ -176,9 +176,9 @@ void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_h
 namespace {
 // Samples for the filter's transient to decay to e^-40 (~4e-18): the poles of the biquad have modulus
 // sqrt(a2) (complex pair of a Butterworth), the error after k samples ~ sqrt(a2)^k.
-int filterMargin(const Biquad& c) {
+int filterMargin(const Biquad& c, double decay_e = 40.0) {
   const double r = std::sqrt(std::max(c.a2, 1e-300));
-  return r >= 1.0 ? 1 << 20 : static_cast<int>(std::ceil(40.0 / -std::log(r))) + 8;
+  return r >= 1.0 ? 1 << 20 : static_cast<int>(std::ceil(decay_e / -std::log(r))) + 8;
 }
 
 double medianStep(const std::vector<MeasuredSample>& b) {
@@ -195,7 +195,9 @@ DatasetBuilder::DatasetBuilder(const Model& model, const DatasetOptions& options
     : model_(model), opt_(options), sink_(std::move(sink)), rng_(options.noise_seed) {
   opt_.block = std::max(16, opt_.block);
   // Parallel filtering holds every column of W over the window: smaller blocks keep that bounded.
-  if (opt_.filter == FilterMode::Parallel && opt_.cutoff_hz > 0.0) opt_.block = std::min(opt_.block, 1024);
+  // (4096 x 2080 doubles for the exoskeleton plus the margins: ~130 MB at 5 Hz, reused from block to block; a
+  // smaller block would recompute the margins more often: they are 1800 samples on each side at 5 Hz).
+  if (opt_.filter == FilterMode::Parallel && opt_.cutoff_hz > 0.0) opt_.block = std::min(opt_.block, 4096);
   margin_ = 4;  // central differences of differences
   if (opt_.cutoff_hz > 0.0) margin_ = 3 * 4 + 3 * 60;  // refined at the first block from the sample rate
 }
@@ -235,6 +237,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     }
     lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
     want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
+    if (opt_.trim_edges) edge_ = filterMargin(lp, 14.0);  // <= margin_, so the last edge_ are in the last block
   }
   if (fuse) {
     if (!(dt > 0.0) || !(opt_.orientation_cutoff_hz > 0.0) || opt_.orientation_cutoff_hz >= 0.5 / dt) {
@@ -337,14 +340,27 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     }
   }
   if (model.floating_base) acc = filt(acc);
+  // trim_edges: the run's first edge_ samples and, in the last block, its last edge_ are not emitted.
+  auto keep = [&](int i) {
+    const bool drop = edge_ > 0 && (seen_ + i < edge_ || (last && i >= n - edge_));
+    if (drop) ++trimmed_;
+    return !drop;
+  };
   // Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With parallel
   // filtering every sample of the window is computed, then W and y filtered column by column.
   const int from = parallel ? 0 : head_, to = parallel ? n : emit_end;
   Data kin(model);
   State st = State::zero(model);
   Eigen::VectorXd y(nv);
-  Eigen::MatrixXd Kall, Yall;
-  if (parallel) Kall.resize(to - from, nv * p), Yall.resize(to - from, nv);
+  Eigen::MatrixXd& Kall = Kall_;
+  Eigen::MatrixXd& Yall = Yall_;
+  // Kept between blocks: reallocated only when the window size changes (the last block).
+  if (parallel && (Kall.rows() != to - from || Kall.cols() != nv * p))
+    Kall.resize(to - from, nv * p), Yall.resize(to - from, nv), Tall_.resize(to - from, nj);
+  if (sensor_torque_.size() != nv) sensor_torque_ = Eigen::VectorXd::Zero(nv);
+  auto setSensorTorque = [&](const Eigen::VectorXd& tau) {
+    for (int j = 0; j < nj; ++j) sensor_torque_[model.jointRow(j)] = tau[j];
+  };
   for (int i = from; i < to; ++i) {
     const MeasuredSample& s = buffer_[i];
     st.q = q.row(i).transpose();
@@ -369,7 +385,9 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     if (parallel) {
       for (int c = 0; c < nv; ++c) Kall.block(i - from, c * p, 1, p) = kin.K.row(c);
       Yall.row(i - from) = y.transpose();
-    } else {
+      Tall_.row(i - from) = s.tau.transpose();
+    } else if (keep(i)) {
+      setSensorTorque(s.tau);
       sink_(s.t, kin.K, y);
       ++emitted_;
     }
@@ -379,9 +397,12 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     for (int j = 0; j < Kall.cols(); ++j)
       if (Kall.col(j).cwiseAbs().maxCoeff() > 0.0) Kall.col(j) = filtfilt(lp, Kall.col(j));
     for (int j = 0; j < nv; ++j) Yall.col(j) = filtfilt(lp, Yall.col(j));
+    for (int j = 0; j < nj; ++j) Tall_.col(j) = filtfilt(lp, Tall_.col(j));
     Eigen::MatrixXd K(nv, p);
     for (int i = head_; i < emit_end; ++i) {
+      if (!keep(i)) continue;
       for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);
+      setSensorTorque(Tall_.row(i).transpose());
       sink_(buffer_[i].t, K, Yall.row(i).transpose());
       ++emitted_;
     }
@@ -389,6 +410,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   // Keep `margin_` samples of history before the next block.
   const int drop = std::max(0, emit_end - margin_);
   buffer_.erase(buffer_.begin(), buffer_.begin() + drop);
+  seen_ += drop;
   head_ = emit_end - drop;
   return true;
 }

@@ -161,6 +161,7 @@ struct Candidate {
 struct Cache {
   long n = 0;
   std::vector<double> t;
+  Eigen::MatrixXd ext, dext;  // [n x nv] y minus the torque sensors' part (the plates' contribution), d/dt of it
   Eigen::MatrixXd v, a, y, tau0, tau, dtau;  // [n x nj], [n x nj], [n x nv], declared prediction [n x nv],
                                              // reference prediction of the gain/delay signals [n x nv], d/dt of it
 };
@@ -242,9 +243,9 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   std::string size_error;
   for (size_t s = 0; s < train.size(); ++s) {
     Cache& cache = caches[s];
-    std::vector<double> vs, ys;
+    std::vector<double> vs, ys, es;
     const bool ok = train[s].stream(
-        [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+        [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
           if (bad_size(K, y)) {
             size_error = train[s].name + ": a sample does not match the model's size";
             return;
@@ -253,6 +254,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
           for (int r = 0; r < nv; ++r) {
             ys.push_back(y[r]);
+            es.push_back(y[r] - tau_sensor[r]);
             auto row = fa.nextRow();
             for (int c = 0; c < md; ++c) {
               row[c] = K(r, decl[c]);
@@ -268,6 +270,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     if (cache.n < 3) return fail(train[s].name + ": fewer than 3 samples");
     cache.v = Eigen::Map<Eigen::MatrixXd>(vs.data(), nj, cache.n).transpose();
     cache.y = Eigen::Map<Eigen::MatrixXd>(ys.data(), nv, cache.n).transpose();
+    cache.ext = Eigen::Map<Eigen::MatrixXd>(es.data(), nv, cache.n).transpose();
     out.train_samples += cache.n;
   }
   fa.flush();
@@ -303,10 +306,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     for (size_t s = 0; s < caches.size(); ++s) {
       Cache& cache = caches[s];
       const bool is_train = s < train.size();
-      std::vector<double> vs, ys, taus;
+      std::vector<double> vs, ys, es, taus;
       long i = 0;
       const bool ok = segment(s).stream(
-          [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+          [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
             if (bad_size(K, y)) {
               size_error = segment(s).name + ": a sample does not match the model's size";
               return;
@@ -314,7 +317,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
             if (!is_train) {
               cache.t.push_back(t);
               for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
-              for (int r = 0; r < nv; ++r) ys.push_back(y[r]);
+              for (int r = 0; r < nv; ++r) ys.push_back(y[r]), es.push_back(y[r] - tau_sensor[r]);
             }
             for (int r = 0; r < nv; ++r) {
               double pr = 0.0;
@@ -331,6 +334,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         if (cache.n < 3) return fail(segment(s).name + ": fewer than 3 samples");
         cache.v = Eigen::Map<Eigen::MatrixXd>(vs.data(), nj, cache.n).transpose();
         cache.y = Eigen::Map<Eigen::MatrixXd>(ys.data(), nv, cache.n).transpose();
+        cache.ext = Eigen::Map<Eigen::MatrixXd>(es.data(), nv, cache.n).transpose();
         out.validation_samples += cache.n;
       } else if (i != cache.n) {
         return fail(segment(s).name + ": the data changed between two reads");
@@ -338,6 +342,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       cache.tau = Eigen::Map<Eigen::MatrixXd>(taus.data(), nv, cache.n).transpose();
       cache.tau0 = cache.tau;
       cache.a = derivative(cache.t, cache.v);
+      cache.dext = derivative(cache.t, cache.ext);
       cache.dtau = derivative(cache.t, cache.tau);
     }
 
@@ -366,7 +371,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     out.candidates = nc;
     const int P = m + nc + 1, iy = P - 1;
     auto signal = [&](const Cache& c, long i, const Candidate& cd) {
-      return effectSignal(cd.kind, opt.shape, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord), c.dtau(i, cd.coord));
+      // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus
+      // what the plates contribute; all of y for a fixed base).
+      return effectSignal(cd.kind, opt.shape, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord),
+                          c.dtau(i, cd.coord) - c.dext(i, cd.coord));
     };
 
     // Active columns (P-space) of each coordinate and the map back.
@@ -396,7 +404,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       const Cache& cache = caches[s];
       long i = 0;
       const bool ok = train[s].stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
             if (i >= cache.n) return;
             const int f = static_cast<int>(static_cast<long>((cache.t[i] - cache.t[0]) / opt.chunk_seconds) % F);
             for (int r = 0; r < nv; ++r) {
@@ -618,7 +626,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       Cache& cache = caches[s];
       long i = 0;
       const bool ok = segment(s).stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd&) {
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd&, const Eigen::VectorXd&) {
             if (i >= cache.n) return;
             for (int r = 0; r < nv; ++r) {
               double pr = 0.0;
@@ -651,7 +659,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       rs.tau_model = cache.tau;
       long i = 0;
       const bool ok = segment(s).stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
             if (i >= cache.n) return;
             for (int r = 0; r < nv; ++r) {
               double pr = 0.0;
@@ -803,6 +811,76 @@ bool readEffects(const std::string& path, const Model& model, EffectSet& set, st
     return fail(std::string("malformed: ") + ex.what());
   }
   return true;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+int effectColumnCount(const EffectSet& set) {
+  int n = 0;
+  for (const Effect& e : set.effects) n += isMeasurementEffect(e.kind) ? 0 : 1;
+  return n;
+}
+
+void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
+                   const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E) {
+  E.setZero();
+  int col = 0;
+  for (const Effect& e : set.effects) {
+    if (isMeasurementEffect(e.kind)) continue;
+    E(model.jointRow(e.joint), col++) = effectSignal(e.kind, set.shape, v[e.joint], a[e.joint], 0.0, 0.0);
+  }
+}
+
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y,
+                        const Eigen::Ref<const Eigen::VectorXd>& tau_sensor) {
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::Delay) return false;
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::GainError) {
+      const int r = model.jointRow(e.joint);
+      y[r] += tau_sensor[r] / (1.0 + e.value) - tau_sensor[r];
+    }
+  return true;
+}
+
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y) {
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::Delay) return false;
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::GainError) y[model.jointRow(e.joint)] /= 1.0 + e.value;  // y is the sensor torque
+  return true;
+}
+
+EffectCorrector::EffectCorrector(const Model& model, const EffectSet& set, RowSink sink)
+    : model_(model), set_(set), sink_(std::move(sink)) {
+  E_ = Eigen::MatrixXd::Zero(model.nv, effectColumnCount(set));
+  v_ = v_prev_ = a_ = Eigen::VectorXd::Zero(model.njoints);
+}
+
+void EffectCorrector::add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor) {
+  Eigen::VectorXd v(model_.njoints);
+  for (int j = 0; j < model_.njoints; ++j) v[j] = K(model_.jointRow(j), model_.frictionParamIndex(j));
+  if (pending_) emit(t, v);
+  K_ = K, y_ = y, tau_ = tau_sensor ? *tau_sensor : y, v_ = v, t_ = t;
+  pending_ = true;
+}
+
+void EffectCorrector::finish() {
+  if (pending_) emit(t_, v_);
+  pending_ = false;
+}
+
+void EffectCorrector::emit(double t_next, const Eigen::VectorXd& v_next) {
+  // Central difference over the neighbours (one-sided at the ends), as the diagnosis's derivative().
+  const double t_lo = has_prev_ ? t_prev_ : t_;
+  const Eigen::VectorXd& v_lo = has_prev_ ? v_prev_ : v_;
+  a_ = t_next > t_lo ? Eigen::VectorXd((v_next - v_lo) / (t_next - t_lo)) : Eigen::VectorXd::Zero(model_.njoints);
+  effectColumns(model_, set_, v_, a_, E_);
+  int col = 0;
+  for (const Effect& e : set_.effects)
+    if (!isMeasurementEffect(e.kind)) y_ -= e.value * E_.col(col++);
+  correctMeasurement(model_, set_, y_, tau_);
+  sink_(t_, K_, y_);
+  t_prev_ = t_, v_prev_ = v_, has_prev_ = true;
 }
 
 }  // namespace exoid::estimator

@@ -11,6 +11,7 @@
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/signal/filters.hpp"
 
 namespace exoid::estimator {
 namespace {
@@ -113,6 +114,42 @@ TEST(Dataset, BlockwiseZeroPhaseFilteringEqualsFilteringTheWholeRun) {
       worst = std::max(worst, (a.y[i] - b.y[i]).cwiseAbs().maxCoeff() / std::max(1.0, a.y[i].cwiseAbs().maxCoeff()));
     }
     EXPECT_LT(worst, 1e-12) << (mode == FilterMode::Inputs ? "inputs" : "parallel");
+  }
+}
+
+// trim_edges drops exactly the filter's settling time (transient below e^-14) at both ends of the run and
+// leaves every other row as it was, across block boundaries.
+TEST(Dataset, TrimmedEdgesAreTheFiltersSettlingTimeAndTheOtherRowsAreUnchanged) {
+  const Model m = exo();
+  for (FilterMode mode : {FilterMode::Inputs, FilterMode::Parallel}) {
+    DatasetOptions o;
+    o.cutoff_hz = 20.0;
+    o.filter = mode;
+    o.block = 300;
+    const int n = 2500;
+    const Rows all = run(m, o, n, 1e-3, false);
+    o.trim_edges = true;
+    Rows cut;
+    DatasetBuilder b(m, o, [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+      cut.t.push_back(t), cut.K.push_back(K), cut.y.push_back(y);
+    });
+    std::string err;
+    for (int i = 0; i < n; ++i) {
+      MeasuredSample s = sampleAt(m, i * 1e-3);
+      s.v.resize(0), s.a.resize(0), s.has_base_domega = false;
+      ASSERT_TRUE(b.add(s, &err)) << err;
+    }
+    ASSERT_TRUE(b.finish(&err)) << err;
+    // Settling time of the biquad: its poles have modulus sqrt(a2); e^-14 after ceil(14 / -ln r) samples.
+    const Biquad lp = Biquad::butterworthLowPass(20.0, 1000.0);
+    const int edge = static_cast<int>(std::ceil(14.0 / -std::log(std::sqrt(lp.a2)))) + 8;
+    ASSERT_EQ(b.trimmed(), 2 * edge);
+    ASSERT_EQ(static_cast<int>(cut.t.size()), n - 2 * edge);
+    for (int i = 0; i < n - 2 * edge; ++i) {
+      ASSERT_EQ(cut.t[i], all.t[i + edge]);
+      ASSERT_EQ((cut.K[i] - all.K[i + edge]).cwiseAbs().maxCoeff(), 0.0) << i;
+      ASSERT_EQ((cut.y[i] - all.y[i + edge]).cwiseAbs().maxCoeff(), 0.0) << i;
+    }
   }
 }
 

@@ -49,6 +49,18 @@ TEST(DiagnoseCli, KukaLwr4HeldOutRmseAndFindings) {
   estimator::EffectSet set;
   ASSERT_TRUE(estimator::readEffects(out + "/effects.yaml", model, set, &err)) << err;
   EXPECT_EQ(set.effects.size(), js["findings"].size());
+  // The sidecar into `exoid identify --effects` (known corrections): the training residual of the rigid body +
+  // viscous + hard-sign Coulomb model falls when the found offsets, Stribeck terms and gains are applied.
+  const std::string d = test::dataPath("kuka_lwr4/");
+  const std::string id = test::exoidBinary() + " identify --fixed-base --model " + d + "kuka_lwr4.urdf --data " + d +
+                         "measurements_2.csv " + d + "measurements_3.csv --rank full --method OLS";
+  const test::CommandResult plain = test::runCommand(id + " --out " + dir.file("id_plain"), dir.path);
+  const test::CommandResult with = test::runCommand(id + " --effects " + out + "/effects.yaml --out " + dir.file("id_eff"), dir.path);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  ASSERT_EQ(with.exit_code, 0) << with.err;
+  const double rmse_plain = nlohmann::json::parse(test::slurp(dir.file("id_plain/summary.json")))["training"]["rmse"];
+  const double rmse_with = nlohmann::json::parse(test::slurp(dir.file("id_eff/summary.json")))["training"]["rmse"];
+  EXPECT_LT(rmse_with, 0.9 * rmse_plain) << rmse_plain << " -> " << rmse_with;
   const std::string report = test::slurp(out + "/report.md");
   EXPECT_NE(report.find("lwr_0_joint: constant torque offset"), std::string::npos);
   EXPECT_TRUE(std::filesystem::exists(out + "/residual_measurements_1.csv"));

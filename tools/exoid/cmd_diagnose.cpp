@@ -12,7 +12,9 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/diagnose.hpp"
+#include "exoid/estimator/online/recursive_ls.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/identify_input.hpp"
 
@@ -139,9 +141,9 @@ int cmdDiagnose(int argc, char** argv) {
   CLI::App app(kDescription, "exoid diagnose");
   common::configureCli(app);
   std::vector<std::string> train_files, val_files, kinds;
-  std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "inputs";
+  std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "parallel";
   bool floating = false, skip_bad = false, no_plots = false;
-  double gravity = 9.81, cutoff = 0.0;
+  double gravity = 9.81, cutoff = -1.0;
   est::DiagnoseOptions opt;
   int folds = opt.folds, max_effects = opt.max_effects;
   app.add_option("--model", model_path, "robot URDF")->required();
@@ -171,10 +173,12 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--torque-noise", opt.torque_noise, "known torque noise sigma (N m) for the size check (default: "
                  "estimated from the residual's sample-to-sample differences)")->transform(common::strictNumber(0.0, 1e6));
   app.add_option("--pipeline", pipeline, "LCM logs: 'sensors' (default) or 'truth'")->check(CLI::IsMember({"sensors", "truth"}));
-  app.add_option("--cutoff", cutoff, "zero-phase Butterworth cutoff in Hz for the dataset pipeline (0: none; default)")
+  app.add_option("--cutoff", cutoff, "zero-phase Butterworth cutoff in Hz for the dataset pipeline (0: none). Default: 5 Hz "
+                 "with --floating-base (exoskeleton logs: differenced encoders and gyro; docs/diagnose.md), none otherwise")
       ->transform(common::strictNumber(0.0, 1e6));
-  app.add_option("--filter-mode", filter_mode, "'inputs' (filter q, differentiate, filter again; default) or 'parallel' "
-                 "(also the same filter on every column of W and on y); docs/identification.md")
+  app.add_option("--filter-mode", filter_mode, "'parallel' (default: inputs only differenced, the same filter on every "
+                 "column of W and on y, so filter lag and attenuation cancel) or 'inputs' (filter q, differentiate, filter "
+                 "again, y unfiltered: leaves the filtered-away motion in the residual); docs/identification.md")
       ->check(CLI::IsMember({"inputs", "parallel"}));
   app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
   app.add_flag("--no-plots", no_plots, "do not run the plot script (it is still written)");
@@ -197,8 +201,9 @@ int cmdDiagnose(int argc, char** argv) {
   if (!buildModelFromUrdfFile(model_path, floating, model, &err, gravity)) return fail(err);
   tools::SourceOptions so;
   so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
-  so.dataset.cutoff_hz = cutoff;
+  so.dataset.cutoff_hz = cutoff >= 0.0 ? cutoff : floating ? 5.0 : 0.0;
   so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
+  so.dataset.trim_edges = true;  // the filter's start-up transient is no residual of the model
   so.skip_bad_rows = skip_bad;
   std::vector<tools::InputStats> stats(train_files.size() + val_files.size());
   auto makeSegment = [&](const std::string& path, size_t k) {
@@ -312,6 +317,73 @@ int cmdDiagnose(int argc, char** argv) {
   if (ec) return fail("cannot copy the URDF: " + ec.message());
   if (!est::writeEffects((out / "effects.yaml").string(), model, set, &err)) return fail(err);
 
+  // The online estimator with and without the sidecar's columns (issue 9 item 4), offline: the training rows fed
+  // sample by sample through RecursiveLs (no forgetting, prior = the URDF +-25 %, effects prior 0 with sigma 10 x
+  // their value; gains corrected on the sensor part of y), then its torque prediction on the validation rows,
+  // back in measured units. Both see the same rows, so the difference is the sidecar alone. Only with validation
+  // data and a finding.
+  double online_before = -1.0, online_after = -1.0;
+  Eigen::VectorXd online_joint_before, online_joint_after;
+  if (!validate.empty() && !set.effects.empty()) {
+    const BaseParameters base = computeBaseParameters(model);
+    const Eigen::MatrixXd info = est::diagonalPriorInformation(model, base, model.phi, 0.25);
+    est::RecursiveLsModel rigid, augmented;
+    if (!est::makeRecursiveLs(model, base, model.phi, info, {}, rigid, &err)) return fail(err);
+    augmented = rigid;
+    std::vector<int> rows;
+    std::vector<double> sig;
+    for (const est::Effect& e : set.effects)
+      if (!est::isMeasurementEffect(e.kind)) rows.push_back(model.jointRow(e.joint)), sig.push_back(10.0 * std::fabs(e.value) + 1e-6);
+    if (!est::addExtraColumns(augmented, rows, Eigen::Map<Eigen::VectorXd>(sig.data(), sig.size()), &err)) return fail(err);
+    est::RecursiveLsData dr(rigid), da(augmented);
+    const int ne = static_cast<int>(rows.size()), p = model.nparams();
+    Eigen::MatrixXd Ka(nv, p + ne);
+    Eigen::VectorXd ya(nv), pr(nv), pa(nv);
+    Eigen::VectorXd sse_b = Eigen::VectorXd::Zero(nv), sse_a = Eigen::VectorXd::Zero(nv);
+    long n_val = 0;
+    for (size_t sgi = 0; sgi < res.series.size(); ++sgi) {
+      const est::ResidualSeries& rs = res.series[sgi];
+      const est::Segment& sg = sgi < train.size() ? train[sgi] : validate[sgi - train.size()];
+      long i = 0, tick = 0;
+      const bool ok = sg.stream(
+          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
+            if (i >= rs.t.size()) return;
+            Ka.leftCols(p) = K;
+            est::effectColumns(model, set, rs.v.row(i).transpose(), rs.a.row(i).transpose(), Ka.rightCols(ne));
+            ya = y;
+            est::correctMeasurement(model, set, ya, tau_sensor);
+            if (!rs.validation) {
+              est::updateRecursiveLs(rigid, dr, ++tick, K, y);
+              est::updateRecursiveLs(augmented, da, tick, Ka, ya);
+            } else {
+              est::predictRecursiveLs(rigid, dr, K, pr);
+              est::predictRecursiveLs(augmented, da, Ka, pa);
+              // Back to measured units: the predicted sensor part tau = pa - (y - tau_sensor) scaled by (1 + g).
+              for (const est::Effect& e : set.effects)
+                if (e.kind == est::EffectKind::GainError) {
+                  const int r = model.jointRow(e.joint);
+                  pa[r] += e.value * (pa[r] - (y[r] - tau_sensor[r]));
+                }
+              sse_b += (y - pr).cwiseAbs2();
+              sse_a += (y - pa).cwiseAbs2();
+              ++n_val;
+            }
+            ++i;
+          },
+          &err);
+      if (!ok) return fail(err);
+      if (sgi + 1 == train.size()) {
+        est::solveRecursiveLs(rigid, dr, false);
+        est::solveRecursiveLs(augmented, da, false);
+      }
+    }
+    const int j0 = model.floating_base ? 6 : 0;
+    online_joint_before = (sse_b.tail(nv - j0) / std::max(n_val, 1L)).cwiseSqrt();
+    online_joint_after = (sse_a.tail(nv - j0) / std::max(n_val, 1L)).cwiseSqrt();
+    online_before = std::sqrt(sse_b.tail(nv - j0).sum() / std::max(n_val * (nv - j0), 1L));
+    online_after = std::sqrt(sse_a.tail(nv - j0).sum() / std::max(n_val * (nv - j0), 1L));
+  }
+
   // summary.json
   nlohmann::json js;
   js["model"] = model_path;
@@ -327,6 +399,13 @@ int cmdDiagnose(int argc, char** argv) {
   js["pooled_rmse_after"] = res.pooled_after;
   js["train_pooled_rmse_before"] = res.train_pooled_before;
   js["train_pooled_rmse_after"] = res.train_pooled_after;
+  if (online_before >= 0.0) {
+    js["online_joint_rmse_before"] = online_before;
+    js["online_joint_rmse_after"] = online_after;
+    for (int j = 0; j < online_joint_before.size(); ++j)
+      js["online_joints"].push_back({{"name", model.joint_names[j]}, {"rmse_before", online_joint_before[j]},
+                                     {"rmse_after", online_joint_after[j]}});
+  }
   for (const est::Finding& f : res.findings)
     js["findings"].push_back({{"joint", model.joint_names[f.effect.joint]}, {"kind", est::effectKindName(f.effect.kind)},
                               {"value", f.effect.value}, {"unit", est::effectUnit(f.effect.kind)},
@@ -440,6 +519,9 @@ int cmdDiagnose(int argc, char** argv) {
   for (const est::CoordinateSummary& c : res.coordinates) std::printf("%-16s %10.4f %10.4f\n", c.name.c_str(), c.rms_before, c.rms_after);
   std::printf("%-16s %10.4f %10.4f   (%s RMSE, N m)\n", "pooled", res.pooled_before, res.pooled_after,
               res.has_validation ? "held-out" : "training");
+  if (online_before >= 0.0)
+    std::printf("online estimator (RecursiveLs on the training rows, prediction on the validation rows), joints: "
+                "%.4f -> %.4f N m with the sidecar's columns\n", online_before, online_after);
   std::printf("report: %s\n", (out / "report.md").string().c_str());
   return 0;
 }

@@ -15,6 +15,7 @@
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
+#include "exoid/estimator/diagnose.hpp"
 #include "exoid/tools/identify_input.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
 
@@ -76,7 +77,8 @@ int cmdIdentify(int argc, char** argv) {
   common::configureCli(app);
   std::vector<std::string> data, validate;
   std::string model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", pipeline = "sensors", vpipeline,
-              filter_mode = "inputs", method_name = "WLS-RC-PC", rank_name = "jackknife", prior_path, out_dir;
+              filter_mode = "inputs", method_name = "WLS-RC-PC", rank_name = "jackknife", prior_path, out_dir,
+              effects_path;
   bool fixed_base = false, derive = false, skip_bad = false;
   double cutoff = 0.0, noise = 0.0, perturb = 0.0, chunk_s = 2.0;
   uint64_t seed = 1, prior_seed = 1;
@@ -124,6 +126,9 @@ int cmdIdentify(int argc, char** argv) {
       ->transform(common::strictNumber(1e-3, 1e6));
   app.add_option("--threads", threads, "threads for the QR updates")->transform(common::strictInteger(1, 64));
   app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
+  app.add_option("--effects", effects_path, "sidecar effects.yaml of `exoid diagnose` (docs/diagnose.md): its effects are "
+                 "applied to the training data as known corrections before identification (friction, offset, armature "
+                 "torques subtracted; torque-sensor gains divided out; a time delay is refused)");
   app.add_option("--out", out_dir, "directory for summary.json, estimate.csv and (all links consistent) identified.urdf");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   const auto t0 = std::chrono::steady_clock::now();
@@ -160,6 +165,14 @@ int cmdIdentify(int argc, char** argv) {
   so.dataset.encoder_noise = noise;
   so.dataset.noise_seed = seed;
   so.skip_bad_rows = skip_bad;
+  estimator::EffectSet effects;
+  if (!effects_path.empty()) {
+    if (!estimator::readEffects(effects_path, model, effects, &err)) return fail(err);
+    Eigen::VectorXd probe = Eigen::VectorXd::Zero(model.nv);
+    if (!estimator::correctMeasurement(model, effects, probe))
+      return fail(effects_path + ": a time delay cannot be applied by identify (it needs the future of the torque)");
+    so.effects = &effects;
+  }
   estimator::AccumulatorOptions ao;
   ao.folds = folds;
   ao.threads = threads;
@@ -198,6 +211,7 @@ int cmdIdentify(int argc, char** argv) {
   std::unique_ptr<estimator::LsqAccumulator> val;
   if (!validate.empty()) {
     tools::SourceOptions vo = so;
+    vo.effects = nullptr;  // validation data: as recorded (ideal by default)
     vo.pipeline = (vpipeline.empty() ? "truth" : vpipeline) == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
     vo.dataset.encoder_noise = 0.0;
     vo.dataset.orientation_from_legs = vo.pipeline == tools::LogPipeline::Sensors && orientation == "fused";

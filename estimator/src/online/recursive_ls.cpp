@@ -60,6 +60,38 @@ bool makeRecursiveLs(const Model& model, const BaseParameters& base, const Eigen
   return true;
 }
 
+bool addExtraColumns(RecursiveLsModel& model, const std::vector<int>& rows, const Eigen::VectorXd& prior_sigma,
+                     std::string* error) {
+  auto fail = [&](const std::string& what) {
+    if (error) *error = "recursive LS: " + what;
+    return false;
+  };
+  const int ne = static_cast<int>(rows.size());
+  if (prior_sigma.size() != ne)
+    return fail(std::to_string(prior_sigma.size()) + " prior sigmas for " + std::to_string(ne) + " extra columns");
+  for (int e = 0; e < ne; ++e) {
+    if (rows[e] < 0 || rows[e] >= model.nv)
+      return fail("extra column " + std::to_string(e) + " on row " + std::to_string(rows[e]) + " of " + std::to_string(model.nv));
+    if (!(std::isfinite(prior_sigma[e]) && prior_sigma[e] > 0.0))
+      return fail("extra column " + std::to_string(e) + ": prior sigma " + std::to_string(prior_sigma[e]) + " not > 0");
+  }
+  const int m = model.m, p = model.p;
+  for (int e = 0; e < ne; ++e) {
+    model.independent.push_back(p + e);  // column p + e of [K | E]
+    model.active[rows[e]].push_back(m + e);  // after every base column: the active set stays sorted
+  }
+  Eigen::MatrixXd info = Eigen::MatrixXd::Zero(m + ne, m + ne);
+  info.topLeftCorner(m, m) = model.prior_information;
+  for (int e = 0; e < ne; ++e) info(m + e, m + e) = 1.0 / (prior_sigma[e] * prior_sigma[e]);
+  model.prior_information = info;
+  model.x0.conservativeResize(m + ne);
+  model.x0.tail(ne).setZero();
+  model.prior_rhs = model.prior_information * model.x0;
+  model.m = m + ne;
+  model.p = p + ne;
+  return true;
+}
+
 Eigen::MatrixXd diagonalPriorInformation(const Model& model, const BaseParameters& base,
                                          const Eigen::VectorXd& prior_phi, double relative) {
   const Eigen::VectorXd sigma_std = relative * columnScale(model, prior_phi);

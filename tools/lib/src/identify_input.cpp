@@ -357,14 +357,26 @@ estimator::RowSink accumulatorSink(estimator::LsqAccumulator& acc, long& nonfini
     if (!acc.add(K, y)) ++nonfinite;
   };
 }
-}  // namespace
 
-bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
-                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
+using BuilderRowSink = std::function<void(const estimator::DatasetBuilder& builder, double t, const Eigen::MatrixXd& K,
+                                          const Eigen::VectorXd& y)>;
+
+// Streams a file's rows through the dataset builder and, when the source has a sidecar, its corrections.
+bool streamRows(const std::string& path, const Model& model, const SourceOptions& options, const BuilderRowSink& rows,
+                InputStats& stats, std::string* error) {
   int feet[2];
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
-  estimator::DatasetBuilder builder(model, dopt, rows);
+  const estimator::DatasetBuilder* self = nullptr;
+  const estimator::RowSink direct = [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows(*self, t, K, y); };
+  std::unique_ptr<estimator::EffectCorrector> corrector;
+  if (options.effects) corrector = std::make_unique<estimator::EffectCorrector>(model, *options.effects, direct);
+  estimator::DatasetBuilder builder(model, dopt, corrector ? estimator::RowSink([&](double t, const Eigen::MatrixXd& K,
+                                                                                     const Eigen::VectorXd& y) {
+                                                   corrector->add(t, K, y, &self->sensorTorque());
+                                                 })
+                                                           : direct);
+  self = &builder;
   const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) { return builder.add(s, err); };
   if (!readFile(path, model, options, feet, sink, stats, error)) return false;
   std::string err;
@@ -372,7 +384,31 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
     if (error) *error = path + ": " + err;
     return false;
   }
+  if (corrector) corrector->finish();
   return true;
+}
+}  // namespace
+
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
+  return streamRows(
+      path, model, options,
+      [&](const estimator::DatasetBuilder&, double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows(t, K, y); },
+      stats, error);
+}
+
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const TorqueRowSink& rows, InputStats& stats, std::string* error) {
+  if (options.effects) {  // the corrector delays rows by one sample: the builder's torque would be the next one's
+    if (error) *error = "streamFileRows: sensor torques and sidecar corrections together are not supported";
+    return false;
+  }
+  return streamRows(
+      path, model, options,
+      [&](const estimator::DatasetBuilder& b, double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+        rows(t, K, y, b.sensorTorque());
+      },
+      stats, error);
 }
 
 bool readSamples(const std::string& path, const Model& model, const SourceOptions& options,
@@ -388,6 +424,10 @@ bool readSamples(const std::string& path, const Model& model, const SourceOption
 bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
                        const SourceOptions& options, estimator::LsqAccumulator& acc, InputStats& stats,
                        std::string* error) {
+  if (options.effects) {  // the study's path; a sidecar goes through streamFileRows
+    if (error) *error = "accumulateSamples: sidecar corrections are not supported here";
+    return false;
+  }
   int feet[2];
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
@@ -407,10 +447,7 @@ bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, co
 bool accumulateFile(const std::string& path, const Model& model, const SourceOptions& options,
                     estimator::LsqAccumulator& acc, InputStats& stats, std::string* error) {
   long nonfinite = 0;
-  const estimator::RowSink rows = [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
-    if (!acc.add(K, y)) ++nonfinite;
-  };
-  if (!streamFileRows(path, model, options, rows, stats, error)) return false;
+  if (!streamFileRows(path, model, options, accumulatorSink(acc, nonfinite), stats, error)) return false;
   if (nonfinite > 0) {
     stats.skipped += nonfinite;
     stats.why["non-finite regressor row"] += nonfinite;

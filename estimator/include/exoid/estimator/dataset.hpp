@@ -115,6 +115,11 @@ struct DatasetOptions {
   bool orientation_from_legs = false;
   double orientation_cutoff_hz = 5.0;
   int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
+  /// With a filter: drop the samples within the filter's settling time (transient below e^-14, ~1e-6) of the
+  /// run's first and last sample. A zero-phase filter has neither past nor future there; with differenced
+  /// encoders the start-up transient reached 40 N m on the exoskeleton's hip rows (docs/diagnose.md). Off by
+  /// default so that every sample has a row (the exactness tests compare sample by sample).
+  bool trim_edges = false;
 };
 
 /// The footholds of a lab setup: the model's `right_sole` / `left_sole` frames on their plates' sensor origins
@@ -141,6 +146,12 @@ class DatasetBuilder {
   bool add(const MeasuredSample& sample, std::string* error);
   bool finish(std::string* error);
   long samples() const { return emitted_; }
+  /// The joint torque sensors' part of the y being handed to the sink (S^T tau [nv]: tau_j on joint j's row, 0 on
+  /// the base rows), processed like y (filtered with parallel filtering). Valid only inside the sink call;
+  /// y minus it is the part the external wrenches (plates) contribute.
+  const Eigen::VectorXd& sensorTorque() const { return sensor_torque_; }
+  /// Samples not emitted because of trim_edges.
+  long trimmed() const { return trimmed_; }
   /// Margin (samples) on each side of a block for the filter's transient to die out.
   int margin() const { return margin_; }
 
@@ -152,7 +163,12 @@ class DatasetBuilder {
   std::vector<MeasuredSample> buffer_;  ///< [margin_ history][block][margin_ lookahead]
   std::vector<Eigen::Matrix3d> sole_world_;  ///< [footholds] R_ws (orientation_from_legs), once known
   long emitted_ = 0;
+  long seen_ = 0;  ///< samples dropped from the front of buffer_ so far (global index of buffer_[0])
+  long trimmed_ = 0;
+  int edge_ = 0;   ///< samples trimmed at each end of the run (trim_edges with a filter)
   int head_ = 0;  ///< samples at the front of buffer_ already emitted (history)
+  Eigen::MatrixXd Kall_, Yall_, Tall_;  ///< parallel filtering: W, y and tau over the window, kept between blocks
+  Eigen::VectorXd sensor_torque_;       ///< see sensorTorque()
   int margin_ = 0;
   uint64_t rng_ = 0;
 };

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "exoid/estimator/dataset.hpp"
 #include "exoid/model/model.hpp"
 
 namespace exoid::estimator {
@@ -26,8 +27,8 @@ enum class EffectKind {
   Stribeck,   ///< signal tanh(v / coulomb_width) exp(-(v / stribeck_velocity)^2); value fs - fc, N m
   Offset,     ///< signal 1; value: constant torque (sensor offset or gravity-independent load), N m
   Armature,   ///< signal a (rad/s^2, dv/dt); value: rotor inertia reflected through the gear, kg m^2
-  GainError,  ///< measured = (1 + g) model: signal = the declared model's torque; value g (fraction)
-  Delay,      ///< measured(t) = model(t - d): signal = -d/dt of the declared model's torque; value d, s
+  GainError,  ///< measured = (1 + g) model: signal = the declared model's torque-sensor part; value g (fraction)
+  Delay,      ///< measured(t) = model(t - d): signal = -d/dt of that torque-sensor part; value d, s
 };
 inline constexpr int kEffectKinds = 7;
 const char* effectKindName(EffectKind k);   ///< "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay"
@@ -54,8 +55,12 @@ struct Effect {
   double value = 0.0;  ///< in effectUnit(kind)
 };
 
-/// Receives one sample: time (s), K [nv x p] (columns of Model::phi), y [nv].
-using DiagnosisRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y)>;
+/// Receives one sample: time (s), K [nv x p] (columns of Model::phi), y [nv], and tau_sensor [nv]: the joint
+/// torque sensors' part of y (tools::streamFileRows / DatasetBuilder::sensorTorque(); = y where y is the sensor
+/// torque itself, a fixed base). The gain and delay candidates act on that part only: on the exoskeleton y_j
+/// also holds the plate wrenches mapped through the leg, which no sensor gain scales.
+using DiagnosisRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
+                                            const Eigen::VectorXd& tau_sensor)>;
 /// One run: streams all its samples, in time order, to the sink; must give the same rows every call.
 struct Segment {
   std::string name;
@@ -152,5 +157,43 @@ struct EffectSet {
 bool writeEffects(const std::string& path, const Model& model, const EffectSet& set, std::string* error);
 /// Reads a sidecar; fails naming the entry on an unknown joint or kind or a non-finite value.
 bool readEffects(const std::string& path, const Model& model, EffectSet& set, std::string* error);
+
+/// The sidecar's dynamics effects (viscous, coulomb, stribeck, offset, armature) as extra regressor columns,
+/// one per effect in the sidecar's order (measurement effects have none): the same effectSignal the diagnosis
+/// tested, on the effect's joint row, zero elsewhere. The coefficient of column e is effect e's value.
+int effectColumnCount(const EffectSet& set);
+/// E [nv x effectColumnCount(set)] at one sample: v, a [njoints] joint velocity and acceleration (the
+/// dataset's, e.g. v from the regressor's fv column and a its time derivative). Allocation-free.
+void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
+                   const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E);
+/// A sidecar applied to streamed rows as known corrections (`exoid identify --effects`): every dynamics effect's
+/// torque value x signal is subtracted from its joint's row of y (v from K's fv column, a its central time
+/// difference, one-sided at the ends, as in the diagnosis), then correctMeasurement. Rows leave one sample late;
+/// finish() emits the last. Construct with a set without delay (check correctMeasurement first).
+class EffectCorrector {
+ public:
+  EffectCorrector(const Model& model, const EffectSet& set, RowSink sink);
+  /// tau_sensor: the torque sensors' part of y (DatasetBuilder::sensorTorque()); y itself when omitted.
+  void add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor = nullptr);
+  void finish();
+
+ private:
+  void emit(double t_next, const Eigen::VectorXd& v_next);
+  const Model& model_;
+  EffectSet set_;
+  RowSink sink_;
+  bool pending_ = false, has_prev_ = false;
+  double t_ = 0.0, t_prev_ = 0.0;
+  Eigen::MatrixXd K_, E_;
+  Eigen::VectorXd y_, tau_, v_, v_prev_, a_;
+};
+
+/// Measurement effects on y [nv]: a torque-sensor gain g makes the sensor's part tau_j of its joint's row
+/// tau_j / (1 + g) (y_j += tau_j / (1 + g) - tau_j); tau_sensor [nv] = that part (DatasetBuilder::sensorTorque();
+/// y itself for a fixed base, as the three-argument form assumes). A delay needs the future of the signal:
+/// false (y untouched) if the set holds one. Allocation-free.
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y,
+                        const Eigen::Ref<const Eigen::VectorXd>& tau_sensor);
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y);
 
 }  // namespace exoid::estimator

@@ -70,6 +70,16 @@ bool makeRecursiveLs(const Model& model, const BaseParameters& base, const Eigen
                      const Eigen::MatrixXd& prior_information, const RecursiveLsOptions& options,
                      RecursiveLsModel& out, std::string* error);
 
+/// Extra columns beyond the model's regressor (e.g. estimator::effectColumns of a `exoid diagnose` sidecar:
+/// friction, offset, armature the rigid-body model lacks), appended as new estimated parameters with prior 0
+/// and prior information 1 / prior_sigma[e]^2, uncorrelated with the rest. rows[e]: the one coordinate column e
+/// touches. Afterwards m and p grow by rows.size(), and every K given to updateRecursiveLs /
+/// predictRecursiveLs must be [K | E] with E [nv x rows.size()] in this order. Call before constructing
+/// RecursiveLsData (and before saving a checkpoint: the structure includes the new columns). A model without
+/// extra columns is unchanged. False with *error on a bad row, sigma or size.
+bool addExtraColumns(RecursiveLsModel& model, const std::vector<int>& rows, const Eigen::VectorXd& prior_sigma,
+                     std::string* error);
+
 /// A diagonal prior information for a prior known to within +-relative of each parameter: the standard
 /// parameters' scale h = columnScale(model, prior_phi) (the WLS-C scale, zero priors get their kind's
 /// scale), sigma_std = relative * h, propagated to the base parameters, sigma_j^2 = sum_i B_ji^2 sigma_i^2;

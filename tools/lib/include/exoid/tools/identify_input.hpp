@@ -10,6 +10,7 @@
 
 #include "exoid/estimator/batch/accumulator.hpp"
 #include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/diagnose.hpp"
 #include "exoid/model/model.hpp"
 
 namespace exoid::tools {
@@ -54,6 +55,7 @@ struct SourceOptions {
   LogPipeline pipeline = LogPipeline::Sensors;  ///< LCM logs only
   estimator::DatasetOptions dataset;
   bool skip_bad_rows = false;                   ///< CSV only
+  const estimator::EffectSet* effects = nullptr;  ///< a diagnose sidecar applied as known corrections (no delay)
 };
 
 /// The measured samples of one file (the dataset pipeline's input: before noise, filtering and
@@ -72,6 +74,13 @@ bool isCsvPath(const std::string& path);
 /// to a sink (accumulateFile below, `exoid diagnose`). Feet and footholds as for accumulateFile.
 bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
                     const estimator::RowSink& sink, InputStats& stats, std::string* error);
+
+/// The same, with the joint torque sensors' part of each y (estimator::DatasetBuilder::sensorTorque()) as the
+/// sink's fourth argument: y minus it is what the plates contribute (zero for a fixed base).
+using TorqueRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
+                                         const Eigen::VectorXd& tau_sensor)>;
+bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
+                    const TorqueRowSink& sink, InputStats& stats, std::string* error);
 
 /// Streams one file (LCM log or CSV) through the dataset pipeline (filtering, K and y) into the accumulator.
 /// Floating base: the feet are the model's right_foot / left_foot bodies; without a measured base position

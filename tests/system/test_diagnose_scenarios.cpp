@@ -1,0 +1,96 @@
+// `exoid diagnose` on closed-loop exoskeleton runs, sensors only (issue 9 item 2): two short runs per scenario
+// of config/scenarios/diagnose/ (move seeds 1 and 2: train, validate). Every seeded effect chosen here changes
+// its joint's torque by far more than 3x the torque-sensor noise (0.1 N m): viscous 5 N m s/rad x 0.087 rad/s
+// (the right knee's RMS velocity in these runs) = 0.44 N m; dry friction 3 N m; a +10 % torque-sensor gain on
+// the left knee (RMS torque 5.6 N m) = 0.56 N m. Asserted: the effect is named
+// on the right joint with the right kind and nothing else is found; the clean run (another noise seed) gives
+// no finding; after augmentation the held-out RMSE of the viscous run is within 20 % of the noise floor, the
+// clean run's held-out RMSE through the same pipeline (per joint and pooled), and of the gain run on its joint;
+// the online estimator's error at least halves with the sidecar. The confusion table over all
+// scenarios (scripts/diagnose_confusion.py) and what is not met (dry friction's residual, offsets, armature)
+// are in docs/diagnose.md.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "support/paths.hpp"
+#include "support/run_command.hpp"
+
+namespace exoid {
+namespace {
+
+nlohmann::json diagnoseScenario(const std::string& scenario, const test::TempDir& dir) {
+  for (int seed : {1, 2}) {
+    const test::CommandResult r =
+        test::runCommand(test::exoidBinary() + " experiment --moves 6 --seed " + std::to_string(seed) + " --scenario " +
+                             test::configPath("scenarios/diagnose/" + scenario + ".yaml") + " --out " +
+                             dir.file("run" + std::to_string(seed)),
+                         dir.path);
+    EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+    if (r.exit_code != 0) return {};
+  }
+  const test::CommandResult r = test::runCommand(
+      test::exoidBinary() + " diagnose --model " + test::configPath("exo.urdf") + " --floating-base --train " +
+          dir.file("run1/run.lcmlog") + " --validate " + dir.file("run2/run.lcmlog") + " --no-plots --out " + dir.file("dg"),
+      dir.path);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  if (r.exit_code != 0) return {};
+  return nlohmann::json::parse(test::slurp(dir.file("dg/summary.json")));
+}
+
+double rmse(const nlohmann::json& js, const std::string& name, const char* which = "rmse_after") {
+  for (const auto& c : js["coordinates"])
+    if (c["name"] == name) return c[which].get<double>();
+  ADD_FAILURE() << "no coordinate " << name;
+  return 0.0;
+}
+
+TEST(DiagnoseScenarios, SeededEffectsAreNamedAndTheCleanRunGivesNoFinding) {
+  test::TempDir clean_dir("diagnose_clean"), viscous_dir("diagnose_viscous"), coulomb_dir("diagnose_coulomb"),
+      gain_dir("diagnose_gain");
+  const nlohmann::json clean = diagnoseScenario("clean_seed11", clean_dir);
+  ASSERT_FALSE(clean.is_null());
+  EXPECT_TRUE(clean["findings"].empty()) << clean["findings"].dump(1);
+
+  const nlohmann::json viscous = diagnoseScenario("viscous_right_knee_5", viscous_dir);
+  ASSERT_FALSE(viscous.is_null());
+  ASSERT_EQ(viscous["findings"].size(), 1u) << viscous["findings"].dump(1);
+  EXPECT_EQ(viscous["findings"][0]["joint"], "right_knee");
+  EXPECT_EQ(viscous["findings"][0]["kind"], "viscous");
+  EXPECT_NEAR(viscous["findings"][0]["value"].get<double>(), 5.0, 0.5);  // measured 4.84
+  // Noise floor: the clean run's held-out residual, same pipeline (measured 0.0536 N m on the right knee).
+  for (const auto& c : clean["coordinates"]) {
+    const std::string name = c["name"];
+    if (name.rfind("base_", 0) == 0) continue;
+    EXPECT_LE(rmse(viscous, name), 1.2 * c["rmse_after"].get<double>()) << name;  // right knee: 0.0605
+  }
+  EXPECT_LE(viscous["pooled_rmse_after"].get<double>(), 1.2 * clean["pooled_rmse_after"].get<double>());
+
+  const nlohmann::json coulomb = diagnoseScenario("coulomb_right_knee_3", coulomb_dir);
+  ASSERT_FALSE(coulomb.is_null());
+  ASSERT_EQ(coulomb["findings"].size(), 1u) << coulomb["findings"].dump(1);
+  EXPECT_EQ(coulomb["findings"][0]["joint"], "right_knee");
+  EXPECT_EQ(coulomb["findings"][0]["kind"], "coulomb");
+  // The knee's held-out residual falls from 1.92 to 0.29 N m (not to the floor: MuJoCo's dry friction sticks,
+  // which tanh(v / w) does not model; docs/diagnose.md).
+  EXPECT_LT(rmse(coulomb, "right_knee"), 0.2 * rmse(coulomb, "right_knee", "rmse_before"));
+  // The online estimator (RecursiveLs fed the training rows offline) with the sidecar's column: its held-out
+  // torque prediction error over the joints falls by more than half (measured 0.233 -> 0.074 N m), although it
+  // already has a viscous and a hard-sign Coulomb column per joint.
+  ASSERT_TRUE(coulomb.contains("online_joint_rmse_before"));
+  EXPECT_LT(coulomb["online_joint_rmse_after"].get<double>(), 0.5 * coulomb["online_joint_rmse_before"].get<double>());
+
+  // A +10 % torque-sensor gain on the left knee (0.56 N m of its 5.6 N m RMS torque): the gain acts on the sensor's
+  // part of y only, not on the plate wrenches in the same row (measured +10.1 %, 98 % explained).
+  const nlohmann::json gain = diagnoseScenario("gain_left_knee_10", gain_dir);
+  ASSERT_FALSE(gain.is_null());
+  ASSERT_EQ(gain["findings"].size(), 1u) << gain["findings"].dump(1);
+  EXPECT_EQ(gain["findings"][0]["joint"], "left_knee");
+  EXPECT_EQ(gain["findings"][0]["kind"], "gain");
+  EXPECT_NEAR(gain["findings"][0]["value"].get<double>(), 0.10, 0.01);
+  EXPECT_LE(rmse(gain, "left_knee"), 1.2 * rmse(clean, "left_knee"));
+}
+
+}  // namespace
+}  // namespace exoid
