@@ -74,3 +74,16 @@ py=python3
   --train "$here/data/kuka_lwr4/measurements_2.csv" "$here/data/kuka_lwr4/measurements_3.csv" \
   --validate "$here/data/kuka_lwr4/measurements_1.csv" --python "$py" --out "$out/diagnose_kuka"
 echo "(report: $out/diagnose_kuka/report.md)"
+
+echo
+echo "== 6. Residual diagnosis of a simulated run with an undeclared effect (sensors only) ====="
+# config/scenarios/diagnose/viscous_right_knee_5.yaml: 5 N m s/rad of viscous friction on the right knee that
+# the URDF does not declare. Two runs with different CoM move seeds: one to identify on, one held out.
+scen="$here/config/scenarios/diagnose/viscous_right_knee_5.yaml"
+for s in 1 2; do
+  "$bin/exoid" experiment --scenario "$scen" --seed "$s" --moves 6 --no-estimator --out "$out/undeclared_seed$s" >/dev/null
+done
+"$bin/exoid" diagnose --model "$here/config/exo.urdf" --floating-base \
+  --train "$out/undeclared_seed1/run.lcmlog" --validate "$out/undeclared_seed2/run.lcmlog" \
+  --python "$py" --out "$out/diagnose_undeclared"
+echo "(report: $out/diagnose_undeclared/report.md)"
