@@ -44,6 +44,8 @@ EstimatorNode::EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimat
 void EstimatorNode::maybePublish() {
   if (est_.samplesSincePublication() < opt_.publish_every) return;
   est_.publish(out_);
+  // Consistent standard parameters at a lower rate (allocates, a few ms: docs/estimator.md).
+  if (est_.reconcileDue()) est_.reconcile(out_);
   out_.utime = out_.tick * 1000;  // the simulated (or hardware) time of the tick the estimate reached
   // Messages the gate refused never reached the estimator: their counts join the estimator's own.
   out_.rejected_nonfinite += static_cast<int32_t>(gate_.rejected(RejectReason::NonFinite) +
@@ -52,6 +54,7 @@ void EstimatorNode::maybePublish() {
   out_.rejected_duplicate += static_cast<int32_t>(gate_.rejected(RejectReason::Duplicate));
   out_.samples_rejected = out_.rejected_nonfinite + out_.rejected_out_of_order + out_.rejected_duplicate;
   toLcm(out_, param_names_, coord_names_, out_msg_);
+  if (out_.valid) ++valid_publications_;
   if (lcm_.publish(channels::kEstimate, out_msg_)) ++publications_;
   else ++publish_errors_;
 }

@@ -35,6 +35,7 @@ class EstimatorNode {
 
   long publications() const { return publications_; }
   long publishErrors() const { return publish_errors_; }
+  long validPublications() const { return valid_publications_; }  ///< estimates published with valid = 1
   long checkpointsWritten() const { return checkpoints_; }
   long checkpointErrors() const { return checkpoint_errors_; }
   const std::string& lastCheckpointError() const { return checkpoint_error_; }
@@ -58,6 +59,7 @@ class EstimatorNode {
   exoid_lcm::force_plate_t plate_msg_;
   exoid_lcm::estimator_output_t out_msg_;
   EstimatorOutputSample out_;
+  long valid_publications_ = 0;
   long publications_ = 0, publish_errors_ = 0, checkpoints_ = 0, checkpoint_errors_ = 0;
   std::string checkpoint_error_;
   std::chrono::steady_clock::time_point last_checkpoint_, last_state_;

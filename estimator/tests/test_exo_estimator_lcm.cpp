@@ -99,6 +99,7 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
     ref.addPlate(t.plate[1]);
     if (ref.samplesSincePublication() >= nopt.publish_every) {
       ref.publish(expected);
+      if (ref.reconcileDue()) ref.reconcile(expected);  // as the node does
       expected_all.push_back(expected);
     }
   }
