@@ -47,6 +47,7 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
   ASSERT_TRUE(est.ok()) << est.error();
   NodeOptions nopt;
   nopt.publish_every = 20;
+  nopt.reconcile_async = false;  // bit-for-bit against the estimator fed directly
   EstimatorNode node(lcm, model, est, nopt);
   std::vector<EstimatorOutputSample> received;
   long refused = 0;

@@ -443,37 +443,58 @@ bool OnlineEstimator::reconcileDue() const {
   return opt_.consistent_every > 0 && rls_.solves > 0 && (publications_ - 1) % opt_.consistent_every == 0;
 }
 
-void OnlineEstimator::reconcile(EstimatorOutputSample& out) {
-  if (opt_.consistent_every <= 0 || rls_.solves == 0 || rls_.llt.info() != Eigen::Success) return;
-  const int m = rls_model_.m;
+bool OnlineEstimator::beginReconcile(ReconcileJob& job) const {
+  if (opt_.consistent_every <= 0 || rls_.solves == 0 || rls_.llt.info() != Eigen::Success) return false;
+  job.U = rls_.llt.matrixU();
+  job.x = rls_.x;
+  job.start = have_phi_c_ ? phi_c_ : phi_;
+  job.done = false;
+  return true;
+}
+
+void OnlineEstimator::solveReconcile(ReconcileJob& job) const {
   // Target rows: the prior where no base parameter looks, then the base misfit in the estimate's information
-  // metric, U (B phi - x) with A = U^T U (the last solve's Cholesky factor).
-  const Eigen::MatrixXd U = rls_.llt.matrixU();
+  // metric, U (B phi - x) with A = U^T U (the solve's Cholesky factor).
+  const int m = rls_model_.m;
   QuadraticTarget target;
   const int k = static_cast<int>(prior_rows_.rows());
   target.A.resize(k + m, prior_rows_.cols());
   target.A.topRows(k) = prior_rows_;
-  target.A.bottomRows(m).noalias() = U * B_;
+  target.A.bottomRows(m).noalias() = job.U * B_;
   target.b.resize(k + m);
   target.b.head(k) = prior_rows_rhs_;
-  target.b.tail(m).noalias() = U * rls_.x;
+  target.b.tail(m).noalias() = job.U * job.x;
   ConsistentOptions co;
   co.max_iterations = std::max(1, opt_.consistent_iterations);
   co.prior_weight = 1e-9;  // the target's rows are already full rank; this only keeps the Newton matrix definite
-  const ConsistentResult res = solveConsistent(model_, target, phi_prior_, have_phi_c_ ? phi_c_ : phi_, co);
+  const ConsistentResult res = solveConsistent(model_, target, phi_prior_, job.start, co);
+  job.phi = res.phi;
+  job.iterations = res.iterations;
+  job.links_ok = true;
+  for (const LinkConsistency& l : res.consistency) job.links_ok = job.links_ok && l.consistent;
+  job.done = true;
+}
+
+void OnlineEstimator::finishReconcile(const ReconcileJob& job) {
   ++reconciles_;
-  reconcile_iterations_ = res.iterations;
-  if (!res.phi.allFinite()) return;
-  phi_c_ = res.phi;
+  reconcile_iterations_ = job.iterations;
+  if (!job.done || job.phi.size() != phi_c_.size() || !job.phi.allFinite()) return;
+  phi_c_ = job.phi;
   have_phi_c_ = true;
-  links_ok_ = true;
-  for (const LinkConsistency& l : res.consistency) links_ok_ = links_ok_ && l.consistent;
+  links_ok_ = job.links_ok;
+}
+
+void OnlineEstimator::reconcile(EstimatorOutputSample& out) {
+  ReconcileJob job;
+  if (!beginReconcile(job)) return;
+  solveReconcile(job);
+  finishReconcile(job);
   // The publication just made, with the new phi_c (unless the conditional mean was consistent itself).
   bool mean_ok = true;
   for (int b = 0; b < model_.nbodies; ++b)
     mean_ok = mean_ok &&
               checkConsistency(Vector10d(phi_.segment<kParamsPerBody>(model_.bodyParamIndex(b)))).consistent;
-  if (mean_ok) return;
+  if (mean_ok || !have_phi_c_) return;
   out.params = phi_c_;
   out.consistent = links_ok_ && misfit(out.residual_rms, out.effective_samples);
   out.valid = valid_rest_ && out.consistent;

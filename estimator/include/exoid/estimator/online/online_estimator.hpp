@@ -99,6 +99,18 @@ class OnlineEstimator {
   /// consistent_tolerance. Updates out.params, out.consistent and out.valid of the publication
   /// just made (call after publish). Allocates (a few ms): call it at a low rate, never per sample.
   void reconcile(EstimatorOutputSample& out);
+  /// reconcile() in three steps, so that the solve can run on another thread while samples keep arriving
+  /// (exo_estimator does): begin (copies what the solve needs), solve (reads only the job and const members:
+  /// thread-safe against addState/addPlate/publish), finish (adopts phi_c; applies from the next publication).
+  struct ReconcileJob {
+    Eigen::MatrixXd U;     ///< [m x m] Cholesky factor of the information
+    Eigen::VectorXd x, start, phi;  ///< [m] base estimate; [p] start; [p] result
+    bool links_ok = false, done = false;
+    int iterations = 0;
+  };
+  bool beginReconcile(ReconcileJob& job) const;
+  void solveReconcile(ReconcileJob& job) const;
+  void finishReconcile(const ReconcileJob& job);
   double misfitChi2() const { return chi2_; }   ///< (B phi - x)^T A (B phi - x) of the last publication's phi
   double misfitRatio() const { return ratio_; } ///< sqrt(misfitChi2 / RSS_w) of the last publication
   long reconciles() const { return reconciles_; }
