@@ -292,8 +292,8 @@ TEST(OnlineEstimator, ExactSensorsGiveTheBatchPredictionAndTheTotalMass) {
 
   // Consistent standard parameters (reconcile, as exo_estimator runs it after every 10th publication): the
   // conditional mean fails the pseudo-inertia test; the consistent solution passes it for every link and changes
-  // the weighted residual cost by a small fraction of itself, so the estimate is valid. The misfit is recomputed
-  // here from the information matrix; the true parameters, for scale, raise the cost ~9x (the exact sensors'
+  // the weighted residual cost less than the true parameters do, so the estimate is valid. The misfit is
+  // recomputed here from the information matrix; the true parameters raise the cost ~9x (the exact sensors'
   // residual is the causal reconstruction's error, which the fit absorbs), so a white-noise chi^2 test on A
   // would refuse even them.
   const Eigen::VectorXd mean = out.params;
@@ -316,7 +316,8 @@ TEST(OnlineEstimator, ExactSensorsGiveTheBatchPredictionAndTheTotalMass) {
               est.reconciles(), ms, est.lastReconcileIterations(), std::sqrt(d.dot(A * d) / rss),
               std::sqrt(dt.dot(A * dt) / rss), jointRmse(model, held, f.base.base_map * phi_c, rows), mass_c);
   EXPECT_NEAR(est.misfitRatio(), std::sqrt(d.dot(A * d) / rss), 1e-6 * est.misfitRatio() + 1e-12);
-  EXPECT_LE(est.misfitRatio(), 0.25);
+  EXPECT_LT(est.misfitRatio(), std::sqrt(dt.dot(A * dt) / rss));
+  EXPECT_LE(est.misfitRatio(), OnlineEstimatorOptions{}.consistent_tolerance);
   EXPECT_TRUE(out.consistent);
   EXPECT_TRUE(out.valid);
   EXPECT_LE(jointRmse(model, held, f.base.base_map * phi_c, rows), 1.05 * online);
@@ -542,6 +543,42 @@ TEST(OnlineEstimator, CheckpointRestartResumesAndRefusesOtherOptions) {
     EXPECT_NE(err.find(path), std::string::npos);
   }
   std::filesystem::remove(path);
+}
+
+// Consistent standard parameters on noisy closed-loop data (nominal scenario, prior +-25 %): the conditional
+// mean is inconsistent; 20 warm-started solves (2 s at exo_estimator's 10 Hz) give a phi_c whose every link is
+// consistent and whose misfit ratio is below both the default tolerance and the true parameters' own ratio:
+// the filtered equations' residual is dominated by the causal reconstruction's systematic error, which the
+// unconstrained fit absorbs, so the truth sits several "sigmas" of A from it (docs/estimator.md).
+TEST(OnlineEstimator, ConsistentParametersReproduceTheBaseEstimateAsWellAsTheTruth) {
+  const Fixture& f = fixture();
+  const Model& model = f.model;
+  OnlineEstimator est(model, f.base, f.prior, OnlineEstimatorOptions{});
+  EstimatorOutputSample out;
+  est.prepare(out);
+  for (size_t i = 0; i < f.train.states.size(); ++i) {
+    feed(est, f.train, i, i + 1);
+    if (est.samplesSincePublication() >= 10) est.publish(out);
+  }
+  est.publish(out);
+  EXPECT_GT(countInconsistent(checkConsistency(model, out.params)), 0);
+  EXPECT_FALSE(out.valid);
+  const Eigen::MatrixXd A = est.rlsData().A.selfadjointView<Eigen::Upper>();
+  double rss = 0.0;
+  for (int c = 0; c < model.nv; ++c)
+    rss += std::pow(est.rlsModel().row_weight[c] * out.residual_rms[c], 2) * out.effective_samples;
+  const Eigen::VectorXd dt = f.base.base_map * model.phi - est.baseEstimate();
+  const double truth = std::sqrt(dt.dot(A * dt) / rss);
+  for (int i = 0; i < 20; ++i) est.reconcile(out);
+  const Eigen::VectorXd d = f.base.base_map * out.params - est.baseEstimate();
+  std::printf("noisy: misfit ratio of phi_c %.3f (recomputed %.3f), of the true parameters %.3f; %d iterations the last "
+              "solve\n", est.misfitRatio(), std::sqrt(d.dot(A * d) / rss), truth, est.lastReconcileIterations());
+  EXPECT_EQ(countInconsistent(checkConsistency(model, out.params)), 0);
+  EXPECT_NEAR(est.misfitRatio(), std::sqrt(d.dot(A * d) / rss), 1e-6 * est.misfitRatio());
+  EXPECT_LT(est.misfitRatio(), truth);
+  EXPECT_LE(est.misfitRatio(), OnlineEstimatorOptions{}.consistent_tolerance);
+  EXPECT_TRUE(out.consistent);
+  EXPECT_TRUE(out.valid);
 }
 
 }  // namespace

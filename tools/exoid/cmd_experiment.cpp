@@ -314,7 +314,7 @@ int cmdExperiment(int argc, char** argv) {
     if (!sim::loadSensorConfig(sensors, &realistic, &err) || !sim::loadScenario(scenario_path, &scenario, &err) ||
         !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(mjcf, noise, scenario, probe, &err))
       return fail(err);
-    for (const sim::Payload& p : scenario.payloads)
+    for (const sim::Payload& p : scenario.effects.payloads)
       if (p.attach_at_s > 0.0) payload_attach_s = p.attach_at_s, payload_mass_kg = p.mass;
   }
   const std::filesystem::path out = out_dir;

@@ -101,7 +101,7 @@ void torquePrediction(const Model& model, const RunLog& log, const Eigen::Vector
       w[side].moment_world_origin = t.foot_moment[side];
     }
     // y = S^T tau_applied + sum J^T w: the joint rows of y - K phi are tau_applied minus the model's prediction.
-    estimator::generalizedForceFromMeasurements(model, kin, state, t.tau_applied, w, 2, y);
+    generalizedForceFromMeasurements(model, kin, state, t.tau_applied, w, 2, y);
     const Eigen::VectorXd e = y - kin.K * phi_ctrl;
     for (int j = 0; j < model.njoints; ++j) {
       if (!driven[j]) continue;

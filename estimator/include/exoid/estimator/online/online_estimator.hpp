@@ -59,7 +59,7 @@ struct OnlineEstimatorOptions {
   int consistent_iterations = 30;  ///< Levenberg-Marquardt iterations per solve (warm-started from the last)
   /// `consistent` needs the misfit ratio rho = sqrt((B phi_c - x)^T A (B phi_c - x) / RSS_w(x)) <= this: what
   /// the consistent parameters add to the weighted residual cost, relative to the cost itself (docs/estimator.md).
-  double consistent_tolerance = 0.25;
+  double consistent_tolerance = 2.0;
 };
 
 /// What happened to one input message.
