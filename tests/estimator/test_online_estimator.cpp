@@ -19,6 +19,8 @@
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/regressor.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/sim/config.hpp"
 #include "sim_closed_loop.hpp"
@@ -569,8 +571,20 @@ TEST(OnlineEstimator, ConsistentParametersReproduceTheBaseEstimateAsWellAsTheTru
     rss += std::pow(est.rlsModel().row_weight[c] * out.residual_rms[c], 2) * out.effective_samples;
   const Eigen::VectorXd dt = f.base.base_map * model.phi - est.baseEstimate();
   const double truth = std::sqrt(dt.dot(A * dt) / rss);
+  const Eigen::VectorXd mean_phi = out.params;
   for (int i = 0; i < 20; ++i) est.reconcile(out);
   const Eigen::VectorXd d = f.base.base_map * out.params - est.baseEstimate();
+  {  // For the record (docs/estimator.md): the CoM, base frame, at the last training posture.
+    DynamicsData dd(model);
+    State st = State::zero(model);
+    st.q = f.train.states.back().q;
+    exoid::forwardKinematics(model, dd.kin, st);
+    for (const auto& [name, phi] : {std::pair<const char*, Eigen::VectorXd>{"truth", model.phi}, {"prior", f.prior}, {"mean", mean_phi}, {"phi_c", out.params}}) {
+      centroidal(model, phi, dd);
+      std::printf("%-6s total mass %.3f kg, CoM (base frame) %.4f %.4f %.4f m\n", name, dd.mass, dd.com.x(), dd.com.y(),
+                  dd.com.z());
+    }
+  }
   std::printf("noisy: misfit ratio of phi_c %.3f (recomputed %.3f), of the true parameters %.3f; %d iterations the last "
               "solve\n", est.misfitRatio(), std::sqrt(d.dot(A * d) / rss), truth, est.lastReconcileIterations());
   EXPECT_EQ(countInconsistent(checkConsistency(model, out.params)), 0);

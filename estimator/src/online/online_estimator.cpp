@@ -383,11 +383,17 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
     consistent = links_ok_ && misfit(out.residual_rms, out.effective_samples);
   }
   out.consistent = consistent;
-  // tau_ff = K(q, v, dnu)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed state with
-  // dnu = 0 (gravity and velocity terms only): the estimator does not know the controller's desired
-  // acceleration, and the measured one (encoders differenced twice) is the noisiest signal it has.
+  // tau_ff = K(q, 0, 0)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed configuration
+  // (gravity terms only): the estimator does not know the controller's desired acceleration, and the measured
+  // one (encoders differenced twice) is the noisiest signal it has.
   if (has_state_) {
     ff_state_ = state_;
+    // Velocity terms left out too: at the protocol's slow moves they are small, and the Coulomb friction column
+    // sign(v) at the twice-noisy differenced velocity near standstill flips at random, which put ~0.8 N m of
+    // noise into every joint's tau_ff (measured: 4x the controller's joint-torque prediction error).
+    ff_state_.v.setZero();
+    ff_state_.base_omega.setZero();
+    ff_state_.base_velocity.setZero();
     ff_state_.a.setZero();
     ff_state_.base_domega.setZero();
     ff_state_.base_acceleration.setZero();

@@ -47,6 +47,7 @@ struct ExperimentSummary {
   double com_max_error_m = 0.0;
   double true_com_rmse_m = 0.0;    ///< the simulated robot's CoM (undeclared payloads included) vs the reference
   double true_com_max_error_m = 0.0;
+  double true_com_rmse_xy_m = 0.0; ///< its horizontal part
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
   double qp_solve_us_p50 = 0.0, qp_solve_us_p99 = 0.0;
   double tick_us_p50 = 0.0, tick_us_p99 = 0.0;
