@@ -369,9 +369,10 @@ TEST_F(RunEnd, ARestartedEstimatorResumesFromItsCheckpoint) {
 // Issue 8's closed loop end to end: exo_estimator beside the loop on an undeclared payload (3 kg on the body),
 // 2 moves. Its standard parameters are made physically consistent (docs/estimator.md, "Consistent standard
 // parameters"), so estimates flagged valid reach the controller, which uses them (commands carry a non-zero
-// feedforward); the same run with --no-estimator for comparison. The summary reports the true-CoM error and the
-// joint-torque prediction error of both. Issue 8's target (true-CoM error with the estimator >= 2x lower) is
-// NOT met today: the figures are printed, not asserted (docs/estimator.md, "Closing the loop").
+// feedforward); the same run with --no-estimator for comparison: the true CoM's horizontal error is lower with the
+// estimate (its CoM moves the robot's true CoM onto the reference). The vertical part is not asserted: the
+// estimate's CoM height is weakly identified and moves the reference height (docs/estimator.md, "Closing the
+// loop"), so issue 8's target on the 3-D error is met in some payload scenarios only.
 TEST_F(RunEnd, ValidEstimatesReachTheControllerOnAPayloadScenario) {
   const std::string scenario = test::configPath("scenarios/undeclared_payload.yaml");
   const Result on = run(scenario, "");
@@ -397,6 +398,7 @@ TEST_F(RunEnd, ValidEstimatesReachTheControllerOnAPayloadScenario) {
               on.summary["joint_torque_prediction_rmse_nm"].get<double>(),
               off.summary["joint_torque_prediction_rmse_nm"].get<double>(),
               on.summary["estimate_valid_messages"].get<long>(), on.summary["estimate_messages"].get<long>());
+  EXPECT_LT(on.summary["true_com_rmse_xy_m"].get<double>(), off.summary["true_com_rmse_xy_m"].get<double>());
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
 

@@ -34,7 +34,10 @@
 namespace exoid::cli {
 
 namespace {
-constexpr const char* kDefaultEstimatorArgs = "";
+// Stabilised forgetting with a 1 s memory (lambda 0.999 per sample): a payload attached mid-run shows in the
+// estimated total mass within 3.4 s (95 %; without forgetting 2.5 of 3 kg after 42 s), and the prior's
+// information never decays, so nothing winds up while standing (docs/estimator.md, "Closing the loop").
+constexpr const char* kDefaultEstimatorArgs = "--forgetting stabilised --lambda 0.999";
 constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
 
 constexpr char kDescription[] =
@@ -205,8 +208,6 @@ int cmdExperiment(int argc, char** argv) {
   int64_t seed = 1, moves = 0, max_missing = 10;
   double watchdog_factor = 3.0, watchdog_margin = 60.0;
   bool realtime = false, no_pin = false, no_estimator = false;
-  // The experiment's estimator: selective forgetting with a ~2 s memory, so that a payload attached mid-run
-  // shows in the estimate within seconds (docs/estimator.md, "Closing the loop").
   std::string estimator_args = kDefaultEstimatorArgs;
   app.add_option("--scenario", scenario_path, "sim scenario (config/scenarios/*.yaml): noise, undeclared effects")
       ->required()->type_name("FILE");
@@ -255,7 +256,7 @@ int cmdExperiment(int argc, char** argv) {
                "sensors and publishing EXO_ESTIMATE, which the controller uses while it is valid)");
   app.add_option("--estimator-args", estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
-                 "the experiment's defaults")
+                 "the experiment's defaults, \"--forgetting stabilised --lambda 0.999\"")
       ->type_name("\"ARGS\"");
   app.add_option("--inject", inject_text,
                  "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"

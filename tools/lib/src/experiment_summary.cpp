@@ -338,7 +338,7 @@ std::string summaryTable(const ExperimentSummary& s) {
                   s.estimate_valid_messages, s.estimate_in_use_ticks);
     out += buf;
   }
-  if (s.payload_attach_s > 0.0) {
+  if (s.payload_attach_s > 0.0 && s.estimate_messages > 0) {
     char resp[64] = "never";
     if (s.payload_mass_response_s >= 0.0) std::snprintf(resp, sizeof resp, "%.2f s", s.payload_mass_response_s);
     std::snprintf(buf, sizeof buf,
