@@ -44,6 +44,17 @@ EstimatorNode::EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimat
 void EstimatorNode::maybePublish() {
   if (est_.samplesSincePublication() < opt_.publish_every) return;
   est_.publish(out_);
+  // Consistent standard parameters at a lower rate (allocates, ~10 ms: docs/estimator.md), off the receive
+  // path on a worker: a finished solve is adopted here and used from the next publication.
+  if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    pending_.get();
+    est_.finishReconcile(job_);
+  }
+  if (est_.reconcileDue()) {
+    if (!opt_.reconcile_async) est_.reconcile(out_);
+    else if (!pending_.valid() && est_.beginReconcile(job_))
+      pending_ = std::async(std::launch::async, [this] { est_.solveReconcile(job_); });
+  }
   out_.utime = out_.tick * 1000;  // the simulated (or hardware) time of the tick the estimate reached
   // Messages the gate refused never reached the estimator: their counts join the estimator's own.
   out_.rejected_nonfinite += static_cast<int32_t>(gate_.rejected(RejectReason::NonFinite) +
@@ -52,6 +63,7 @@ void EstimatorNode::maybePublish() {
   out_.rejected_duplicate += static_cast<int32_t>(gate_.rejected(RejectReason::Duplicate));
   out_.samples_rejected = out_.rejected_nonfinite + out_.rejected_out_of_order + out_.rejected_duplicate;
   toLcm(out_, param_names_, coord_names_, out_msg_);
+  if (out_.valid) ++valid_publications_;
   if (lcm_.publish(channels::kEstimate, out_msg_)) ++publications_;
   else ++publish_errors_;
 }

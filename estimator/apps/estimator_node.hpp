@@ -4,6 +4,7 @@
 // messages rejected and counted per reason) into the OnlineEstimator; EXO_ESTIMATE every `publish_every`
 // folded samples (inside the receive callback: allocation-free); the checkpoint written between receive calls
 // (never inside the per-sample path), every checkpoint_every_s of wall time and on demand.
+#include <future>
 #include <chrono>
 #include <exoid/lcm/adapters.hpp>
 #include <exoid/lcm/lcm_endpoint.hpp>
@@ -18,6 +19,10 @@ struct NodeOptions {
   int publish_every = 10;           ///< folded samples per EXO_ESTIMATE (10: 100 Hz at 1 kHz)
   std::string checkpoint;           ///< path; empty: none
   double checkpoint_every_s = 5.0;  ///< wall seconds between checkpoints (<= 0: only on demand / exit)
+  /// The consistent-parameter solve (OnlineEstimator::reconcile, ~10 ms) on a worker thread, its result used from
+  /// the first publication after it ends (so samples keep being received meanwhile); false: in the publishing
+  /// call, deterministic (tests comparing the node with an estimator fed directly).
+  bool reconcile_async = true;
 };
 
 class EstimatorNode {
@@ -35,6 +40,7 @@ class EstimatorNode {
 
   long publications() const { return publications_; }
   long publishErrors() const { return publish_errors_; }
+  long validPublications() const { return valid_publications_; }  ///< estimates published with valid = 1
   long checkpointsWritten() const { return checkpoints_; }
   long checkpointErrors() const { return checkpoint_errors_; }
   const std::string& lastCheckpointError() const { return checkpoint_error_; }
@@ -49,6 +55,8 @@ class EstimatorNode {
   const Model& model_;
   OnlineEstimator& est_;
   NodeOptions opt_;
+  OnlineEstimator::ReconcileJob job_;
+  std::future<void> pending_;  ///< the worker's solve of job_, when one runs
   MessageGate gate_;
   int ch_state_ = 0, ch_plate_[2] = {0, 0};
   std::vector<std::string> joint_names_, param_names_, coord_names_;
@@ -58,6 +66,7 @@ class EstimatorNode {
   exoid_lcm::force_plate_t plate_msg_;
   exoid_lcm::estimator_output_t out_msg_;
   EstimatorOutputSample out_;
+  long valid_publications_ = 0;
   long publications_ = 0, publish_errors_ = 0, checkpoints_ = 0, checkpoint_errors_ = 0;
   std::string checkpoint_error_;
   std::chrono::steady_clock::time_point last_checkpoint_, last_state_;

@@ -71,7 +71,8 @@ int main(int argc, char** argv) {
               row_weights_text, checkpoint, final_path;
   double prior_relative = 0.25, cutoff = 20.0, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
          min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
-  int64_t forget_every = 100, idle_timeout_ms = 0;
+  int64_t forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
+  double consistent_tolerance = 2.0;
   bool quiet = false;
 
   CLI::App app{
@@ -115,6 +116,17 @@ int main(int argc, char** argv) {
       ->transform(common::strictNumber(1e-6, 1e12))->type_name("G");
   app.add_option("--min-excitation", min_excitation, "`valid` needs the excited fraction >= this")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("F");
+  app.add_option("--consistent-every", consistent_every,
+                 "publications between two solves for physically consistent standard parameters that reproduce\n"
+                 "the base estimate (log-Cholesky, damped Newton, warm-started; a few ms each); 0: never (the\n"
+                 "published parameters are then the prior's conditional mean)")
+      ->transform(common::strictInteger(0, 1000000))->type_name("N");
+  app.add_option("--consistent-iterations", consistent_iterations, "Newton iterations per consistent solve")
+      ->transform(common::strictInteger(1, 10000))->type_name("N");
+  app.add_option("--consistent-tolerance", consistent_tolerance,
+                 "`consistent` needs the consistent parameters' misfit ratio, sqrt of (B phi - x)^T A (B phi - x)\n"
+                 "(A the estimate's information) over the weighted residual cost of the estimate, <= this")
+      ->transform(common::strictNumber(0.0, 1e6))->type_name("RHO");
   app.add_option("--publish-hz", publish_hz, "EXO_ESTIMATE rate, per 1 kHz of folded samples")
       ->transform(common::strictNumber(0.01, 1000.0))->type_name("HZ");
   app.add_option("--checkpoint", checkpoint,
@@ -169,6 +181,9 @@ int main(int argc, char** argv) {
   opt.block_threshold = block_threshold;
   opt.excited_gain = excited_gain;
   opt.min_excitation = min_excitation;
+  opt.consistent_every = static_cast<int>(consistent_every);
+  opt.consistent_iterations = static_cast<int>(consistent_iterations);
+  opt.consistent_tolerance = consistent_tolerance;
   if (!row_weights_text.empty()) {
     if (!common::parseDoubleList(row_weights_text, model.nv, opt.row_weight, &err))
       return badInput("--row-weights: " + err + " (" + std::to_string(model.nv) + " numbers expected)");
@@ -242,7 +257,8 @@ int main(int argc, char** argv) {
   const MessageGate& gate = node.gate();
   std::printf("exo_estimator: %s: samples %lld, rejected %llu (non-finite %llu, malformed %llu, duplicate %llu, "
               "out of order %llu), missing %lld, publications %ld, publish errors %ld, checkpoints %ld (errors %ld), "
-              "last: tick %lld valid %d consistent %d excitation %.2f\n",
+              "valid publications %ld, consistent solves %ld, last: tick %lld valid %d consistent %d excitation %.2f "
+              "misfit ratio %.4g\n",
               outcome, static_cast<long long>(est.rlsData().accepted),
               static_cast<unsigned long long>(gate.rejectedTotal() + est.rejected(InputStatus::NonFinite) +
                                               est.rejected(InputStatus::Duplicate) + est.rejected(InputStatus::OutOfOrder) +
@@ -252,8 +268,9 @@ int main(int argc, char** argv) {
               static_cast<unsigned long long>(gate.rejected(RejectReason::Duplicate) + est.rejected(InputStatus::Duplicate)),
               static_cast<unsigned long long>(gate.rejected(RejectReason::OutOfOrder) + est.rejected(InputStatus::OutOfOrder)),
               static_cast<long long>(est.rlsData().missing), node.publications(), node.publishErrors(),
-              node.checkpointsWritten(), node.checkpointErrors(), static_cast<long long>(last.tick), last.valid ? 1 : 0,
-              last.consistent ? 1 : 0, last.excitation);
+              node.checkpointsWritten(), node.checkpointErrors(), node.validPublications(), est.reconciles(),
+              static_cast<long long>(last.tick), last.valid ? 1 : 0, last.consistent ? 1 : 0, last.excitation,
+              est.misfitRatio());
   std::fflush(stdout);
   return exit_code;
 }

@@ -47,6 +47,7 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
   ASSERT_TRUE(est.ok()) << est.error();
   NodeOptions nopt;
   nopt.publish_every = 20;
+  nopt.reconcile_async = false;  // bit-for-bit against the estimator fed directly
   EstimatorNode node(lcm, model, est, nopt);
   std::vector<EstimatorOutputSample> received;
   long refused = 0;
@@ -99,6 +100,7 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
     ref.addPlate(t.plate[1]);
     if (ref.samplesSincePublication() >= nopt.publish_every) {
       ref.publish(expected);
+      if (ref.reconcileDue()) ref.reconcile(expected);  // as the node does
       expected_all.push_back(expected);
     }
   }

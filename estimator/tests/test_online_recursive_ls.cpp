@@ -348,8 +348,9 @@ TEST(CausalRowFilter, SameFilterOnRowsAndYKeepsTheEquationsExact) {
   ASSERT_TRUE(makeRecursiveLs(model, e.base, phi, diagonalPriorInformation(model, e.base, phi, 0.25), {}, rm, &err));
   CausalRowFilter filter;
   filter.configure(rm, 30.0, 1000.0);
-  LowPassFilter one;  // an independent single-channel filter on one entry
+  LowPassFilter one;  // an independent single-channel filter on one entry, at rest on zero like the row filter
   one.configure(1, 30.0, 1000.0);
+  one.reset(Eigen::VectorXd::Zero(1));
   const int c = 8, col = e.base.independent[rm.active[8].back()];
   Data data(model);
   State s = State::zero(model);

@@ -75,6 +75,8 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   expectError(bin("exoid") + " export --log a --out b --filter nan", "--filter: 'nan': not finite");
   expectError(bin("exo_estimator") + " --lambda 1.5", "--lambda: '1.5': out of range");
   expectError(bin("exo_estimator") + " --forgetting sometimes", "--forgetting");
+  expectError(bin("exo_estimator") + " --consistent-every -1", "--consistent-every: '-1': out of range");
+  expectError(bin("exo_estimator") + " --consistent-tolerance x", "--consistent-tolerance");
   expectError(bin("exo_estimator") + " --row-weights '1 2 x'", "--row-weights: ");
   expectError(bin("exo_estimator") + " --row-weights '1 2 3'", "16 numbers expected");
   expectError(bin("exo_estimator") + " --checkpoint " + test::configPath("exo.urdf"),

@@ -3,6 +3,7 @@
 // doing CoM moves), sensors only: against the batch regularised least squares on the same equations, against
 // the batch truncated-SVD WLS-RC on held-out data, 60 s of standing still with forgetting, bad inputs and a
 // checkpoint restart.
+#include <chrono>
 #include <gtest/gtest.h>
 
 #include <Eigen/QR>
@@ -18,6 +19,8 @@
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/regressor.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/sim/config.hpp"
 #include "sim_closed_loop.hpp"
@@ -288,6 +291,39 @@ TEST(OnlineEstimator, ExactSensorsGiveTheBatchPredictionAndTheTotalMass) {
   EXPECT_LE(online, 1.02 * batch_rmse);
   EXPECT_LT(online, 0.2 * prior);
   EXPECT_NEAR(mass, true_mass, 0.005 * true_mass);
+
+  // Consistent standard parameters (reconcile, as exo_estimator runs it after every 10th publication): the
+  // conditional mean fails the pseudo-inertia test; the consistent solution passes it for every link and changes
+  // the weighted residual cost less than the true parameters do, so the estimate is valid. The misfit is
+  // recomputed here from the information matrix; the true parameters raise the cost ~9x (the exact sensors'
+  // residual is the causal reconstruction's error, which the fit absorbs), so a white-noise chi^2 test on A
+  // would refuse even them.
+  const Eigen::VectorXd mean = out.params;
+  EXPECT_GT(countInconsistent(checkConsistency(model, mean)), 0);
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int i = 0; i < 100; ++i) est.reconcile(out);  // the warm-started solve, continued as at 10 Hz for 10 s
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() / 100;
+  const Eigen::VectorXd& phi_c = out.params;
+  EXPECT_EQ(countInconsistent(checkConsistency(model, phi_c)), 0);
+  const Eigen::MatrixXd A = est.rlsData().A.selfadjointView<Eigen::Upper>();
+  const Eigen::VectorXd d = f.base.base_map * phi_c - est.baseEstimate();
+  const Eigen::VectorXd dt = f.base.base_map * model.phi - est.baseEstimate();
+  double rss = 0.0;
+  for (int c = 0; c < model.nv; ++c)
+    rss += std::pow(est.rlsModel().row_weight[c] * out.residual_rms[c], 2) * out.effective_samples;
+  double mass_c = 0.0;
+  for (int b = 0; b < model.nbodies; ++b) mass_c += phi_c[model.bodyParamIndex(b)];
+  std::printf("consistent phi: %ld solves, %.2f ms each (%d iterations the last); misfit ratio %.3f (truth %.3f); "
+              "held-out joint-torque RMSE with B phi_c %.4f N m; total mass %.3f kg\n",
+              est.reconciles(), ms, est.lastReconcileIterations(), std::sqrt(d.dot(A * d) / rss),
+              std::sqrt(dt.dot(A * dt) / rss), jointRmse(model, held, f.base.base_map * phi_c, rows), mass_c);
+  EXPECT_NEAR(est.misfitRatio(), std::sqrt(d.dot(A * d) / rss), 1e-6 * est.misfitRatio() + 1e-12);
+  EXPECT_LT(est.misfitRatio(), std::sqrt(dt.dot(A * dt) / rss));
+  EXPECT_LE(est.misfitRatio(), OnlineEstimatorOptions{}.consistent_tolerance);
+  EXPECT_TRUE(out.consistent);
+  EXPECT_TRUE(out.valid);
+  EXPECT_LE(jointRmse(model, held, f.base.base_map * phi_c, rows), 1.05 * online);
+  EXPECT_NEAR(mass_c, true_mass, 0.005 * true_mass);
 }
 
 // The estimator's equations (causal reconstruction, filter) hold for the model's own parameters (the simulated
@@ -509,6 +545,59 @@ TEST(OnlineEstimator, CheckpointRestartResumesAndRefusesOtherOptions) {
     EXPECT_NE(err.find(path), std::string::npos);
   }
   std::filesystem::remove(path);
+}
+
+// Consistent standard parameters on noisy closed-loop data (nominal scenario, prior +-25 %): the conditional
+// mean is inconsistent; 20 warm-started solves (2 s at exo_estimator's 10 Hz) give a phi_c whose every link is
+// consistent and whose misfit ratio is below both the default tolerance and the true parameters' own ratio:
+// the filtered equations' residual is dominated by the causal reconstruction's systematic error, which the
+// unconstrained fit absorbs, so the truth sits several "sigmas" of A from it (docs/estimator.md).
+TEST(OnlineEstimator, ConsistentParametersReproduceTheBaseEstimateAsWellAsTheTruth) {
+  const Fixture& f = fixture();
+  const Model& model = f.model;
+  OnlineEstimator est(model, f.base, f.prior, OnlineEstimatorOptions{});
+  EstimatorOutputSample out;
+  est.prepare(out);
+  for (size_t i = 0; i < f.train.states.size(); ++i) {
+    feed(est, f.train, i, i + 1);
+    if (est.samplesSincePublication() >= 10) est.publish(out);
+  }
+  est.publish(out);
+  EXPECT_GT(countInconsistent(checkConsistency(model, out.params)), 0);
+  EXPECT_FALSE(out.valid);
+  const Eigen::MatrixXd A = est.rlsData().A.selfadjointView<Eigen::Upper>();
+  double rss = 0.0;
+  for (int c = 0; c < model.nv; ++c)
+    rss += std::pow(est.rlsModel().row_weight[c] * out.residual_rms[c], 2) * out.effective_samples;
+  const Eigen::VectorXd dt = f.base.base_map * model.phi - est.baseEstimate();
+  const double truth = std::sqrt(dt.dot(A * dt) / rss);
+  const Eigen::VectorXd mean_phi = out.params;
+  // tau_ff relative to the model, which here is the simulated robot: the right value is 0 (measured 0.02 N m RMS
+  // over the joints; docs/estimator.md compares it with the live process's).
+  std::printf("tau_ff joints RMS %.3f N m (right value 0)\n",
+              std::sqrt(out.tau_ff.tail(model.njoints).squaredNorm() / model.njoints));
+  EXPECT_LT(std::sqrt(out.tau_ff.tail(model.njoints).squaredNorm() / model.njoints), 0.1);
+  for (int i = 0; i < 20; ++i) est.reconcile(out);
+  const Eigen::VectorXd d = f.base.base_map * out.params - est.baseEstimate();
+  {  // For the record (docs/estimator.md): the CoM, base frame, at the last training posture.
+    DynamicsData dd(model);
+    State st = State::zero(model);
+    st.q = f.train.states.back().q;
+    exoid::forwardKinematics(model, dd.kin, st);
+    for (const auto& [name, phi] : {std::pair<const char*, Eigen::VectorXd>{"truth", model.phi}, {"prior", f.prior}, {"mean", mean_phi}, {"phi_c", out.params}}) {
+      centroidal(model, phi, dd);
+      std::printf("%-6s total mass %.3f kg, CoM (base frame) %.4f %.4f %.4f m\n", name, dd.mass, dd.com.x(), dd.com.y(),
+                  dd.com.z());
+    }
+  }
+  std::printf("noisy: misfit ratio of phi_c %.3f (recomputed %.3f), of the true parameters %.3f; %d iterations the last "
+              "solve\n", est.misfitRatio(), std::sqrt(d.dot(A * d) / rss), truth, est.lastReconcileIterations());
+  EXPECT_EQ(countInconsistent(checkConsistency(model, out.params)), 0);
+  EXPECT_NEAR(est.misfitRatio(), std::sqrt(d.dot(A * d) / rss), 1e-6 * est.misfitRatio());
+  EXPECT_LT(est.misfitRatio(), truth);
+  EXPECT_LE(est.misfitRatio(), OnlineEstimatorOptions{}.consistent_tolerance);
+  EXPECT_TRUE(out.consistent);
+  EXPECT_TRUE(out.valid);
 }
 
 }  // namespace

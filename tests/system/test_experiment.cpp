@@ -366,6 +366,42 @@ TEST_F(RunEnd, ARestartedEstimatorResumesFromItsCheckpoint) {
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
 }
 
+// Issue 8's closed loop end to end: exo_estimator beside the loop on an undeclared payload (3 kg on the body),
+// 2 moves. Its standard parameters are made physically consistent (docs/estimator.md, "Consistent standard
+// parameters"), so estimates flagged valid reach the controller, which uses them (commands carry a non-zero
+// feedforward); the same run with --no-estimator for comparison: the true CoM's horizontal error is lower with the
+// estimate (its CoM moves the robot's true CoM onto the reference). The vertical part is not asserted: the
+// estimate's CoM height is weakly identified and moves the reference height (docs/estimator.md, "Closing the
+// loop"), so issue 8's target on the 3-D error is met in some payload scenarios only.
+TEST_F(RunEnd, ValidEstimatesReachTheControllerOnAPayloadScenario) {
+  const std::string scenario = test::configPath("scenarios/undeclared_payload.yaml");
+  const Result on = run(scenario, "");
+  ASSERT_EQ(on.cmd.exit_code, 0) << on.cmd.out << on.cmd.err;
+  ASSERT_TRUE(on.summary.is_object()) << on.cmd.out;
+  EXPECT_EQ(on.summary["outcome"], "completed") << on.summary["failures"];
+  EXPECT_GT(on.summary["estimate_messages"].get<long>(), 0) << on.summary;
+  EXPECT_GT(on.summary["estimate_valid_messages"].get<long>(), 0) << on.summary;
+  EXPECT_GT(on.summary["estimate_in_use_ticks"].get<long>(), 0) << on.summary;
+  const std::string log = test::slurp(dir_.file("run/estimator.log"));
+  EXPECT_NE(log.find("valid publications "), std::string::npos) << log;
+  EXPECT_EQ(log.find("valid publications 0,"), std::string::npos) << log;
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+  const Result off = run(scenario, "--no-estimator");
+  ASSERT_EQ(off.cmd.exit_code, 0) << off.cmd.out << off.cmd.err;
+  ASSERT_TRUE(off.summary.is_object()) << off.cmd.out;
+  EXPECT_EQ(off.summary["estimate_messages"].get<long>(), 0);
+  EXPECT_EQ(off.summary["estimate_in_use_ticks"].get<long>(), 0);
+  std::printf("undeclared payload, 2 moves: true-CoM RMSE with the estimator %.2f mm (horizontal %.2f), without %.2f mm "
+              "(horizontal %.2f); joint-torque prediction error %.3f vs %.3f N m; valid estimates %ld of %ld\n",
+              1e3 * on.summary["true_com_rmse_m"].get<double>(), 1e3 * on.summary["true_com_rmse_xy_m"].get<double>(),
+              1e3 * off.summary["true_com_rmse_m"].get<double>(), 1e3 * off.summary["true_com_rmse_xy_m"].get<double>(),
+              on.summary["joint_torque_prediction_rmse_nm"].get<double>(),
+              off.summary["joint_torque_prediction_rmse_nm"].get<double>(),
+              on.summary["estimate_valid_messages"].get<long>(), on.summary["estimate_messages"].get<long>());
+  EXPECT_LT(on.summary["true_com_rmse_xy_m"].get<double>(), off.summary["true_com_rmse_xy_m"].get<double>());
+  EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());
+}
+
 TEST_F(RunEnd, TheWatchdogBoundsTheRun) {
   const Result r = run(test::configPath("scenarios/ideal.yaml"), "--watchdog-factor 0.01 --watchdog-margin-s 0.2");
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;

@@ -1,8 +1,11 @@
 #include "exoid/estimator/online/online_estimator.hpp"
 
 #include <algorithm>
+#include <Eigen/QR>
 #include <cmath>
+#include <limits>
 
+#include "exoid/estimator/batch/consistent.hpp"
 #include "exoid/estimator/batch/solvers.hpp"
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/inertial.hpp"
@@ -118,6 +121,21 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   GC_ = Eigen::MatrixXd::Zero(p, m);
   param_stddev_ = phi_var0_.cwiseSqrt();
   dx_ = Eigen::VectorXd::Zero(m);
+  // Consistent standard parameters (reconcile): with phi = phi_prior + Sigma^1/2 u, the prior's cost u^T u splits
+  // into what B phi sees (the base prior, Lambda0, already inside the estimate's information A) and the rest,
+  // ||N^T u||^2 with N an orthonormal basis of the nullspace of B Sigma^1/2. Using only the rest keeps the prior
+  // from being counted twice: the unconstrained minimiser is then exactly the conditional mean above.
+  if (opt_.consistent_every > 0) {
+    B_ = base.base_map;
+    const Eigen::VectorXd sd = var.cwiseSqrt();
+    const Eigen::MatrixXd Mt = (base.base_map * sd.asDiagonal()).transpose();  // [p x m]
+    Eigen::HouseholderQR<Eigen::MatrixXd> qr(Mt);
+    const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(p, p);
+    prior_rows_ = Q.rightCols(p - m).transpose() * sd.cwiseInverse().asDiagonal();
+    prior_rows_rhs_ = prior_rows_ * prior_phi;
+    phi_c_ = prior_phi;
+    d_ = u_m_ = Eigen::VectorXd::Zero(m);
+  }
 
   R_ = Eigen::MatrixXd::Zero(m, m);
   dD_ = R1_ = Y_ = M_ = R_;
@@ -352,17 +370,30 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
   for (int j = 0; j < m; ++j)
     if (prior_sigma_[j] * prior_sigma_[j] >= (1.0 + opt_.excited_gain) * rls_.sigma[j] * rls_.sigma[j]) ++excited;
   out.excitation = m > 0 ? static_cast<double>(excited) / m : 0.0;
-  // Consistency of every link (pseudo-inertia positive definite).
-  bool consistent = true;
+  // Consistency: the conditional mean reproduces x exactly (B G = I), so when its every link passes the
+  // pseudo-inertia test it is the consistent answer; otherwise the last reconcile()'s phi_c, judged by its misfit.
+  bool mean_ok = true;
   for (int b = 0; b < model_.nbodies; ++b)
-    consistent = consistent &&
-                 checkConsistency(Vector10d(phi_.segment<kParamsPerBody>(model_.bodyParamIndex(b)))).consistent;
+    mean_ok = mean_ok &&
+              checkConsistency(Vector10d(phi_.segment<kParamsPerBody>(model_.bodyParamIndex(b)))).consistent;
+  bool consistent = mean_ok;
+  chi2_ = ratio_ = 0.0;
+  if (!mean_ok && have_phi_c_ && solved) {
+    out.params = phi_c_;
+    consistent = links_ok_ && misfit(out.residual_rms, out.effective_samples);
+  }
   out.consistent = consistent;
-  // tau_ff = K(q, v, dnu)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed state with
-  // dnu = 0 (gravity and velocity terms only): the estimator does not know the controller's desired
-  // acceleration, and the measured one (encoders differenced twice) is the noisiest signal it has.
+  // tau_ff = K(q, 0, 0)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed configuration
+  // (gravity terms only): the estimator does not know the controller's desired acceleration, and the measured
+  // one (encoders differenced twice) is the noisiest signal it has.
   if (has_state_) {
     ff_state_ = state_;
+    // Velocity terms left out too: at the protocol's slow moves they are small, and the Coulomb friction column
+    // sign(v) at the twice-noisy differenced velocity near standstill flips at random, which put ~0.8 N m of
+    // noise into every joint's tau_ff (measured: 4x the controller's joint-torque prediction error).
+    ff_state_.v.setZero();
+    ff_state_.base_omega.setZero();
+    ff_state_.base_velocity.setZero();
     ff_state_.a.setZero();
     ff_state_.base_domega.setZero();
     ff_state_.base_acceleration.setZero();
@@ -387,9 +418,92 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
   out.samples_missing = rls_.missing;
   const bool finite = solved && out.params.allFinite() && out.param_stddev.allFinite() && out.tau_ff.allFinite() &&
                       out.residual_rms.allFinite() && out.base_stddev.allFinite();
-  out.valid = finite && consistent && rls_.accepted > 0 && out.excitation >= opt_.min_excitation;
+  valid_rest_ = finite && rls_.accepted > 0 && out.excitation >= opt_.min_excitation;
+  out.valid = valid_rest_ && consistent;
   since_publication_ = 0;
   if (selective && block_samples_ >= opt_.forget_every) fold();
+}
+
+bool OnlineEstimator::misfit(const Eigen::VectorXd& rms, double effective_samples) {
+  d_.noalias() = B_ * phi_c_;
+  d_ -= rls_.x;
+  const Eigen::MatrixXd& U = rls_.llt.matrixLLT();  // A = U^T U, U in the upper triangle
+  const int m = static_cast<int>(d_.size());
+  chi2_ = 0.0;
+  for (int i = 0; i < m; ++i) {  // ||U d||^2 (explicit: no temporaries)
+    double ui = 0.0;
+    for (int j = i; j < m; ++j) ui += U(i, j) * d_[j];
+    chi2_ += ui * ui;
+  }
+  // The weighted residual cost over the memory: sum_c g_c^2 rss_c = sum_c (g_c rms_c)^2 N_eff.
+  double rss = 0.0;
+  for (int c = 0; c < rls_model_.nv; ++c) {
+    const double g = rls_model_.row_weight[c] * rms[c];
+    rss += g * g * effective_samples;
+  }
+  ratio_ = rss > 0.0 ? std::sqrt(chi2_ / rss) : std::numeric_limits<double>::infinity();
+  return ratio_ <= opt_.consistent_tolerance;
+}
+
+bool OnlineEstimator::reconcileDue() const {
+  return opt_.consistent_every > 0 && rls_.solves > 0 && (publications_ - 1) % opt_.consistent_every == 0;
+}
+
+bool OnlineEstimator::beginReconcile(ReconcileJob& job) const {
+  if (opt_.consistent_every <= 0 || rls_.solves == 0 || rls_.llt.info() != Eigen::Success) return false;
+  job.U = rls_.llt.matrixU();
+  job.x = rls_.x;
+  job.start = have_phi_c_ ? phi_c_ : phi_;
+  job.done = false;
+  return true;
+}
+
+void OnlineEstimator::solveReconcile(ReconcileJob& job) const {
+  // Target rows: the prior where no base parameter looks, then the base misfit in the estimate's information
+  // metric, U (B phi - x) with A = U^T U (the solve's Cholesky factor).
+  const int m = rls_model_.m;
+  QuadraticTarget target;
+  const int k = static_cast<int>(prior_rows_.rows());
+  target.A.resize(k + m, prior_rows_.cols());
+  target.A.topRows(k) = prior_rows_;
+  target.A.bottomRows(m).noalias() = job.U * B_;
+  target.b.resize(k + m);
+  target.b.head(k) = prior_rows_rhs_;
+  target.b.tail(m).noalias() = job.U * job.x;
+  ConsistentOptions co;
+  co.max_iterations = std::max(1, opt_.consistent_iterations);
+  co.prior_weight = 1e-9;  // the target's rows are already full rank; this only keeps the Newton matrix definite
+  const ConsistentResult res = solveConsistent(model_, target, phi_prior_, job.start, co);
+  job.phi = res.phi;
+  job.iterations = res.iterations;
+  job.links_ok = true;
+  for (const LinkConsistency& l : res.consistency) job.links_ok = job.links_ok && l.consistent;
+  job.done = true;
+}
+
+void OnlineEstimator::finishReconcile(const ReconcileJob& job) {
+  ++reconciles_;
+  reconcile_iterations_ = job.iterations;
+  if (!job.done || job.phi.size() != phi_c_.size() || !job.phi.allFinite()) return;
+  phi_c_ = job.phi;
+  have_phi_c_ = true;
+  links_ok_ = job.links_ok;
+}
+
+void OnlineEstimator::reconcile(EstimatorOutputSample& out) {
+  ReconcileJob job;
+  if (!beginReconcile(job)) return;
+  solveReconcile(job);
+  finishReconcile(job);
+  // The publication just made, with the new phi_c (unless the conditional mean was consistent itself).
+  bool mean_ok = true;
+  for (int b = 0; b < model_.nbodies; ++b)
+    mean_ok = mean_ok &&
+              checkConsistency(Vector10d(phi_.segment<kParamsPerBody>(model_.bodyParamIndex(b)))).consistent;
+  if (mean_ok || !have_phi_c_) return;
+  out.params = phi_c_;
+  out.consistent = links_ok_ && misfit(out.residual_rms, out.effective_samples);
+  out.valid = valid_rest_ && out.consistent;
 }
 
 bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error) const {

@@ -6,7 +6,7 @@ void CausalRowFilter::configure(const RecursiveLsModel& model, double cutoff_hz,
   int channels = model.nv;
   for (const auto& cols : model.active) channels += static_cast<int>(cols.size());
   filter_.configure(channels, cutoff_hz, sample_hz);
-  buffer_ = Eigen::VectorXd::Zero(channels);
+  buffer_ = zero_ = Eigen::VectorXd::Zero(channels);
   started_ = false;
 }
 
@@ -17,7 +17,11 @@ void CausalRowFilter::filter(const RecursiveLsModel& model, const Eigen::Ref<con
   for (int c = 0; c < model.nv; ++c)
     for (int j : model.active[c]) buffer_[i++] = K(c, model.independent[j]);
   buffer_.tail(model.nv) = y;
-  if (!started_) filter_.reset(buffer_), started_ = true;
+  // (Re)started at rest on zero, not on the first sample: the virtual past K = 0, y = 0 satisfies every
+  // equation, while resting on the first sample would hold its raw noise (accelerations differenced twice) for
+  // the filter's whole memory. With sample loss every gap restarts the filter, and that held noise in K biased
+  // the live estimate (hip tau_ff ~1.2 N m for a true 0, docs/estimator.md).
+  if (!started_) filter_.reset(zero_), started_ = true;
   filter_.filter(buffer_, buffer_);
   i = 0;
   for (int c = 0; c < model.nv; ++c)

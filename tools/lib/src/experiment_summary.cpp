@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <unordered_map>
 
+#include "exoid/estimator/measurement.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/tools/run_table.hpp"
@@ -39,7 +40,7 @@ void truthFigures(const Model& model, const RunLog& log, ExperimentSummary& s, i
   DynamicsData dyn(model);
   Eigen::Vector3d sole0[2];
   const double z0 = log.truth.front().base_position.z();
-  double sum_sq = 0.0, true_sum_sq = 0.0;
+  double sum_sq = 0.0, true_sum_sq = 0.0, true_xy_sq = 0.0;
   long n = 0;
   for (size_t i = 0; i < log.truth.size(); ++i) {
     const GroundTruthSample& t = log.truth[i];
@@ -61,12 +62,92 @@ void truthFigures(const Model& model, const RunLog& log, ExperimentSummary& s, i
       s.com_max_error_m = std::max(s.com_max_error_m, e);
       const double et = (t.com - it->second->com_ref).norm();  // what the model does not know shows here
       true_sum_sq += et * et;
+      true_xy_sq += (t.com - it->second->com_ref).head<2>().squaredNorm();
       s.true_com_max_error_m = std::max(s.true_com_max_error_m, et);
       ++n;
     }
   }
   s.com_rmse_m = n ? std::sqrt(sum_sq / n) : 0.0;
   s.true_com_rmse_m = n ? std::sqrt(true_sum_sq / n) : 0.0;
+  s.true_com_rmse_xy_m = n ? std::sqrt(true_xy_sq / n) : 0.0;
+}
+// The controller's joint-torque prediction error (see ExperimentSummary) and the estimate's use.
+void torquePrediction(const Model& model, const RunLog& log, const Eigen::VectorXd& phi_ctrl, ExperimentSummary& s) {
+  const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
+  for (const auto& c : log.commands)
+    if (c.tau_ff.size() == model.njoints && c.tau_ff.cwiseAbs().maxCoeff() > 0.0) ++s.estimate_in_use_ticks;
+  if (feet[0] < 0 || feet[1] < 0 || !model.floating_base || phi_ctrl.size() != model.nparams()) return;
+  std::unordered_map<int64_t, const JointCommandSample*> command;
+  for (const auto& c : log.commands)
+    if (c.tau.size() == model.njoints && c.tau_ff.size() == model.njoints) command[c.tick] = &c;
+  std::unordered_map<int64_t, int> move;
+  for (const auto& st : log.status) move[st.tick] = st.move_index;
+  // Joints the controller drives: those it ever commands a non-zero torque to (passive joints get 0).
+  std::vector<bool> driven(static_cast<size_t>(model.njoints), false);
+  for (const auto& [tick, c] : command)
+    for (int j = 0; j < model.njoints; ++j) driven[j] = driven[j] || c->tau[j] != 0.0;
+  Data kin(model);
+  Eigen::VectorXd y(model.nv);
+  double sum_ff = 0.0, sum_model = 0.0;
+  long n = 0;
+  for (const GroundTruthSample& t : log.truth) {
+    auto c = command.find(t.tick);
+    auto mv = move.find(t.tick);
+    if (c == command.end() || mv == move.end() || mv->second < 0 || t.tau_applied.size() != model.njoints) continue;
+    const State state = stateFromTruth(model, t);
+    computeJointTorqueRegressor(model, kin, state);
+    ExternalWrench w[2];
+    for (int side = 0; side < 2; ++side) {
+      w[side].body = feet[side];
+      w[side].force = t.foot_force[side];
+      w[side].moment_world_origin = t.foot_moment[side];
+    }
+    // y = S^T tau_applied + sum J^T w: the joint rows of y - K phi are tau_applied minus the model's prediction.
+    generalizedForceFromMeasurements(model, kin, state, t.tau_applied, w, 2, y);
+    const Eigen::VectorXd e = y - kin.K * phi_ctrl;
+    for (int j = 0; j < model.njoints; ++j) {
+      if (!driven[j]) continue;
+      const double em = e[model.nv - model.njoints + j];
+      const double ef = em - c->second->tau_ff[j];
+      sum_model += em * em;
+      sum_ff += ef * ef;
+      ++n;
+    }
+    ++s.torque_prediction_ticks;
+  }
+  if (n == 0) return;
+  s.joint_torque_prediction_rmse_nm = std::sqrt(sum_ff / n);
+  s.joint_torque_model_rmse_nm = std::sqrt(sum_model / n);
+}
+
+// Estimates in the log; the mid-run payload's mass response.
+void estimateFigures(const Model& model, const RunLog& log, const RunFacts& f, ExperimentSummary& s) {
+  s.payload_attach_s = f.payload_attach_s;
+  s.payload_mass_kg = f.payload_mass_kg;
+  std::vector<std::pair<int64_t, double>> mass;  // (tick, estimated total mass)
+  for (const auto& e : log.estimates) {
+    ++s.estimate_messages;
+    if (e.valid) ++s.estimate_valid_messages;
+    if (e.params.size() != model.nparams()) continue;
+    double m = 0.0;
+    for (int b = 0; b < model.nbodies; ++b) m += e.params[model.bodyParamIndex(b)];
+    mass.emplace_back(e.tick, m);
+  }
+  if (f.payload_attach_s <= 0.0 || mass.empty()) return;
+  std::sort(mass.begin(), mass.end());
+  const int64_t attach = std::llround(f.payload_attach_s * 1000.0);
+  double before = 0.0;
+  long nb = 0;
+  for (const auto& [tick, m] : mass)
+    if (tick >= attach - 1000 && tick < attach) before += m, ++nb;
+  if (nb == 0) return;
+  s.payload_mass_before_kg = before / nb;
+  s.payload_mass_final_kg = mass.back().second;
+  for (const auto& [tick, m] : mass)
+    if (tick >= attach && m - s.payload_mass_before_kg >= 0.95 * f.payload_mass_kg) {
+      s.payload_mass_response_s = (tick - attach) * 1e-3;
+      break;
+    }
 }
 }  // namespace
 
@@ -142,6 +223,10 @@ ExperimentSummary summarizeExperiment(const Model& model, const RunLog& log, con
   s.log_complete = f.log_readable && s.missing_ticks == 0 && log.intact();
   EomResidual eom;
   if (f.log_readable && eomResidual(model, model.phi, log, eom, nullptr)) s.eom_residual_max_rel = eom.max_relative;
+  if (f.log_readable) {
+    torquePrediction(model, log, f.controller_phi.size() ? f.controller_phi : model.phi, s);
+    estimateFigures(model, log, f, s);
+  }
 
   s.outcome = f.interrupted ? "interrupted" : !s.failures.empty() ? "failed" : s.fell ? "fell" : "completed";
   return s;
@@ -161,6 +246,7 @@ std::string summaryJson(const ExperimentSummary& s) {
   j["com_max_error_m"] = s.com_max_error_m;
   j["true_com_rmse_m"] = s.true_com_rmse_m;
   j["true_com_max_error_m"] = s.true_com_max_error_m;
+  j["true_com_rmse_xy_m"] = s.true_com_rmse_xy_m;
   j["max_foot_slip_m"] = s.max_foot_slip_m;
   j["qp_solve_us_p50"] = s.qp_solve_us_p50;
   j["qp_solve_us_p99"] = s.qp_solve_us_p99;
@@ -184,6 +270,19 @@ std::string summaryJson(const ExperimentSummary& s) {
   j["log_rejected_events"] = s.log_rejected;
   j["log_corrupt_events"] = s.log_corrupt_events;
   j["eom_residual_max_rel"] = s.eom_residual_max_rel;
+  j["joint_torque_prediction_rmse_nm"] = s.joint_torque_prediction_rmse_nm;
+  j["joint_torque_model_rmse_nm"] = s.joint_torque_model_rmse_nm;
+  j["torque_prediction_ticks"] = s.torque_prediction_ticks;
+  j["estimate_messages"] = s.estimate_messages;
+  j["estimate_valid_messages"] = s.estimate_valid_messages;
+  j["estimate_in_use_ticks"] = s.estimate_in_use_ticks;
+  if (s.payload_attach_s > 0.0) {
+    j["payload_attach_s"] = s.payload_attach_s;
+    j["payload_mass_kg"] = s.payload_mass_kg;
+    j["payload_mass_response_s"] = s.payload_mass_response_s;
+    j["payload_mass_before_kg"] = s.payload_mass_before_kg;
+    j["payload_mass_final_kg"] = s.payload_mass_final_kg;
+  }
   return j.dump(2) + "\n";
 }
 
@@ -213,7 +312,7 @@ std::string summaryTable(const ExperimentSummary& s) {
                 "| outcome | %s | completed |\n"
                 "| moves done | %d / %d | all |\n| fell | %s | no |\n"
                 "| CoM tracking RMSE (model CoM) | %.2f mm (max %.2f mm) | <= 5 mm |\n"
-                "| true CoM vs reference RMSE | %.2f mm (max %.2f mm) | |\n| max foot slip | %.3f mm | <= 1 mm |\n"
+                "| true CoM vs reference RMSE | %.2f mm (max %.2f mm; horizontal RMSE %.2f mm) | |\n| max foot slip | %.3f mm | <= 1 mm |\n"
                 "| QP solve p50 / p99 | %.1f / %.1f us | |\n| controller tick p50 / p99 | %.1f / %.1f us | p99 <= 250 us |\n"
                 "| fallback ticks (controller) | %ld | 0 |\n| fallback ticks (sim) | %s | 0 |\n"
                 "| rejected inputs (controller) | %ld | 0 |\n"
@@ -223,13 +322,31 @@ std::string summaryTable(const ExperimentSummary& s) {
                 "| log | %s | complete |\n"
                 "| EoM residual max rel (W phi_model - y) | %.2g | <= 1e-8 without noise/effects |\n",
                 s.outcome.c_str(), s.moves_done, s.moves_planned, fall, 1e3 * s.com_rmse_m, 1e3 * s.com_max_error_m,
-                1e3 * s.true_com_rmse_m, 1e3 * s.true_com_max_error_m, 1e3 * s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99,
+                1e3 * s.true_com_rmse_m, 1e3 * s.true_com_max_error_m, 1e3 * s.true_com_rmse_xy_m, 1e3 * s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99,
                 s.controller_fallbacks, sim_fb, s.controller_rejected, rtf, s.lockstep ? ">= 5x (lockstep)" : "",
                 s.sim_reported ? std::to_string(s.ticks_simulated).c_str() : "unknown (no sim report)",
                 static_cast<long long>(s.ticks_planned), s.missing_ticks,
                 s.log_complete ? "complete" : ("INCOMPLETE" + (s.log_damage.empty() ? "" : ": " + s.log_damage)).c_str(),
                 s.eom_residual_max_rel);
   std::string out = buf;
+  if (s.joint_torque_prediction_rmse_nm >= 0.0) {
+    std::snprintf(buf, sizeof buf,
+                  "| joint-torque prediction error (controller's model + estimator feedforward used; model alone) | "
+                  "%.3f N m; %.3f N m | |\n"
+                  "| EXO_ESTIMATE messages (valid) / ticks with the estimate in use | %ld (%ld) / %ld | |\n",
+                  s.joint_torque_prediction_rmse_nm, s.joint_torque_model_rmse_nm, s.estimate_messages,
+                  s.estimate_valid_messages, s.estimate_in_use_ticks);
+    out += buf;
+  }
+  if (s.payload_attach_s > 0.0 && s.estimate_messages > 0) {
+    char resp[64] = "never";
+    if (s.payload_mass_response_s >= 0.0) std::snprintf(resp, sizeof resp, "%.2f s", s.payload_mass_response_s);
+    std::snprintf(buf, sizeof buf,
+                  "| mid-run payload %.2f kg at %.1f s: estimated total mass to 95 %% of it | %s (%.3f -> %.3f kg) | "
+                  "<= 5 s |\n",
+                  s.payload_mass_kg, s.payload_attach_s, resp, s.payload_mass_before_kg, s.payload_mass_final_kg);
+    out += buf;
+  }
   for (const std::string& f : s.failures) out += "\nFAILED: " + f;
   if (!s.failures.empty()) out += "\n";
   return out;

@@ -105,6 +105,12 @@ void dispatch(const Event& e, const std::vector<std::string>& joints, RunLog& lo
     take<exoid_lcm::joint_command_t>(e, channel, log.commands, log, [&](auto& m, auto& s, auto* w) { return fromLcm(m, joints, s, w); });
   } else if (channel == channels::kControllerStatus) {
     take<exoid_lcm::controller_status_t>(e, channel, log.status, log, [&](auto& m, auto& s, auto* w) { return fromLcm(m, s, w); });
+  } else if (channel == channels::kEstimate) {
+    // The reader does not know the estimator's model: the message is checked against its own names (sizes
+    // agree, values valid); the summary checks the parameter count against its model.
+    take<exoid_lcm::estimator_output_t>(e, channel, log.estimates, log, [&](auto& m, auto& s, auto* w) {
+      return fromLcm(m, m.param_names, kAnyNumBase, m.coord_names, s, w);
+    });
   } else {
     ++log.unknown_channel;
   }

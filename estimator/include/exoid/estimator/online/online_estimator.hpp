@@ -53,6 +53,13 @@ struct OnlineEstimatorOptions {
   double excited_gain = 3.0;     ///< base parameter j counts as excited when prior var / posterior var >= 1 + this
   double min_excitation = 0.2;   ///< `valid` needs excitation >= this
   int uncertainty_every = 10;    ///< covariance (m^3) and the stddevs at every N-th publication (kept between)
+  /// Consistent standard parameters (reconcile()): a solve every N-th publication (<= 0: never; the published
+  /// parameters are then the prior's conditional mean and `consistent` stays false).
+  int consistent_every = 10;
+  int consistent_iterations = 30;  ///< Levenberg-Marquardt iterations per solve (warm-started from the last)
+  /// `consistent` needs the misfit ratio rho = sqrt((B phi_c - x)^T A (B phi_c - x) / RSS_w(x)) <= this: what
+  /// the consistent parameters add to the weighted residual cost, relative to the cost itself (docs/estimator.md).
+  double consistent_tolerance = 2.0;
 };
 
 /// What happened to one input message.
@@ -80,6 +87,34 @@ class OnlineEstimator {
   /// Solves and fills `out` (see docs/estimator.md for each field). utime is left to the caller.
   /// Allocation-free once `out` is prepared.
   void publish(EstimatorOutputSample& out);
+  /// True when the publication just made is one whose standard parameters reconcile() should make consistent.
+  bool reconcileDue() const;
+  /// Physically consistent standard parameters that reproduce the base estimate (docs/estimator.md,
+  /// "Consistent standard parameters"): phi_c = argmin over consistent phi of
+  ///     ||N^T Sigma^-1/2 (phi - phi_prior)||^2 + (B phi - x)^T A (B phi - x)
+  /// (the prior's part that no base parameter informs, plus the base misfit in the estimate's information metric;
+  /// without the constraint its minimiser is the conditional mean), by the batch WLS-RC-PC solver
+  /// (solveConsistent: log-Cholesky per body, damped Newton), warm-started from the previous phi_c. Then
+  /// `consistent` = every link of phi_c passes the pseudo-inertia test and its misfit ratio is within
+  /// consistent_tolerance. Updates out.params, out.consistent and out.valid of the publication
+  /// just made (call after publish). Allocates (a few ms): call it at a low rate, never per sample.
+  void reconcile(EstimatorOutputSample& out);
+  /// reconcile() in three steps, so that the solve can run on another thread while samples keep arriving
+  /// (exo_estimator does): begin (copies what the solve needs), solve (reads only the job and const members:
+  /// thread-safe against addState/addPlate/publish), finish (adopts phi_c; applies from the next publication).
+  struct ReconcileJob {
+    Eigen::MatrixXd U;     ///< [m x m] Cholesky factor of the information
+    Eigen::VectorXd x, start, phi;  ///< [m] base estimate; [p] start; [p] result
+    bool links_ok = false, done = false;
+    int iterations = 0;
+  };
+  bool beginReconcile(ReconcileJob& job) const;
+  void solveReconcile(ReconcileJob& job) const;
+  void finishReconcile(const ReconcileJob& job);
+  double misfitChi2() const { return chi2_; }   ///< (B phi - x)^T A (B phi - x) of the last publication's phi
+  double misfitRatio() const { return ratio_; } ///< sqrt(misfitChi2 / RSS_w) of the last publication
+  long reconciles() const { return reconciles_; }
+  int lastReconcileIterations() const { return reconcile_iterations_; }
 
   /// Checkpoint (estimator structure, accumulated information, carried block information, counters): written to
   /// PATH.tmp and renamed. load refuses another estimator's checkpoint or a damaged file, leaving the state as
@@ -137,6 +172,19 @@ class OnlineEstimator {
   Eigen::VectorXd prior_sigma_; ///< [m]
   Eigen::MatrixXd GC_;          ///< [p x m] workspace
   Eigen::VectorXd param_stddev_;  ///< [p] of the last uncertainty computation
+
+  // Consistent standard parameters (reconcile()).
+  Eigen::MatrixXd B_;           ///< [m x p] base map
+  Eigen::MatrixXd prior_rows_;  ///< [(p - m) x p] N^T Sigma^-1/2: the prior where no base parameter looks
+  Eigen::VectorXd prior_rows_rhs_;  ///< [p - m] prior_rows_ phi_prior
+  Eigen::VectorXd phi_c_, d_, u_m_;  ///< [p] consistent parameters; [m] misfit workspaces
+  bool have_phi_c_ = false, links_ok_ = false, valid_rest_ = false;
+  double chi2_ = 0.0, ratio_ = 0.0;
+  long reconciles_ = 0;
+  int reconcile_iterations_ = 0;
+  /// chi2_ = (B phi_c - x)^T A (B phi_c - x) (A = U^T U, the last solve's factor) and ratio_ against the weighted
+  /// residual cost over the memory from the residual RMS `rms` [nv]; true when within the tolerance. Allocation-free.
+  bool misfit(const Eigen::VectorXd& rms, double effective_samples);
 
   // Selective forgetting: information carried from earlier blocks.
   Eigen::MatrixXd R_, dD_, R1_, Y_, M_;

@@ -18,15 +18,16 @@ class CausalRowFilter {
   /// >= sample_hz / 2: pass-through. Allocates.
   void configure(const RecursiveLsModel& model, double cutoff_hz, double sample_hz);
   /// One sample: K [nv x p], y [nv] -> Kf (structural entries written, the rest left as they are: zeros if
-  /// Kf started as zeros), yf. The first sample starts the filter at rest on its value. Allocation-free.
+  /// Kf started as zeros), yf. The filter starts (and restarts) at rest on zero: the equations' virtual past
+  /// 0 = 0 holds exactly and no single noisy sample is held. Allocation-free.
   void filter(const RecursiveLsModel& model, const Eigen::Ref<const Eigen::MatrixXd>& K,
               const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::MatrixXd> Kf, Eigen::Ref<Eigen::VectorXd> yf);
-  /// Forget the history (the next sample restarts the filter at rest).
+  /// Forget the history (the next sample restarts the filter at rest on zero).
   void reset() { started_ = false; }
 
  private:
   LowPassFilter filter_;
-  Eigen::VectorXd buffer_;  ///< [sum |active_c| + nv]
+  Eigen::VectorXd buffer_, zero_;  ///< [sum |active_c| + nv]
   bool started_ = false;
 };
 

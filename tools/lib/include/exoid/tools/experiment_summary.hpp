@@ -27,6 +27,11 @@ struct RunFacts {
   bool interrupted = false;           ///< SIGINT/SIGTERM stopped the run
   bool log_readable = true;           ///< false: the log could not be read at all (log_error says why)
   std::string log_error;
+  /// The controller's model parameters [nparams] (its --controller-model; empty: the model's): what the
+  /// joint-torque prediction error judges.
+  Eigen::VectorXd controller_phi;
+  double payload_attach_s = -1.0;  ///< a payload attached mid-run at this simulated time (-1: none)
+  double payload_mass_kg = 0.0;    ///< its mass
 };
 
 struct ExperimentSummary {
@@ -42,6 +47,7 @@ struct ExperimentSummary {
   double com_max_error_m = 0.0;
   double true_com_rmse_m = 0.0;    ///< the simulated robot's CoM (undeclared payloads included) vs the reference
   double true_com_max_error_m = 0.0;
+  double true_com_rmse_xy_m = 0.0; ///< its horizontal part
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
   double qp_solve_us_p50 = 0.0, qp_solve_us_p99 = 0.0;
   double tick_us_p50 = 0.0, tick_us_p99 = 0.0;
@@ -61,6 +67,25 @@ struct ExperimentSummary {
   long log_rejected = 0;           ///< logged events that failed decoding or validation
   long log_corrupt_events = 0;     ///< damaged stretches of the log file
   double eom_residual_max_rel = -1.0;  ///< W phi_model - y, max relative (-1: not computed)
+  /// The controller's joint-torque prediction error (docs/estimator.md, "Closing the loop"): RMS over the
+  /// ticks of the moves (status move_index >= 0, a command for the tick) and the joints the controller drives of
+  /// tau_applied - (K(q, v, a) phi_ctrl - sum J_c^T w_c + tau_ff_used)_joint, with q, v, a, the base motion, the
+  /// contact wrenches and tau_applied the simulator's (truth channel: no sensor noise), phi_ctrl the controller's
+  /// model and tau_ff_used the estimator's feedforward the command reports (blend weight included). -1: not
+  /// computed. The second figure leaves tau_ff_used out (the controller's model alone, same ticks).
+  double joint_torque_prediction_rmse_nm = -1.0;
+  double joint_torque_model_rmse_nm = -1.0;
+  long torque_prediction_ticks = 0;
+  long estimate_messages = 0;          ///< EXO_ESTIMATE messages in the log
+  long estimate_valid_messages = 0;    ///< of them flagged valid
+  long estimate_in_use_ticks = 0;      ///< commands carrying a non-zero estimator feedforward (the estimate in use)
+  double payload_attach_s = -1.0;      ///< mid-run payload: attach time (-1: none)
+  double payload_mass_kg = 0.0;
+  /// Mid-run payload: seconds from the attachment until the estimated total mass (sum of the published link
+  /// masses, by the estimate's tick) first reaches its value before (mean over the second before) plus 95 % of
+  /// the payload's mass; -1: never within the log.
+  double payload_mass_response_s = -1.0;
+  double payload_mass_before_kg = 0.0, payload_mass_final_kg = 0.0;  ///< estimated total mass before, at the end
 };
 
 /// Summarises a run. Never fails: with an unreadable log (facts.log_readable false) only the facts and the

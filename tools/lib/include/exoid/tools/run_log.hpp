@@ -20,6 +20,7 @@ struct RunLog {
   std::vector<GroundTruthSample> truth;        ///< EXO_TRUTH
   std::vector<JointCommandSample> commands;    ///< EXO_COMMAND
   std::vector<ControllerStatusSample> status;  ///< EXO_CONTROLLER_STATUS
+  std::vector<EstimatorOutputSample> estimates;  ///< EXO_ESTIMATE (checked against the names it carries)
   std::map<std::string, long> events;          ///< events per channel
   long rejected = 0;                           ///< events that failed decoding or validation
   long unknown_channel = 0;
