@@ -62,7 +62,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   g_joints = model.joint_names;
   g_params = model.paramNames();
   g_coords = model.coordinateNames();
-  g_num_base = exoid::estimator::computeBaseParameters(model).independent.size();
+  g_num_base = exoid::computeBaseParameters(model).independent.size();
   return 0;
 }
 

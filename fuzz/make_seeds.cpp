@@ -120,7 +120,7 @@ std::vector<std::pair<std::string, std::vector<uint8_t>>> messages(const Model& 
   e.consistent = true;
   e.excitation = 0.5;
   e.effective_samples = 100.0;
-  const Eigen::Index nb = static_cast<Eigen::Index>(estimator::computeBaseParameters(model).independent.size());
+  const Eigen::Index nb = static_cast<Eigen::Index>(computeBaseParameters(model).independent.size());
   e.base_params = Eigen::VectorXd::Constant(nb, 0.1);
   e.base_stddev = Eigen::VectorXd::Constant(nb, 0.01);
   e.tau_ff = Eigen::VectorXd::Zero(model.nv);
