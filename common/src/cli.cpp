@@ -1,6 +1,9 @@
 #include "exoid/common/cli.hpp"
 
+#include <unistd.h>
+
 #include <cstdio>
+#include <fstream>
 
 #include "exoid/common/strict_number.hpp"
 
@@ -130,6 +133,20 @@ CLI::Validator strictInteger(int64_t lo, int64_t hi) {
         return {};
       },
       desc, "strict integer");
+}
+
+std::string defaultConfigPath(const char* file, const char* installed_dir) {
+  const std::string local = std::string("config/") + file;
+  if (std::ifstream(local).good() || installed_dir == nullptr) return local;
+  return std::string(installed_dir) + "/" + file;
+}
+
+std::string selfExecutablePath(const std::string& fallback) {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
+  if (n <= 0) return fallback;
+  buf[n] = '\0';
+  return buf;
 }
 
 }  // namespace exoid::common

@@ -39,12 +39,10 @@ volatile std::sig_atomic_t g_stop = 0;
 void onSignal(int) { g_stop = 1; }
 
 std::string defaultPath(const char* file) {
-  const std::string local = std::string("config/") + file;
-  if (std::ifstream(local).good()) return local;
 #ifdef EXOID_CONFIG_DIR
-  return std::string(EXOID_CONFIG_DIR) + "/" + file;
+  return exoid::common::defaultConfigPath(file, EXOID_CONFIG_DIR);
 #else
-  return local;
+  return exoid::common::defaultConfigPath(file, nullptr);
 #endif
 }
 

@@ -80,13 +80,7 @@ int fail(const std::string& msg) {
   return kExitBadInput;
 }
 
-std::string selfPath() {
-  char buf[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return "exoid";
-  buf[n] = '\0';
-  return buf;
-}
+std::string selfPath() { return common::selfExecutablePath("exoid"); }
 
 /// Re-executes this command inside a new network namespace (root: unshare -n; otherwise unshare -r -n).
 int reexecInPrivateNetns(int argc, char** argv) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "exoid/common/cli.hpp"
 #include "exoid/tools/process.hpp"
 #include "exoid/tools/study.hpp"
 
@@ -37,13 +38,7 @@ int fail(const std::string& msg) {
   return 2;
 }
 
-std::string selfPath() {
-  char buf[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return "exoid";
-  buf[n] = '\0';
-  return buf;
-}
+std::string selfPath() { return exoid::common::selfExecutablePath("exoid"); }
 
 /// DIR/name/run.lcmlog of a finished run (summary.json written at its end), recorded now if missing.
 bool ensureRun(const std::string& dir, const std::string& name, const std::string& scenario, int seed, int moves,

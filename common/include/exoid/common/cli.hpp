@@ -28,6 +28,13 @@ CLI::Validator strictNumber(double lo = std::numeric_limits<double>::lowest(),
 CLI::Validator strictInteger(int64_t lo = std::numeric_limits<int64_t>::min(),
                              int64_t hi = std::numeric_limits<int64_t>::max());
 
+/// Default path of a configuration file: config/FILE when it exists below the working directory (a checkout),
+/// else FILE in `installed_dir` (the binary's compiled-in EXOID_CONFIG_DIR; nullptr: config/FILE).
+std::string defaultConfigPath(const char* file, const char* installed_dir);
+
+/// This process's executable (/proc/self/exe), e.g. to re-execute itself; `fallback` if unreadable.
+std::string selfExecutablePath(const std::string& fallback);
+
 /// Exit codes shared by the binaries (each binary's --help lists the ones it uses).
 constexpr int kExitOk = 0;
 constexpr int kExitRuntime = 1;
