@@ -81,7 +81,7 @@ def main():
         effects = seeded(path)
         t0 = time.time()
         for seed in (1, 2):
-            run([exoid, "experiment", "--scenario", path, "--moves", str(a.moves), "--seed", str(seed),
+            run([exoid, "experiment", "--no-estimator", "--scenario", path, "--moves", str(a.moves), "--seed", str(seed),
                  "--out", os.path.join(d, f"run{seed}")], os.path.join(d, f"experiment{seed}.txt"))
         run([exoid, "diagnose", "--model", urdf, "--floating-base", "--train", os.path.join(d, "run1", "run.lcmlog"),
              "--validate", os.path.join(d, "run2", "run.lcmlog"), "--no-plots", "--out", os.path.join(d, "diagnose")],

@@ -54,8 +54,8 @@ void readEstimate(const std::string& path, Eigen::VectorXd& prior, Eigen::Vector
 
 TEST(IdentifyCli, ExactDataGiveTheIdentifiableFloor) {
   test::TempDir dir("identify_exact");
-  const auto run = test::runCommand(test::exoidBinary() + " experiment --scenario " + test::configPath("scenarios/ideal.yaml") +
-                                        " --out " + dir.file("run"), dir.path);
+  const auto run = test::runCommand(test::exoidBinary() + " experiment --no-estimator --scenario " +
+                                        test::configPath("scenarios/ideal.yaml") + " --out " + dir.file("run"), dir.path);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto id = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("run/run.lcmlog") +
                                        " --pipeline truth --method WLS-RC --rank full --prior-perturb 0.25 --prior-seed 3 --out " +

@@ -23,7 +23,7 @@ namespace {
 nlohmann::json diagnoseScenario(const std::string& scenario, const test::TempDir& dir) {
   for (int seed : {1, 2}) {
     const test::CommandResult r =
-        test::runCommand(test::exoidBinary() + " experiment --moves 6 --seed " + std::to_string(seed) + " --scenario " +
+        test::runCommand(test::exoidBinary() + " experiment --no-estimator --moves 6 --seed " + std::to_string(seed) + " --scenario " +
                              test::configPath("scenarios/diagnose/" + scenario + ".yaml") + " --out " +
                              dir.file("run" + std::to_string(seed)),
                          dir.path);

@@ -55,7 +55,7 @@ bool ensureRun(const std::string& dir, const std::string& name, const std::strin
   if (ec) return *error = "cannot create " + dir + ": " + ec.message(), false;
   std::vector<std::string> argv{selfPath(), "experiment", "--scenario",
                                 std::string(EXOID_CONFIG_DIR) + "/scenarios/" + scenario, "--seed",
-                                std::to_string(seed), "--out", out};
+                                std::to_string(seed), "--out", out, "--no-estimator"};  // the study's data only
   if (moves > 0) argv.insert(argv.end(), {"--moves", std::to_string(moves)});
   std::fprintf(stderr, "exoid study: recording %s (%s, seed %d; log %s.log)\n", out.c_str(), scenario.c_str(), seed,
                out.c_str());
