@@ -376,7 +376,7 @@ TEST_F(RunEnd, ARestartedEstimatorResumesFromItsCheckpoint) {
 // loop"), so issue 8's target on the 3-D error is met in some payload scenarios only.
 TEST_F(RunEnd, ValidEstimatesReachTheControllerOnAPayloadScenario) {
   const std::string scenario = test::configPath("scenarios/undeclared_payload.yaml");
-  const Result on = run(scenario, "");
+  const Result on = run(scenario, "--estimate-feedback");
   ASSERT_EQ(on.cmd.exit_code, 0) << on.cmd.out << on.cmd.err;
   ASSERT_TRUE(on.summary.is_object()) << on.cmd.out;
   EXPECT_EQ(on.summary["outcome"], "completed") << on.summary["failures"];
