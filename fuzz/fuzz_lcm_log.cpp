@@ -36,7 +36,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   long events = 0;
   for (const auto& [channel, count] : log.events) events += count;
   const long taken = static_cast<long>(log.states.size() + log.plates[0].size() + log.plates[1].size() +
-                                       log.truth.size() + log.commands.size() + log.status.size());
+                                       log.truth.size() + log.commands.size() + log.status.size() +
+                                       log.estimates.size());
   EXOID_FUZZ_CHECK(events == taken + log.rejected + log.unknown_channel, "every event is accounted for once");
   EXOID_FUZZ_CHECK(log.rejected == 0 || !log.first_rejection.empty(), "the first rejection is named");
   EXOID_FUZZ_CHECK(log.file_bytes == static_cast<int64_t>(size), "the file size is reported");
