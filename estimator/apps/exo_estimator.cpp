@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
 
   std::string model_path = defaultPath("exo.urdf"), prior_path, url = LcmEndpoint::defaultUrl(), forgetting_name = "none",
               row_weights_text, checkpoint, final_path;
-  double prior_relative = 0.25, cutoff = 20.0, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
+  double prior_relative = 0.25, cutoff = estimator::OnlineEstimatorOptions{}.cutoff_hz, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
          min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
   int64_t forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
   double consistent_tolerance = 2.0;

@@ -42,7 +42,7 @@ bool parseForgetting(const std::string& name, Forgetting& f);
 
 struct OnlineEstimatorOptions {
   double sample_hz = 1000.0;     ///< tick rate of the samples
-  double cutoff_hz = 20.0;       ///< causal Butterworth on K rows and y; <= 0: none
+  double cutoff_hz = 5.0;        ///< causal Butterworth on K rows and y; <= 0: none (5 Hz: docs/estimator.md)
   double prior_relative = 0.25;  ///< prior within +-this (relative) of each standard parameter (1 sigma)
   std::vector<double> row_weight;  ///< [nv] fixed row weights 1 / sigma_c; empty: WLS-R estimated online
                                    ///< (none / stabilised forgetting; ones with selective forgetting)
