@@ -67,6 +67,8 @@ int main(int argc, char** argv) {
 
   std::string model_path = defaultPath("exo.urdf"), prior_path, url = LcmEndpoint::defaultUrl(), forgetting_name = "none",
               row_weights_text, checkpoint, final_path;
+  double change_threshold = estimator::OnlineEstimatorOptions{}.change_threshold,
+         change_keep = estimator::OnlineEstimatorOptions{}.change_keep;
   double prior_relative = 0.25, cutoff = estimator::OnlineEstimatorOptions{}.cutoff_hz, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
          min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
   int64_t forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
@@ -98,6 +100,15 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"none", "stabilised", "selective"}))->type_name("none|stabilised|selective");
   app.add_option("--lambda", lambda, "forgetting factor per sample (memory 1 / (1 - lambda) samples)")
       ->transform(common::strictNumber(0.5, 1.0))->type_name("L");
+  app.add_option("--change-threshold", change_threshold,
+                 "residual-triggered forgetting: when a coordinate's innovation y - K x, averaged over 0.25 s, exceeds\n"
+                 "this many times that average's long-run RMS (10 s), the data the estimate holds are discounted to\n"
+                 "--change-keep of their weight and the estimate re-converges (a payload attached, a tool\n"
+                 "changed); armed 2 s after the start and after each detection; 0: off (docs/estimator.md,\n"
+                 "\"Change detection\")")
+      ->transform(common::strictNumber(0.0, 1e9))->type_name("Z");
+  app.add_option("--change-keep", change_keep, "fraction of the data's weight kept at a detected change")
+      ->transform(common::strictNumber(1e-12, 1.0))->type_name("K");
   app.add_option("--forget-every", forget_every, "selective: samples per forgetting block")
       ->transform(common::strictInteger(1, 1000000))->type_name("N");
   app.add_option("--block-threshold", block_threshold,
@@ -175,6 +186,8 @@ int main(int argc, char** argv) {
   opt.prior_relative = prior_relative;
   parseForgetting(forgetting_name, opt.forgetting);
   opt.lambda = lambda;
+  opt.change_threshold = change_threshold;
+  opt.change_keep = change_keep;
   opt.forget_every = static_cast<int>(forget_every);
   opt.block_threshold = block_threshold;
   opt.excited_gain = excited_gain;
@@ -256,7 +269,7 @@ int main(int argc, char** argv) {
   std::printf("exo_estimator: %s: samples %lld, rejected %llu (non-finite %llu, malformed %llu, duplicate %llu, "
               "out of order %llu), missing %lld, publications %ld, publish errors %ld, checkpoints %ld (errors %ld), "
               "valid publications %ld, consistent solves %ld, last: tick %lld valid %d consistent %d excitation %.2f "
-              "misfit ratio %.4g\n",
+              "misfit ratio %.4g, changes detected %ld (last at tick %ld, largest statistic %.3g)\n",
               outcome, static_cast<long long>(est.rlsData().accepted),
               static_cast<unsigned long long>(gate.rejectedTotal() + est.rejected(InputStatus::NonFinite) +
                                               est.rejected(InputStatus::Duplicate) + est.rejected(InputStatus::OutOfOrder) +
@@ -268,7 +281,8 @@ int main(int argc, char** argv) {
               static_cast<long long>(est.rlsData().missing), node.publications(), node.publishErrors(),
               node.checkpointsWritten(), node.checkpointErrors(), node.validPublications(), est.reconciles(),
               static_cast<long long>(last.tick), last.valid ? 1 : 0, last.consistent ? 1 : 0, last.excitation,
-              est.misfitRatio());
+              est.misfitRatio(), est.changesDetected(), est.lastChangeTick(),
+              est.largestChangeStatistic());
   std::fflush(stdout);
   return exit_code;
 }

@@ -232,6 +232,41 @@ TEST(RecursiveLs, StandingStillWithForgettingKeepsTheUncertaintyBounded) {
   EXPECT_GT(rd.sigma.squaredNorm(), 2.0 * excited_trace);
 }
 
+TEST(RecursiveLs, DiscountKeepsTheGivenFractionOfTheDataAndAllOfThePrior) {
+  // A one-off discount kappa: the data information and rhs become exactly kappa x what they were (A - Lambda0
+  // and b - Lambda0 x0), the effective samples too; later samples then count fully against the discounted past.
+  const Exo& e = exo();
+  RecursiveLsModel rm;
+  std::string err;
+  const Eigen::VectorXd prior = perturbed(e.model, 0.2, 3);
+  ASSERT_TRUE(makeRecursiveLs(e.model, e.base, prior,
+                              diagonalPriorInformation(e.model, e.base, prior, 0.25), {}, rm, &err)) << err;
+  RecursiveLsData a(rm), b(rm);
+  std::mt19937_64 rng(5);
+  Data kin(e.model);
+  Eigen::VectorXd y(e.model.nv);
+  State s = State::zero(e.model);
+  for (long t = 0; t < 300; ++t) {
+    randomState(e.model, rng, s);
+    computeJointTorqueRegressor(e.model, kin, s);
+    y = kin.K * e.model.phi;
+    ASSERT_EQ(updateRecursiveLs(rm, a, t, kin.K, y), SampleStatus::Accepted);
+  }
+  b = a;
+  discountRecursiveLs(rm, b, 0.25);
+  ASSERT_TRUE(solveRecursiveLs(rm, a, false));
+  ASSERT_TRUE(solveRecursiveLs(rm, b, false));
+  const Eigen::MatrixXd Da = (a.A - rm.prior_information).selfadjointView<Eigen::Upper>();
+  const Eigen::MatrixXd Db = (b.A - rm.prior_information).selfadjointView<Eigen::Upper>();
+  EXPECT_LT((Db - 0.25 * Da).norm(), 1e-12 * Da.norm());
+  EXPECT_LT(((b.b - rm.prior_rhs) - 0.25 * (a.b - rm.prior_rhs)).norm(), 1e-12 * (a.b - rm.prior_rhs).norm());
+  EXPECT_DOUBLE_EQ(b.effective_samples, 0.25 * a.effective_samples);
+  // The discounted estimate sits between the prior and the data's: closer to the prior than the undiscounted.
+  EXPECT_GT((a.x - b.x).norm(), 0.0);
+  discountRecursiveLs(rm, b, 0.0);  // out of range: ignored
+  EXPECT_DOUBLE_EQ(b.effective_samples, 0.25 * a.effective_samples);
+}
+
 TEST(RecursiveLs, BadSamplesAreRejectedCountedAndLeaveTheStateUntouched) {
   const RecursiveLsModel rm = smallModel(0.99);
   RecursiveLsData rd(rm);

@@ -100,6 +100,12 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
     fail("forgetting factor must be in (0, 1]");
     return;
   }
+  if (opt_.change_threshold > 0.0 &&
+      !(opt_.change_window_s > 0.0 && opt_.change_baseline_s > 0.0 && opt_.change_hold_s >= 0.0 &&
+        opt_.change_keep > 0.0 && opt_.change_keep <= 1.0)) {
+    fail("change detection: window and baseline must be > 0, hold >= 0, keep in (0, 1]");
+    return;
+  }
   std::string err;
   if (!makeRecursiveLs(model, base, prior_phi, Lambda0, ro, rls_model_, &err)) {
     fail(err);
@@ -148,6 +154,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   for (Raw& r : raw_) r.q = r.tau = Eigen::VectorXd::Zero(model.njoints);
   state_ = ff_state_ = State::zero(model);
   y_ = yf_ = Eigen::VectorXd::Zero(nv);
+  innovation_ = innovation_mean_ = innovation_ms_ = Eigen::VectorXd::Zero(nv);
   Kf_ = Eigen::MatrixXd::Zero(nv, p);
 }
 
@@ -258,6 +265,7 @@ void OnlineEstimator::process() {
   generalizedForceFromMeasurements(model_, kin_, st, r1.tau, r1.contact, 2, y_);
   has_state_ = true;
   filter_.filter(rls_model_, kin_.K, y_, Kf_, yf_);
+  if (opt_.change_threshold > 0.0 && Kf_.allFinite() && yf_.allFinite()) detectChange(r1.tick);
   if (updateRecursiveLs(rls_model_, rls_, r1.tick, Kf_, yf_) == SampleStatus::Accepted) {
     row_tick_ = r1.tick;
     ++since_publication_;
@@ -265,6 +273,38 @@ void OnlineEstimator::process() {
   } else {
     ++rejected_[static_cast<int>(InputStatus::NonFinite)];  // e.g. a kinematic singularity made K non-finite
   }
+}
+
+void OnlineEstimator::detectChange(long tick) {
+  // Innovation of this sample against the last published estimate (before the sample is folded in).
+  predictRecursiveLs(rls_model_, rls_, Kf_, innovation_);
+  innovation_ = yf_ - innovation_;
+  const double a_mean = std::min(1.0, 1.0 / (opt_.change_window_s * opt_.sample_hz));
+  const double a_ms = std::min(1.0, 1.0 / (opt_.change_baseline_s * opt_.sample_hz));
+  innovation_mean_ += a_mean * (innovation_ - innovation_mean_);
+  // The baseline is the mean's own long-run mean square: scale-free against how correlated the filtered
+  // innovations are (the raw innovation's RMS would be sqrt(window / correlation time) too large).
+  innovation_ms_ += a_ms * (innovation_mean_.cwiseAbs2() - innovation_ms_);
+  ++change_samples_;
+  if (rls_.solves == 0 || static_cast<double>(change_samples_) < opt_.change_hold_s * opt_.sample_hz) return;
+  double z = 0.0;
+  for (Eigen::Index c = 0; c < innovation_.size(); ++c)
+    if (innovation_ms_[c] > 0.0) z = std::max(z, std::abs(innovation_mean_[c]) / std::sqrt(innovation_ms_[c]));
+  z_max_ = std::max(z_max_, z);
+  if (!(z > opt_.change_threshold)) return;
+  // The robot changed (a payload, a tool): keep change_keep of what the data said, the prior untouched.
+  discountRecursiveLs(rls_model_, rls_, opt_.change_keep);
+  if (opt_.forgetting == Forgetting::Selective) {
+    R_ *= opt_.change_keep;
+    r_ *= opt_.change_keep;
+    rss_carry_ *= opt_.change_keep;
+    n_carry_ *= opt_.change_keep;
+  }
+  ++changes_;
+  last_change_tick_ = tick;
+  change_samples_ = 0;
+  innovation_mean_.setZero();
+  innovation_ms_.setZero();  // the baseline restarts with the changed robot
 }
 
 void OnlineEstimator::fold() {

@@ -14,6 +14,17 @@ namespace exoid::estimator {
 namespace {
 // Below this common scale the stored sums are multiplied back (they grow like 1 / s).
 constexpr double kRenormaliseBelow = 1e-100;
+
+// Multiplies the stored sums back into their true values once the common scale becomes tiny.
+void renormalise(const RecursiveLsModel& model, RecursiveLsData& data) {
+  if (data.scale >= kRenormaliseBelow) return;
+  for (int c = 0; c < model.nv; ++c) {
+    data.D[c] *= data.scale;
+    data.d[c] *= data.scale;
+  }
+  data.yy *= data.scale;
+  data.scale = 1.0;
+}
 }  // namespace
 
 bool makeRecursiveLs(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
@@ -150,14 +161,7 @@ SampleStatus updateRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& d
   if (lambda < 1.0) {
     data.scale *= lambda;
     data.effective_samples = lambda * data.effective_samples + 1.0;
-    if (data.scale < kRenormaliseBelow) {
-      for (int c = 0; c < model.nv; ++c) {
-        data.D[c] *= data.scale;
-        data.d[c] *= data.scale;
-      }
-      data.yy *= data.scale;
-      data.scale = 1.0;
-    }
+    renormalise(model, data);
   } else {
     data.effective_samples += 1.0;
   }
@@ -354,6 +358,13 @@ bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const
   data = std::move(restored);
   if (extra) extra->assign(v.begin() + static_cast<std::ptrdiff_t>(v.size() - n_extra), v.end());
   return true;
+}
+
+void discountRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, double kappa) {
+  if (!(kappa > 0.0 && kappa <= 1.0)) return;
+  data.scale *= kappa;
+  data.effective_samples *= kappa;
+  renormalise(model, data);
 }
 
 }  // namespace exoid::estimator

@@ -60,6 +60,17 @@ struct OnlineEstimatorOptions {
   /// `consistent` needs the misfit ratio rho = sqrt((B phi_c - x)^T A (B phi_c - x) / RSS_w(x)) <= this: what
   /// the consistent parameters add to the weighted residual cost, relative to the cost itself (docs/estimator.md).
   double consistent_tolerance = 2.0;
+  /// Residual-triggered forgetting (docs/estimator.md, "Change detection"): the innovation e = y - K x of each
+  /// filtered sample (x: the last publication's estimate), averaged per coordinate over change_window_s
+  /// (exponential), against that average's own long-run RMS (time constant change_baseline_s); when
+  /// max_c |mean_c| / rms_c > change_threshold the data
+  /// the estimate holds are discounted to change_keep of their weight (discountRecursiveLs) and the estimate
+  /// re-converges from the new data. Armed change_hold_s after the start and after each detection. <= 0: off.
+  double change_threshold = 20.0;
+  double change_window_s = 0.25;
+  double change_baseline_s = 10.0;
+  double change_hold_s = 2.0;
+  double change_keep = 1e-3;
 };
 
 /// What happened to one input message.
@@ -135,6 +146,9 @@ class OnlineEstimator {
   const Eigen::MatrixXd& lastK() const { return Kf_; }
   const Eigen::VectorXd& lastY() const { return yf_; }
   long incompleteTicks() const { return incomplete_; }
+  long changesDetected() const { return changes_; }      ///< residual-triggered discounts so far
+  long lastChangeTick() const { return last_change_tick_; }  ///< tick of the last one (-1: none)
+  double largestChangeStatistic() const { return z_max_; }   ///< largest max_c |mean_c| / rms_c while armed
   long rejected(InputStatus why) const;
 
  private:
@@ -215,6 +229,13 @@ class OnlineEstimator {
   long row_tick_ = -1;
   long since_publication_ = 0;
   Eigen::VectorXd dx_;
+
+  // Change detection (options change_*): per-coordinate innovation mean over the window and mean square over the
+  // baseline, samples since the detector was (re)armed, detections.
+  void detectChange(long tick);
+  Eigen::VectorXd innovation_, innovation_mean_, innovation_ms_;  ///< [nv]
+  long change_samples_ = 0, changes_ = 0, last_change_tick_ = -1;
+  double z_max_ = 0.0;
 };
 
 }  // namespace exoid::estimator

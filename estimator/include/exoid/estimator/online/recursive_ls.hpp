@@ -139,6 +139,11 @@ bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool
 /// and the last solution: the start of a new block. Allocation-free.
 void clearRecursiveLsSums(const RecursiveLsModel& model, RecursiveLsData& data);
 
+/// Keeps the fraction kappa in (0, 1] of the accumulated data (information, rhs, residual sums, effective
+/// samples), the prior untouched: a one-off forgetting step ("covariance resetting" toward the prior, Goodwin &
+/// Sin 1984, sec. 3.3), e.g. when the robot is known to have changed. O(1): the common scale. Allocation-free.
+void discountRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, double kappa);
+
 /// The data information the sums hold, sum_c g_c^2 s D_c, scattered into the upper triangle of D [m x m]
 /// (overwritten), and the rhs sum_c g_c^2 s d_c into d [m]. Allocation-free.
 void recursiveLsInformation(const RecursiveLsModel& model, const RecursiveLsData& data, Eigen::MatrixXd& D,
