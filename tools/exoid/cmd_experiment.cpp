@@ -26,6 +26,7 @@
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
+#include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/online_vs_batch.hpp"
@@ -256,7 +257,8 @@ int cmdExperiment(int argc, char** argv) {
                "height (CoM RMSE 43 mm vs 0.37 mm; docs/estimator.md, \"Closing the loop\")");
   app.add_option("--estimator-args", estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
-                 "the experiment's defaults, \"--forgetting stabilised --lambda 0.999\"")
+                 "the experiment's defaults, \"--forgetting stabilised --lambda 0.999\". --effects FILE (a\n"
+                 "diagnose sidecar) is checked before the run and applied by the summary's replay too")
       ->type_name("\"ARGS\"");
   app.add_option("--inject", inject_text,
                  "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"
@@ -335,6 +337,10 @@ int cmdExperiment(int argc, char** argv) {
       } else if (!common::parseDouble(*value, replay_options.effect_prior_factor)) {
         return fail("--estimator-args --effect-prior-factor: not a number '" + *value + "'");
       }
+    }
+    if (!replay_options.effects.effects.empty()) {  // what exo_estimator refuses (a delay), refused before the run
+      const estimator::OnlineEstimator probe(ctrl_model, computeBaseParameters(ctrl_model), ctrl_model.phi, replay_options);
+      if (!probe.ok()) return fail("--estimator-args: " + probe.error());
     }
   }
   double payload_attach_s = -1.0, payload_mass_kg = 0.0;  // a mid-run payload (the summary's mass response)

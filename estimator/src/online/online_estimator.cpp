@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <Eigen/QR>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "exoid/estimator/batch/consistent.hpp"
@@ -605,12 +606,13 @@ std::vector<double> OnlineEstimator::effectSignature() const {
 
 std::string OnlineEstimator::describeEffects(const std::vector<double>& sig) const {
   if (sig.size() < 4) return "no effects";
-  std::string s = std::to_string(long(sig[0])) + " effect(s):";
+  std::string s = std::to_string(long(sig[0])) + " effect(s)";
   for (size_t i = 4; i + 2 < sig.size(); i += 3) {
     const int k = int(sig[i]), j = int(sig[i + 1]);
-    s += std::string(" ") + (j >= 0 && j < model_.njoints ? model_.joint_names[j] : "?") + " " +
-         (k >= 0 && k < kEffectKinds ? effectKindName(static_cast<EffectKind>(k)) : "?") + " " +
-         std::to_string(sig[i + 2]);
+    char value[32];
+    std::snprintf(value, sizeof value, "%.6g", sig[i + 2]);
+    s += std::string(i == 4 ? ": " : ", ") + (j >= 0 && j < model_.njoints ? model_.joint_names[j] : "?") + " " +
+         (k >= 0 && k < kEffectKinds ? effectKindName(static_cast<EffectKind>(k)) : "?") + " " + value;
   }
   return s;
 }
