@@ -10,8 +10,23 @@ second (sensors only), and the findings compared with the seeded effects read fr
   parameters, which the identified rigid-body model absorbs: no column, so the right answer is no finding).
 
 A seeded effect is "found as K" when K is the kind of the first finding on its joint (none: no finding there);
-a finding on a joint without a seeded effect counts in the row "(none)". Writes OUT/confusion.csv,
-OUT/confusion.md (the table plus one line per scenario) and OUT/scenarios.csv.
+a finding on a joint without a seeded effect counts in the row "(none)".
+
+Effect size (issue 9's criterion: "every seeded effect that changes its joint's torque by >= 3x the torque noise is
+named"), from the validation run's ground truth:
+  - dynamics effects (viscous, dry friction, armature): the RMS over the run of y - K phi_URDF on the effect's
+    joint row with every signal from the ground truth and no filter (`exoid_noise_budget LOG 0 RWAQTPF`): the robot
+    is the URDF plus the seeded effects, so this is exactly the torque MuJoCo's damping, frictionloss (the sticking
+    constraint force included) and armature applied on that joint;
+  - offset: |offset| (a constant on the sensor); gain g: |g - 1| x RMS of the applied torque of the joint
+    (`exoid export --truth`);
+  - payload: the largest joint-row RMS of the same truth residual (reported only: no column, right answer none).
+The torque noise is the joint torque sensor's sigma of the scenario's noise (config/sensors.yaml
+joint_torque.sigma for `noise: realistic`, 0 for `off`, or the named file's).
+
+Writes OUT/confusion.csv, OUT/confusion.md (the table, the detection rates over all seeded effects and over those
+meeting the criterion, one line per effect and per scenario), OUT/effects.csv (one row per seeded effect) and
+OUT/scenarios.csv.
 
 usage: scripts/diagnose_confusion.py [--moves N] [--out DIR] [--bin build/bin] [SCENARIO.yaml ...]
 """
@@ -51,6 +66,57 @@ def seeded(path):
     return out
 
 
+def torque_noise(path, here):
+    """The joint torque sensor's sigma (N m) of a scenario's noise setting."""
+    with open(path) as f:
+        noise = yaml.safe_load(f).get("noise", "realistic")
+    if noise == "off":
+        return 0.0
+    sensors = os.path.join(here, "config", "sensors.yaml") if noise == "realistic" else \
+        (noise if os.path.isabs(noise) else os.path.join(os.path.dirname(path), noise))
+    with open(sensors) as f:
+        return float(yaml.safe_load(f)["joint_torque"]["sigma"])
+
+
+def truth_sizes(bindir, log, d):
+    """(joint names, {joint: RMS of y - K phi_URDF from the ground truth}, {joint: RMS applied torque})."""
+    csv_path = os.path.join(d, "truth.csv")
+    run([os.path.join(bindir, "exoid"), "export", "--log", log, "--truth", "--out", csv_path],
+        os.path.join(d, "export_truth.txt"))
+    with open(csv_path) as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        joints = [h[2:] for h in header if h.startswith("q_")]  # every joint, in the model's order
+        tau_cols = [(i, h[4:]) for i, h in enumerate(header) if h.startswith("tau_")]  # the actuated ones
+        ss = {j: 0.0 for _, j in tau_cols}
+        n = 0
+        for row in reader:
+            for i, j in tau_cols:
+                ss[j] += float(row[i]) ** 2
+            n += 1
+    os.remove(csv_path)  # 19 s of 1 kHz rows: not worth keeping
+    tau_rms = {j: (ss[j] / max(n, 1)) ** 0.5 for _, j in tau_cols}
+    out = subprocess.run([os.path.join(bindir, "exoid_noise_budget"), log, "0", "RWAQTPF"], capture_output=True,
+                         text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"exoid_noise_budget failed on {log}: {out.stderr}")
+    values = out.stdout.strip().splitlines()[-1].split()[1:]
+    if len(values) != 6 + len(joints):
+        raise SystemExit(f"exoid_noise_budget: {len(values)} columns for {len(joints)} joints + 6 base rows")
+    residual = {j: float(v) for j, v in zip(joints, values[6:])}
+    return joints, residual, tau_rms
+
+
+def effect_rms(joint, kind, value, residual, tau_rms):
+    if kind in ("viscous", "coulomb", "armature"):
+        return residual[joint]
+    if kind == "offset":
+        return abs(value)
+    if kind == "gain":
+        return abs(value) * tau_rms.get(joint, 0.0)  # no applied torque on an unactuated joint
+    return max(residual.values())  # payload: its largest joint-row torque
+
+
 def run(cmd, log):
     with open(log, "w") as f:
         r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
@@ -74,6 +140,8 @@ def main():
     urdf = os.path.join(here, "config", "exo.urdf")
     confusion = {}  # (seeded kind, found kind) -> count
     rows = []
+    effect_rows = []
+    false_other = 0  # findings on joints without a seeded effect, in runs that have one
     for path in scenarios:
         name = os.path.splitext(os.path.basename(path))[0]
         d = os.path.join(a.out, name)
@@ -88,6 +156,8 @@ def main():
             os.path.join(d, "diagnose.txt"))
         with open(os.path.join(d, "diagnose", "summary.json")) as f:
             summary = json.load(f)
+        sigma = torque_noise(path, here)
+        _, residual, tau_rms = truth_sizes(a.bin, os.path.join(d, "run2", "run.lcmlog"), d)
         findings = summary["findings"]
         first = {}
         for fd in findings:
@@ -101,16 +171,25 @@ def main():
             confusion[(kind, found)] = confusion.get((kind, found), 0) + 1
             expected = "none" if kind == "payload" else kind
             verdicts.append(f"{joint} {kind} {value:g}: {'ok' if found == expected else 'found ' + found}")
+            size = effect_rms(joint, kind, value, residual, tau_rms)
+            effect_rows.append({"scenario": name, "joint": joint, "kind": kind, "value": f"{value:g}",
+                                "effect_rms_nm": f"{size:.4f}", "torque_noise_nm": f"{sigma:g}",
+                                "meets_3x_noise": "yes" if size >= 3.0 * sigma else "no", "found": found,
+                                "right": "yes" if found == expected else "no"})
         for fd in findings:
             if fd["joint"] not in seeded_joints:
                 confusion[("(none)", fd["kind"])] = confusion.get(("(none)", fd["kind"]), 0) + 1
                 verdicts.append(f"false finding: {fd['joint']} {fd['kind']}")
+                false_other += 1 if effects else 0
         if not effects and not findings:
             confusion[("(none)", "none")] = confusion.get(("(none)", "none"), 0) + 1
             verdicts.append("clean: no finding")
         rows.append({
             "scenario": name,
             "seeded": "; ".join(f"{j} {k} {v:g}" for j, k, v in effects) or "none",
+            "effect_rms_nm": "; ".join(f"{effect_rms(j, k, v, residual, tau_rms):.3f}" for j, k, v in effects) or "",
+            "meets_3x_noise": "; ".join("yes" if effect_rms(j, k, v, residual, tau_rms) >= 3.0 * sigma else "no"
+                                        for j, k, v in effects) or "",
             "findings": "; ".join(f"{fd['joint']} {fd['kind']} {fd['value']:.3g} ({100 * fd['explained']:.0f} %)"
                                   for fd in findings) or "none",
             "verdict": "; ".join(verdicts),
@@ -131,6 +210,19 @@ def main():
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
         w.writerows(rows)
+    with open(os.path.join(a.out, "effects.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(effect_rows[0].keys()) if effect_rows else ["scenario"])
+        w.writeheader()
+        w.writerows(effect_rows)
+    # Detection: effects with a column (a payload has none: its right answer is no finding, reported apart).
+    cols = [e for e in effect_rows if e["kind"] != "payload"]
+    big = [e for e in cols if e["meets_3x_noise"] == "yes"]
+    clean = [r for r in rows if r["seeded"] == "none"]
+    clean_false = [r for r in clean if r["findings"] != "none"]
+
+    def rate(es):
+        ok = sum(e["right"] == "yes" for e in es)
+        return f"{ok} of {len(es)}" + (f" ({100.0 * ok / len(es):.0f} %)" if es else "")
     with open(os.path.join(a.out, "confusion.md"), "w") as f:
         f.write(f"Seeded effect kind (rows) x kind of the first finding on its joint (columns); {len(rows)} scenarios, "
                 f"{a.moves} moves per run, train on move seed 1, validate on move seed 2. Row (none): findings on joints "
@@ -139,11 +231,25 @@ def main():
         f.write("|---" * (len(found_kinds) + 1) + "|\n")
         for s in seeded_kinds:
             f.write(f"| {s} | " + " | ".join(str(confusion.get((s, k), 0) or "") for k in found_kinds) + " |\n")
-        f.write("\n| scenario | seeded | findings (value, share of its joint's residual) | held-out RMSE before -> after, N m |\n")
-        f.write("|---|---|---|---|\n")
+        f.write(f"\nDetection (right joint and kind; payloads excluded): {rate(cols)} of all seeded effects, "
+                f"{rate(big)} of those that change their joint's torque by >= 3x the torque noise. "
+                f"Findings on clean runs: {len(clean_false)} of {len(clean)}; findings on joints without a seeded "
+                f"effect in the other runs: {false_other}.\n")
+        f.write("\n| scenario | seeded effect | effect RMS, N m | >= 3x noise? | found (first finding on its joint) |\n")
+        f.write("|---|---|---|---|---|\n")
+        for e in effect_rows:
+            f.write(f"| {e['scenario']} | {e['joint']} {e['kind']} {e['value']} | {e['effect_rms_nm']} | "
+                    f"{e['meets_3x_noise']} ({float(e['effect_rms_nm']) / max(float(e['torque_noise_nm']), 1e-12):.1f}x) | "
+                    f"{e['found']}{'' if e['right'] == 'yes' else ' (wrong)'} |\n")
+        f.write("\n| scenario | seeded | effect RMS, N m | >= 3x noise? | findings (value, share of its joint's residual) | "
+                "held-out RMSE before -> after, N m |\n")
+        f.write("|---|---|---|---|---|---|\n")
         for r in rows:
-            f.write(f"| {r['scenario']} | {r['seeded']} | {r['findings']} | {r['heldout_before']} -> {r['heldout_after']} |\n")
-    print(f"written: {a.out}/confusion.csv, confusion.md, scenarios.csv")
+            f.write(f"| {r['scenario']} | {r['seeded']} | {r['effect_rms_nm']} | {r['meets_3x_noise']} | {r['findings']} | "
+                    f"{r['heldout_before']} -> {r['heldout_after']} |\n")
+    print(f"detection: {rate(cols)} of all seeded effects, {rate(big)} of those >= 3x the torque noise; "
+          f"clean runs with a finding: {len(clean_false)} of {len(clean)}")
+    print(f"written: {a.out}/confusion.csv, confusion.md, effects.csv, scenarios.csv")
 
 
 if __name__ == "__main__":

@@ -66,13 +66,13 @@ int main(int argc, char** argv) {
   namespace common = exoid::common;
 
   std::string model_path = defaultPath("exo.urdf"), prior_path, url = LcmEndpoint::defaultUrl(), forgetting_name = "none",
-              row_weights_text, checkpoint, final_path;
+              row_weights_text, checkpoint, final_path, effects_path;
   double change_threshold = estimator::OnlineEstimatorOptions{}.change_threshold,
          change_keep = estimator::OnlineEstimatorOptions{}.change_keep;
   double prior_relative = 0.25, cutoff = estimator::OnlineEstimatorOptions{}.cutoff_hz, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
          min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
   int64_t forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
-  double consistent_tolerance = 2.0;
+  double consistent_tolerance = 2.0, effect_prior_factor = 10.0;
   bool quiet = false;
 
   CLI::App app{
@@ -136,6 +136,16 @@ int main(int argc, char** argv) {
                  "`consistent` needs the consistent parameters' misfit ratio, sqrt of (B phi - x)^T A (B phi - x)\n"
                  "(A the estimate's information) over the weighted residual cost of the estimate, <= this")
       ->transform(common::strictNumber(0.0, 1e6))->type_name("RHO");
+  app.add_option("--effects", effects_path,
+                 "sidecar effects.yaml of `exoid diagnose` (docs/diagnose.md): each viscous, coulomb,\n"
+                 "stribeck, offset or armature effect becomes an extra estimated parameter (prior 0, one-sigma\n"
+                 "--effect-prior-factor x its value) whose column is the diagnosis's signal at the sample's\n"
+                 "state; a torque-sensor gain corrects that sensor's torque; tau_ff adds the friction and\n"
+                 "offset effects at their estimates (not armature); a time delay is refused (exit 2)")
+      ->type_name("FILE");
+  app.add_option("--effect-prior-factor", effect_prior_factor,
+                 "one-sigma prior of each --effects column = this x |the sidecar's value| (prior mean 0)")
+      ->transform(common::strictNumber(1e-3, 1e6))->type_name("F");
   app.add_option("--publish-hz", publish_hz, "EXO_ESTIMATE rate, per 1 kHz of folded samples")
       ->transform(common::strictNumber(0.01, 1000.0))->type_name("HZ");
   app.add_option("--checkpoint", checkpoint,
@@ -167,7 +177,8 @@ int main(int argc, char** argv) {
       "exit codes:\n"
       "  0  stopped by SIGINT/SIGTERM (checkpoint and --final written)\n"
       "  1  LCM failure, or the checkpoint / --final could not be written at exit\n"
-      "  2  bad input: option, URDF, prior, row weights, or a checkpoint that does not belong to this estimator\n"
+      "  2  bad input: option, URDF, prior, row weights, effects sidecar (missing, malformed, unknown joint\n"
+      "     or kind, a delay), or a checkpoint that does not belong to this estimator (other effects included)\n"
       "  3  no robot state for --idle-timeout-ms");
   if (const int code = common::parseCli(app, argc, argv); code >= 0) return code;
 
@@ -201,6 +212,10 @@ int main(int argc, char** argv) {
     for (double w : opt.row_weight)
       if (!(w > 0.0)) return badInput("--row-weights: every weight must be > 0");
   }
+  if (!effects_path.empty()) {
+    if (!readEffects(effects_path, model, opt.effects, &err)) return badInput("--effects " + err);
+    opt.effect_prior_factor = effect_prior_factor;
+  }
   const BaseParameters base = computeBaseParameters(model);
   OnlineEstimator est(model, base, prior, opt);
   if (!est.ok()) return badInput(est.error());
@@ -227,8 +242,11 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   if (!quiet)
-    std::fprintf(stderr, "exo_estimator: %d base parameters, forgetting %s, cutoff %.1f Hz, EXO_ESTIMATE every %d samples%s, on %s\n",
-                 base.rank, forgettingName(opt.forgetting), cutoff, nopt.publish_every,
+    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, cutoff %.1f Hz, EXO_ESTIMATE every %d samples%s, on %s\n",
+                 base.rank,
+                 effects_path.empty() ? ""
+                                      : (" + " + std::to_string(est.effectColumnCount()) + " effect columns of " + effects_path).c_str(),
+                 forgettingName(opt.forgetting), cutoff, nopt.publish_every,
                  resumed ? (", resumed from " + checkpoint + " at tick " + std::to_string(est.rlsData().last_tick)).c_str() : "",
                  lcm->url().c_str());
 

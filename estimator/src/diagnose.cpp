@@ -772,6 +772,7 @@ bool readEffects(const std::string& path, const Model& model, EffectSet& set, st
     if (error) *error = path + ": " + m;
     return false;
   };
+  if (std::ifstream probe(path); !probe) return fail("cannot open the file");
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);

@@ -181,5 +181,69 @@ TEST(ExoEstimatorLcm, CheckpointIsWrittenAndResumed) {
   std::filesystem::remove(path);
 }
 
+// exo_estimator --effects: the checkpoint records the sidecar. The same sidecar resumes; another one is refused
+// naming the effects (other gain, same columns) or the parameter count (other columns).
+TEST(ExoEstimatorLcm, CheckpointRecordsTheSidecarsEffects) {
+  const ExoSetup& s = setup();
+  const Model& model = s.model;
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("exoid_node_ckpt_fx_" + std::to_string(::getpid()) + ".bin")).string();
+  std::filesystem::remove(path);
+  const int knee = model.jointIndex("right_knee");
+  ASSERT_GE(knee, 0);
+  OnlineEstimatorOptions opt;
+  opt.effects.effects = {{EffectKind::Coulomb, knee, 3.0}, {EffectKind::GainError, knee, 0.1}};
+  NodeOptions nopt;
+  nopt.checkpoint = path;
+  nopt.checkpoint_every_s = 0.0;
+  std::string err;
+  Eigen::VectorXd x;
+  {
+    LcmEndpoint lcm("memq://");
+    OnlineEstimator est(model, s.base, model.phi, opt);
+    ASSERT_TRUE(est.ok()) << est.error();
+    EstimatorNode node(lcm, model, est, nopt);
+    testing::SensorTick t = testing::makeSensorTick(model);
+    std::mt19937_64 rng(5);
+    exoid_lcm::robot_state_t sm;
+    exoid_lcm::force_plate_t pm;
+    for (long k = 0; k < 150; ++k) {
+      testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
+      toLcm(t.state, model.joint_names, sm);
+      lcm.publish(channels::kState, sm);
+      for (int i = 0; i < 2; ++i) {
+        toLcm(t.plate[i], pm);
+        lcm.publish(i == 0 ? channels::kPlateRight : channels::kPlateLeft, pm);
+      }
+      drain(node);
+    }
+    EstimatorOutputSample out;
+    est.prepare(out);
+    est.publish(out);  // a solve with every sample, then the checkpoint of the same state and weights
+    x = out.base_params;
+    ASSERT_TRUE(node.writeCheckpoint(&err)) << err;
+  }
+  ASSERT_EQ(x.size(), s.base.rank + 1);
+  {  // the same sidecar: resumed (its load solves), the same estimate, effect column included
+    OnlineEstimator est(model, s.base, model.phi, opt);
+    ASSERT_TRUE(est.loadCheckpoint(path, &err)) << err;
+    EXPECT_LT((est.baseEstimate() - x).norm(), 1e-9 * x.norm());
+  }
+  OnlineEstimatorOptions other_gain = opt, other_columns = opt, none;
+  other_gain.effects.effects[1].value = 0.05;
+  other_columns.effects.effects.push_back({EffectKind::Viscous, knee, 5.0});
+  OnlineEstimator a(model, s.base, model.phi, other_gain), b(model, s.base, model.phi, other_columns),
+      c(model, s.base, model.phi, none);
+  EXPECT_FALSE(a.loadCheckpoint(path, &err));
+  EXPECT_NE(err.find("other effects"), std::string::npos) << err;
+  EXPECT_NE(err.find("right_knee gain 0.1"), std::string::npos) << err;
+  EXPECT_FALSE(b.loadCheckpoint(path, &err));
+  EXPECT_NE(err.find("estimates " + std::to_string(s.base.rank + 1) + " parameters"), std::string::npos) << err;
+  EXPECT_NE(err.find("2 effect column(s)"), std::string::npos) << err;
+  EXPECT_FALSE(c.loadCheckpoint(path, &err));  // an estimator without the sidecar
+  EXPECT_NE(err.find("different estimator"), std::string::npos) << err;
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace exoid::estimator

@@ -75,13 +75,23 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
   std::string err;
   ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) << err;
   const BaseParameters base = computeBaseParameters(model);
+  // With and without a diagnose sidecar (exo_estimator --effects): extra columns of every dynamics kind, filtered
+  // and folded with K, in tau_ff, and a gain correcting y.
+  EffectSet sidecar;
+  const int knee = model.jointIndex("right_knee"), hip = model.jointIndex("left_hip_fe"), ankle = model.jointIndex("left_ankle_pd");
+  ASSERT_TRUE(knee >= 0 && hip >= 0 && ankle >= 0);
+  sidecar.effects = {{EffectKind::Viscous, knee, 5.0},  {EffectKind::Coulomb, knee, 3.0}, {EffectKind::Stribeck, hip, 1.0},
+                     {EffectKind::Offset, ankle, -1.0}, {EffectKind::Armature, hip, 0.2}, {EffectKind::GainError, knee, 0.1}};
+  for (bool effects : {false, true})
   for (Forgetting f : {Forgetting::None, Forgetting::Stabilised, Forgetting::Selective}) {
     OnlineEstimatorOptions opt;
     opt.forgetting = f;
     opt.lambda = 0.999;
     opt.forget_every = 50;
+    if (effects) opt.effects = sidecar;
     OnlineEstimator est(model, base, model.phi, opt);
     ASSERT_TRUE(est.ok()) << est.error();
+    ASSERT_EQ(est.effectColumnCount(), effects ? 5 : 0);
     EstimatorOutputSample out;
     est.prepare(out);
     testing::SensorTick t = testing::makeSensorTick(model), bad = t;
@@ -114,13 +124,14 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     }
     Eigen::internal::set_is_malloc_allowed(true);
     counter.stop();
-    EXPECT_EQ(counter.mallocs(), 0) << forgettingName(f);
-    EXPECT_EQ(counter.news(), 0) << forgettingName(f);
+    EXPECT_EQ(counter.mallocs(), 0) << forgettingName(f) << (effects ? " with effects" : "");
+    EXPECT_EQ(counter.news(), 0) << forgettingName(f) << (effects ? " with effects" : "");
     EXPECT_EQ(out.samples_used, 628) << forgettingName(f);  // the first two ticks only start the differences
     EXPECT_EQ(out.rejected_duplicate, 600);
     EXPECT_EQ(out.rejected_nonfinite, 6);  // k = 97, 194, ..., 582
     EXPECT_EQ(est.reconciles(), 1);
     EXPECT_TRUE(out.params.allFinite() && out.tau_ff.allFinite());
+    EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 : 0));
   }
 }
 

@@ -37,7 +37,8 @@ TEST_F(CliOptions, EveryBinaryHasGeneratedHelp) {
       {bin("exo_sim"), {"--duration", "--mode", "--hold-ticks", "INTEGER in [0, 3600000]", "exit codes"}},
       {bin("exo_controller"), {"--moves", "--seed", "--idle-timeout-ms", "--print-duration", "exit codes"}},
       {bin("exo_estimator"),
-       {"--forgetting", "--checkpoint", "--row-weights", "--publish-hz", "NUMBER in [0.5, 1]", "exit codes"}},
+       {"--forgetting", "--checkpoint", "--row-weights", "--publish-hz", "--effects", "--effect-prior-factor",
+        "NUMBER in [0.5, 1]", "exit codes"}},
       // The logger's default URL is the project's, ttl=0 included (it used to print it without).
       {bin("exoid_lcm_demo_publisher"), {"--count", "--rate", "--start-tick", "--url", "--channel", "exit codes"}},
       {"env -u LCM_DEFAULT_URL " + bin("exoid_logger"),
@@ -81,6 +82,22 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   expectError(bin("exo_estimator") + " --row-weights '1 2 3'", "16 numbers expected");
   expectError(bin("exo_estimator") + " --checkpoint " + test::configPath("exo.urdf"),
               "not an estimator checkpoint (bad magic)");
+  // --effects: a diagnose sidecar (the parser of exoid identify --effects).
+  expectError(bin("exo_estimator") + " --effects " + dir_.file("none.yaml"), "none.yaml: cannot open the file");
+  std::ofstream(dir_.file("joint.yaml")) << "effects:\n  - {joint: knee, kind: viscous, value: 1}\n";
+  expectError(bin("exo_estimator") + " --effects " + dir_.file("joint.yaml"), "effects[0]: unknown joint 'knee'");
+  std::ofstream(dir_.file("kind.yaml")) << "effects:\n  - {joint: right_knee, kind: sticky, value: 1}\n";
+  expectError(bin("exo_estimator") + " --effects " + dir_.file("kind.yaml"), "effects[0]: unknown kind 'sticky'");
+  std::ofstream(dir_.file("bad.yaml")) << "effects: [ {joint: right_knee\n";
+  expectError(bin("exo_estimator") + " --effects " + dir_.file("bad.yaml"), "bad.yaml: not readable YAML");
+  std::ofstream(dir_.file("delay.yaml")) << "effects:\n  - {joint: right_knee, kind: delay, value: 0.01}\n";
+  expectError(bin("exo_estimator") + " --effects " + dir_.file("delay.yaml"), "time delay (right_knee)");
+  expectError(bin("exoid") + " experiment --scenario " + test::configPath("scenarios/ideal.yaml") + " --out " +
+                  dir_.file("out_fx") + " --estimator-args \"--effects " + dir_.file("delay.yaml") + "\"",
+              "time delay (right_knee)");
+  expectError(bin("exoid") + " experiment --scenario " + test::configPath("scenarios/ideal.yaml") + " --out " +
+                  dir_.file("out_fx") + " --estimator-args --effects=" + dir_.file("joint.yaml"),
+              "unknown joint 'knee'");
 }
 
 TEST_F(CliOptions, ExperimentRefusesWhatTheControllerWouldBeforeStarting) {

@@ -17,6 +17,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/strict_number.hpp"
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/config.hpp"
 #include "exoid/controller/run_options.hpp"
@@ -25,6 +26,7 @@
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
+#include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/online_vs_batch.hpp"
@@ -256,7 +258,8 @@ int cmdExperiment(int argc, char** argv) {
                "height (CoM RMSE 43 mm vs 0.37 mm; docs/estimator.md, \"Closing the loop\")");
   app.add_option("--estimator-args", estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
-                 "the experiment's defaults, \"--forgetting none\"")
+                 "the experiment's defaults, \"--forgetting none\". --effects FILE (a\n"
+                 "diagnose sidecar) is checked before the run and applied by the summary's replay too")
       ->type_name("\"ARGS\"");
   app.add_option("--inject", inject_text,
                  "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"
@@ -307,6 +310,39 @@ int cmdExperiment(int argc, char** argv) {
   {  // What exo_controller checks at start-up (configuration against the model, move sequence), here.
     controller::BalanceController probe(ctrl_model, cc, static_cast<uint64_t>(seed));
     if (!probe.ok()) return fail(controller_config + ": " + probe.error());
+  }
+  // exo_estimator's arguments. A diagnose sidecar (--effects FILE) is read here too, with the estimator's model:
+  // a bad one stops the experiment before any process starts, its path is made absolute for the estimator, and
+  // the summary's replay applies it like the process does (online held-out RMSE with and without it).
+  std::vector<std::string> est_words;
+  estimator::OnlineEstimatorOptions replay_options;
+  {
+    std::istringstream words(estimator_args);
+    for (std::string w; words >> w;) est_words.push_back(w);
+    for (size_t i = 0; i < est_words.size(); ++i) {
+      std::string* value = nullptr;
+      std::string name = est_words[i], inline_value;
+      if (const size_t eq = name.find('='); name.rfind("--", 0) == 0 && eq != std::string::npos)
+        inline_value = name.substr(eq + 1), name = name.substr(0, eq);
+      if (name != "--effects" && name != "--effect-prior-factor") continue;
+      if (!inline_value.empty()) {  // --name=VALUE: split, so the value can be rewritten
+        est_words[i] = name;
+        est_words.insert(est_words.begin() + static_cast<std::ptrdiff_t>(i + 1), inline_value);
+      }
+      if (i + 1 >= est_words.size()) return fail("--estimator-args: " + name + " needs a value");
+      value = &est_words[++i];
+      if (name == "--effects") {
+        *value = std::filesystem::absolute(*value).string();
+        if (!estimator::readEffects(*value, ctrl_model, replay_options.effects, &err))
+          return fail("--estimator-args --effects " + err);
+      } else if (!common::parseDouble(*value, replay_options.effect_prior_factor)) {
+        return fail("--estimator-args --effect-prior-factor: not a number '" + *value + "'");
+      }
+    }
+    if (!replay_options.effects.effects.empty()) {  // what exo_estimator refuses (a delay), refused before the run
+      const estimator::OnlineEstimator probe(ctrl_model, computeBaseParameters(ctrl_model), ctrl_model.phi, replay_options);
+      if (!probe.ok()) return fail("--estimator-args: " + probe.error());
+    }
   }
   double payload_attach_s = -1.0, payload_mass_kg = 0.0;  // a mid-run payload (the summary's mass response)
   {  // Validate the sim's inputs here too, before any process starts, so that errors name the file and key.
@@ -371,10 +407,7 @@ int cmdExperiment(int argc, char** argv) {
   std::vector<std::string> est_args = {bin + "/exo_estimator", "--model", controller_model, "--lcm-url", url,
                                        "--checkpoint", est_ckpt, "--checkpoint-every-s", "0.5",
                                        "--final", est_final};
-  {
-    std::istringstream words(estimator_args);
-    for (std::string w; words >> w;) est_args.push_back(w);
-  }
+  est_args.insert(est_args.end(), est_words.begin(), est_words.end());
   std::string est_log_text;  // output of an estimator that was restarted (its log is rewritten by the new one)
   if (!no_estimator) {
     est.pid = tools::spawn(est_args, (out / "estimator.log").string(), &err);
@@ -559,10 +592,11 @@ int cmdExperiment(int argc, char** argv) {
   tools::RunLog log;
   facts.log_readable = tools::readRunLog(log_path, model.joint_names, log, &facts.log_error);
   const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
-  // Online vs batch on this run's log (the estimator's default options, the controller's model as prior).
+  // Online vs batch on this run's log (the estimator's default options plus the --effects sidecar if given, the
+  // controller's model as prior).
   tools::OnlineVsBatch ovb;
   if (!no_estimator && facts.log_readable)
-    ovb = tools::compareOnlineBatch(model, log, ctrl_model.phi, estimator::OnlineEstimatorOptions{}, 10, est_final);
+    ovb = tools::compareOnlineBatch(model, log, ctrl_model.phi, replay_options, 10, est_final);
   std::string table = tools::summaryTable(s);
   const size_t rows_end = table.rfind("|\n");  // the table's last row (failure lines follow it)
   table.insert(rows_end == std::string::npos ? table.size() : rows_end + 2, tools::onlineVsBatchTable(!no_estimator, ovb));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <Eigen/QR>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "exoid/estimator/batch/consistent.hpp"
@@ -111,11 +112,49 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
     fail(err);
     return;
   }
+  m_base_ = m;
+  // A diagnose sidecar (docs/estimator.md "Extra columns"): its dynamics effects become parameters m..m+ne-1
+  // (prior 0, sigma = factor x |value|), its gains correct y. Added before the data and the filter are sized,
+  // so the filter runs on E's entries too and the checkpoint structure holds the columns.
+  std::vector<double> effect_sigma;
+  if (!opt_.effects.effects.empty()) {
+    if (!(opt_.effect_prior_factor > 0.0 && std::isfinite(opt_.effect_prior_factor))) {
+      fail("effect prior factor must be > 0");
+      return;
+    }
+    std::vector<int> rows;
+    for (const Effect& e : opt_.effects.effects) {
+      if (e.joint < 0 || e.joint >= model.njoints || !std::isfinite(e.value)) {
+        fail("effects: a joint index outside the model or a non-finite value");
+        return;
+      }
+      if (e.kind == EffectKind::Delay) {
+        fail(std::string("effects: a time delay (") + model.joint_names[e.joint] +
+             ") needs the torque's future; the online estimator cannot apply it (remove it from the sidecar)");
+        return;
+      }
+      if (isMeasurementEffect(e.kind)) continue;
+      rows.push_back(model.jointRow(e.joint));
+      effect_sigma.push_back(opt_.effect_prior_factor * std::fabs(e.value) + 1e-6);
+      // Armature multiplies the acceleration, which tau_ff leaves out of the rigid part too (below).
+      ff_effect_.push_back(e.kind == EffectKind::Armature ? 0 : 1);
+    }
+    if (!addExtraColumns(rls_model_, rows, Eigen::Map<const Eigen::VectorXd>(effect_sigma.data(), effect_sigma.size()),
+                         &err)) {
+      fail(err);
+      return;
+    }
+    ne_ = static_cast<int>(rows.size());
+    effect_row_ = rows;
+    effects_ = true;
+  }
   rls_ = RecursiveLsData(rls_model_);
   adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
   initial_weights_ = rls_model_.row_weight;
   filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz);
-  prior_sigma_ = Sx.diagonal().cwiseSqrt();
+  prior_sigma_ = Eigen::VectorXd::Zero(m + ne_);
+  prior_sigma_.head(m) = Sx.diagonal().cwiseSqrt();
+  for (int e = 0; e < ne_; ++e) prior_sigma_[m + e] = effect_sigma[e];
   // Standard parameters from base parameters: the conditional mean of the prior given x (the same prior),
   // phi = phi_prior + G (x - x0), G = Sigma B^T Lambda0 (B G = I: the base parameters are reproduced exactly);
   // what x cannot tell keeps its prior variance diag(Sigma - G B Sigma).
@@ -126,7 +165,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   phi_ = prior_phi;
   GC_ = Eigen::MatrixXd::Zero(p, m);
   param_stddev_ = phi_var0_.cwiseSqrt();
-  dx_ = Eigen::VectorXd::Zero(m);
+  dx_ = Eigen::VectorXd::Zero(m + ne_);
   // Consistent standard parameters (reconcile): with phi = phi_prior + Sigma^1/2 u, the prior's cost u^T u splits
   // into what B phi sees (the base prior, Lambda0, already inside the estimate's information A) and the rest,
   // ||N^T u||^2 with N an orthonormal basis of the nullspace of B Sigma^1/2. Using only the rest keeps the prior
@@ -143,19 +182,21 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
     d_ = u_m_ = Eigen::VectorXd::Zero(m);
   }
 
-  R_ = Eigen::MatrixXd::Zero(m, m);
+  const int mx = m + ne_;  // the estimated parameters: base, then effects
+  R_ = Eigen::MatrixXd::Zero(mx, mx);
   dD_ = R1_ = Y_ = M_ = R_;
-  r_ = dd_ = u_ = mask_ = Eigen::VectorXd::Zero(m);
-  mllt_ = Eigen::LLT<Eigen::MatrixXd>(m);
+  r_ = dd_ = u_ = mask_ = Eigen::VectorXd::Zero(mx);
+  mllt_ = Eigen::LLT<Eigen::MatrixXd>(mx);
   rss_carry_ = Eigen::VectorXd::Zero(nv);
 
   slot_state_.q = slot_state_.tau = Eigen::VectorXd::Zero(model.njoints);
   slot_state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
   for (Raw& r : raw_) r.q = r.tau = Eigen::VectorXd::Zero(model.njoints);
   state_ = ff_state_ = State::zero(model);
-  y_ = yf_ = Eigen::VectorXd::Zero(nv);
+  y_ = yf_ = tau_sensor_ = Eigen::VectorXd::Zero(nv);
   innovation_ = innovation_mean_ = innovation_ms_ = Eigen::VectorXd::Zero(nv);
-  Kf_ = Eigen::MatrixXd::Zero(nv, p);
+  Kf_ = Eigen::MatrixXd::Zero(nv, p + ne_);
+  if (ne_ > 0) Kx_ = Eigen::MatrixXd::Zero(nv, p + ne_);
 }
 
 long OnlineEstimator::rejected(InputStatus why) const { return rejected_[static_cast<int>(why)]; }
@@ -264,7 +305,19 @@ void OnlineEstimator::process() {
   st.base_position = basePositionFromFootholds(footholds_, kin_, st.base_orientation.toRotationMatrix(), r1.plate_position);
   generalizedForceFromMeasurements(model_, kin_, st, r1.tau, r1.contact, 2, y_);
   has_state_ = true;
-  filter_.filter(rls_model_, kin_.K, y_, Kf_, yf_);
+  if (effects_) {
+    // Gains on the torque sensors' part of y (the plates' part through the leg is not scaled); the effect
+    // columns at this sample's reconstructed joint velocity and acceleration, filtered with K like every column.
+    for (int j = 0; j < model_.njoints; ++j) tau_sensor_[model_.jointRow(j)] = r1.tau[j];
+    correctMeasurement(model_, opt_.effects, y_, tau_sensor_);
+  }
+  if (ne_ > 0) {
+    Kx_.leftCols(model_.nparams()) = kin_.K;
+    effectColumns(model_, opt_.effects, st.v, st.a, Kx_.rightCols(ne_));
+    filter_.filter(rls_model_, Kx_, y_, Kf_, yf_);
+  } else {
+    filter_.filter(rls_model_, kin_.K, y_, Kf_, yf_);
+  }
   if (opt_.change_threshold > 0.0 && Kf_.allFinite() && yf_.allFinite()) detectChange(r1.tick);
   if (updateRecursiveLs(rls_model_, rls_, r1.tick, Kf_, yf_) == SampleStatus::Accepted) {
     row_tick_ = r1.tick;
@@ -394,10 +447,10 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
   }
   // Standard parameters and their uncertainty: phi = phi_prior + G (x - x0), var = diag(G C G^T) + var0.
   dx_ = rls_.x - rls_model_.x0;
-  phi_.noalias() = G_ * dx_;
+  phi_.noalias() = G_ * dx_.head(m_base_);
   phi_ += phi_prior_;
   if (uncertainty) {
-    GC_.noalias() = G_ * rls_.covariance;
+    GC_.noalias() = G_ * rls_.covariance.topLeftCorner(m_base_, m_base_);  // marginal over the effect columns
     for (int i = 0; i < phi_.size(); ++i)
       param_stddev_[i] = std::sqrt(std::max(0.0, GC_.row(i).dot(G_.row(i)) + phi_var0_[i]));
   }
@@ -406,10 +459,11 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
   out.base_params = rls_.x;
   out.base_stddev = rls_.sigma;
   // Excitation: fraction of base parameters whose variance the data cut to 1 / (1 + excited_gain) of the prior's.
+  // (Over the rigid model's base parameters: the effect columns are reported in base_params but not counted.)
   int excited = 0;
-  for (int j = 0; j < m; ++j)
+  for (int j = 0; j < m_base_; ++j)
     if (prior_sigma_[j] * prior_sigma_[j] >= (1.0 + opt_.excited_gain) * rls_.sigma[j] * rls_.sigma[j]) ++excited;
-  out.excitation = m > 0 ? static_cast<double>(excited) / m : 0.0;
+  out.excitation = m_base_ > 0 ? static_cast<double>(excited) / m_base_ : 0.0;
   // Consistency: the conditional mean reproduces x exactly (B G = I), so when its every link passes the
   // pseudo-inertia test it is the consistent answer; otherwise the last reconcile()'s phi_c, judged by its misfit.
   bool mean_ok = true;
@@ -438,11 +492,23 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
     ff_state_.base_domega.setZero();
     ff_state_.base_acceleration.setZero();
     computeJointTorqueRegressor(model_, kin_, ff_state_);
-    dx_ = rls_.x - x_model_;
+    dx_.head(m_base_) = rls_.x.head(m_base_) - x_model_;
     for (int c = 0; c < nv; ++c) {
       double sum = 0.0;
-      for (int j : rls_model_.active[c]) sum += kin_.K(c, rls_model_.independent[j]) * dx_[j];
+      for (int j : rls_model_.active[c]) {
+        if (j >= m_base_) break;  // active sets are sorted: the effect columns come last
+        sum += kin_.K(c, rls_model_.independent[j]) * dx_[j];
+      }
       out.tau_ff[c] = sum;
+    }
+    // The sidecar's effects, which the controller's model lacks entirely: each column as the estimator last
+    // filtered it (F(E), the sample of `tick`: the smoothed velocity's friction, the offset) times its estimate.
+    // Armature is left out, like the rigid part's acceleration terms.
+    const int p = model_.nparams();
+    for (int e = 0; e < ne_; ++e) {
+      if (!ff_effect_[e]) continue;
+      const int r = effect_row_[e];
+      out.tau_ff[r] += Kf_(r, p + e) * rls_.x[m_base_ + e];
     }
   } else {
     out.tau_ff.setZero();
@@ -466,8 +532,10 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
 
 bool OnlineEstimator::misfit(const Eigen::VectorXd& rms, double effective_samples) {
   d_.noalias() = B_ * phi_c_;
-  d_ -= rls_.x;
-  const Eigen::MatrixXd& U = rls_.llt.matrixLLT();  // A = U^T U, U in the upper triangle
+  d_ -= rls_.x.head(m_base_);
+  // A = U^T U, U in the upper triangle. The effect columns (after the base ones) are held at their estimates:
+  // the misfit's vector is [d; 0], and ||U [d; 0]||^2 = d^T A_bb d needs U's leading m x m block only.
+  const Eigen::MatrixXd& U = rls_.llt.matrixLLT();
   const int m = static_cast<int>(d_.size());
   chi2_ = 0.0;
   for (int i = 0; i < m; ++i) {  // ||U d||^2 (explicit: no temporaries)
@@ -491,8 +559,9 @@ bool OnlineEstimator::reconcileDue() const {
 
 bool OnlineEstimator::beginReconcile(ReconcileJob& job) const {
   if (opt_.consistent_every <= 0 || rls_.solves == 0 || rls_.llt.info() != Eigen::Success) return false;
-  job.U = rls_.llt.matrixU();
-  job.x = rls_.x;
+  // The base block (effect columns held at their estimates, as in misfit()): A_bb = U_bb^T U_bb.
+  job.U = rls_.llt.matrixLLT().topLeftCorner(m_base_, m_base_).triangularView<Eigen::Upper>();
+  job.x = rls_.x.head(m_base_);
   job.start = have_phi_c_ ? phi_c_ : phi_;
   job.done = false;
   return true;
@@ -501,7 +570,7 @@ bool OnlineEstimator::beginReconcile(ReconcileJob& job) const {
 void OnlineEstimator::solveReconcile(ReconcileJob& job) const {
   // Target rows: the prior where no base parameter looks, then the base misfit in the estimate's information
   // metric, U (B phi - x) with A = U^T U (the solve's Cholesky factor).
-  const int m = rls_model_.m;
+  const int m = m_base_;
   QuadraticTarget target;
   const int k = static_cast<int>(prior_rows_.rows());
   target.A.resize(k + m, prior_rows_.cols());
@@ -557,9 +626,35 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
   for (long v : rejected_) extra.push_back(double(v));
   extra.push_back(double(incomplete_));
   extra.insert(extra.end(), rls_model_.row_weight.data(), rls_model_.row_weight.data() + rls_model_.nv);
+  const std::vector<double> sig = effectSignature();
+  extra.insert(extra.end(), sig.begin(), sig.end());
   RecursiveLsModel structure = rls_model_;  // checked against the weights the estimator was built with
   structure.row_weight = initial_weights_;
   return saveRecursiveLs(structure, rls_, path, error, extra);
+}
+
+std::vector<double> OnlineEstimator::effectSignature() const {
+  // The sidecar the estimator applies (columns and gains change what the sums mean): shape, then kind, joint,
+  // value and prior factor of every effect; nothing without a sidecar (checkpoints of before stay readable).
+  std::vector<double> v;
+  if (!effects_) return v;
+  v = {double(opt_.effects.effects.size()), opt_.effects.shape.coulomb_width, opt_.effects.shape.stribeck_velocity,
+       opt_.effect_prior_factor};
+  for (const Effect& e : opt_.effects.effects) v.insert(v.end(), {double(static_cast<int>(e.kind)), double(e.joint), e.value});
+  return v;
+}
+
+std::string OnlineEstimator::describeEffects(const std::vector<double>& sig) const {
+  if (sig.size() < 4) return "no effects";
+  std::string s = std::to_string(long(sig[0])) + " effect(s)";
+  for (size_t i = 4; i + 2 < sig.size(); i += 3) {
+    const int k = int(sig[i]), j = int(sig[i + 1]);
+    char value[32];
+    std::snprintf(value, sizeof value, "%.6g", sig[i + 2]);
+    s += std::string(i == 4 ? ": " : ", ") + (j >= 0 && j < model_.njoints ? model_.joint_names[j] : "?") + " " +
+         (k >= 0 && k < kEffectKinds ? effectKindName(static_cast<EffectKind>(k)) : "?") + " " + value;
+  }
+  return s;
 }
 
 bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error) {
@@ -567,10 +662,22 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   std::vector<double> extra;
   RecursiveLsModel structure = rls_model_;
   structure.row_weight = initial_weights_;
-  if (!loadRecursiveLs(structure, restored, path, error, &extra)) return false;
+  if (!loadRecursiveLs(structure, restored, path, error, &extra)) {
+    if (error && ne_ > 0) *error += " (this estimator has " + std::to_string(ne_) + " effect column(s) from its sidecar)";
+    return false;
+  }
   const int m = rls_model_.m, nv = rls_model_.nv;
   const size_t want = 7 + size_t(m) * m + m + nv + 5 + 1 + nv;
-  if (extra.size() != want) {
+  // The sidecar first: a checkpoint of an estimator with other effects is refused by name.
+  const std::vector<double> sig = effectSignature();
+  const std::vector<double> file_sig(extra.begin() + std::ptrdiff_t(std::min(extra.size(), want)), extra.end());
+  if (extra.size() >= want && file_sig != sig) {
+    if (error)
+      *error = path + ": written by an estimator with other effects (checkpoint: " + describeEffects(file_sig) +
+               "; this estimator: " + describeEffects(sig) + ")";
+    return false;
+  }
+  if (extra.size() != want + sig.size()) {
     if (error) *error = path + ": not an exo_estimator checkpoint (estimator section missing or of another size)";
     return false;
   }

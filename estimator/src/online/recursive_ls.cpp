@@ -325,8 +325,13 @@ bool loadRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, const
     return fail("truncated (" + std::to_string(v.size()) + " values expected)");
   if (in.peek() != std::char_traits<char>::eof()) return fail("trailing bytes after the checkpoint");
   const std::vector<double> s = structure(model);
-  if (v[0] != double(s.size()) || v.size() < s.size() + 1 || !std::equal(s.begin(), s.end(), v.begin() + 1))
-    return fail("written for a different estimator (model structure, prior, weights or forgetting differ)");
+  if (v[0] != double(s.size()) || v.size() < s.size() + 1 || !std::equal(s.begin(), s.end(), v.begin() + 1)) {
+    std::string counts;  // the parameter count names the usual cause: other extra (effect) columns
+    if (v.size() >= 4 && (v[2] != s[1] || v[3] != s[2]))
+      counts = ": it estimates " + std::to_string(long(v[2])) + " parameters (extra columns included), this one " +
+               std::to_string(model.m);
+    return fail("written for a different estimator (model structure, prior, weights or forgetting differ)" + counts);
+  }
   size_t i = s.size() + 1;
   size_t need = i + model.nv + 9;
   for (int c = 0; c < model.nv; ++c) need += data.D[c].size() + data.d[c].size();

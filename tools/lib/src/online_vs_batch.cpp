@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -74,11 +75,19 @@ OnlineVsBatch compareOnlineBatch(const Model& model, const RunLog& log, const Ei
   dopt.cutoff_hz = 30.0;
   dopt.filter = FilterMode::Inputs;
   dopt.footholds = defaultFootholds(model);
-  auto accumulate = [&](size_t from, size_t to, LsqAccumulator& acc) {
+  // With `effects`, the rows go through EffectCorrector first (the effects at their values subtracted from y,
+  // gains divided out), so the accumulated residual is that of the rigid part plus the effects.
+  auto accumulate = [&](size_t from, size_t to, LsqAccumulator& acc, const EffectSet* effects = nullptr) {
     long rows = 0;
-    DatasetBuilder builder(model, dopt, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
-      rows += acc.add(K, y) ? 1 : 0;
+    const RowSink add = [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows += acc.add(K, y) ? 1 : 0; };
+    std::unique_ptr<EffectCorrector> corrector;
+    if (effects) corrector = std::make_unique<EffectCorrector>(model, *effects, add);
+    const DatasetBuilder* self = nullptr;
+    DatasetBuilder builder(model, dopt, [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+      if (corrector) corrector->add(t, K, y, &self->sensorTorque());
+      else add(t, K, y);
     });
+    self = &builder;
     MeasuredSample s;
     std::string err;
     for (size_t i = from; i < to; ++i) {
@@ -87,12 +96,13 @@ OnlineVsBatch compareOnlineBatch(const Model& model, const RunLog& log, const Ei
       if (!builder.add(s, &err)) return -1L;
     }
     if (!builder.finish(&err)) return -1L;
+    if (corrector) corrector->finish();
     acc.flush();
     return rows;
   };
   Eigen::VectorXd prior_sigma;
-  auto replay = [&](size_t to, Eigen::VectorXd& x) {
-    OnlineEstimator est(model, base, prior, options);
+  auto replay = [&](size_t to, Eigen::VectorXd& x, const OnlineEstimatorOptions& opts) {
+    OnlineEstimator est(model, base, prior, opts);
     if (!est.ok()) return false;
     prior_sigma = est.priorBaseStddev();
     EstimatorOutputSample out;
@@ -125,12 +135,42 @@ OnlineVsBatch compareOnlineBatch(const Model& model, const RunLog& log, const Ei
   }
   c.batch_rank = batch_train.rank;
   Eigen::VectorXd x_online_train, x_replay;
-  if (!replay(split, x_online_train) || !replay(ticks.size(), x_replay)) {
+  if (!replay(split, x_online_train, options) || !replay(ticks.size(), x_replay, options)) {
     c.error = "online estimator options refused";
     return c;
   }
+  const int m = base.rank;
+  x_replay.conservativeResize(m);  // the effect columns (if any) come after the base parameters
+  prior_sigma.conservativeResize(m);
   c.param_diff_replay_batch_sigma = (x_replay - batch_whole.phi_base).cwiseQuotient(prior_sigma).norm() / std::sqrt(base.rank);
-  c.heldout_rmse_online = jointRmse(model, held, x_online_train, held_rows);
+  if (options.effects.effects.empty()) {
+    c.heldout_rmse_online = jointRmse(model, held, x_online_train, held_rows);
+  } else {
+    // The sidecar with the online values of its effect columns; held-out rows corrected by them.
+    EffectSet fitted = options.effects;
+    int e = 0;
+    for (Effect& ef : fitted.effects) {
+      if (isMeasurementEffect(ef.kind)) continue;
+      ef.value = x_online_train[m + e++];
+      c.effect_names.push_back(model.joint_names[ef.joint] + " " + effectKindName(ef.kind));
+      c.effect_values.push_back(ef.value);
+    }
+    LsqAccumulator held_fx(model, base, one);
+    const long fx_rows = accumulate(split, ticks.size(), held_fx, &fitted);
+    if (fx_rows <= 0) {
+      c.error = "the dataset pipeline refused the logged samples";
+      return c;
+    }
+    c.heldout_rmse_online = jointRmse(model, held_fx, x_online_train.head(m), fx_rows);
+    OnlineEstimatorOptions rigid = options;
+    rigid.effects = EffectSet{};
+    Eigen::VectorXd x_rigid;
+    if (!replay(split, x_rigid, rigid)) {
+      c.error = "online estimator options refused";
+      return c;
+    }
+    c.heldout_rmse_online_rigid = jointRmse(model, held, x_rigid, held_rows);
+  }
   c.heldout_rmse_batch = jointRmse(model, held, batch_train.phi_base, held_rows);
   c.heldout_rmse_prior = jointRmse(model, held, base.base_map * prior, held_rows);
   Eigen::VectorXd phi_live;
@@ -162,6 +202,13 @@ std::string summaryJsonWithEstimator(const std::string& summary_json, bool ran, 
     e["heldout_joint_rmse_online_nm"] = c.heldout_rmse_online;
     e["heldout_joint_rmse_batch_nm"] = c.heldout_rmse_batch;
     e["heldout_joint_rmse_prior_nm"] = c.heldout_rmse_prior;
+    if (c.heldout_rmse_online_rigid >= 0.0) {  // exo_estimator --effects: the online estimate with and without
+      e["heldout_joint_rmse_online_without_effects_nm"] = c.heldout_rmse_online_rigid;
+      nlohmann::ordered_json fx = nlohmann::ordered_json::array();
+      for (size_t i = 0; i < c.effect_names.size(); ++i)
+        fx.push_back({{"effect", c.effect_names[i]}, {"online_value", c.effect_values[i]}});
+      e["effects"] = fx;
+    }
     e["live_estimate_read"] = c.live_read;
     e["base_param_diff_live_vs_batch"] = c.param_diff_live_batch;
     e["base_param_diff_live_vs_batch_prior_sigmas"] = c.param_diff_live_batch_sigma;
@@ -193,7 +240,20 @@ std::string onlineVsBatchTable(bool ran, const OnlineVsBatch& c) {
                 c.heldout_rmse_batch > 0 ? c.heldout_rmse_online / c.heldout_rmse_batch : 0.0,
                 pct(c.param_diff_live_batch).c_str(), c.param_diff_live_batch_sigma, c.param_diff_replay_batch_sigma,
                 pct(c.param_diff_live_replay).c_str(), c.param_diff_live_replay_sigma);
-  return buf;
+  std::string rows = buf;
+  if (c.heldout_rmse_online_rigid >= 0.0) {
+    std::string values;
+    for (size_t i = 0; i < c.effect_names.size(); ++i) {
+      std::snprintf(buf, sizeof buf, "%s%s %.4g", i ? ", " : "", c.effect_names[i].c_str(), c.effect_values[i]);
+      values += buf;
+    }
+    std::snprintf(buf, sizeof buf,
+                  "| held-out joint-torque RMSE, online with the --effects sidecar / without | %.4f / %.4f N m | |\n"
+                  "| online effect values (training part) | %s | |\n",
+                  c.heldout_rmse_online, c.heldout_rmse_online_rigid, values.empty() ? "(gains only)" : values.c_str());
+    rows += buf;
+  }
+  return rows;
 }
 
 }  // namespace exoid::tools

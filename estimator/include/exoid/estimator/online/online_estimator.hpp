@@ -24,6 +24,7 @@
 
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/diagnose.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
 #include "exoid/estimator/online/row_filter.hpp"
 #include "exoid/model/model.hpp"
@@ -71,6 +72,13 @@ struct OnlineEstimatorOptions {
   double change_baseline_s = 10.0;
   double change_hold_s = 2.0;
   double change_keep = 1e-3;
+  /// Effects of an `exoid diagnose` sidecar (estimator::readEffects; docs/estimator.md "Extra columns"). Each
+  /// dynamics effect (viscous, coulomb, stribeck, offset, armature) is one extra parameter after the base
+  /// parameters, column estimator::effectColumns at the sample's state, prior 0 with one-sigma
+  /// effect_prior_factor x |sidecar value| + 1e-6; a gain corrects the torque sensor's part of y
+  /// (correctMeasurement); a delay is refused (it needs the torque's future). Empty: the rigid model alone.
+  EffectSet effects;
+  double effect_prior_factor = 10.0;
 };
 
 /// What happened to one input message.
@@ -136,12 +144,15 @@ class OnlineEstimator {
   // Inspection (tests, tools).
   const RecursiveLsModel& rlsModel() const { return rls_model_; }
   const RecursiveLsData& rlsData() const { return rls_; }
-  const Eigen::VectorXd& baseEstimate() const { return rls_.x; }    ///< [m] after publish
+  const Eigen::VectorXd& baseEstimate() const { return rls_.x; }    ///< [m + ne] after publish (effects last)
+  int baseParameterCount() const { return m_base_; }   ///< m: the rigid model's base parameters
+  int effectColumnCount() const { return ne_; }        ///< ne: the sidecar's extra columns (0 without one)
   const Eigen::VectorXd& params() const { return phi_; }           ///< [p] after publish
   const Eigen::VectorXd& baseStddev() const { return rls_.sigma; } ///< [m] after publish
-  const Eigen::VectorXd& priorBaseStddev() const { return prior_sigma_; }  ///< [m] sqrt(diag Lambda0^-1)
+  const Eigen::VectorXd& priorBaseStddev() const { return prior_sigma_; }  ///< [m + ne] sqrt(diag Lambda0^-1)
   const Eigen::MatrixXd& priorInformation() const { return rls_model_.prior_information; }
-  /// Last filtered equations handed to the update (tick, K [nv x p], y [nv]); valid when lastRowTick() >= 0.
+  /// Last filtered equations handed to the update (tick, [K | E] [nv x (p + ne)], y [nv], gains corrected); valid
+  /// when lastRowTick() >= 0.
   long lastRowTick() const { return row_tick_; }
   const Eigen::MatrixXd& lastK() const { return Kf_; }
   const Eigen::VectorXd& lastY() const { return yf_; }
@@ -165,6 +176,8 @@ class OnlineEstimator {
   void tryProcess();
   void process();
   void fold();  // Selective: forgetting step and new block
+  std::vector<double> effectSignature() const;  // the sidecar as the checkpoint records it
+  std::string describeEffects(const std::vector<double>& signature) const;
 
   const Model& model_;
   OnlineEstimatorOptions opt_;
@@ -175,6 +188,12 @@ class OnlineEstimator {
 
   RecursiveLsModel rls_model_;
   RecursiveLsData rls_;
+  int m_base_ = 0, ne_ = 0;     ///< base parameters; extra (effect) columns after them
+  bool effects_ = false;        ///< a sidecar is applied (columns and/or gains)
+  std::vector<unsigned char> ff_effect_;  ///< [ne] the column enters tau_ff (all but armature)
+  std::vector<int> effect_row_;           ///< [ne] the coordinate (joint row) column e touches
+  Eigen::MatrixXd Kx_;          ///< [nv x (p + ne)] [K | E] of the sample (only with effect columns)
+  Eigen::VectorXd tau_sensor_;  ///< [nv] the torque sensors' part of y (gain correction)
   CausalRowFilter filter_;
   Eigen::VectorXd phi_;         ///< [p] standard parameters of the last publication
   bool adaptive_weights_ = false;  ///< WLS-R: g_c = 1 / sigma_c from the previous solve's residuals

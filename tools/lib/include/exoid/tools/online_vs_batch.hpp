@@ -6,6 +6,7 @@
 // OnlineEstimator code and options over the logged sensor messages).
 #include <Eigen/Core>
 #include <string>
+#include <vector>
 
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/model.hpp"
@@ -28,6 +29,12 @@ struct OnlineVsBatch {
   double param_diff_live_replay = -1.0;    ///< |B (phi_live - phi_replay)| / |B phi_replay|: what the live process lost
   double param_diff_live_replay_sigma = -1.0;  ///< the same in prior sigmas (RMS)
   double param_diff_replay_batch_sigma = -1.0; ///< replay (all logged samples) vs batch, prior sigmas (RMS)
+  /// With a diagnose sidecar in the options (exo_estimator --effects): heldout_rmse_online is the estimate with
+  /// its effect columns, judged on held-out rows from which the effects at the estimated values were subtracted
+  /// (and gains divided out: estimator::EffectCorrector); this is the same replay without the sidecar (-1: none).
+  double heldout_rmse_online_rigid = -1.0;
+  std::vector<std::string> effect_names;  ///< "joint kind" per effect column
+  std::vector<double> effect_values;      ///< the online estimate of each after the training part
 };
 
 /// publish_every: exo_estimator's publication step (the replay publishes alike). live_csv: exo_estimator --final output (name,prior,estimate,stddev); "" or unreadable: the live figures are
