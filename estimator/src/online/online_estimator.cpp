@@ -419,7 +419,7 @@ void OnlineEstimator::prepare(EstimatorOutputSample& out) const {
 }
 
 void OnlineEstimator::publish(EstimatorOutputSample& out) {
-  const int m = rls_model_.m, nv = model_.nv;
+  const int nv = model_.nv;
   const bool selective = opt_.forgetting == Forgetting::Selective;
   // WLS-R (thesis eqs. 29-32) online: sigma_c from the previous solve's residuals over the whole memory. The
   // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history.
