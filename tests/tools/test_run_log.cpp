@@ -272,6 +272,40 @@ TEST_F(DamagedLogTest, ExportRefusesADamagedLogUnlessAllowPartial) {
   EXPECT_EQ(csv.rows.size(), 28u);  // tick 10 lost its state, tick 29 its left plate
 }
 
+// The true-CoM figures against a direct computation: the true CoM off the reference by a horizontal wiggle
+// and a vertical offset of 20 mm plus a small drift; the relative figure leaves out the offset at the first tick.
+TEST_F(RunLogTest, TrueComFiguresAgainstADirectComputation) {
+  tools::RunLog log;
+  double sq = 0.0, sq_xy = 0.0, sq_rel = 0.0;
+  const int n = 200;
+  for (int64_t k = 0; k < n; ++k) {
+    GroundTruthSample t;
+    t.tick = k;
+    t.base_position = Eigen::Vector3d(0, 0, 1.0);
+    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
+    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    t.foot_moment = t.foot_force;
+    ControllerStatusSample st;
+    st.tick = k;
+    st.move_index = 0;
+    st.com_ref = Eigen::Vector3d(0.001 * static_cast<double>(k), -0.02, 0.9);
+    const double ex = 0.003 * std::sin(0.1 * static_cast<double>(k)), ez = 0.020 + 1e-5 * static_cast<double>(k);
+    t.com = st.com_ref + Eigen::Vector3d(ex, 0.0, ez);
+    sq += ex * ex + ez * ez;
+    sq_xy += ex * ex;
+    sq_rel += ex * ex + (ez - 0.020) * (ez - 0.020);
+    log.truth.push_back(t);
+    log.status.push_back(st);
+  }
+  tools::RunFacts facts;
+  const tools::ExperimentSummary s = tools::summarizeExperiment(model_, log, facts);
+  EXPECT_NEAR(s.true_com_rmse_m, std::sqrt(sq / n), 1e-15);
+  EXPECT_NEAR(s.true_com_rmse_xy_m, std::sqrt(sq_xy / n), 1e-15);
+  EXPECT_NEAR(s.true_com_rmse_rel_m, std::sqrt(sq_rel / n), 1e-15);
+  EXPECT_GT(s.true_com_rmse_m, 5.0 * s.true_com_rmse_rel_m);  // the offset dominates the absolute figure
+  EXPECT_NE(tools::summaryJson(s).find("\"true_com_rmse_rel_m\""), std::string::npos);
+}
+
 // The summary's figures against an independent count on a synthetic run: 150 ticks simulated, the log holds
 // ticks 0..99 (the logger died), the robot "fell" at tick 80 during the third move.
 TEST_F(RunLogTest, SummaryFiguresAreMeasuredAgainstTheSimulatedRunNotTheLog) {
