@@ -197,8 +197,13 @@ void BalanceController::updateDynamics(const State& state) {
   Eigen::Vector3d com, com_velocity;
   Vector6d momentum;
   centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
-  // The estimate's vertical CoM offset moves the reference height with it: with straight knees the stance,
-  // not the controller, sets the height, so only the horizontal CoM changes what is tracked.
+  // The estimate's height is taken only when asked (use_com_height): the balance moves hardly identify it.
+  if (!cfg_.estimate.use_com_height) {
+    com.z() = dyn_.com.z();
+    com_velocity.z() = dyn_.com_velocity.z();
+  }
+  // A vertical CoM offset taken from the estimate moves the reference height with it: with straight knees the
+  // stance, not the controller, sets the height, so only the horizontal CoM changes what is tracked.
   vertical_shift_ = w * (com.z() - dyn_.com.z());
   vertical_shift_rate_ = w * (com_velocity.z() - dyn_.com_velocity.z());
   dyn_.mass += w * (mass - dyn_.mass);

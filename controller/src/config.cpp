@@ -282,11 +282,12 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
     {
       const char* n = "estimate";
       const auto s = r.section(root, n,
-                               {"enabled", "use_feedforward", "use_com", "max_abs", "max_age_ticks", "blend_time",
+                               {"enabled", "use_feedforward", "use_com", "use_com_height", "max_abs", "max_age_ticks", "blend_time",
                                 "max_relative_mass_change"});
       r.boolean(s, n, "enabled", c.estimate.enabled);
       r.boolean(s, n, "use_feedforward", c.estimate.use_feedforward);
       r.boolean(s, n, "use_com", c.estimate.use_com);
+      r.boolean(s, n, "use_com_height", c.estimate.use_com_height);
       r.number(s, n, "max_abs", c.estimate.max_abs);
       r.integer(s, n, "max_age_ticks", c.estimate.max_age_ticks);
       r.number(s, n, "blend_time", c.estimate.blend_time);

@@ -295,9 +295,11 @@ TEST_F(FallbackTest, UnusableEstimatesAreRefusedByReasonAndWithdrawTheCurrentOne
 TEST_F(FallbackTest, EstimatedComBlendsInWithoutAKickAndIsTracked) {
   // An estimate with 3 kg more on the base link, 10 cm to the side: the controller's CoM moves to the
   // estimate's (centroidal with its parameters, independent of the controller) over blend_time, smoothly.
+  // With use_com_height (below, without: the estimate's horizontal CoM at the model's height).
   ControllerConfig cfg = cfg_;
   cfg.estimate.blend_time = 0.3;
   cfg.estimate.use_feedforward = false;  // the CoM alone
+  cfg.estimate.use_com_height = true;
   make(cfg);
   int64_t k = settle();
   EstimatorOutputSample e = modelEstimate(model_, k);
@@ -326,6 +328,29 @@ TEST_F(FallbackTest, EstimatedComBlendsInWithoutAKickAndIsTracked) {
   EXPECT_LT(max_step, 1.5 * 1.5 * shift / n + 2e-5);
   // The reference height moved with the estimate's height (horizontal reference unchanged).
   EXPECT_NEAR(st_.com_ref.z() - st_.com.z(), 0.0, 2e-3);
+
+  // Default (use_com_height off): the estimate's horizontal CoM, the model's height; the reference height stays.
+  ASSERT_FALSE(cfg_.estimate.use_com_height);
+  cfg.estimate.use_com_height = false;
+  make(cfg);
+  k = settle();
+  const double ref_z = st_.com_ref.z();
+  for (int i = 0; i < n + 20; ++i) {
+    e.tick = k;
+    ASSERT_TRUE(ctrl_->setEstimate(e));
+    tick(k++);
+  }
+  EXPECT_EQ(st_.estimate.weight, 1.0);
+  s = ctrl_->observer().state();
+  forwardKinematics(model_, dd.kin, s);
+  centroidal(model_, e.params, dd);
+  const Eigen::Vector3d est = s.base_position + s.base_orientation.toRotationMatrix() * dd.com;
+  centroidal(model_, model_.phi, dd);
+  const Eigen::Vector3d mod = s.base_position + s.base_orientation.toRotationMatrix() * dd.com;
+  EXPECT_GT(std::abs(est.z() - mod.z()), 1e-3);  // the estimate does move the height: it is left out
+  EXPECT_LT((st_.com.head<2>() - est.head<2>()).norm(), 1e-9);
+  EXPECT_NEAR(st_.com.z(), mod.z(), 1e-9);
+  EXPECT_NEAR(st_.com_ref.z(), ref_z, 1e-3);
 }
 
 TEST_F(FallbackTest, ImpossibleTrajectoryIsReportedAndTheStartIsHeld) {
