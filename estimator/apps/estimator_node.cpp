@@ -1,6 +1,8 @@
 #include "estimator_node.hpp"
 
 #include <exoid/lcm/channels.hpp>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 
 namespace exoid::estimator {
@@ -24,21 +26,38 @@ EstimatorNode::EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimat
   toLcm(out_, param_names_, coord_names_, out_msg_);  // sizes the message once
   lcm_.reserve(static_cast<size_t>(out_msg_.getEncodedSize()) + 1024);
   last_checkpoint_ = last_state_ = std::chrono::steady_clock::now();
-  lcm_.subscribeRaw(channels::kState, [this](const char*, const void* data, int size, int64_t) {
-    last_state_ = std::chrono::steady_clock::now();
-    if (gate_.admitEncoded(ch_state_, data, size, state_msg_, state_, nullptr, joint_names_)) {
-      est_.addState(state_);
-      maybePublish();
-    }
-  });
+  if (opt_.raw_udpm && lcm_.url().rfind("udpm://", 0) == 0) {
+    receiver_ = lcmwire::UdpmReceiver::open(lcm_.url(), opt_.recv_buffer_bytes, &error_);
+    if (!receiver_) return;
+    // Every channel of the group arrives here (commands, truth, our own estimates): only ours are decoded.
+    raw_handler_ = [this](const std::string& channel, const uint8_t* data, size_t size, int64_t) {
+      const int n = static_cast<int>(size);
+      if (channel == channels::kState) onState(data, n);
+      else if (channel == channels::kPlateRight) onPlate(0, data, n);
+      else if (channel == channels::kPlateLeft) onPlate(1, data, n);
+    };
+    return;
+  }
+  lcm_.subscribeRaw(channels::kState,
+                    [this](const char*, const void* data, int size, int64_t) { onState(data, size); });
   for (int i = 0; i < 2; ++i)
     lcm_.subscribeRaw(i == 0 ? channels::kPlateRight : channels::kPlateLeft,
-                      [this, i](const char*, const void* data, int size, int64_t) {
-                        if (gate_.admitEncoded(ch_plate_[i], data, size, plate_msg_, plate_, nullptr, i)) {
-                          est_.addPlate(plate_);
-                          maybePublish();
-                        }
-                      });
+                      [this, i](const char*, const void* data, int size, int64_t) { onPlate(i, data, size); });
+}
+
+void EstimatorNode::onState(const void* data, int size) {
+  last_state_ = std::chrono::steady_clock::now();
+  if (gate_.admitEncoded(ch_state_, data, size, state_msg_, state_, nullptr, joint_names_)) {
+    est_.addState(state_);
+    maybePublish();
+  }
+}
+
+void EstimatorNode::onPlate(int i, const void* data, int size) {
+  if (gate_.admitEncoded(ch_plate_[i], data, size, plate_msg_, plate_, nullptr, i)) {
+    est_.addPlate(plate_);
+    maybePublish();
+  }
 }
 
 void EstimatorNode::maybePublish() {
@@ -91,8 +110,18 @@ bool EstimatorNode::writeCheckpoint(std::string* error) {
 }
 
 int EstimatorNode::poll(int timeout_ms, std::string* error) {
-  const int n = lcm_.handleTimeout(timeout_ms, error);
-  if (n < 0) return n;
+  int n = 0;
+  if (receiver_) {
+    const long r = receiver_->poll(timeout_ms, raw_handler_);
+    if (r < 0) {
+      if (error) *error = std::string("receive: poll failed: ") + std::strerror(errno);
+      return -1;
+    }
+    n = r > 0 ? 1 : 0;
+  } else {
+    n = lcm_.handleTimeout(timeout_ms, error);
+    if (n < 0) return n;
+  }
   if (!opt_.checkpoint.empty() && opt_.checkpoint_every_s > 0.0 &&
       std::chrono::duration<double>(std::chrono::steady_clock::now() - last_checkpoint_).count() >=
           opt_.checkpoint_every_s)

@@ -9,7 +9,10 @@
 #include <exoid/lcm/adapters.hpp>
 #include <exoid/lcm/lcm_endpoint.hpp>
 #include <exoid/lcm/message_gate.hpp>
+#include <memory>
 #include <string>
+
+#include "lcm_wire.hpp"
 
 #include "exoid/estimator/online/online_estimator.hpp"
 
@@ -23,12 +26,22 @@ struct NodeOptions {
   /// the first publication after it ends (so samples keep being received meanwhile); false: in the publishing
   /// call, deterministic (tests comparing the node with an estimator fed directly).
   bool reconcile_async = true;
+  /// On a udpm:// endpoint, receive from the node's own socket (lcmwire::UdpmReceiver: the kernel buffer holds
+  /// bursts while the process is descheduled; LCM 1.3.1's lcm_handle ring drops them: 7-28 % of the samples in
+  /// loaded lockstep runs, docs/estimator.md). Other URLs (memq://) always use the endpoint's subscriptions.
+  bool raw_udpm = true;
+  size_t recv_buffer_bytes = size_t{64} << 20;  ///< kernel receive buffer of the raw socket
 };
 
 class EstimatorNode {
  public:
-  /// Subscribes on `lcm` (which must outlive the node).
+  /// Subscribes on `lcm` (which must outlive the node), or opens its own socket on lcm's udpm:// group
+  /// (options.raw_udpm). Check ok() / error() afterwards (the socket may fail to join).
   EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimator& estimator, const NodeOptions& options);
+  bool ok() const { return error_.empty(); }
+  const std::string& error() const { return error_; }
+  /// Receiving through the raw socket (else the endpoint's subscriptions).
+  bool rawReceive() const { return receiver_ != nullptr; }
 
   /// Restores the checkpoint when its file exists. False with *error when it exists but is refused (another
   /// estimator's, damaged): the caller decides (exo_estimator exits 2 rather than silently starting over).
@@ -51,7 +64,12 @@ class EstimatorNode {
 
  private:
   void maybePublish();
+  void onState(const void* data, int size);
+  void onPlate(int i, const void* data, int size);
   LcmEndpoint& lcm_;
+  std::string error_;
+  std::unique_ptr<lcmwire::UdpmReceiver> receiver_;
+  lcmwire::UdpmReceiver::Handler raw_handler_;
   const Model& model_;
   OnlineEstimator& est_;
   NodeOptions opt_;

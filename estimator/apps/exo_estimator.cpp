@@ -238,6 +238,10 @@ int main(int argc, char** argv) {
   nopt.checkpoint = checkpoint;
   nopt.checkpoint_every_s = checkpoint_every_s;
   EstimatorNode node(*lcm, model, est, nopt);
+  if (!node.ok()) {
+    std::fprintf(stderr, "exo_estimator: LCM: %s\n", node.error().c_str());
+    return kExitRuntime;
+  }
 
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
