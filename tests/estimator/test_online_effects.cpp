@@ -22,6 +22,7 @@
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/sim/config.hpp"
+#include "recorded_run.hpp"
 #include "sim_closed_loop.hpp"
 
 namespace exoid::estimator {
@@ -29,29 +30,10 @@ namespace {
 
 using controller::testing::configPath;
 
-struct Log {
-  std::vector<RobotStateSample> states;
-  std::vector<std::array<ForcePlateSample, 2>> plates;
-};
+using Log = testing::RecordedRun;
 
 Log record(const Model& model, uint64_t seed, int moves, const char* scenario_file) {
-  Log log;
-  controller::ControllerConfig cfg;
-  std::string err;
-  EXPECT_TRUE(controller::testing::loadConfig(cfg, &err)) << err;
-  cfg.trajectory.moves = moves;
-  sim::Scenario scenario;
-  EXPECT_TRUE(sim::loadScenario(configPath(scenario_file), &scenario, &err)) << err;
-  const auto m = controller::testing::runScenarioClosedLoop(
-      model, cfg, scenario, seed, &err,
-      [&](long, const sim::SimModel&, const sim::SimData& sd, const controller::BalanceController&,
-          const controller::ControllerStatus&) {
-        log.states.push_back(sd.state);
-        log.plates.push_back({sd.plates[0], sd.plates[1]});
-      });
-  EXPECT_TRUE(m.loaded) << err;
-  EXPECT_FALSE(m.fell);
-  return log;
+  return testing::recordRun(model, seed, moves, scenario_file);
 }
 
 // The held-out rows: exoid diagnose's pipeline for the exoskeleton (sensors only, the one zero-phase 5 Hz filter on

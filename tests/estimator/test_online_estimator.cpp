@@ -23,6 +23,7 @@
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/sim/config.hpp"
+#include "recorded_run.hpp"
 #include "sim_closed_loop.hpp"
 
 namespace exoid::estimator {
@@ -30,10 +31,7 @@ namespace {
 
 using controller::testing::configPath;
 
-struct Log {
-  std::vector<RobotStateSample> states;
-  std::vector<std::array<ForcePlateSample, 2>> plates;
-};
+using Log = testing::RecordedRun;
 
 struct Fixture {
   Model model;
@@ -54,25 +52,7 @@ Eigen::VectorXd perturbedPrior(const Model& model, uint64_t seed) {
 
 Log record(const Model& model, uint64_t seed, int moves, const char* scenario_file = "scenarios/nominal.yaml",
            double attach_at_s = -1.0) {
-  Log log;
-  controller::ControllerConfig cfg;
-  std::string err;
-  EXPECT_TRUE(controller::testing::loadConfig(cfg, &err)) << err;
-  cfg.trajectory.moves = moves;
-  sim::Scenario scenario;
-  EXPECT_TRUE(sim::loadScenario(configPath(scenario_file), &scenario, &err)) << err;
-  if (attach_at_s >= 0.0)
-    for (auto& p : scenario.effects.payloads) p.attach_at_s = attach_at_s;
-  const auto m = controller::testing::runScenarioClosedLoop(
-      model, cfg, scenario, seed, &err,
-      [&](long, const sim::SimModel&, const sim::SimData& sd, const controller::BalanceController&,
-          const controller::ControllerStatus&) {
-        log.states.push_back(sd.state);
-        log.plates.push_back({sd.plates[0], sd.plates[1]});
-      });
-  EXPECT_TRUE(m.loaded) << err;
-  EXPECT_FALSE(m.fell);
-  return log;
+  return testing::recordRun(model, seed, moves, scenario_file, attach_at_s);
 }
 
 const Fixture& fixture() {
