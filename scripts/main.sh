@@ -53,7 +53,7 @@ rows = [
     ("online / batch", "%.3f" % (e["heldout_joint_rmse_online_nm"] / e["heldout_joint_rmse_batch_nm"]), "1", ""),
     ("final estimate vs batch (whole run), base params, RMS in prior sigmas",
      "live %.2f, replay %.2f" % (e["base_param_diff_live_vs_batch_prior_sigmas"], e["base_param_diff_replay_vs_batch_prior_sigmas"]), "0", ""),
-    ("live vs replay of the log (samples lost over UDP), prior sigmas", "%.2f" % e["base_param_diff_live_vs_replay_prior_sigmas"], "", ""),
+    ("live (consistent phi) vs replay (base estimate), prior sigmas", "%.2f" % e["base_param_diff_live_vs_replay_prior_sigmas"], "", ""),
 ]
 print("| %-72s | %-22s | %-22s | %-8s |" % ("", "online", "batch WLS-RC", "prior"))
 print("|" + "-" * 74 + "|" + "-" * 24 + "|" + "-" * 24 + "|" + "-" * 10 + "|")

@@ -235,7 +235,7 @@ std::string onlineVsBatchTable(bool ran, const OnlineVsBatch& c) {
                 "(online / batch %.3f) | online <= 1.02 x batch |\n"
                 "| final online (live) vs batch, base parameters | %s, RMS %.3f prior sigmas | |\n"
                 "| final online (replay of the log) vs batch, base parameters | RMS %.3f prior sigmas | |\n"
-                "| live estimator vs its replay (samples lost over UDP) | %s, RMS %.3f prior sigmas | ~0 |\n",
+                "| live estimator (B phi of its consistent phi) vs its replay (base estimate) | %s, RMS %.3f prior sigmas | consistent projection (misfit ratio <= 2) + lost samples |\n",
                 c.batch_rank, c.base_params, c.heldout_rmse_online, c.heldout_rmse_batch, c.heldout_rmse_prior,
                 c.heldout_rmse_batch > 0 ? c.heldout_rmse_online / c.heldout_rmse_batch : 0.0,
                 pct(c.param_diff_live_batch).c_str(), c.param_diff_live_batch_sigma, c.param_diff_replay_batch_sigma,
