@@ -48,7 +48,7 @@ double rmse(const nlohmann::json& js, const std::string& name, const char* which
 
 TEST(DiagnoseScenarios, SeededEffectsAreNamedAndTheCleanRunGivesNoFinding) {
   test::TempDir clean_dir("diagnose_clean"), viscous_dir("diagnose_viscous"), coulomb_dir("diagnose_coulomb"),
-      gain_dir("diagnose_gain");
+      gain_dir("diagnose_gain"), hip_dir("diagnose_hip");
   const nlohmann::json clean = diagnoseScenario("clean_seed11", clean_dir);
   ASSERT_FALSE(clean.is_null());
   EXPECT_TRUE(clean["findings"].empty()) << clean["findings"].dump(1);
@@ -90,6 +90,17 @@ TEST(DiagnoseScenarios, SeededEffectsAreNamedAndTheCleanRunGivesNoFinding) {
   EXPECT_EQ(gain["findings"][0]["kind"], "gain");
   EXPECT_NEAR(gain["findings"][0]["value"].get<double>(), 0.10, 0.01);
   EXPECT_LE(rmse(gain, "left_knee"), 1.2 * rmse(clean, "left_knee"));
+
+  // Viscous friction on the slow hip flexion (v_rms 0.06 rad/s, where viscous and tanh(v / w) overlap): the kind is
+  // chosen by held-out gain once the joint's effect is established (docs/diagnose.md; before stop 7 it was named
+  // Coulomb because the viscous column's own test missed the Bonferroni level by 15 %). Measured 10.1, 97 %.
+  const nlohmann::json hip = diagnoseScenario("viscous_left_hip_fe_10", hip_dir);
+  ASSERT_FALSE(hip.is_null());
+  ASSERT_EQ(hip["findings"].size(), 1u) << hip["findings"].dump(1);
+  EXPECT_EQ(hip["findings"][0]["joint"], "left_hip_fe");
+  EXPECT_EQ(hip["findings"][0]["kind"], "viscous");
+  EXPECT_NEAR(hip["findings"][0]["value"].get<double>(), 10.0, 1.5);
+  EXPECT_LE(rmse(hip, "left_hip_fe"), 1.2 * rmse(clean, "left_hip_fe"));
 }
 
 }  // namespace

@@ -77,6 +77,10 @@ struct DiagnoseOptions {
                                    ///< folds in turn (chunk i -> fold i mod folds), so every fold spans the run
   double alpha = 0.01;             ///< family-wise false-alarm rate per selection step (Bonferroni)
   double min_explained = 0.02;     ///< an effect must remove this fraction of its joint's held-out residual
+  /// Stribeck's static-excess column is named instead of Coulomb friction on a joint only when its held-out gain
+  /// exceeds Coulomb's by more than this fraction (it is a refinement of Coulomb friction; at the low speeds of
+  /// balancing the two columns nearly coincide).
+  double stribeck_margin = 0.1;
   int max_effects = 30;
   double torque_noise = -1.0;      ///< known torque noise sigma (N m) for the size check; < 0: estimated
 };
