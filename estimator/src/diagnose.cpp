@@ -490,6 +490,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         int c;
         double gain;
         bool admissible;
+        double separable;  // fraction of the column outside the declared (and accepted) columns' span
         Finding f;
       };
       std::vector<Eval> evals;
@@ -506,6 +507,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           if (step == 0) {
             CandidateScore sc;
             sc.effect = {cd.kind, cd.joint, 0.0};
+            sc.separable = col.squaredNorm() > 0.0 ? nrc / col.squaredNorm() : 0.0;
             sc.status = "not separable from the declared model";
             out.first_step.push_back(sc);
           }
@@ -540,6 +542,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         ev.c = c;
         ev.gain = mean;
         ev.admissible = admissibleValue(cd.kind, beta);
+        ev.separable = nrc / col.squaredNorm();
         ev.f.effect = {cd.kind, cd.joint, beta};
         ev.f.std_error = std::sqrt(std::max(sse_all, 0.0) / std::max(dof_res, 1.0) / nrc);
         ev.f.explained = den > 0 ? num / den : 0.0;
@@ -586,6 +589,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           sc.effect = ev.f.effect;
           sc.explained = ev.f.explained;
           sc.p_value = ev.f.p_value;
+          sc.separable = ev.separable;
           Eigen::VectorXd res(out.train_samples), sig(out.train_samples);
           long at = 0;
           for (size_t s = 0; s < train.size(); ++s)

@@ -189,9 +189,13 @@ TEST(Diagnose, CleanDataGiveNoFinding) {
 TEST(Diagnose, CandidatesInTheDeclaredSpanAreNotTested) {
   const DiagnosisResult res = runDiagnosis(31, 0.05, {});
   bool armature0 = false;
-  for (const CandidateScore& c : res.first_step)
-    if (c.effect.kind == EffectKind::Armature && c.effect.joint == 0)
+  for (const CandidateScore& c : res.first_step) {
+    if (c.effect.kind == EffectKind::Armature && c.effect.joint == 0) {
       armature0 = c.status == "not separable from the declared model";
+      EXPECT_LT(c.separable, 1e-6);  // the link's own Izz column
+    }
+    if (c.effect.kind == EffectKind::Viscous) EXPECT_GT(c.separable, 0.1);  // no declared column looks like v
+  }
   EXPECT_TRUE(armature0);
   DiagnoseOptions opt;
   opt.declared_friction = true;

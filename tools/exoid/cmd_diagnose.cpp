@@ -21,6 +21,8 @@
 namespace exoid::cli {
 
 namespace {
+// A candidate with less of its signal than this outside the declared model's span is reported as not visible.
+constexpr double kHiddenSeparable = 0.01;
 namespace est = exoid::estimator;
 namespace fs = std::filesystem;
 
@@ -262,11 +264,11 @@ int cmdDiagnose(int argc, char** argv) {
   {
     std::ofstream f;
     if (!open("candidates.csv", f)) return 2;
-    f << "joint,kind,value,unit,correlation,explained,p_value,status\n";
+    f << "joint,kind,value,unit,correlation,explained,p_value,separable,status\n";
     for (const est::CandidateScore& c : res.first_step)
       f << model.joint_names[c.effect.joint] << ',' << est::effectKindName(c.effect.kind) << ',' << c.effect.value << ','
-        << est::effectUnit(c.effect.kind) << ',' << c.correlation << ',' << c.explained << ',' << c.p_value << ",\""
-        << c.status << "\"\n";
+        << est::effectUnit(c.effect.kind) << ',' << c.correlation << ',' << c.explained << ',' << c.p_value << ','
+        << c.separable << ",\"" << c.status << "\"\n";
   }
   {
     std::ofstream f;
@@ -495,7 +497,31 @@ int cmdDiagnose(int argc, char** argv) {
                   est::effectUnit(c.effect.kind), c.correlation, 100 * c.explained, c.p_value, c.status.c_str());
     md << buf;
   }
-  md << "\n(all " << res.first_step.size() << " in candidates.csv)\n\n## Plots\n\n";
+  md << "\n(all " << res.first_step.size() << " in candidates.csv)\n\n";
+  // What these data cannot show: candidates almost entirely inside the declared model's span.
+  {
+    std::map<std::string, std::vector<const est::CandidateScore*>> hidden;
+    for (const est::CandidateScore& c : res.first_step)
+      if (c.separable < kHiddenSeparable) hidden[est::effectKindWords(c.effect.kind)].push_back(&c);
+    if (!hidden.empty()) {
+      md << "## What these data cannot show\n\nCandidates with less than " << 100 * kHiddenSeparable
+         << " % of their signal outside the span of the declared model's columns: whatever their size, the "
+            "identified rigid-body parameters absorb them (e.g. a constant torque on a joint of a robot that only "
+            "balances is a first-moment shift of the links around it). Motions that turn the joints through "
+            "large angles separate them.\n\n| kind | joints (fraction of the signal outside the span) |\n|---|---|\n";
+      for (const auto& [kind, list] : hidden) {
+        md << "| " << kind << " | ";
+        for (size_t i = 0; i < list.size(); ++i) {
+          std::snprintf(buf, sizeof buf, "%s%s (%.2g %%)", i ? ", " : "", model.joint_names[list[i]->effect.joint].c_str(),
+                        100 * list[i]->separable);
+          md << buf;
+        }
+        md << " |\n";
+      }
+      md << "\n";
+    }
+  }
+  md << "## Plots\n\n";
   if (plotted)
     md << "![RMSE per coordinate](rmse.png)\n\n![Residual against the chosen signal](residual_vs_signal.png)\n\n"
           "Each panel: the joint's residual against the signal of its first finding (or, without a finding, the best-correlated "

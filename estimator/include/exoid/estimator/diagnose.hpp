@@ -102,6 +102,10 @@ struct CandidateScore {
   double correlation = 0.0; ///< correlation of the declared model's residual with the signal (training)
   double explained = 0.0;   ///< held-out-fold fraction of its joint's residual removed
   double p_value = 1.0;
+  /// Fraction of the candidate's (weighted, training) signal outside the span of the declared model's columns:
+  /// only this part can show in the residual. Near 0: these motions cannot tell the effect from a change of the
+  /// rigid-body parameters (a constant torque on a balancing robot is a first-moment shift of its links), at any size.
+  double separable = 0.0;
   std::string status;       ///< "accepted", "not significant", "below min-explained", "inadmissible sign",
                             ///< "not separable from the declared model"
 };
