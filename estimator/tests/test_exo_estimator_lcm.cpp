@@ -38,6 +38,25 @@ void drain(EstimatorNode& node) {
   }
 }
 
+// Publishes `ticks` synthetic sensor ticks (state, right and left plates) of noise seed `seed` on `lcm`, the node
+// receiving each.
+void feedTicks(LcmEndpoint& lcm, EstimatorNode& node, const Model& model, uint64_t seed, long ticks) {
+  testing::SensorTick t = testing::makeSensorTick(model);
+  std::mt19937_64 rng(seed);
+  exoid_lcm::robot_state_t sm;
+  exoid_lcm::force_plate_t pm;
+  for (long k = 0; k < ticks; ++k) {
+    testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
+    toLcm(t.state, model.joint_names, sm);
+    lcm.publish(channels::kState, sm);
+    for (int i = 0; i < 2; ++i) {
+      toLcm(t.plate[i], pm);
+      lcm.publish(i == 0 ? channels::kPlateRight : channels::kPlateLeft, pm);
+    }
+    drain(node);
+  }
+}
+
 TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
   const ExoSetup& s = setup();
   const Model& model = s.model;
@@ -143,20 +162,7 @@ TEST(ExoEstimatorLcm, CheckpointIsWrittenAndResumed) {
     std::string err;
     ASSERT_TRUE(node.resume(&resumed, &err)) << err;
     EXPECT_FALSE(resumed);  // no file yet: a fresh start
-    testing::SensorTick t = testing::makeSensorTick(model);
-    std::mt19937_64 rng(4);
-    exoid_lcm::robot_state_t sm;
-    exoid_lcm::force_plate_t pm;
-    for (long k = 0; k < 150; ++k) {
-      testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
-      toLcm(t.state, model.joint_names, sm);
-      lcm.publish(channels::kState, sm);
-      for (int i = 0; i < 2; ++i) {
-        toLcm(t.plate[i], pm);
-        lcm.publish(i == 0 ? channels::kPlateRight : channels::kPlateLeft, pm);
-      }
-      drain(node);
-    }
+    feedTicks(lcm, node, model, 4, 150);
     ASSERT_TRUE(node.writeCheckpoint(&err)) << err;
     EXPECT_EQ(node.checkpointsWritten(), 1);
     accepted = est.rlsData().accepted;
@@ -203,20 +209,7 @@ TEST(ExoEstimatorLcm, CheckpointRecordsTheSidecarsEffects) {
     OnlineEstimator est(model, s.base, model.phi, opt);
     ASSERT_TRUE(est.ok()) << est.error();
     EstimatorNode node(lcm, model, est, nopt);
-    testing::SensorTick t = testing::makeSensorTick(model);
-    std::mt19937_64 rng(5);
-    exoid_lcm::robot_state_t sm;
-    exoid_lcm::force_plate_t pm;
-    for (long k = 0; k < 150; ++k) {
-      testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
-      toLcm(t.state, model.joint_names, sm);
-      lcm.publish(channels::kState, sm);
-      for (int i = 0; i < 2; ++i) {
-        toLcm(t.plate[i], pm);
-        lcm.publish(i == 0 ? channels::kPlateRight : channels::kPlateLeft, pm);
-      }
-      drain(node);
-    }
+    feedTicks(lcm, node, model, 5, 150);
     EstimatorOutputSample out;
     est.prepare(out);
     est.publish(out);  // a solve with every sample, then the checkpoint of the same state and weights
