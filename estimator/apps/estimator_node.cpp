@@ -7,6 +7,12 @@
 
 namespace exoid::estimator {
 
+namespace {
+// Datagrams handled per poll() on the raw socket (~0.1 s of a lockstep run's traffic): the caller's loop still
+// turns (checkpoints, the stop signal) when the sim outpaces the estimator; the kernel buffer keeps the rest.
+constexpr long kMaxDatagramsPerPoll = 4096;
+}  // namespace
+
 EstimatorNode::EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimator& estimator,
                              const NodeOptions& options)
     : lcm_(lcm),
@@ -112,7 +118,7 @@ bool EstimatorNode::writeCheckpoint(std::string* error) {
 int EstimatorNode::poll(int timeout_ms, std::string* error) {
   int n = 0;
   if (receiver_) {
-    const long r = receiver_->poll(timeout_ms, raw_handler_);
+    const long r = receiver_->poll(timeout_ms, raw_handler_, kMaxDatagramsPerPoll);
     if (r < 0) {
       if (error) *error = std::string("receive: poll failed: ") + std::strerror(errno);
       return -1;

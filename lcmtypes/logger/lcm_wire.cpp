@@ -129,9 +129,9 @@ UdpmReceiver::~UdpmReceiver() {
   if (fd_ >= 0) close(fd_);
 }
 
-long UdpmReceiver::drain(const Handler& handler) {
+long UdpmReceiver::drain(const Handler& handler, long max_datagrams) {
   long total = 0;
-  for (;;) {
+  while (max_datagrams <= 0 || total < max_datagrams) {
     for (int i = 0; i < kBatch; ++i) {
       iovs_[i] = {buffers_.data() + static_cast<size_t>(i) * kMaxPacket, kMaxPacket};
       msgs_[i].msg_hdr = {};
@@ -154,13 +154,14 @@ long UdpmReceiver::drain(const Handler& handler) {
     }
     total += n;
   }
+  return total;
 }
 
-long UdpmReceiver::poll(int timeout_ms, const Handler& handler) {
+long UdpmReceiver::poll(int timeout_ms, const Handler& handler, long max_datagrams) {
   pollfd pfd{fd_, POLLIN, 0};
   const int r = ::poll(&pfd, 1, timeout_ms);
   if (r < 0) return errno == EINTR ? 0 : -1;
-  return r > 0 ? drain(handler) : 0;
+  return r > 0 ? drain(handler, max_datagrams) : 0;
 }
 
 }  // namespace exoid::lcmwire

@@ -67,11 +67,13 @@ class UdpmReceiver {
   UdpmReceiver& operator=(const UdpmReceiver&) = delete;
 
   int fd() const { return fd_; }
-  /// Reads every datagram the kernel holds now (non-blocking) and hands each completed message to `handler`.
-  /// Returns the number of datagrams read.
-  long drain(const Handler& handler);
-  /// Waits up to timeout_ms (0: no wait) for a datagram, then drains. Returns datagrams read, -1 if poll failed.
-  long poll(int timeout_ms, const Handler& handler);
+  /// Reads the datagrams the kernel holds now (non-blocking), at most about max_datagrams (whole batches; <= 0:
+  /// until the socket is empty), and hands each completed message to `handler`. Returns the number read. A bound
+  /// keeps a caller's loop turning (checkpoints, signals) while a sender outpaces it.
+  long drain(const Handler& handler, long max_datagrams = 0);
+  /// Waits up to timeout_ms (0: no wait) for a datagram, then drains (max_datagrams as there). Returns datagrams
+  /// read, -1 if poll failed.
+  long poll(int timeout_ms, const Handler& handler, long max_datagrams = 0);
   long messages() const { return messages_; }
   long malformed() const { return reassembler_.malformed(); }
   long incomplete() const { return reassembler_.incomplete(); }
