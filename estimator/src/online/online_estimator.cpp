@@ -338,11 +338,15 @@ void OnlineEstimator::detectChange(long tick) {
   // The baseline is the mean's own long-run mean square: scale-free against how correlated the filtered
   // innovations are (the raw innovation's RMS would be sqrt(window / correlation time) too large).
   innovation_ms_ += a_ms * (innovation_mean_.cwiseAbs2() - innovation_ms_);
+  // The mean square started from 0 at the (re)arming: divide by the weight its samples have so far,
+  // 1 - (1 - a)^n, so that it is unbiased from the first samples (2 s of a 10 s baseline hold only 18 %).
+  ms_weight_ += a_ms * (1.0 - ms_weight_);
   ++change_samples_;
   if (rls_.solves == 0 || static_cast<double>(change_samples_) < opt_.change_hold_s * opt_.sample_hz) return;
   double z = 0.0;
   for (Eigen::Index c = 0; c < innovation_.size(); ++c)
-    if (innovation_ms_[c] > 0.0) z = std::max(z, std::abs(innovation_mean_[c]) / std::sqrt(innovation_ms_[c]));
+    if (innovation_ms_[c] > 0.0)
+      z = std::max(z, std::abs(innovation_mean_[c]) / std::sqrt(innovation_ms_[c] / ms_weight_));
   z_max_ = std::max(z_max_, z);
   if (!(z > opt_.change_threshold)) return;
   // The robot changed (a payload, a tool): keep change_keep of what the data said, the prior untouched.
@@ -358,6 +362,7 @@ void OnlineEstimator::detectChange(long tick) {
   change_samples_ = 0;
   innovation_mean_.setZero();
   innovation_ms_.setZero();  // the baseline restarts with the changed robot
+  ms_weight_ = 0.0;
 }
 
 void OnlineEstimator::fold() {

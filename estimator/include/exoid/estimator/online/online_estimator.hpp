@@ -255,6 +255,7 @@ class OnlineEstimator {
   Eigen::VectorXd innovation_, innovation_mean_, innovation_ms_;  ///< [nv]
   long change_samples_ = 0, changes_ = 0, last_change_tick_ = -1;
   double z_max_ = 0.0;
+  double ms_weight_ = 0.0;  ///< 1 - (1 - a)^n: the weight the baseline's samples have since the (re)arming
 };
 
 }  // namespace exoid::estimator
