@@ -1,23 +1,17 @@
 // exoid_logger: records every LCM message on a udpm:// group into an lcm-logger format file, without loss.
 // Debian's lcm-logger (LCM 1.3.1) drops bursts in its user-space receive ring when a lockstep simulation
 // publishes ~30k messages/s (the kernel had delivered every datagram); this receiver reads the socket in
-// batches (recvmmsg) straight into the event log, with a large kernel buffer, and drains it before exiting.
-#include <arpa/inet.h>
+// batches (recvmmsg) straight into the event log, with a large kernel buffer, and drains it before exiting
+// (lcmwire::UdpmReceiver, shared with exo_estimator).
 #include <lcm/eventlog.h>
 #include <netinet/in.h>
-#include <poll.h>
 #include <signal.h>
-#include <sys/socket.h>
-#include <sys/time.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <map>
 #include <string>
-#include <vector>
 
 #include "exoid/common/cli.hpp"
 #include "exoid/common/strict_number.hpp"
@@ -62,15 +56,14 @@ int main(int argc, char** argv) {
   if (out.empty()) return bad("--out FILE is required");
   in_addr group{};
   uint16_t port = 0;
-  std::string why;
-  if (!exoid::lcmwire::parseUdpmUrl(url, &group, &port, &why)) return bad("--lcm-url: " + why);
+  std::string why, hostport;
+  if (!exoid::lcmwire::parseUdpmUrl(url, &group, &port, &why, &hostport)) return bad("--lcm-url: " + why);
   if (!force && access(out.c_str(), F_OK) == 0) return bad("'" + out + "' exists (use --force to overwrite)");
   auto receiver = exoid::lcmwire::UdpmReceiver::open(url, static_cast<size_t>(buf_mb) << 20, &why);
   if (!receiver) {
     std::fprintf(stderr, "exoid_logger: error: %s\n", why.c_str());
     return 1;
   }
-  const std::string hostport = url.substr(7, url.find('?') == std::string::npos ? std::string::npos : url.find('?') - 7);
   lcm_eventlog_t* log = lcm_eventlog_create(out.c_str(), "w");
   if (!log) {
     std::fprintf(stderr, "exoid_logger: error: cannot write '%s'\n", out.c_str());

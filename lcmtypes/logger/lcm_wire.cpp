@@ -73,7 +73,7 @@ bool Reassembler::feed(uint64_t sender, const uint8_t* p, size_t n, Message* out
   return true;
 }
 
-bool parseUdpmUrl(const std::string& url, in_addr* group, uint16_t* port, std::string* why) {
+bool parseUdpmUrl(const std::string& url, in_addr* group, uint16_t* port, std::string* why, std::string* address) {
   if (url.rfind("udpm://", 0) != 0) {
     if (why) *why = "must be udpm://GROUP:PORT (got '" + url + "')";
     return false;
@@ -89,13 +89,15 @@ bool parseUdpmUrl(const std::string& url, in_addr* group, uint16_t* port, std::s
     return false;
   }
   *port = static_cast<uint16_t>(p);
+  if (address) *address = hostport;
   return true;
 }
 
 std::unique_ptr<UdpmReceiver> UdpmReceiver::open(const std::string& url, size_t buffer_bytes, std::string* why) {
   in_addr group{};
   uint16_t port = 0;
-  if (!parseUdpmUrl(url, &group, &port, why)) return nullptr;
+  std::string address;
+  if (!parseUdpmUrl(url, &group, &port, why, &address)) return nullptr;
   std::unique_ptr<UdpmReceiver> r(new UdpmReceiver());
   r->fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   const int one = 1;
@@ -113,8 +115,8 @@ std::unique_ptr<UdpmReceiver> UdpmReceiver::open(const std::string& url, size_t 
       bind(r->fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) < 0 ||
       setsockopt(r->fd_, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof mreq) < 0) {
     if (why)
-      *why = "cannot join " + url.substr(7, url.find('?') == std::string::npos ? std::string::npos : url.find('?') - 7) +
-             ": " + std::strerror(errno) + " (a network namespace needs 'ip route add 224.0.0.0/4 dev lo')";
+      *why = "cannot join " + address + ": " + std::strerror(errno) +
+             " (a network namespace needs 'ip route add 224.0.0.0/4 dev lo')";
     return nullptr;  // the destructor closes the socket
   }
   r->buffers_.resize(size_t{kBatch} * kMaxPacket);

@@ -46,9 +46,10 @@ class Reassembler {
   long incomplete_ = 0, malformed_ = 0;
 };
 
-/// GROUP and PORT of a udpm://GROUP:PORT[?params] URL. False with *why naming the problem (not udpm://, not a
-/// multicast group, a bad port).
-bool parseUdpmUrl(const std::string& url, in_addr* group, uint16_t* port, std::string* why);
+/// GROUP and PORT of a udpm://GROUP:PORT[?params] URL, and the "GROUP:PORT" text (address, optional). False with
+/// *why naming the problem (not udpm://, not a multicast group, a bad port).
+bool parseUdpmUrl(const std::string& url, in_addr* group, uint16_t* port, std::string* why,
+                  std::string* address = nullptr);
 
 /// A receiver of every message on one udpm:// group, straight from its own socket: a large kernel buffer
 /// (bursts while the process is descheduled wait there, where LCM 1.3.1's user-space ring of lcm_handle drops

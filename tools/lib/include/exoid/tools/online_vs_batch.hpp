@@ -26,7 +26,8 @@ struct OnlineVsBatch {
   double heldout_rmse_prior = 0.0;   ///< N m, the prior
   double param_diff_live_batch = 0.0;   ///< |B (phi_live - phi_batch)| / |B phi_batch|, whole run
   double param_diff_live_batch_sigma = 0.0;   ///< RMS over base parameters of |x_live - x_batch| / prior sigma_j
-  double param_diff_live_replay = -1.0;    ///< |B (phi_live - phi_replay)| / |B phi_replay|: what the live process lost
+  double param_diff_live_replay = -1.0;    ///< |B phi_live - x_replay| / |x_replay|: the live consistent phi's misfit
+                                           ///< against the replay's base estimate, plus what the live process lost
   double param_diff_live_replay_sigma = -1.0;  ///< the same in prior sigmas (RMS)
   double param_diff_replay_batch_sigma = -1.0; ///< replay (all logged samples) vs batch, prior sigmas (RMS)
   /// With a diagnose sidecar in the options (exo_estimator --effects): heldout_rmse_online is the estimate with
