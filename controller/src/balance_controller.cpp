@@ -197,7 +197,7 @@ void BalanceController::updateDynamics(const State& state) {
   Eigen::Vector3d com, com_velocity;
   Vector6d momentum;
   centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
-  // The estimate's height is taken only when asked (use_com_height): the balance moves hardly identify it.
+  // The estimate's height is taken only when asked (use_com_height, the default; docs/controller.md).
   if (!cfg_.estimate.use_com_height) {
     com.z() = dyn_.com.z();
     com_velocity.z() = dyn_.com_velocity.z();

@@ -329,8 +329,9 @@ TEST_F(FallbackTest, EstimatedComBlendsInWithoutAKickAndIsTracked) {
   // The reference height moved with the estimate's height (horizontal reference unchanged).
   EXPECT_NEAR(st_.com_ref.z() - st_.com.z(), 0.0, 2e-3);
 
-  // Default (use_com_height off): the estimate's horizontal CoM, the model's height; the reference height stays.
-  ASSERT_FALSE(cfg_.estimate.use_com_height);
+  // use_com_height off (the default is on): the estimate's horizontal CoM, the model's height; the reference
+  // height stays.
+  ASSERT_TRUE(cfg_.estimate.use_com_height);
   cfg.estimate.use_com_height = false;
   make(cfg);
   k = settle();

@@ -16,6 +16,7 @@
 #include "estimator_node.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/signal/filters.hpp"
 
 namespace {
 
@@ -71,7 +72,7 @@ int main(int argc, char** argv) {
          change_keep = estimator::OnlineEstimatorOptions{}.change_keep;
   double prior_relative = 0.25, cutoff = estimator::OnlineEstimatorOptions{}.cutoff_hz, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
          min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
-  int64_t forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
+  int64_t filter_order = estimator::OnlineEstimatorOptions{}.filter_order, forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
   double consistent_tolerance = 2.0, effect_prior_factor = 10.0;
   bool quiet = false;
 
@@ -90,9 +91,15 @@ int main(int argc, char** argv) {
                  "one-sigma relative uncertainty of every prior parameter (zero priors: their kind's scale)")
       ->transform(common::strictNumber(1e-6, 1e3))->type_name("R");
   app.add_option("--cutoff-hz", cutoff,
-                 "causal 2nd-order Butterworth applied alike to the regressor rows and the measured\n"
+                 "cutoff of the causal Butterworth applied alike to the regressor rows and the measured\n"
                  "generalized forces (0: none)")
       ->transform(common::strictNumber(0.0, 499.0))->type_name("HZ");
+  app.add_option("--filter-order", filter_order,
+                 "its order, even: 4 attenuates the twice-differenced encoder and once-differenced gyro\n"
+                 "noise in the rows, which biases the estimate (errors in the variables; docs/estimator.md)")
+      ->transform(common::strictInteger(2, Biquad::kMaxOrder))
+      ->check([](const std::string& s) { return std::stol(s) % 2 == 0 ? std::string() : std::string("must be even"); })
+      ->type_name("N");
   app.add_option("--forgetting", forgetting_name,
                  "none: exact minimiser of the batch regularised cost; stabilised: every direction's\n"
                  "data decays by --lambda per sample; selective: only the base-parameter axes the\n"
@@ -194,6 +201,7 @@ int main(int argc, char** argv) {
   }
   OnlineEstimatorOptions opt;
   opt.cutoff_hz = cutoff;
+  opt.filter_order = static_cast<int>(filter_order);
   opt.prior_relative = prior_relative;
   parseForgetting(forgetting_name, opt.forgetting);
   opt.lambda = lambda;
@@ -246,11 +254,11 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   if (!quiet)
-    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, cutoff %.1f Hz, EXO_ESTIMATE every %d samples%s, on %s\n",
+    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
                  base.rank,
                  effects_path.empty() ? ""
                                       : (" + " + std::to_string(est.effectColumnCount()) + " effect columns of " + effects_path).c_str(),
-                 forgettingName(opt.forgetting), cutoff, nopt.publish_every,
+                 forgettingName(opt.forgetting), cutoff, opt.filter_order, nopt.publish_every,
                  resumed ? (", resumed from " + checkpoint + " at tick " + std::to_string(est.rlsData().last_tick)).c_str() : "",
                  lcm->url().c_str());
 

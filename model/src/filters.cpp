@@ -1,30 +1,38 @@
 #include "exoid/signal/filters.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace exoid {
 
-Biquad Biquad::butterworthLowPass(double fc, double fs) {
+Biquad Biquad::butterworthLowPass(double fc, double fs) { return butterworthSection(fc, fs, 2, 0); }
+
+Biquad Biquad::butterworthSection(double fc, double fs, int order, int section) {
   const double k = std::tan(M_PI * fc / fs);  // pre-warped analogue cutoff
-  const double norm = 1.0 / (1.0 + M_SQRT2 * k + k * k);
+  // Analogue section s^2 + s / Q + 1 (order 2: 1 / Q = sqrt 2), bilinear transform.
+  const double inv_q = order == 2 ? M_SQRT2 : 2.0 * std::cos((2 * section + 1) * M_PI / (2.0 * order));
+  const double norm = 1.0 / (1.0 + inv_q * k + k * k);
   Biquad c;
   c.b0 = k * k * norm;
   c.b1 = 2.0 * c.b0;
   c.b2 = c.b0;
   c.a1 = 2.0 * (k * k - 1.0) * norm;
-  c.a2 = (1.0 - M_SQRT2 * k + k * k) * norm;
+  c.a2 = (1.0 - inv_q * k + k * k) * norm;
   return c;
 }
 
-void LowPassFilter::configure(int channels, double cutoff_hz, double sample_hz) {
-  x1_ = x2_ = y1_ = y2_ = Eigen::VectorXd::Zero(channels);
+void LowPassFilter::configure(int channels, double cutoff_hz, double sample_hz, int order) {
+  sections_ = std::clamp(order / 2, 1, Biquad::kMaxOrder / 2);
+  x1_ = x2_ = y1_ = y2_ = Eigen::MatrixXd::Zero(channels, sections_);
   initialized_ = false;
   pass_through_ = !(cutoff_hz > 0.0) || !(cutoff_hz < 0.5 * sample_hz);
-  c_ = pass_through_ ? Biquad() : Biquad::butterworthLowPass(cutoff_hz, sample_hz);
+  for (int s = 0; s < sections_; ++s)
+    c_[s] = pass_through_ ? Biquad() : Biquad::butterworthSection(cutoff_hz, sample_hz, 2 * sections_, s);
 }
 
 void LowPassFilter::reset(const Eigen::Ref<const Eigen::VectorXd>& value) {
-  x1_ = x2_ = y1_ = y2_ = value;
+  // Unit DC gain per section: every section's input and output rest at the value.
+  for (int s = 0; s < sections_; ++s) x1_.col(s) = x2_.col(s) = y1_.col(s) = y2_.col(s) = value;
   initialized_ = true;
 }
 
@@ -35,13 +43,17 @@ void LowPassFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& in, Eigen::R
   }
   if (!initialized_) reset(in);
   for (Eigen::Index i = 0; i < in.size(); ++i) {
-    const double x = in[i];
-    const double y = c_.b0 * x + c_.b1 * x1_[i] + c_.b2 * x2_[i] - c_.a1 * y1_[i] - c_.a2 * y2_[i];
-    x2_[i] = x1_[i];
-    x1_[i] = x;
-    y2_[i] = y1_[i];
-    y1_[i] = y;
-    out[i] = y;
+    double x = in[i];
+    for (int s = 0; s < sections_; ++s) {
+      const Biquad& c = c_[s];
+      const double y = c.b0 * x + c.b1 * x1_(i, s) + c.b2 * x2_(i, s) - c.a1 * y1_(i, s) - c.a2 * y2_(i, s);
+      x2_(i, s) = x1_(i, s);
+      x1_(i, s) = x;
+      y2_(i, s) = y1_(i, s);
+      y1_(i, s) = y;
+      x = y;  // the next section's input
+    }
+    out[i] = x;
   }
 }
 

@@ -253,11 +253,11 @@ int cmdExperiment(int argc, char** argv) {
                "sensors and publishing EXO_ESTIMATE; the summary compares it with a batch fit)");
   app.add_flag("--estimate-feedback", estimate_feedback,
                "let the controller use EXO_ESTIMATE while it is valid (feedforward in its dynamics,\n"
-               "the estimate's horizontal CoM in its momentum task; docs/controller.md). Off by default:\n"
+               "the estimate's CoM in its momentum task; docs/controller.md). Off by default:\n"
                "it pays where the controller's model is wrong (a +-25 % prior: joint-torque prediction\n"
-               "error 3.6x lower; payloads: horizontal true-CoM error 1.6-13x lower), while on an exact\n"
-               "model the estimate's noise costs a little (nominal: CoM RMSE 0.91 vs 0.37 mm;\n"
-               "docs/estimator.md, \"Closing the loop\")");
+               "error 5.7x lower, true-CoM error 9x; undeclared payloads: true-CoM error 2.8-6.4x lower in\n"
+               "7 of 8), while on an exact model the estimate's noise costs a little (nominal: true-CoM\n"
+               "RMSE 6.0 vs 0.37 mm; docs/estimator.md, \"Closing the loop\")");
   app.add_option("--estimator-args", estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
                  "the experiment's defaults, \"--forgetting none\". --effects FILE (a\n"

@@ -11,6 +11,7 @@
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/model/regressor.hpp"
+#include "exoid/signal/filters.hpp"
 
 namespace exoid::estimator {
 
@@ -55,6 +56,10 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   footholds_ = defaultFootholds(model);
   if (footholds_.empty()) {
     fail("the model needs right_sole / left_sole frames (base position from the legs)");
+    return;
+  }
+  if (opt_.filter_order < 2 || opt_.filter_order > Biquad::kMaxOrder || opt_.filter_order % 2 != 0) {
+    fail("filter order " + std::to_string(opt_.filter_order) + ": must be even, 2 to " + std::to_string(Biquad::kMaxOrder));
     return;
   }
   if (!(opt_.sample_hz > 0.0 && std::isfinite(opt_.sample_hz))) {
@@ -151,7 +156,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   rls_ = RecursiveLsData(rls_model_);
   adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
   initial_weights_ = rls_model_.row_weight;
-  filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz);
+  filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
   prior_sigma_ = Eigen::VectorXd::Zero(m + ne_);
   prior_sigma_.head(m) = Sx.diagonal().cwiseSqrt();
   for (int e = 0; e < ne_; ++e) prior_sigma_[m + e] = effect_sigma[e];
@@ -624,7 +629,7 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
   // The carried block information (selective forgetting) and the options that shape the estimate travel with
   // the recursive state; the structure check of loadRecursiveLs covers prior, weights and active sets.
   std::vector<double> extra = {double(static_cast<int>(opt_.forgetting)), opt_.lambda, double(opt_.forget_every),
-                               opt_.block_threshold, opt_.cutoff_hz, n_carry_, double(block_samples_)};
+                               opt_.block_threshold, opt_.cutoff_hz, double(opt_.filter_order), n_carry_, double(block_samples_)};
   extra.insert(extra.end(), R_.data(), R_.data() + R_.size());
   extra.insert(extra.end(), r_.data(), r_.data() + r_.size());
   extra.insert(extra.end(), rss_carry_.data(), rss_carry_.data() + rss_carry_.size());
@@ -672,7 +677,7 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
     return false;
   }
   const int m = rls_model_.m, nv = rls_model_.nv;
-  const size_t want = 7 + size_t(m) * m + m + nv + 5 + 1 + nv;
+  const size_t want = 8 + size_t(m) * m + m + nv + 5 + 1 + nv;
   // The sidecar first: a checkpoint of an estimator with other effects is refused by name.
   const std::vector<double> sig = effectSignature();
   const std::vector<double> file_sig(extra.begin() + std::ptrdiff_t(std::min(extra.size(), want)), extra.end());
@@ -687,11 +692,12 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
     return false;
   }
   if (extra[0] != double(static_cast<int>(opt_.forgetting)) || extra[1] != opt_.lambda ||
-      extra[2] != double(opt_.forget_every) || extra[3] != opt_.block_threshold || extra[4] != opt_.cutoff_hz) {
-    if (error) *error = path + ": written with other options (forgetting, lambda, block, threshold or cutoff differ)";
+      extra[2] != double(opt_.forget_every) || extra[3] != opt_.block_threshold || extra[4] != opt_.cutoff_hz ||
+      extra[5] != double(opt_.filter_order)) {
+    if (error) *error = path + ": written with other options (forgetting, lambda, block, threshold, cutoff or filter order differ)";
     return false;
   }
-  size_t i = 5;
+  size_t i = 6;
   n_carry_ = extra[i++];
   block_samples_ = long(extra[i++]);
   std::copy(extra.begin() + i, extra.begin() + i + m * m, R_.data());

@@ -2,10 +2,10 @@
 
 namespace exoid::estimator {
 
-void CausalRowFilter::configure(const RecursiveLsModel& model, double cutoff_hz, double sample_hz) {
+void CausalRowFilter::configure(const RecursiveLsModel& model, double cutoff_hz, double sample_hz, int order) {
   int channels = model.nv;
   for (const auto& cols : model.active) channels += static_cast<int>(cols.size());
-  filter_.configure(channels, cutoff_hz, sample_hz);
+  filter_.configure(channels, cutoff_hz, sample_hz, order);
   buffer_ = zero_ = Eigen::VectorXd::Zero(channels);
   started_ = false;
 }

@@ -1,5 +1,6 @@
 #pragma once
-// Second-order Butterworth low-pass filter (bilinear transform with pre-warping), the one filter of exoid:
+// Butterworth low-pass filter (bilinear transform with pre-warping; 2nd order, or an even order as a cascade of
+// 2nd-order sections), the one filter of exoid:
 // causal and sample by sample (controller, online estimator; allocation-free after configure) or in batch,
 // forward-backward for zero phase (offline identification, like MATLAB's filtfilt in the seed thesis,
 // section III-E), plus the differentiation that goes with it.
@@ -12,13 +13,19 @@ struct Biquad {
   double b0 = 1, b1 = 0, b2 = 0, a1 = 0, a2 = 0;
   /// 2nd-order Butterworth low-pass with unit DC gain; requires 0 < cutoff_hz < sample_hz / 2.
   static Biquad butterworthLowPass(double cutoff_hz, double sample_hz);
+  /// Section `section` (0-based) of an order-`order` Butterworth low-pass (order even, 2..kMaxOrder): the analogue
+  /// prototype's pole pair with quality factor Q_k = 1 / (2 cos((2k + 1) pi / (2 order))), unit DC gain. The
+  /// cascade of sections 0..order/2-1 is the order-`order` filter; order 2 is butterworthLowPass.
+  static Biquad butterworthSection(double cutoff_hz, double sample_hz, int order, int section);
+  static constexpr int kMaxOrder = 8;
 };
 
 /// Causal filter of a vector of independent channels.
 class LowPassFilter {
  public:
-  /// Sizes the state (allocates). cutoff_hz <= 0 or >= sample_hz / 2 makes a pass-through.
-  void configure(int channels, double cutoff_hz, double sample_hz);
+  /// Sizes the state (allocates). cutoff_hz <= 0 or >= sample_hz / 2 makes a pass-through. order: even, 2..8
+  /// (Biquad::kMaxOrder; others are clamped to the nearest valid one): a cascade of order / 2 sections.
+  void configure(int channels, double cutoff_hz, double sample_hz, int order = 2);
   /// State as if `value` had been the input forever (no start-up transient for a constant). If reset is
   /// never called, the first filtered sample does it.
   void reset(const Eigen::Ref<const Eigen::VectorXd>& value);
@@ -26,13 +33,16 @@ class LowPassFilter {
   void filter(const Eigen::Ref<const Eigen::VectorXd>& in, Eigen::Ref<Eigen::VectorXd> out);
 
   bool passThrough() const { return pass_through_; }
-  int channels() const { return static_cast<int>(x1_.size()); }
-  const Biquad& coefficients() const { return c_; }
+  int channels() const { return static_cast<int>(x1_.rows()); }
+  int order() const { return 2 * sections_; }
+  /// Coefficients of section `section` (the first by default; the only one at order 2).
+  const Biquad& coefficients(int section = 0) const { return c_[section]; }
 
  private:
-  Biquad c_;
+  Biquad c_[Biquad::kMaxOrder / 2];
+  int sections_ = 1;
   bool pass_through_ = true, initialized_ = false;
-  Eigen::VectorXd x1_, x2_, y1_, y2_;
+  Eigen::MatrixXd x1_, x2_, y1_, y2_;  ///< [channels x sections] each section's input and output history
 };
 
 /// Zero-phase filtering of every column of a signal [samples x width]: forward then backward pass, each

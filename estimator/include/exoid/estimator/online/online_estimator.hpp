@@ -43,7 +43,8 @@ bool parseForgetting(const std::string& name, Forgetting& f);
 
 struct OnlineEstimatorOptions {
   double sample_hz = 1000.0;     ///< tick rate of the samples
-  double cutoff_hz = 5.0;        ///< causal Butterworth on K rows and y; <= 0: none (5 Hz: docs/estimator.md)
+  double cutoff_hz = 2.0;        ///< causal Butterworth on K rows and y; <= 0: none (docs/estimator.md, "Filter")
+  int filter_order = 4;          ///< its order (even, 2..8): 4 makes twice-differenced noise in K integrable
   double prior_relative = 0.25;  ///< prior within +-this (relative) of each standard parameter (1 sigma)
   std::vector<double> row_weight;  ///< [nv] fixed row weights 1 / sigma_c; empty: WLS-R estimated online
                                    ///< (none / stabilised forgetting; ones with selective forgetting)
@@ -67,7 +68,7 @@ struct OnlineEstimatorOptions {
   /// max_c |mean_c| / rms_c > change_threshold the data
   /// the estimate holds are discounted to change_keep of their weight (discountRecursiveLs) and the estimate
   /// re-converges from the new data. Armed change_hold_s after the start and after each detection. <= 0: off.
-  double change_threshold = 20.0;
+  double change_threshold = 12.0;  // no-change maxima 4.1-6.4, a 3 kg payload 19 (docs/estimator.md)
   double change_window_s = 0.25;
   double change_baseline_s = 10.0;
   double change_hold_s = 2.0;
