@@ -43,6 +43,13 @@ bool admissibleValue(EffectKind k, double value) {
   }
 }
 
+EffectShape effectShape(const EffectShape& shape, const Effect& effect) {
+  EffectShape s = shape;
+  if (effect.width > 0.0 && (effect.kind == EffectKind::Coulomb || effect.kind == EffectKind::Stribeck))
+    s.coulomb_width = effect.width;
+  return s;
+}
+
 double effectSignal(EffectKind k, const EffectShape& shape, double v, double a, double tau_model, double dtau_model) {
   switch (k) {
     case EffectKind::Viscous: return v;
@@ -155,6 +162,7 @@ struct Candidate {
   EffectKind kind;
   int joint;
   int coord;
+  double width;  // Coulomb, Stribeck: the joint's profiled width (0: the shape's)
 };
 
 // Per-sample signals of one segment.
@@ -237,8 +245,23 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     return K.rows() != nv || K.cols() != p || y.size() != nv;
   };
 
-  // Pass A (training): factor of [K_decl | y], the excitation of every (coordinate, column), t, v, y.
+  // Pass A (training): factor of [K_decl | y], the excitation of every (coordinate, column), t, v, y; and per
+  // joint the sums of the width profile (below): K_j^T s, s^T s, s^T y_j (K_j: the joint's row of the declared
+  // columns) for the Coulomb and Stribeck signals s_w of every width w of the grid and for v, and s_w^T v.
   TriFactor fa(md + 1);
+  const std::vector<double> widths =
+      opt.coulomb_widths.empty() ? std::vector<double>{opt.shape.coulomb_width} : opt.coulomb_widths;
+  const int nw = static_cast<int>(widths.size()), ns2 = 2 * nw;  // signals: Coulomb per width, then Stribeck
+  struct Profile {
+    Eigen::MatrixXd B;  // [md x (ns2 + 1)]
+    Eigen::VectorXd cc, cy, cv;  // [ns2 + 1], [ns2 + 1], [ns2 + 1]
+  };
+  std::vector<Profile> prof(static_cast<size_t>(nj));
+  for (Profile& pr : prof) {
+    pr.B = Eigen::MatrixXd::Zero(md, ns2 + 1);
+    pr.cc = pr.cy = pr.cv = Eigen::VectorXd::Zero(ns2 + 1);
+  }
+  Eigen::VectorXd sig(ns2 + 1);
   std::vector<std::vector<char>> touched(nv, std::vector<char>(md, 0));
   std::string size_error;
   for (size_t s = 0; s < train.size(); ++s) {
@@ -252,6 +275,24 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           }
           cache.t.push_back(t);
           for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
+          if (nw > 1)
+            for (int j = 0; j < nj; ++j) {
+              const int r = model.jointRow(j);
+              const double v = K(r, model.frictionParamIndex(j));
+              for (int w = 0; w < nw; ++w) {
+                EffectShape sh = opt.shape;
+                sh.coulomb_width = widths[w];
+                sig[w] = effectSignal(EffectKind::Coulomb, sh, v, 0.0, 0.0, 0.0);
+                sig[nw + w] = effectSignal(EffectKind::Stribeck, sh, v, 0.0, 0.0, 0.0);
+              }
+              sig[ns2] = v;
+              Profile& pr = prof[static_cast<size_t>(j)];
+              for (int c = 0; c < md; ++c)
+                if (const double k = K(r, decl[c]); k != 0.0) pr.B.row(c) += k * sig.transpose();
+              pr.cc += sig.cwiseAbs2();
+              pr.cy += y[r] * sig;
+              pr.cv += v * sig;
+            }
           for (int r = 0; r < nv; ++r) {
             ys.push_back(y[r]);
             es.push_back(y[r] - tau_sensor[r]);
@@ -274,6 +315,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     out.train_samples += cache.n;
   }
   fa.flush();
+  std::vector<double> width_of;  // [2 nj] the profiled Coulomb width of each joint's Coulomb, Stribeck candidates
 
   // Excited declared columns (column-pivoted QR of the unit-norm columns), then the declared OLS fit.
   {
@@ -300,6 +342,41 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     const int m = static_cast<int>(decl.size());
     const Eigen::VectorXd x0 = A.householderQr().solve(fa.R().col(md));
     out.declared_columns = m;
+    // Width profile: per joint and dry-friction kind, the width whose signal s, together with the viscous signal v
+    // (on the joint's row), would remove the most of the declared fit's training residual e: the least-squares
+    // gain g^T M^-1 g of the two columns made orthogonal to the declared columns of every row (their Gram from the
+    // factor above), M their Gram, g their products with e. e is orthogonal to the declared columns, so
+    // s_perp . e = s . e. With v beside it, a wide tanh gains nothing by imitating viscous friction: the width
+    // describes the dry part (alone, the KUKA's joints all took the grid's widest). Every width in one pass.
+    width_of.assign(static_cast<size_t>(2 * nj), widths.size() == 1 ? widths[0] : opt.shape.coulomb_width);
+    if (nw > 1) {
+      // The declared (kept) columns' Gram is A^T A (A: their columns of the factor); R1^T R1 with R1 from its QR.
+      const int mk = static_cast<int>(keep.size());
+      const Eigen::MatrixXd R1 = A.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>();
+      for (int j = 0; j < nj; ++j) {
+        const Profile& pr = prof[static_cast<size_t>(j)];
+        Eigen::MatrixXd B(mk, ns2 + 1);
+        for (int a = 0; a < mk; ++a) B.row(a) = pr.B.row(keep[a]);
+        // Projections on the declared span: s_a^T P s_b = Z_a . Z_b with R1^T Z = B.
+        const Eigen::MatrixXd Z = R1.transpose().triangularView<Eigen::Lower>().solve(B);
+        const Eigen::VectorXd se = pr.cy - B.transpose() * x0;  // s^T e (and v^T e last)
+        const double vv = pr.cc[ns2] - Z.col(ns2).squaredNorm();
+        for (int kind = 0; kind < 2; ++kind) {
+          double best = -1.0;
+          for (int w = 0; w < nw; ++w) {
+            const int s = kind * nw + w;
+            const double ss = pr.cc[s] - Z.col(s).squaredNorm(), sv = pr.cv[s] - Z.col(s).dot(Z.col(ns2));
+            const double det = ss * vv - sv * sv;
+            double score = 0.0;
+            if (det > 1e-12 * ss * vv)  // [s v] gain: g^T M^-1 g
+              score = (vv * se[s] * se[s] - 2.0 * sv * se[s] * se[ns2] + ss * se[ns2] * se[ns2]) / det;
+            else if (ss > 1e-12 * pr.cc[s])
+              score = se[s] * se[s] / ss;
+            if (score > best) best = score, width_of[static_cast<size_t>(2 * j + kind)] = widths[w];
+          }
+        }
+      }
+    }
     if (out.train_samples * nv <= m) return fail("fewer training rows than declared parameters");
 
     // Pass B (every segment): the declared model's prediction; the validation segments' t, v, y.
@@ -365,7 +442,8 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         // A gain error needs a torque sensor: a measured torque and an actuated joint (URDF effort > 0).
         const bool sensed = measured && (model.effort_limit.size() != nj || model.effort_limit[j] > 0);
         if (k == EffectKind::GainError && !sensed) continue;
-        cands.push_back({k, j, r});
+        const bool dry = k == EffectKind::Coulomb || k == EffectKind::Stribeck;
+        cands.push_back({k, j, r, dry ? width_of[static_cast<size_t>(2 * j + (k == EffectKind::Stribeck))] : 0.0});
       }
     const int nc = static_cast<int>(cands.size());
     out.candidates = nc;
@@ -373,7 +451,8 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     auto signal = [&](const Cache& c, long i, const Candidate& cd) {
       // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus
       // what the plates contribute; all of y for a fixed base).
-      return effectSignal(cd.kind, opt.shape, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord),
+      return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width}), c.v(i, cd.joint),
+                          c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord),
                           c.dtau(i, cd.coord) - c.dext(i, cd.coord));
     };
 
@@ -506,7 +585,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           excluded[c] = 1;
           if (step == 0) {
             CandidateScore sc;
-            sc.effect = {cd.kind, cd.joint, 0.0};
+            sc.effect = {cd.kind, cd.joint, 0.0, cd.width};
             sc.separable = col.squaredNorm() > 0.0 ? nrc / col.squaredNorm() : 0.0;
             sc.status = "not separable from the declared model";
             out.first_step.push_back(sc);
@@ -543,7 +622,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         ev.gain = mean;
         ev.admissible = admissibleValue(cd.kind, beta);
         ev.separable = nrc / col.squaredNorm();
-        ev.f.effect = {cd.kind, cd.joint, beta};
+        ev.f.effect = {cd.kind, cd.joint, beta, cd.width};
         ev.f.std_error = std::sqrt(std::max(sse_all, 0.0) / std::max(dof_res, 1.0) / nrc);
         ev.f.explained = den > 0 ? num / den : 0.0;
         ev.f.t_stat = sd > 0 ? mean / (sd / std::sqrt(static_cast<double>(F))) : (mean > 0 ? INFINITY : 0.0);
@@ -739,7 +818,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       cs.lag1_after = lag1(ha);
       for (const CandidateScore& sc : out.first_step)
         if (model.jointRow(sc.effect.joint) == r && std::fabs(sc.correlation) > std::fabs(cs.best_correlation))
-          cs.best_correlation = sc.correlation, cs.best_kind = sc.effect.kind;
+          cs.best_correlation = sc.correlation, cs.best_kind = sc.effect.kind, cs.best_width = sc.effect.width;
       out.coordinates.push_back(cs);
     }
     out.pooled_before = std::sqrt(pb / std::max(nh, 1L));
@@ -751,10 +830,13 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   // Sentences.
   for (Finding& f : out.findings) {
     char buf[256];
-    std::snprintf(buf, sizeof buf, "%s: %s %s, explains %.0f %% of its residual (held-out folds; p = %.2g, %d tested)",
+    char width[64] = "";
+    if (f.effect.width > 0.0 && (f.effect.kind == EffectKind::Coulomb || f.effect.kind == EffectKind::Stribeck))
+      std::snprintf(width, sizeof width, ", tanh width %g rad/s", f.effect.width);
+    std::snprintf(buf, sizeof buf, "%s: %s %s%s, explains %.0f %% of its residual (held-out folds; p = %.2g, %d tested)",
                   model.joint_names[f.effect.joint].c_str(), effectKindWords(f.effect.kind),
-                  formatValue(f.effect.kind, f.effect.value, f.std_error).c_str(), 100.0 * f.explained, f.p_value,
-                  f.tested);
+                  formatValue(f.effect.kind, f.effect.value, f.std_error).c_str(), width, 100.0 * f.explained,
+                  f.p_value, f.tested);
     f.sentence = buf;
   }
   return true;
@@ -768,8 +850,9 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     if (!f) return error && (*error = "cannot write '" + tmp + "'", true), false;
     char buf[512];
     f << "# Effects the rigid-body model lacks, found by `exoid diagnose` (format: docs/diagnose.md).\n"
-         "# Dynamics effects add a column on their joint's row: viscous v, coulomb tanh(v / coulomb_width),\n"
-         "# stribeck tanh(v / coulomb_width) exp(-(v / stribeck_velocity)^2), offset 1, armature dv/dt.\n"
+         "# Dynamics effects add a column on their joint's row: viscous v, coulomb tanh(v / width),\n"
+         "# stribeck tanh(v / width) exp(-(v / stribeck_velocity)^2) (width: the effect's, else coulomb_width),\n"
+         "# offset 1, armature dv/dt.\n"
          "# Measurement effects correct the torque: gain g (measured = (1 + g) true), delay d (s, measured(t) =\n"
          "# true(t - d)).\n";
     f << "model: \"" << set.model << "\"\n";
@@ -779,8 +862,12 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     if (set.effects.empty()) f << "  []\n";
     for (const Effect& e : set.effects) {
       if (e.joint < 0 || e.joint >= model.njoints) return error && (*error = "effect on an unknown joint", true), false;
-      std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g}  # %s\n", model.joint_names[e.joint].c_str(),
-                    effectKindName(e.kind), e.value, effectUnit(e.kind));
+      if (e.width > 0.0 && (e.kind == EffectKind::Coulomb || e.kind == EffectKind::Stribeck))
+        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
+                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
+      else
+        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g}  # %s\n", model.joint_names[e.joint].c_str(),
+                      effectKindName(e.kind), e.value, effectUnit(e.kind));
       f << buf;
     }
     if (!f.good()) return error && (*error = "write failed on '" + tmp + "'", true), false;
@@ -832,6 +919,16 @@ bool readEffects(const std::string& path, const Model& model, EffectSet& set, st
         return fail(where + ": unknown kind '" + e["kind"].as<std::string>() + "'");
       ef.value = e["value"].as<double>();
       if (!std::isfinite(ef.value)) return fail(where + ": value is not finite");
+      for (auto kv = e.begin(); kv != e.end(); ++kv) {
+        const std::string k = kv->first.as<std::string>();
+        if (k != "joint" && k != "kind" && k != "value" && k != "width") return fail(where + ": unknown key '" + k + "'");
+      }
+      if (e["width"]) {
+        ef.width = e["width"].as<double>();
+        if (!(ef.width > 0) || !std::isfinite(ef.width)) return fail(where + ": width must be positive and finite");
+        if (ef.kind != EffectKind::Coulomb && ef.kind != EffectKind::Stribeck)
+          return fail(where + ": a width belongs to coulomb and stribeck effects only");
+      }
       set.effects.push_back(ef);
     }
   } catch (const std::exception& ex) {
@@ -853,7 +950,7 @@ void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<co
   int col = 0;
   for (const Effect& e : set.effects) {
     if (isMeasurementEffect(e.kind)) continue;
-    E(model.jointRow(e.joint), col++) = effectSignal(e.kind, set.shape, v[e.joint], a[e.joint], 0.0, 0.0);
+    E(model.jointRow(e.joint), col++) = effectSignal(e.kind, effectShape(set.shape, e), v[e.joint], a[e.joint], 0.0, 0.0);
   }
 }
 

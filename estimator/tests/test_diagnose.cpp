@@ -59,6 +59,7 @@ struct Injected {
   EffectKind kind;
   int joint;
   double value;
+  double width = 0.0;  // Coulomb, Stribeck: the injected tanh width (0: the shape's)
 };
 
 // One run: samples at 200 Hz, y = K phi_true + effect + white noise of sigma N m on every joint.
@@ -90,7 +91,8 @@ Run makeRun(const Model& model, uint64_t seed, double duration, double sigma, co
         computeJointTorqueRegressor(model, data, past);
         y[r] = (data.K * model.phi)[r];
       } else {
-        y[r] += e.value * effectSignal(e.kind, shape, s.v[e.joint], s.a[e.joint], 0, 0);
+        y[r] += e.value * effectSignal(e.kind, effectShape(shape, Effect{e.kind, e.joint, e.value, e.width}), s.v[e.joint],
+                                       s.a[e.joint], 0, 0);
       }
     }
     for (int r = 0; r < model.nv; ++r) y[r] += noise(rng);
@@ -218,18 +220,46 @@ TEST(Diagnose, TwoEffectsOnDifferentJointsAreBothFound) {
   EXPECT_LT(res.pooled_after, 1.2 * 0.05);
 }
 
+// Dry friction sharper than the default width (tanh(v / 0.004) on joint 3, 0.5 N m): each joint's width is
+// profiled on the training data, so the finding carries 0.005 (the grid's nearest to the truth), its value is
+// right and the augmented model is at the noise floor; with the one default width (0.03 for every joint, as
+// before the profile) the shape is wrong and a sixth of the effect's torque stays in the residual.
+TEST(Diagnose, TheCoulombWidthIsProfiledPerJoint) {
+  const double sigma = 0.05;
+  const std::vector<Injected> sharp = {{EffectKind::Coulomb, 3, 0.5, 0.004}};
+  const DiagnosisResult res = runDiagnosis(17, sigma, sharp);
+  ASSERT_FALSE(res.findings.empty());
+  const Finding& f = res.findings.front();
+  std::printf("profiled: %s; held-out %.4f -> %.4f N m\n", f.sentence.c_str(), res.pooled_before, res.pooled_after);
+  EXPECT_EQ(f.effect.kind, EffectKind::Coulomb) << f.sentence;
+  EXPECT_EQ(f.effect.joint, 3) << f.sentence;
+  EXPECT_EQ(f.effect.width, 0.005) << f.sentence;
+  EXPECT_NEAR(f.effect.value, 0.5, 0.05) << f.sentence;
+  EXPECT_LT(res.coordinates[3].rms_after, 1.1 * sigma);
+  DiagnoseOptions fixed;
+  fixed.coulomb_widths = {fixed.shape.coulomb_width};
+  const DiagnosisResult old = runDiagnosis(17, sigma, sharp, fixed);
+  ASSERT_FALSE(old.findings.empty());
+  std::printf("fixed 0.03: %s; joint 3 held-out %.4f N m\n", old.findings.front().sentence.c_str(),
+              old.coordinates[3].rms_after);
+  EXPECT_EQ(old.findings.front().effect.width, 0.03);
+  EXPECT_GT(old.coordinates[3].rms_after, 1.3 * res.coordinates[3].rms_after);
+}
+
 TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
   const Model& model = kuka();
   EffectSet set;
   set.model = "kuka_lwr4.urdf";
   set.shape.coulomb_width = 0.02;
-  set.effects = {{EffectKind::Offset, 0, 0.83}, {EffectKind::GainError, 4, -0.031}};
+  set.effects = {{EffectKind::Offset, 0, 0.83}, {EffectKind::GainError, 4, -0.031}, {EffectKind::Coulomb, 2, 0.4, 0.005}};
   const std::string path = testing::TempDir() + "effects_" + std::to_string(::getpid()) + ".yaml";
   std::string err;
   ASSERT_TRUE(writeEffects(path, model, set, &err)) << err;
   EffectSet back;
   ASSERT_TRUE(readEffects(path, model, back, &err)) << err;
-  ASSERT_EQ(back.effects.size(), 2u);
+  ASSERT_EQ(back.effects.size(), 3u);
+  EXPECT_EQ(back.effects[2].width, 0.005);
+  EXPECT_EQ(back.effects[0].width, 0.0);
   EXPECT_EQ(back.effects[1].kind, EffectKind::GainError);
   EXPECT_EQ(back.effects[1].joint, 4);
   EXPECT_EQ(back.effects[1].value, -0.031);
@@ -248,6 +278,15 @@ TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
   }
   EXPECT_FALSE(readEffects(path, model, back, &err));
   EXPECT_NE(err.find("magic"), std::string::npos) << err;
+  for (const char* bad : {"effects:\n  - {joint: lwr_0_joint, kind: offset, value: 1, width: 0.01}\n",
+                          "effects:\n  - {joint: lwr_0_joint, kind: coulomb, value: 1, width: -0.01}\n",
+                          "effects:\n  - {joint: lwr_0_joint, kind: coulomb, value: 1, widht: 0.01}\n"}) {
+    FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs(bad, f);
+    std::fclose(f);
+    EXPECT_FALSE(readEffects(path, model, back, &err)) << bad;
+    EXPECT_NE(err.find("effects[0]"), std::string::npos) << err;
+  }
   std::remove(path.c_str());
 }
 

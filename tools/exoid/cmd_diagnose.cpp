@@ -168,7 +168,10 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--min-explained", opt.min_explained, "an effect must remove at least this fraction of its joint's "
                  "held-out residual (default 0.02)")->transform(common::strictNumber(0.0, 1.0));
   app.add_option("--max-effects", max_effects, "at most this many effects (default 30)")->transform(common::strictInteger(0, 1000));
-  app.add_option("--coulomb-width", opt.shape.coulomb_width, "rad/s: Coulomb signal tanh(v / width) (default 0.03)")
+  auto* width_opt = app.add_option("--coulomb-width", opt.shape.coulomb_width,
+                                   "rad/s: one Coulomb width tanh(v / width) for every joint (default: each joint's width is\n"
+                                   "profiled on the training data over 0.001 ... 0.1 rad/s, the one whose signal correlates best\n"
+                                   "with that joint's residual; docs/diagnose.md)")
       ->transform(common::strictNumber(1e-9, 1e3));
   app.add_option("--stribeck-velocity", opt.shape.stribeck_velocity, "rad/s: Stribeck decay exp(-(v / vs)^2) (default 0.1)")
       ->transform(common::strictNumber(1e-9, 1e3));
@@ -186,6 +189,7 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_flag("--no-plots", no_plots, "do not run the plot script (it is still written)");
   app.add_option("--python", python, "python interpreter for the plots (default python3; needs matplotlib and numpy)");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
+  if (width_opt->count() > 0) opt.coulomb_widths = {opt.shape.coulomb_width};  // one width, as asked
   opt.folds = folds;
   opt.max_effects = max_effects;
   opt.declared_friction = declared == "rigid+friction";
@@ -237,11 +241,15 @@ int cmdDiagnose(int argc, char** argv) {
 
   // Which signal to plot per joint: its first finding, else the best-correlated candidate.
   std::vector<est::EffectKind> plot_kind(nv, est::EffectKind::Viscous);
+  std::vector<est::EffectShape> plot_shape(nv, opt.shape);  // with the plotted effect's own Coulomb width
   std::vector<bool> from_finding(nv, false);
-  for (int r = 0; r < nv; ++r) plot_kind[r] = res.coordinates[r].best_kind;
+  for (int r = 0; r < nv; ++r) {
+    plot_kind[r] = res.coordinates[r].best_kind;
+    plot_shape[r] = est::effectShape(opt.shape, est::Effect{plot_kind[r], -1, 0.0, res.coordinates[r].best_width});
+  }
   for (const est::Finding& f : res.findings) {
     const int r = model.jointRow(f.effect.joint);
-    if (!from_finding[r]) plot_kind[r] = f.effect.kind, from_finding[r] = true;
+    if (!from_finding[r]) plot_kind[r] = f.effect.kind, plot_shape[r] = est::effectShape(opt.shape, f.effect), from_finding[r] = true;
   }
   for (int r = 0; r < nv; ++r)
     if (plot_kind[r] == est::EffectKind::Offset) plot_kind[r] = est::EffectKind::Viscous;  // constant: plot vs v
@@ -276,7 +284,7 @@ int cmdDiagnose(int argc, char** argv) {
     f << "coordinate,kind,label\n";
     for (int j = 0; j < model.njoints; ++j) {
       const int r = model.jointRow(j);
-      f << model.joint_names[j] << ',' << est::effectKindName(plot_kind[r]) << ",\"" << signalLabel(plot_kind[r], opt.shape)
+      f << model.joint_names[j] << ',' << est::effectKindName(plot_kind[r]) << ",\"" << signalLabel(plot_kind[r], plot_shape[r])
         << "\"\n";
     }
   }
@@ -302,7 +310,7 @@ int cmdDiagnose(int argc, char** argv) {
         const double dtau = (i > 0 && i + 1 < rs.t.size())
                                 ? (rs.tau_model(i + 1, r) - rs.tau_model(i - 1, r)) / (rs.t[i + 1] - rs.t[i - 1])
                                 : 0.0;
-        const double s = est::effectSignal(plot_kind[r], opt.shape, rs.v(i, j), rs.a(i, j), rs.tau_model(i, r), dtau);
+        const double s = est::effectSignal(plot_kind[r], plot_shape[r], rs.v(i, j), rs.a(i, j), rs.tau_model(i, r), dtau);
         std::snprintf(buf, sizeof buf, ",%.6g,%.6g,%.6g,%.6g", rs.before(i, r), rs.after(i, r), s, rs.v(i, j));
         f << buf;
       }

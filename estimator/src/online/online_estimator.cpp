@@ -645,19 +645,20 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
 
 std::vector<double> OnlineEstimator::effectSignature() const {
   // The sidecar the estimator applies (columns and gains change what the sums mean): shape, then kind, joint,
-  // value and prior factor of every effect; nothing without a sidecar (checkpoints of before stay readable).
+  // value and width of every effect; nothing without a sidecar (checkpoints of before stay readable).
   std::vector<double> v;
   if (!effects_) return v;
   v = {double(opt_.effects.effects.size()), opt_.effects.shape.coulomb_width, opt_.effects.shape.stribeck_velocity,
        opt_.effect_prior_factor};
-  for (const Effect& e : opt_.effects.effects) v.insert(v.end(), {double(static_cast<int>(e.kind)), double(e.joint), e.value});
+  for (const Effect& e : opt_.effects.effects)
+    v.insert(v.end(), {double(static_cast<int>(e.kind)), double(e.joint), e.value, e.width});
   return v;
 }
 
 std::string OnlineEstimator::describeEffects(const std::vector<double>& sig) const {
   if (sig.size() < 4) return "no effects";
   std::string s = std::to_string(long(sig[0])) + " effect(s)";
-  for (size_t i = 4; i + 2 < sig.size(); i += 3) {
+  for (size_t i = 4; i + 3 < sig.size(); i += 4) {
     const int k = int(sig[i]), j = int(sig[i + 1]);
     char value[32];
     std::snprintf(value, sizeof value, "%.6g", sig[i + 2]);

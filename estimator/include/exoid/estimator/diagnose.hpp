@@ -23,8 +23,8 @@ namespace exoid::estimator {
 /// elsewhere); the coefficient is the effect's value (unit in effectUnit).
 enum class EffectKind {
   Viscous,    ///< signal v (rad/s); value fv, N m s/rad
-  Coulomb,    ///< signal tanh(v / coulomb_width); value fc, N m
-  Stribeck,   ///< signal tanh(v / coulomb_width) exp(-(v / stribeck_velocity)^2); value fs - fc, N m
+  Coulomb,    ///< signal tanh(v / width); value fc, N m (width: the effect's own, else the shape's coulomb_width)
+  Stribeck,   ///< signal tanh(v / width) exp(-(v / stribeck_velocity)^2); value fs - fc, N m
   Offset,     ///< signal 1; value: constant torque (sensor offset or gravity-independent load), N m
   Armature,   ///< signal a (rad/s^2, dv/dt); value: rotor inertia reflected through the gear, kg m^2
   GainError,  ///< measured = (1 + g) model: signal = the declared model's torque-sensor part; value g (fraction)
@@ -53,7 +53,13 @@ struct Effect {
   EffectKind kind = EffectKind::Offset;
   int joint = -1;      ///< model joint index
   double value = 0.0;  ///< in effectUnit(kind)
+  /// rad/s, Coulomb and Stribeck: this effect's tanh width (the diagnosis fits it per joint); 0: the set's
+  /// shape.coulomb_width.
+  double width = 0.0;
 };
+
+/// The shape an effect's signal uses: `shape` with the effect's own Coulomb width where it has one.
+EffectShape effectShape(const EffectShape& shape, const Effect& effect);
 
 /// Receives one sample: time (s), K [nv x p] (columns of Model::phi), y [nv], and tau_sensor [nv]: the joint
 /// torque sensors' part of y (tools::streamFileRows / DatasetBuilder::sensorTorque(); = y where y is the sensor
@@ -71,6 +77,11 @@ struct DiagnoseOptions {
   std::vector<EffectKind> kinds = {EffectKind::Viscous,  EffectKind::Coulomb,   EffectKind::Stribeck, EffectKind::Offset,
                                    EffectKind::Armature, EffectKind::GainError, EffectKind::Delay};
   EffectShape shape;
+  /// rad/s: the Coulomb widths tried per joint. Dry friction's apparent width differs from joint to joint (how
+  /// slowly the joint moves, how long it sticks, how the filter smears the sign change): each joint's Coulomb and
+  /// Stribeck candidates take the width whose tanh(v / width) correlates best with that joint's declared-model
+  /// residual on the training data (a profile over this grid; empty: shape.coulomb_width for every joint).
+  std::vector<double> coulomb_widths = {0.001, 0.002, 0.005, 0.01, 0.02, 0.03, 0.04, 0.05, 0.07, 0.1};
   bool declared_friction = false;  ///< the declared model includes the fv, fc columns of every joint
   int folds = 20;                  ///< time-block folds for the held-out test
   double chunk_seconds = 0.25;     ///< the training data are cut into chunks of this length, dealt to the
@@ -120,6 +131,7 @@ struct CoordinateSummary {
   double lag1_before = 0.0, lag1_after = 0.0;  ///< lag-1 autocorrelation of the residual (white noise: ~0)
   double best_correlation = 0.0;               ///< largest |correlation| with a candidate signal, before
   EffectKind best_kind = EffectKind::Offset;   ///< which candidate signal that is
+  double best_width = 0.0;                     ///< its Coulomb width (Coulomb, Stribeck; 0: the shape's)
 };
 
 /// Per-sample residuals of one segment (for plots and reports).
