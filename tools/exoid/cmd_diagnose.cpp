@@ -416,11 +416,13 @@ int cmdDiagnose(int argc, char** argv) {
       js["online_joints"].push_back({{"name", model.joint_names[j]}, {"rmse_before", online_joint_before[j]},
                                      {"rmse_after", online_joint_after[j]}});
   }
-  for (const est::Finding& f : res.findings)
+  for (const est::Finding& f : res.findings) {
     js["findings"].push_back({{"joint", model.joint_names[f.effect.joint]}, {"kind", est::effectKindName(f.effect.kind)},
                               {"value", f.effect.value}, {"unit", est::effectUnit(f.effect.kind)},
                               {"std_error", f.std_error}, {"explained", f.explained}, {"p_value", f.p_value},
                               {"tested", f.tested}, {"sentence", f.sentence}});
+    if (f.effect.width > 0.0) js["findings"].back()["width"] = f.effect.width;  // rad/s, Coulomb and Stribeck
+  }
   if (res.findings.empty()) js["findings"] = nlohmann::json::array();
   for (const est::CoordinateSummary& c : res.coordinates)
     js["coordinates"].push_back({{"name", c.name}, {"rmse_before", c.rms_before}, {"rmse_after", c.rms_after},
