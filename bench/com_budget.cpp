@@ -15,12 +15,10 @@
 #include <string>
 
 #include "exoid/estimator/base_parameters.hpp"
-#include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/regressor.hpp"
-#include "exoid/model/urdf.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "truth_run.hpp"
 
 int main(int argc, char** argv) {
   using namespace exoid;
@@ -28,24 +26,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: exoid_com_budget LOG TRUE_URDF CUTOFF_HZ ORDER SPEC... (see the source's header)\n");
     return 2;
   }
-  Model model, truth_model;
+  bench::TruthRun run;
+  if (!bench::loadTruthRun(argv[1], run)) return 2;
+  const Model& model = run.model;
+  const auto& ticks = run.ticks;
+  Model truth_model;
   std::string err;
-  if (!buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err) ||
-      !buildModelFromUrdfFile(argv[2], true, truth_model, &err)) {
+  if (!buildModelFromUrdfFile(argv[2], true, truth_model, &err)) {
     std::fprintf(stderr, "%s\n", err.c_str());
-    return 2;
-  }
-  tools::RunLog log;
-  if (!tools::readRunLog(argv[1], model.joint_names, log, &err)) {
-    std::fprintf(stderr, "%s\n", err.c_str());
-    return 2;
-  }
-  estimator::TickNeeds needs;
-  needs.truth = true;
-  long skipped = 0;
-  const auto ticks = estimator::alignByTick(log.states, log.plates[0], log.plates[1], log.truth, needs, &skipped);
-  if (ticks.empty()) {
-    std::fprintf(stderr, "%s: no tick with state, plates and truth\n", argv[1]);
     return 2;
   }
   const BaseParameters base = computeBaseParameters(model);

@@ -14,8 +14,7 @@
 #include <string>
 
 #include "exoid/estimator/dataset.hpp"
-#include "exoid/model/urdf.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "truth_run.hpp"
 
 int main(int argc, char** argv) {
   using namespace exoid;
@@ -23,21 +22,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: exoid_noise_budget LOG CUTOFF_HZ SPEC... (see the source's header)\n");
     return 2;
   }
-  Model model;
+  bench::TruthRun run;
+  if (!bench::loadTruthRun(argv[1], run)) return 2;
+  const Model& model = run.model;
+  const auto& ticks = run.ticks;
   std::string err;
-  if (!buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) {
-    std::fprintf(stderr, "%s\n", err.c_str());
-    return 2;
-  }
-  tools::RunLog log;
-  if (!tools::readRunLog(argv[1], model.joint_names, log, &err)) {
-    std::fprintf(stderr, "%s\n", err.c_str());
-    return 2;
-  }
-  estimator::TickNeeds needs;
-  needs.truth = true;
-  long skipped = 0;
-  const auto ticks = estimator::alignByTick(log.states, log.plates[0], log.plates[1], log.truth, needs, &skipped);
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
   estimator::DatasetOptions opt;  // as exoid diagnose --floating-base (tools::streamFileRows's footholds)
   opt.cutoff_hz = std::atof(argv[2]);
