@@ -98,7 +98,7 @@ struct EstimateConfig {
   bool use_feedforward = false;  ///< its tau_ff [nv] enters the QP's dynamics (h + tau_ff), base rows too
   bool use_com = false;          ///< its parameters give the CoM and centroidal momentum of the momentum task
   /// with use_com: also the CoM height (and its rate), which then moves the reference height; off: the model's
-  /// height, the estimate's horizontal CoM (balance data hardly identify the height; docs/controller.md)
+  /// height, the estimate's horizontal CoM (docs/controller.md, "Using the online estimate")
   bool use_com_height = true;
   double max_abs = 0.0;          ///< N, N m: bound of each feedforward component
   int max_age_ticks = 0;         ///< an estimate older than this many ticks is withdrawn
