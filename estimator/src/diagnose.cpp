@@ -31,6 +31,7 @@ bool parseEffectKind(const std::string& name, EffectKind& k) {
   return false;
 }
 bool isMeasurementEffect(EffectKind k) { return k == EffectKind::GainError || k == EffectKind::Delay; }
+bool isDryFriction(EffectKind k) { return k == EffectKind::Coulomb || k == EffectKind::Stribeck; }
 bool admissibleValue(EffectKind k, double value) {
   switch (k) {
     case EffectKind::Viscous:
@@ -45,7 +46,7 @@ bool admissibleValue(EffectKind k, double value) {
 
 EffectShape effectShape(const EffectShape& shape, const Effect& effect) {
   EffectShape s = shape;
-  if (effect.width > 0.0 && (effect.kind == EffectKind::Coulomb || effect.kind == EffectKind::Stribeck))
+  if (effect.width > 0.0 && isDryFriction(effect.kind))
     s.coulomb_width = effect.width;
   return s;
 }
@@ -348,7 +349,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     // factor above), M their Gram, g their products with e. e is orthogonal to the declared columns, so
     // s_perp . e = s . e. With v beside it, a wide tanh gains nothing by imitating viscous friction: the width
     // describes the dry part (alone, the KUKA's joints all took the grid's widest). Every width in one pass.
-    width_of.assign(static_cast<size_t>(2 * nj), widths.size() == 1 ? widths[0] : opt.shape.coulomb_width);
+    width_of.assign(static_cast<size_t>(2 * nj), widths[0]);  // the one width; with a grid, overwritten below
     if (nw > 1) {
       // The declared (kept) columns' Gram is A^T A (A: their columns of the factor); R1^T R1 with R1 from its QR.
       const int mk = static_cast<int>(keep.size());
@@ -442,8 +443,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         // A gain error needs a torque sensor: a measured torque and an actuated joint (URDF effort > 0).
         const bool sensed = measured && (model.effort_limit.size() != nj || model.effort_limit[j] > 0);
         if (k == EffectKind::GainError && !sensed) continue;
-        const bool dry = k == EffectKind::Coulomb || k == EffectKind::Stribeck;
-        cands.push_back({k, j, r, dry ? width_of[static_cast<size_t>(2 * j + (k == EffectKind::Stribeck))] : 0.0});
+        cands.push_back({k, j, r, isDryFriction(k) ? width_of[static_cast<size_t>(2 * j + (k == EffectKind::Stribeck))] : 0.0});
       }
     const int nc = static_cast<int>(cands.size());
     out.candidates = nc;
@@ -831,7 +831,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   for (Finding& f : out.findings) {
     char buf[256];
     char width[64] = "";
-    if (f.effect.width > 0.0 && (f.effect.kind == EffectKind::Coulomb || f.effect.kind == EffectKind::Stribeck))
+    if (f.effect.width > 0.0 && isDryFriction(f.effect.kind))
       std::snprintf(width, sizeof width, ", tanh width %g rad/s", f.effect.width);
     std::snprintf(buf, sizeof buf, "%s: %s %s%s, explains %.0f %% of its residual (held-out folds; p = %.2g, %d tested)",
                   model.joint_names[f.effect.joint].c_str(), effectKindWords(f.effect.kind),
@@ -862,7 +862,7 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     if (set.effects.empty()) f << "  []\n";
     for (const Effect& e : set.effects) {
       if (e.joint < 0 || e.joint >= model.njoints) return error && (*error = "effect on an unknown joint", true), false;
-      if (e.width > 0.0 && (e.kind == EffectKind::Coulomb || e.kind == EffectKind::Stribeck))
+      if (e.width > 0.0 && isDryFriction(e.kind))
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
                       model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
       else
@@ -926,7 +926,7 @@ bool readEffects(const std::string& path, const Model& model, EffectSet& set, st
       if (e["width"]) {
         ef.width = e["width"].as<double>();
         if (!(ef.width > 0) || !std::isfinite(ef.width)) return fail(where + ": width must be positive and finite");
-        if (ef.kind != EffectKind::Coulomb && ef.kind != EffectKind::Stribeck)
+        if (!isDryFriction(ef.kind))
           return fail(where + ": a width belongs to coulomb and stribeck effects only");
       }
       set.effects.push_back(ef);

@@ -170,8 +170,8 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--max-effects", max_effects, "at most this many effects (default 30)")->transform(common::strictInteger(0, 1000));
   auto* width_opt = app.add_option("--coulomb-width", opt.shape.coulomb_width,
                                    "rad/s: one Coulomb width tanh(v / width) for every joint (default: each joint's width is\n"
-                                   "profiled on the training data over 0.001 ... 0.1 rad/s, the one whose signal correlates best\n"
-                                   "with that joint's residual; docs/diagnose.md)")
+                                   "profiled on the training data over 0.001 ... 0.1 rad/s, the one whose signal, beside v,\n"
+                                   "would remove the most of that joint's residual; docs/diagnose.md)")
       ->transform(common::strictNumber(1e-9, 1e3));
   app.add_option("--stribeck-velocity", opt.shape.stribeck_velocity, "rad/s: Stribeck decay exp(-(v / vs)^2) (default 0.1)")
       ->transform(common::strictNumber(1e-9, 1e3));

@@ -327,7 +327,7 @@ void OnlineEstimator::process() {
     int col = 0;
     for (const Effect& e : opt_.effects.effects) {
       if (isMeasurementEffect(e.kind)) continue;
-      if (e.kind == EffectKind::Coulomb || e.kind == EffectKind::Stribeck) {
+      if (isDryFriction(e.kind)) {
         const int r = model_.jointRow(e.joint);
         Kf_(r, p + col) =
             effectSignal(e.kind, effectShape(opt_.effects.shape, e), Kf_(r, model_.frictionParamIndex(e.joint)), 0.0, 0.0, 0.0);

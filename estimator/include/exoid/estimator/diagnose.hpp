@@ -37,6 +37,8 @@ const char* effectUnit(EffectKind k);       ///< "N m s/rad", "N m", "N m", "N m
 bool parseEffectKind(const std::string& name, EffectKind& k);
 /// Gain error and delay act on the measurement (identify corrects y), the others add dynamics columns.
 bool isMeasurementEffect(EffectKind k);
+/// Coulomb and Stribeck: signals tanh(v / width) (...), the kinds an Effect's width applies to.
+bool isDryFriction(EffectKind k);
 /// Physically admissible value: friction and armature are >= 0, the others may have either sign.
 bool admissibleValue(EffectKind k, double value);
 
@@ -79,8 +81,9 @@ struct DiagnoseOptions {
   EffectShape shape;
   /// rad/s: the Coulomb widths tried per joint. Dry friction's apparent width differs from joint to joint (how
   /// slowly the joint moves, how long it sticks, how the filter smears the sign change): each joint's Coulomb and
-  /// Stribeck candidates take the width whose tanh(v / width) correlates best with that joint's declared-model
-  /// residual on the training data (a profile over this grid; empty: shape.coulomb_width for every joint).
+  /// Stribeck candidates take the width whose signal, beside v, would remove the most of that joint's
+  /// declared-model residual on the training data (a least-squares profile over this grid, docs/diagnose.md;
+  /// empty: shape.coulomb_width for every joint).
   std::vector<double> coulomb_widths = {0.001, 0.002, 0.005, 0.01, 0.02, 0.03, 0.04, 0.05, 0.07, 0.1};
   bool declared_friction = false;  ///< the declared model includes the fv, fc columns of every joint
   int folds = 20;                  ///< time-block folds for the held-out test
