@@ -4,14 +4,18 @@
 // CoM error of the final estimate (and of its consistent parameters) at the run's mean posture, base frame. An
 // evaluation tool: it reads the ground truth, the estimator never does.
 //
-// usage: exoid_com_budget LOG TRUE_URDF CUTOFF_HZ ORDER SPEC...
+// usage: exoid_com_budget LOG TRUE_URDF CUTOFF_HZ ORDER HALF_WINDOW SPEC...
 //   LOG        run log (EXO_TRUTH included); the prior and tau_ff model is config/exo.urdf
 //   TRUE_URDF  the simulated robot (config/exo.urdf plus the scenario's payloads)
+//   CUTOFF_HZ ORDER HALF_WINDOW  the row filter and the state fit (OnlineEstimatorOptions: cutoff_hz, filter_order,
+//              derivative_half_window; 1 = central differences;
+//              L:G sets the gyro's gyro_half_window to G)
 //   SPEC       letters of the signals taken from the ground truth: R IMU orientation, W gyro, A accelerometer,
 //              Q encoders, T joint torques, F plates; '-' = all from the sensors; a 't' adds the error every 3 s
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 
 #include "exoid/estimator/base_parameters.hpp"
@@ -22,8 +26,8 @@
 
 int main(int argc, char** argv) {
   using namespace exoid;
-  if (argc < 6) {
-    std::fprintf(stderr, "usage: exoid_com_budget LOG TRUE_URDF CUTOFF_HZ ORDER SPEC... (see the source's header)\n");
+  if (argc < 7) {
+    std::fprintf(stderr, "usage: exoid_com_budget LOG TRUE_URDF CUTOFF_HZ ORDER HALF_WINDOW SPEC... (see the source's header)\n");
     return 2;
   }
   bench::TruthRun run;
@@ -52,12 +56,14 @@ int main(int argc, char** argv) {
   const Eigen::Vector3d e0 = error(model.phi);
   std::printf("robot: mass %.3f kg, CoM %.4f %.4f %.4f m (base frame, mean posture); the model's CoM error %.2f %.2f "
               "%.2f mm\n", m_true, c_true.x(), c_true.y(), c_true.z(), e0.x(), e0.y(), e0.z());
-  for (int a = 5; a < argc; ++a) {
+  for (int a = 6; a < argc; ++a) {
     const std::string spec = argv[a];
     auto has = [&](char c) { return spec.find(c) != std::string::npos; };
     estimator::OnlineEstimatorOptions opt;
     opt.cutoff_hz = std::atof(argv[3]);
     opt.filter_order = std::atoi(argv[4]);
+    opt.derivative_half_window = opt.gyro_half_window = std::atoi(argv[5]);
+    if (const char* colon = std::strchr(argv[5], ':')) opt.gyro_half_window = std::atoi(colon + 1);
     estimator::OnlineEstimator est(model, base, model.phi, opt);
     if (!est.ok()) {
       std::fprintf(stderr, "%s\n", est.error().c_str());

@@ -48,7 +48,7 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_GT(c.momentum.kp_com.minCoeff(), 0.0);
   EXPECT_TRUE(c.estimate.enabled && c.estimate.use_feedforward && c.estimate.use_com);
   EXPECT_DOUBLE_EQ(c.estimate.max_abs, 150.0);
-  EXPECT_EQ(c.estimate.max_age_ticks, 50);
+  EXPECT_EQ(c.estimate.max_age_ticks, 80);
   EXPECT_DOUBLE_EQ(c.estimate.blend_time, 1.0);
   EXPECT_DOUBLE_EQ(c.estimate.max_relative_mass_change, 0.5);
   EXPECT_TRUE(validateControllerConfig(c, &err)) << err;

@@ -72,6 +72,8 @@ int main(int argc, char** argv) {
          change_keep = estimator::OnlineEstimatorOptions{}.change_keep;
   double prior_relative = 0.25, cutoff = estimator::OnlineEstimatorOptions{}.cutoff_hz, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
          min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
+  int64_t derivative_half_window = estimator::OnlineEstimatorOptions{}.derivative_half_window,
+          gyro_half_window = estimator::OnlineEstimatorOptions{}.gyro_half_window;
   int64_t filter_order = estimator::OnlineEstimatorOptions{}.filter_order, forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
   double consistent_tolerance = 2.0, effect_prior_factor = 10.0;
   bool quiet = false;
@@ -100,6 +102,15 @@ int main(int argc, char** argv) {
       ->transform(common::strictInteger(2, Biquad::kMaxOrder))
       ->check([](const std::string& s) { return std::stol(s) % 2 == 0 ? std::string() : std::string("must be even"); })
       ->type_name("N");
+  app.add_option("--derivative-half-window", derivative_half_window,
+                 "joint velocities and accelerations are the slope and curvature of a least-squares quadratic\n"
+                 "through the encoders over 2L + 1 ticks (Savitzky-Golay; 1 = central differences); the rows\n"
+                 "are then L ticks late. The squared noise of differenced encoders in the regressor's velocity\n"
+                 "products is a bias no filter after it removes (docs/estimator.md, \"State\")")
+      ->transform(common::strictInteger(1, 500))->type_name("L");
+  app.add_option("--gyro-half-window", gyro_half_window,
+                 "the same fit for the gyro's value and slope (the base's angular acceleration)")
+      ->transform(common::strictInteger(1, 500))->type_name("L");
   app.add_option("--forgetting", forgetting_name,
                  "none: exact minimiser of the batch regularised cost; stabilised: every direction's\n"
                  "data decays by --lambda per sample; selective: only the base-parameter axes the\n"
@@ -202,6 +213,8 @@ int main(int argc, char** argv) {
   OnlineEstimatorOptions opt;
   opt.cutoff_hz = cutoff;
   opt.filter_order = static_cast<int>(filter_order);
+  opt.derivative_half_window = static_cast<int>(derivative_half_window);
+  opt.gyro_half_window = static_cast<int>(gyro_half_window);
   opt.prior_relative = prior_relative;
   parseForgetting(forgetting_name, opt.forgetting);
   opt.lambda = lambda;
@@ -254,11 +267,12 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   if (!quiet)
-    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
+    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, state fit over %d ticks (gyro %d), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
                  base.rank,
                  effects_path.empty() ? ""
                                       : (" + " + std::to_string(est.effectColumnCount()) + " effect columns of " + effects_path).c_str(),
-                 forgettingName(opt.forgetting), cutoff, opt.filter_order, nopt.publish_every,
+                 forgettingName(opt.forgetting), 2 * opt.derivative_half_window + 1, 2 * opt.gyro_half_window + 1,
+                 cutoff, opt.filter_order, nopt.publish_every,
                  resumed ? (", resumed from " + checkpoint + " at tick " + std::to_string(est.rlsData().last_tick)).c_str() : "",
                  lcm->url().c_str());
 

@@ -237,6 +237,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     }
     lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
     want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
+    if (opt_.filter == FilterMode::Parallel) want += std::max(1, opt_.derivative_half_window);  // the fit's reach
     if (opt_.trim_edges) edge_ = filterMargin(lp, 14.0);  // <= margin_, so the last edge_ are in the last block
   }
   if (fuse) {
@@ -270,6 +271,8 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     q = filt(q);
     v = filt(v);
     a = filt(a);
+  } else if (parallel && opt_.derivative_half_window > 1) {
+    savitzkyGolay(q, dt, opt_.derivative_half_window, nullptr, &v, &a);  // q itself: its noise is never squared
   } else {
     filterAndDifferentiate(q, dt, input_cutoff, &q, &v, &a);
   }
@@ -286,6 +289,9 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
     if (measured_dw) {
       w = filt(w);
       dw = filt(dw);
+    } else if (parallel && opt_.derivative_half_window > 1) {
+      Eigen::MatrixXd raw = w;
+      savitzkyGolay(raw, dt, opt_.derivative_half_window, &w, &dw, nullptr);
     } else {
       filterAndDifferentiate(w, dt, input_cutoff, &w, &dw, nullptr);
     }

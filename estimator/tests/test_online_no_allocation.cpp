@@ -98,7 +98,8 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     std::mt19937_64 rng(2);
     // A consistent-parameter solve first (it allocates: exo_estimator runs it on a worker), so that the
     // publications below also judge phi_c's misfit whenever the conditional mean is inconsistent.
-    for (long k = 0; k < 30; ++k) {
+    const long L = opt.derivative_half_window, warm = 2 * L + 20;  // rows need the state fit's 2L + 1 ticks
+    for (long k = 0; k < warm; ++k) {
       testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
       est.addState(t.state);
       est.addPlate(t.plate[0]);
@@ -108,7 +109,7 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     est.reconcile(out);
     exoid::test::AllocationCounter counter;
     Eigen::internal::set_is_malloc_allowed(false);
-    for (long k = 30; k < 630; ++k) {
+    for (long k = warm; k < warm + 600; ++k) {
       testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
       est.addState(t.state);
       est.addPlate(t.plate[0]);
@@ -126,9 +127,10 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     counter.stop();
     EXPECT_EQ(counter.mallocs(), 0) << forgettingName(f) << (effects ? " with effects" : "");
     EXPECT_EQ(counter.news(), 0) << forgettingName(f) << (effects ? " with effects" : "");
-    EXPECT_EQ(out.samples_used, 628) << forgettingName(f);  // the first two ticks only start the differences
+    // Every tick is the middle of a fit window but the first and last L.
+    EXPECT_EQ(out.samples_used, warm + 600 - 2 * L) << forgettingName(f);
     EXPECT_EQ(out.rejected_duplicate, 600);
-    EXPECT_EQ(out.rejected_nonfinite, 6);  // k = 97, 194, ..., 582
+    EXPECT_EQ(out.rejected_nonfinite, 6);  // six multiples of 97 among the 600 ticks
     EXPECT_EQ(est.reconciles(), 1);
     EXPECT_TRUE(out.params.allFinite() && out.tau_ff.allFinite());
     EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 : 0));

@@ -1,5 +1,6 @@
 #include "exoid/signal/filters.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 
@@ -98,6 +99,52 @@ Eigen::MatrixXd differentiate(const Eigen::MatrixXd& s, double dt) {
   d.row(n - 1) = (s.row(n - 1) - s.row(n - 2)) / dt;
   if (n > 2) d.middleRows(1, n - 2) = (s.bottomRows(n - 2) - s.topRows(n - 2)) / (2.0 * dt);
   return d;
+}
+
+Eigen::Matrix<double, 3, Eigen::Dynamic> savitzkyGolayWeights(int L, int width) {
+  if (width < L) width = L;
+  const int n = 2 * L + 1;
+  Eigen::MatrixXd A(n, 3);
+  for (int i = 0; i < n; ++i) A.row(i) << 1.0, double(i - L), double(i - L) * double(i - L);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> w = Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, 2 * width + 1);
+  w.middleCols(width - L, n) = (A.transpose() * A).ldlt().solve(A.transpose());
+  return w;
+}
+
+void savitzkyGolay(const Eigen::MatrixXd& s, double dt, int L, Eigen::MatrixXd* value, Eigen::MatrixXd* first,
+                   Eigen::MatrixXd* second) {
+  const Eigen::Index n = s.rows();
+  L = std::min<int>(L, static_cast<int>((n - 1) / 2));
+  if (L < 1) {  // one or two samples: no curvature to fit
+    if (value) *value = s;
+    if (first) *first = differentiate(s, dt);
+    if (second) second->setZero(n, s.cols());
+    return;
+  }
+  Eigen::MatrixXd v(n, s.cols()), d1(n, s.cols()), d2(n, s.cols());
+  const Eigen::Matrix<double, 3, Eigen::Dynamic> w = savitzkyGolayWeights(L);
+  const int width = 2 * L + 1;
+  auto put = [&](Eigen::Index row, const Eigen::RowVectorXd& c0, const Eigen::RowVectorXd& c1,
+                 const Eigen::RowVectorXd& c2, double t) {
+    v.row(row) = c0 + t * c1 + t * t * c2;
+    d1.row(row) = (c1 + 2.0 * t * c2) / dt;
+    d2.row(row) = 2.0 * c2 / (dt * dt);
+  };
+  for (Eigen::Index i = L; i + L < n; ++i) {
+    const auto block = s.middleRows(i - L, width);
+    put(i, w.row(0) * block, w.row(1) * block, w.row(2) * block, 0.0);
+  }
+  // The ends: the first and last full window's quadratic evaluated at the sample's own offset.
+  const auto head = s.topRows(width), tail = s.bottomRows(width);
+  const Eigen::RowVectorXd h0 = w.row(0) * head, h1 = w.row(1) * head, h2 = w.row(2) * head;
+  const Eigen::RowVectorXd t0 = w.row(0) * tail, t1 = w.row(1) * tail, t2 = w.row(2) * tail;
+  for (int k = 0; k < L; ++k) {
+    put(k, h0, h1, h2, double(k - L));
+    put(n - 1 - k, t0, t1, t2, double(L - k));
+  }
+  if (value) *value = std::move(v);
+  if (first) *first = std::move(d1);
+  if (second) *second = std::move(d2);
 }
 
 }  // namespace exoid

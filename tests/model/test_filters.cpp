@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <complex>
+#include <random>
 
 #include "exoid/signal/filters.hpp"
 
@@ -159,6 +160,54 @@ TEST(Differentiate, ExactOnQuadratics) {
   for (int i = 0; i < n; ++i) x(i, 0) = 3.0 * (i * dt) * (i * dt) - 2.0 * i * dt;
   const Eigen::MatrixXd d = differentiate(x, dt);
   for (int i = 1; i < n - 1; ++i) EXPECT_NEAR(d(i, 0), 6.0 * i * dt - 2.0, 1e-9);
+}
+
+// Savitzky-Golay (quadratic fit over 2L + 1 samples): the central differences at L = 1, exact value, slope and
+// curvature of a quadratic everywhere (the ends included), and the slope's noise variance 3 / (L (L + 1) (2L + 1))
+// against white noise (the reason the online estimator uses it: docs/estimator.md, "State").
+TEST(SavitzkyGolay, CentralDifferencesAtOneExactOnQuadraticsAndTheNoiseFormula) {
+  const Eigen::Matrix<double, 3, Eigen::Dynamic> w1 = savitzkyGolayWeights(1);
+  Eigen::Matrix<double, 3, 3> central;
+  central << 0.0, 1.0, 0.0, -0.5, 0.0, 0.5, 0.5, -1.0, 0.5;  // value, slope, curvature / 2
+  EXPECT_LE((w1 - central).cwiseAbs().maxCoeff(), 1e-14);
+  const Eigen::Matrix<double, 3, Eigen::Dynamic> padded = savitzkyGolayWeights(1, 3);
+  ASSERT_EQ(padded.cols(), 7);
+  EXPECT_EQ(padded.leftCols(2).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LE((padded.middleCols(2, 3) - central).cwiseAbs().maxCoeff(), 1e-14);
+
+  const int n = 200, L = 20;
+  const double dt = 1e-3;
+  Eigen::MatrixXd x(n, 2);
+  for (int i = 0; i < n; ++i) {
+    const double t = i * dt;
+    x(i, 0) = 3.0 * t * t - 2.0 * t + 0.5;
+    x(i, 1) = -t * t + 4.0 * t;
+  }
+  Eigen::MatrixXd v, d1, d2;
+  savitzkyGolay(x, dt, L, &v, &d1, &d2);
+  for (int i = 0; i < n; ++i) {
+    const double t = i * dt;
+    EXPECT_NEAR(v(i, 0), x(i, 0), 1e-12) << i;
+    EXPECT_NEAR(d1(i, 0), 6.0 * t - 2.0, 1e-8) << i;
+    EXPECT_NEAR(d2(i, 0), 6.0, 1e-4) << i;
+    EXPECT_NEAR(d1(i, 1), -2.0 * t + 4.0, 1e-8) << i;
+    EXPECT_NEAR(d2(i, 1), -2.0, 1e-4) << i;
+  }
+  // The slope's weights: sum of squares = 3 / (L (L + 1) (2L + 1)), the variance of the slope per unit noise.
+  const Eigen::Matrix<double, 3, Eigen::Dynamic> w = savitzkyGolayWeights(L);
+  EXPECT_NEAR(w.row(1).squaredNorm(), 3.0 / (L * (L + 1.0) * (2 * L + 1.0)), 1e-15);
+  // And on noise: the fitted slope's spread over many windows.
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g(0.0, 1.0);
+  Eigen::MatrixXd e(20000, 1);
+  for (int i = 0; i < e.rows(); ++i) e(i, 0) = g(rng);
+  Eigen::MatrixXd slope;
+  savitzkyGolay(e, 1.0, L, nullptr, &slope, nullptr);
+  const double var = slope.middleRows(L, e.rows() - 2 * L).squaredNorm() / double(e.rows() - 2 * L);
+  EXPECT_NEAR(var / w.row(1).squaredNorm(), 1.0, 0.05);
+  // Fewer samples than a window: the largest window that fits (here L = 2), still exact on the quadratic.
+  savitzkyGolay(x.topRows(5), dt, L, nullptr, &d1, nullptr);
+  for (int i = 0; i < 5; ++i) EXPECT_NEAR(d1(i, 0), 6.0 * i * dt - 2.0, 1e-8) << i;
 }
 
 }  // namespace

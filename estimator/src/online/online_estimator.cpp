@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "exoid/estimator/batch/consistent.hpp"
+#include "exoid/signal/filters.hpp"
 #include "exoid/estimator/batch/solvers.hpp"
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/inertial.hpp"
@@ -60,6 +61,14 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   }
   if (opt_.filter_order < 2 || opt_.filter_order > Biquad::kMaxOrder || opt_.filter_order % 2 != 0) {
     fail("filter order " + std::to_string(opt_.filter_order) + ": must be even, 2 to " + std::to_string(Biquad::kMaxOrder));
+    return;
+  }
+  if (opt_.derivative_half_window < 1 || opt_.derivative_half_window > 500) {
+    fail("derivative half window " + std::to_string(opt_.derivative_half_window) + ": must be 1 to 500 ticks");
+    return;
+  }
+  if (opt_.gyro_half_window < 1 || opt_.gyro_half_window > 500) {
+    fail("gyro half window " + std::to_string(opt_.gyro_half_window) + ": must be 1 to 500 ticks");
     return;
   }
   if (!(opt_.sample_hz > 0.0 && std::isfinite(opt_.sample_hz))) {
@@ -196,6 +205,12 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
 
   slot_state_.q = slot_state_.tau = Eigen::VectorXd::Zero(model.njoints);
   slot_state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
+  {
+    const int L = std::max(opt_.derivative_half_window, opt_.gyro_half_window);
+    sg_ = savitzkyGolayWeights(opt_.derivative_half_window, L);
+    sg_gyro_ = savitzkyGolayWeights(opt_.gyro_half_window, L);
+    raw_.resize(2 * L + 1);
+  }
   for (Raw& r : raw_) r.q = r.tau = Eigen::VectorXd::Zero(model.njoints);
   state_ = ff_state_ = State::zero(model);
   y_ = yf_ = tau_sensor_ = Eigen::VectorXd::Zero(nv);
@@ -265,9 +280,10 @@ void OnlineEstimator::tryProcess() {
   if (!(got_[0] && got_[1] && got_[2])) return;
   got_[0] = got_[1] = got_[2] = false;  // processed: a late duplicate is rejected by the channel's tick
   // Raw values of this tick into the ring (the oldest slot is overwritten).
-  const int slot = (raw_head_ + raw_count_) % 3;
-  Raw& r = raw_[raw_count_ < 3 ? slot : raw_head_];
-  if (raw_count_ == 3) raw_head_ = (raw_head_ + 1) % 3;
+  const int n = static_cast<int>(raw_.size());
+  const int slot = (raw_head_ + raw_count_) % n;
+  Raw& r = raw_[raw_count_ < n ? slot : raw_head_];
+  if (raw_count_ == n) raw_head_ = (raw_head_ + 1) % n;
   else ++raw_count_;
   const RobotStateSample& s = slot_state_;
   r.tick = slot_tick_;
@@ -282,28 +298,37 @@ void OnlineEstimator::tryProcess() {
     footWrenchFromPlate(slot_plate_[i], r.contact[i].force, r.contact[i].moment_world_origin);
     r.plate_position[i] = slot_plate_[i].plate_position;
   }
-  // Differences need three consecutive ticks; after a gap the history (and the filter) restart from this one.
-  if (raw_count_ >= 2 && r.tick != raw_[(raw_head_ + raw_count_ - 2) % 3].tick + 1) {
-    raw_head_ = (raw_head_ + raw_count_ - 1) % 3;
+  // The fit needs 2L + 1 consecutive ticks; after a gap the history (and the filter) restart from this one.
+  if (raw_count_ >= 2 && r.tick != raw_[(raw_head_ + raw_count_ - 2) % n].tick + 1) {
+    raw_head_ = (raw_head_ + raw_count_ - 1) % n;
     raw_count_ = 1;
     filter_.reset();
     return;
   }
-  if (raw_count_ == 3) process();
+  if (raw_count_ == n) process();
 }
 
 void OnlineEstimator::process() {
-  const Raw& r0 = raw_[raw_head_];
-  const Raw& r1 = raw_[(raw_head_ + 1) % 3];
-  const Raw& r2 = raw_[(raw_head_ + 2) % 3];
-  // The state of the middle tick by central differences (causal: evaluated one tick late).
+  // The state of the middle tick of the window (evaluated L ticks late): the quadratic fits' slope and curvature
+  // (v, a; the gyro's value and slope), with L = 1 exactly the central differences. The configuration and the
+  // signals that enter y and K linearly or barely (torques, plates, accelerometer, orientation) are the middle
+  // tick's own: their noise is not squared anywhere.
+  const int n = static_cast<int>(raw_.size()), L = n / 2;
+  const Raw& r1 = raw_[(raw_head_ + L) % n];
   State& st = state_;
   st.q = r1.q;
-  st.v = (r2.q - r0.q) / (2.0 * dt_);
-  st.a = (r2.q - 2.0 * r1.q + r0.q) / (dt_ * dt_);
+  st.v.setZero();
+  st.a.setZero();
+  st.base_omega.setZero();
+  st.base_domega.setZero();
+  for (int i = 0; i < n; ++i) {
+    const Raw& ri = raw_[(raw_head_ + i) % n];
+    st.v.noalias() += (sg_(1, i) / dt_) * ri.q;
+    st.a.noalias() += (2.0 * sg_(2, i) / (dt_ * dt_)) * ri.q;
+    st.base_omega.noalias() += sg_gyro_(0, i) * ri.gyro;
+    st.base_domega.noalias() += (sg_gyro_(1, i) / dt_) * ri.gyro;
+  }
   st.base_orientation = r1.orientation;
-  st.base_omega = r1.gyro;
-  st.base_domega = (r2.gyro - r0.gyro) / (2.0 * dt_);
   st.base_acceleration = r1.acceleration;
   st.base_velocity.setZero();  // does not enter the dynamics (docs/conventions.md)
   computeJointTorqueRegressor(model_, kin_, st);
@@ -643,7 +668,9 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
   // The carried block information (selective forgetting) and the options that shape the estimate travel with
   // the recursive state; the structure check of loadRecursiveLs covers prior, weights and active sets.
   std::vector<double> extra = {double(static_cast<int>(opt_.forgetting)), opt_.lambda, double(opt_.forget_every),
-                               opt_.block_threshold, opt_.cutoff_hz, double(opt_.filter_order), n_carry_, double(block_samples_)};
+                               opt_.block_threshold, opt_.cutoff_hz, double(opt_.filter_order),
+                               double(opt_.derivative_half_window), double(opt_.gyro_half_window), n_carry_,
+                               double(block_samples_)};
   extra.insert(extra.end(), R_.data(), R_.data() + R_.size());
   extra.insert(extra.end(), r_.data(), r_.data() + r_.size());
   extra.insert(extra.end(), rss_carry_.data(), rss_carry_.data() + rss_carry_.size());
@@ -692,7 +719,7 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
     return false;
   }
   const int m = rls_model_.m, nv = rls_model_.nv;
-  const size_t want = 8 + size_t(m) * m + m + nv + 5 + 1 + nv;
+  const size_t want = 10 + size_t(m) * m + m + nv + 5 + 1 + nv;
   // The sidecar first: a checkpoint of an estimator with other effects is refused by name.
   const std::vector<double> sig = effectSignature();
   const std::vector<double> file_sig(extra.begin() + std::ptrdiff_t(std::min(extra.size(), want)), extra.end());
@@ -708,11 +735,14 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   }
   if (extra[0] != double(static_cast<int>(opt_.forgetting)) || extra[1] != opt_.lambda ||
       extra[2] != double(opt_.forget_every) || extra[3] != opt_.block_threshold || extra[4] != opt_.cutoff_hz ||
-      extra[5] != double(opt_.filter_order)) {
-    if (error) *error = path + ": written with other options (forgetting, lambda, block, threshold, cutoff or filter order differ)";
+      extra[5] != double(opt_.filter_order) || extra[6] != double(opt_.derivative_half_window) ||
+      extra[7] != double(opt_.gyro_half_window)) {
+    if (error)
+      *error = path + ": written with other options (forgetting, lambda, block, threshold, cutoff, filter order or "
+                      "derivative windows differ)";
     return false;
   }
-  size_t i = 6;
+  size_t i = 8;
   n_carry_ = extra[i++];
   block_samples_ = long(extra[i++]);
   std::copy(extra.begin() + i, extra.begin() + i + m * m, R_.data());

@@ -85,14 +85,19 @@ void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_h
 
 enum class FilterMode {
   Inputs,    ///< thesis III-E: filter q (and the gyro), differentiate, filter the derivatives; y untouched
-  Parallel,  ///< inputs only differenced (no filter), then the zero-phase filter on every column of W and on
-             ///< y: F(W) phi = F(y) wherever W phi = y (filter lag and attenuation cancel)
+  Parallel,  ///< inputs only differentiated (no filter; the short zero-phase fit of derivative_half_window), then
+             ///< the zero-phase filter on every column of W and on y: F(W) phi = F(y) wherever W phi = y (filter
+             ///< lag and attenuation cancel)
 };
 
 struct DatasetOptions {
   double cutoff_hz = 0.0;            ///< zero-phase 2nd-order Butterworth cutoff; <= 0: no filter
   FilterMode filter = FilterMode::Inputs;
   bool derive = false;               ///< true: v, a (and base dw) by differences even where measured
+  /// Parallel mode with a filter: v, a (and the gyro's value and slope) from the least-squares quadratic over
+  /// 2L + 1 samples (savitzkyGolay), as the online estimator does; 1 = central differences. The squared noise of
+  /// differenced encoders in W's velocity products is a bias the filter after it cannot remove (docs/estimator.md).
+  int derivative_half_window = 20;
   double encoder_noise = 0.0;        ///< sigma (rad) of white noise added to q before anything (thesis: 9e-6)
   uint64_t noise_seed = 1;
   /// Sole points (body, point in body coordinates, world position) for the base position from leg

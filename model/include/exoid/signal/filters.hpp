@@ -52,4 +52,19 @@ Eigen::MatrixXd filtfilt(const Biquad& coefficients, const Eigen::MatrixXd& sign
 /// Derivative of every column by central differences (one-sided at the ends), uniform sample time dt.
 Eigen::MatrixXd differentiate(const Eigen::MatrixXd& signal, double dt);
 
+/// Savitzky-Golay weights of the least-squares quadratic c0 + c1 i + c2 i^2 through the samples i = -L..L
+/// (Savitzky & Golay 1964): row 0 gives the fitted value c0 at i = 0, row 1 the slope c1 (per sample), row 2 the
+/// coefficient c2 (second derivative 2 c2 per sample^2). [3 x 2 width + 1], the fit's 2L + 1 weights centred in it
+/// and zeros around (width >= L; width = L without it). L = 1: the central differences (q1, (q2 - q0) / 2,
+/// (q2 - 2 q1 + q0) / 2). The slope's noise variance is 3 / (L (L + 1) (2L + 1)) of a sample's.
+Eigen::Matrix<double, 3, Eigen::Dynamic> savitzkyGolayWeights(int half_window, int width = -1);
+
+/// Value, first and second derivative of every column of a signal [samples x width]: those of the
+/// least-squares quadratic through the 2L + 1 samples around each sample (savitzkyGolayWeights); the first and
+/// last L samples take the fit of the first and last full window at their own position. Uniform sample time dt;
+/// fewer than 2L + 1 samples: the largest window that fits. L = 1: the central differences inside. Any output
+/// may be null.
+void savitzkyGolay(const Eigen::MatrixXd& signal, double dt, int half_window, Eigen::MatrixXd* value,
+                   Eigen::MatrixXd* first, Eigen::MatrixXd* second);
+
 }  // namespace exoid

@@ -45,6 +45,12 @@ struct OnlineEstimatorOptions {
   double sample_hz = 1000.0;     ///< tick rate of the samples
   double cutoff_hz = 2.0;        ///< causal Butterworth on K rows and y; <= 0: none (docs/estimator.md, "Filter")
   int filter_order = 4;          ///< its order (even, 2..8): 4 makes twice-differenced noise in K integrable
+  /// The derivatives of a tick's state (v, a from the encoders; the gyro and its derivative) are those of the
+  /// quadratic least-squares fit (Savitzky-Golay) over the 2L + 1 ticks around it, evaluated L ticks late;
+  /// 1 = central differences. Noise products in K (v v^T of
+  /// the encoders differenced at 1 kHz) do not average out in the filter that follows (docs/estimator.md, "State").
+  int derivative_half_window = 20;
+  int gyro_half_window = 20;     ///< the same fit for the gyro's value and slope (its noise is 400x the encoders')
   double prior_relative = 0.25;  ///< prior within +-this (relative) of each standard parameter (1 sigma)
   std::vector<double> row_weight;  ///< [nv] fixed row weights 1 / sigma_c; empty: WLS-R estimated online
                                    ///< (none / stabilised forgetting; ones with selective forgetting)
@@ -235,7 +241,9 @@ class OnlineEstimator {
   long last_tick_[3] = {-1, -1, -1};
   RobotStateSample slot_state_;
   ForcePlateSample slot_plate_[2];
-  Raw raw_[3];                  ///< ring of the last ticks
+  std::vector<Raw> raw_;        ///< [2L + 1] ring of the last ticks (L: the larger of the two half windows)
+  Eigen::Matrix<double, 3, Eigen::Dynamic> sg_, sg_gyro_;  ///< [3 x 2L + 1] fit weights (value, slope per tick,
+                                                           ///< curvature), zero outside each one's own window
   int raw_count_ = 0, raw_head_ = 0;
   long rejected_[5] = {0, 0, 0, 0, 0};
   long incomplete_ = 0;
