@@ -9,7 +9,8 @@
 //   TRUE_URDF  the simulated robot (config/exo.urdf plus the scenario's payloads)
 //   CUTOFF_HZ ORDER HALF_WINDOW  the row filter and the state fit (OnlineEstimatorOptions: cutoff_hz, filter_order,
 //              derivative_half_window; 1 = central differences;
-//              L:G sets the gyro's gyro_half_window to G)
+//              L:G sets the gyro's gyro_half_window to G; with "gyro" in it (e.g. 20:20:gyro) the base's
+//              angular rate comes from the gyro, else from the legs (base_rate_from_legs))
 //   SPEC       letters of the signals taken from the ground truth: R IMU orientation, W gyro, A accelerometer,
 //              Q encoders, T joint torques, F plates; '-' = all from the sensors; a 't' adds the error every 3 s
 #include <cmath>
@@ -64,6 +65,7 @@ int main(int argc, char** argv) {
     opt.filter_order = std::atoi(argv[4]);
     opt.derivative_half_window = opt.gyro_half_window = std::atoi(argv[5]);
     if (const char* colon = std::strchr(argv[5], ':')) opt.gyro_half_window = std::atoi(colon + 1);
+    opt.base_rate_from_legs = std::strstr(argv[5], "gyro") == nullptr;
     estimator::OnlineEstimator est(model, base, model.phi, opt);
     if (!est.ok()) {
       std::fprintf(stderr, "%s\n", est.error().c_str());

@@ -74,6 +74,7 @@ int main(int argc, char** argv) {
          min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
   int64_t derivative_half_window = estimator::OnlineEstimatorOptions{}.derivative_half_window,
           gyro_half_window = estimator::OnlineEstimatorOptions{}.gyro_half_window;
+  std::string base_rate = "legs";
   int64_t filter_order = estimator::OnlineEstimatorOptions{}.filter_order, forget_every = 100, idle_timeout_ms = 0, consistent_every = 10, consistent_iterations = 30;
   double consistent_tolerance = 2.0, effect_prior_factor = 10.0;
   bool quiet = false;
@@ -109,8 +110,13 @@ int main(int argc, char** argv) {
                  "products is a bias no filter after it removes (docs/estimator.md, \"State\")")
       ->transform(common::strictInteger(1, 500))->type_name("L");
   app.add_option("--gyro-half-window", gyro_half_window,
-                 "the same fit for the gyro's value and slope (the base's angular acceleration)")
+                 "with --base-rate gyro: the same fit for the gyro's value and slope")
       ->transform(common::strictInteger(1, 500))->type_name("L");
+  app.add_option("--base-rate", base_rate,
+                 "where the base's angular velocity and acceleration come from: 'legs' (default: the feet stand\n"
+                 "flat on the plates, so the base turns as the leg kinematics say; the encoders' precision) or\n"
+                 "'gyro' (the IMU; its noise in the angular acceleration biases the CoM height by ~6 mm)")
+      ->check(CLI::IsMember({"legs", "gyro"}))->type_name("legs|gyro");
   app.add_option("--forgetting", forgetting_name,
                  "none: exact minimiser of the batch regularised cost; stabilised: every direction's\n"
                  "data decays by --lambda per sample; selective: only the base-parameter axes the\n"
@@ -215,6 +221,7 @@ int main(int argc, char** argv) {
   opt.filter_order = static_cast<int>(filter_order);
   opt.derivative_half_window = static_cast<int>(derivative_half_window);
   opt.gyro_half_window = static_cast<int>(gyro_half_window);
+  opt.base_rate_from_legs = base_rate == "legs";
   opt.prior_relative = prior_relative;
   parseForgetting(forgetting_name, opt.forgetting);
   opt.lambda = lambda;
@@ -267,11 +274,11 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   if (!quiet)
-    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, state fit over %d ticks (gyro %d), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
+    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, state fit over %d ticks (base rate from the %s), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
                  base.rank,
                  effects_path.empty() ? ""
                                       : (" + " + std::to_string(est.effectColumnCount()) + " effect columns of " + effects_path).c_str(),
-                 forgettingName(opt.forgetting), 2 * opt.derivative_half_window + 1, 2 * opt.gyro_half_window + 1,
+                 forgettingName(opt.forgetting), 2 * opt.derivative_half_window + 1, base_rate.c_str(),
                  cutoff, opt.filter_order, nopt.publish_every,
                  resumed ? (", resumed from " + checkpoint + " at tick " + std::to_string(est.rlsData().last_tick)).c_str() : "",
                  lcm->url().c_str());

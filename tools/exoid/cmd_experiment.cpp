@@ -255,9 +255,9 @@ int cmdExperiment(int argc, char** argv) {
                "let the controller use EXO_ESTIMATE while it is valid (feedforward in its dynamics,\n"
                "the estimate's CoM in its momentum task; docs/controller.md). Off by default:\n"
                "it pays where the controller's model is wrong (a +-25 % prior: joint-torque prediction\n"
-               "error 5.7x lower, true-CoM error 9x; undeclared payloads: true-CoM error 2.8-6.4x lower in\n"
-               "7 of 8), while on an exact model the estimate's noise costs a little (nominal: true-CoM\n"
-               "RMSE 6.0 vs 0.37 mm; docs/estimator.md, \"Closing the loop\")");
+               "error 6.4x lower, true-CoM error 12x; undeclared payloads: true-CoM error 2.5-8.9x lower in\n"
+               "8 of 8), while on an exact model the estimate's noise costs a little (nominal: true-CoM\n"
+               "RMSE 2.75 vs 0.37 mm; docs/estimator.md, \"Closing the loop\")");
   app.add_option("--estimator-args", estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
                  "the experiment's defaults, \"--forgetting none\". --effects FILE (a\n"

@@ -42,7 +42,7 @@ bool finite3(const Eigen::Vector3d& v) { return v.allFinite(); }
 
 OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
                                  const OnlineEstimatorOptions& options)
-    : model_(model), opt_(options), rls_(RecursiveLsModel{}), kin_(model) {
+    : model_(model), opt_(options), rls_(RecursiveLsModel{}), kin_(model), fk_(model) {
   auto fail = [&](const std::string& what) { error_ = what; };  // then return
   if (!model.floating_base) {
     fail("the online estimator needs a floating-base model standing on force plates");
@@ -212,7 +212,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
     raw_.resize(2 * L + 1);
   }
   for (Raw& r : raw_) r.q = r.tau = Eigen::VectorXd::Zero(model.njoints);
-  state_ = ff_state_ = State::zero(model);
+  state_ = ff_state_ = fk_state_ = State::zero(model);
   y_ = yf_ = tau_sensor_ = Eigen::VectorXd::Zero(nv);
   innovation_ = innovation_mean_ = innovation_ms_ = Eigen::VectorXd::Zero(nv);
   Kf_ = Eigen::MatrixXd::Zero(nv, p + ne_);
@@ -298,6 +298,11 @@ void OnlineEstimator::tryProcess() {
     footWrenchFromPlate(slot_plate_[i], r.contact[i].force, r.contact[i].moment_world_origin);
     r.plate_position[i] = slot_plate_[i].plate_position;
   }
+  if (opt_.base_rate_from_legs) {
+    fk_state_.q = r.q;  // base frame: the base at identity, no motion
+    forwardKinematics(model_, fk_, fk_state_);
+    for (int i = 0; i < 2; ++i) r.foot_rotation[i] = fk_.R[feet_[i]];
+  }
   // The fit needs 2L + 1 consecutive ticks; after a gap the history (and the filter) restart from this one.
   if (raw_count_ >= 2 && r.tick != raw_[(raw_head_ + raw_count_ - 2) % n].tick + 1) {
     raw_head_ = (raw_head_ + raw_count_ - 1) % n;
@@ -325,8 +330,21 @@ void OnlineEstimator::process() {
     const Raw& ri = raw_[(raw_head_ + i) % n];
     st.v.noalias() += (sg_(1, i) / dt_) * ri.q;
     st.a.noalias() += (2.0 * sg_(2, i) / (dt_ * dt_)) * ri.q;
-    st.base_omega.noalias() += sg_gyro_(0, i) * ri.gyro;
-    st.base_domega.noalias() += (sg_gyro_(1, i) / dt_) * ri.gyro;
+    if (opt_.base_rate_from_legs) {
+      // Feet fixed in the world: R_wb,c^T R_wb,i = R_bf,c R_bf,i^T = exp([theta_i]) in the middle tick's base
+      // frame; theta is the base's rotation since that tick, whose fitted slope and curvature are omega and its
+      // derivative (base frame, as the gyro's). theta = vee of the skew part: its error O(|theta|^3) is ~1e-10
+      // rad over the window. Averaged over the two feet.
+      for (int f = 0; f < 2; ++f) {
+        const Eigen::Matrix3d M = r1.foot_rotation[f] * ri.foot_rotation[f].transpose();
+        const Eigen::Vector3d theta(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
+        st.base_omega.noalias() += (0.5 * sg_(1, i) / dt_) * theta;
+        st.base_domega.noalias() += (sg_(2, i) / (dt_ * dt_)) * theta;
+      }
+    } else {
+      st.base_omega.noalias() += sg_gyro_(0, i) * ri.gyro;
+      st.base_domega.noalias() += (sg_gyro_(1, i) / dt_) * ri.gyro;
+    }
   }
   st.base_orientation = r1.orientation;
   st.base_acceleration = r1.acceleration;
@@ -669,7 +687,8 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
   // the recursive state; the structure check of loadRecursiveLs covers prior, weights and active sets.
   std::vector<double> extra = {double(static_cast<int>(opt_.forgetting)), opt_.lambda, double(opt_.forget_every),
                                opt_.block_threshold, opt_.cutoff_hz, double(opt_.filter_order),
-                               double(opt_.derivative_half_window), double(opt_.gyro_half_window), n_carry_,
+                               double(opt_.derivative_half_window), double(opt_.gyro_half_window),
+                               double(opt_.base_rate_from_legs), n_carry_,
                                double(block_samples_)};
   extra.insert(extra.end(), R_.data(), R_.data() + R_.size());
   extra.insert(extra.end(), r_.data(), r_.data() + r_.size());
@@ -719,7 +738,7 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
     return false;
   }
   const int m = rls_model_.m, nv = rls_model_.nv;
-  const size_t want = 10 + size_t(m) * m + m + nv + 5 + 1 + nv;
+  const size_t want = 11 + size_t(m) * m + m + nv + 5 + 1 + nv;
   // The sidecar first: a checkpoint of an estimator with other effects is refused by name.
   const std::vector<double> sig = effectSignature();
   const std::vector<double> file_sig(extra.begin() + std::ptrdiff_t(std::min(extra.size(), want)), extra.end());
@@ -736,13 +755,13 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   if (extra[0] != double(static_cast<int>(opt_.forgetting)) || extra[1] != opt_.lambda ||
       extra[2] != double(opt_.forget_every) || extra[3] != opt_.block_threshold || extra[4] != opt_.cutoff_hz ||
       extra[5] != double(opt_.filter_order) || extra[6] != double(opt_.derivative_half_window) ||
-      extra[7] != double(opt_.gyro_half_window)) {
+      extra[7] != double(opt_.gyro_half_window) || extra[8] != double(opt_.base_rate_from_legs)) {
     if (error)
-      *error = path + ": written with other options (forgetting, lambda, block, threshold, cutoff, filter order or "
-                      "derivative windows differ)";
+      *error = path + ": written with other options (forgetting, lambda, block, threshold, cutoff, filter order, "
+                      "derivative windows or base rate source differ)";
     return false;
   }
-  size_t i = 8;
+  size_t i = 9;
   n_carry_ = extra[i++];
   block_samples_ = long(extra[i++]);
   std::copy(extra.begin() + i, extra.begin() + i + m * m, R_.data());

@@ -97,7 +97,7 @@ struct DatasetOptions {
   /// Parallel mode with a filter: v, a (and the gyro's value and slope) from the least-squares quadratic over
   /// 2L + 1 samples (savitzkyGolay), as the online estimator does; 1 = central differences. The squared noise of
   /// differenced encoders in W's velocity products is a bias the filter after it cannot remove (docs/estimator.md).
-  int derivative_half_window = 20;
+  int derivative_half_window = 30;
   double encoder_noise = 0.0;        ///< sigma (rad) of white noise added to q before anything (thesis: 9e-6)
   uint64_t noise_seed = 1;
   /// Sole points (body, point in body coordinates, world position) for the base position from leg

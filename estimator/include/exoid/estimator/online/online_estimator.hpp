@@ -49,8 +49,13 @@ struct OnlineEstimatorOptions {
   /// quadratic least-squares fit (Savitzky-Golay) over the 2L + 1 ticks around it, evaluated L ticks late;
   /// 1 = central differences. Noise products in K (v v^T of
   /// the encoders differenced at 1 kHz) do not average out in the filter that follows (docs/estimator.md, "State").
-  int derivative_half_window = 20;
+  int derivative_half_window = 30;
   int gyro_half_window = 20;     ///< the same fit for the gyro's value and slope (its noise is 400x the encoders')
+  /// The base's angular velocity and acceleration from the legs instead of the gyro: both feet stand flat on
+  /// their plates, so R_wb = R_wf R_bf(q)^T with R_wf constant, and the same fit through the rotation of R_bf(q)
+  /// over the window (encoder noise, 9e-6 rad, against the gyro's 3.6e-3 rad/s) gives omega and its derivative.
+  /// A foot that rolls on its plate breaks the assumption (docs/estimator.md, "State").
+  bool base_rate_from_legs = true;
   double prior_relative = 0.25;  ///< prior within +-this (relative) of each standard parameter (1 sigma)
   std::vector<double> row_weight;  ///< [nv] fixed row weights 1 / sigma_c; empty: WLS-R estimated online
                                    ///< (none / stabilised forgetting; ones with selective forgetting)
@@ -177,6 +182,7 @@ class OnlineEstimator {
     Eigen::Vector3d gyro = Eigen::Vector3d::Zero(), acceleration = Eigen::Vector3d::Zero();
     ExternalWrench contact[2];
     Eigen::Vector3d plate_position[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    Eigen::Matrix3d foot_rotation[2] = {Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity()};  ///< R_bf(q)
   };
   InputStatus admit(int channel, long tick, bool finite, bool sizes_ok);
   void openSlot(long tick);
@@ -249,8 +255,8 @@ class OnlineEstimator {
   long incomplete_ = 0;
 
   // Per-sample workspace.
-  Data kin_;
-  State state_, ff_state_;
+  Data kin_, fk_;               ///< the sample's kinematics and regressor; the newest tick's feet (base rate)
+  State state_, ff_state_, fk_state_;
   bool has_state_ = false;
   Eigen::VectorXd y_, yf_;
   Eigen::MatrixXd Kf_;
