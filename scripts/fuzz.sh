@@ -3,12 +3,12 @@
 # the repository's real files, generated messages/logs and the checked-in regression inputs (fuzz/corpus/),
 # runs every target for a bounded time and prints the executions per target. Fails if any target finds a
 # crash (the input is kept in build-sanitize/fuzz/crashes/<target>/; docs/testing.md says how to reproduce).
-#   EXOID_FUZZ_SECONDS  time per target (default 15; 0 skips fuzzing)
+#   EXOID_FUZZ_SECONDS  time per target (default 10; 0 skips fuzzing)
 #   EXOID_FUZZ_JOBS     targets run at once (default: number of CPUs)
 #   arguments           a subset of targets (names without fuzz_), e.g. `scripts/fuzz.sh urdf lcm_log`
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-seconds="${EXOID_FUZZ_SECONDS:-15}"
+seconds="${EXOID_FUZZ_SECONDS:-10}"
 jobs="${EXOID_FUZZ_JOBS:-$(nproc)}"
 all=(urdf states_csv sim_config controller_config lcm_decode lcm_log lcm_wire)
 targets=("$@")

@@ -6,7 +6,7 @@
 #   3. runs every libFuzzer target for a bounded time (scripts/fuzz.sh),
 # and prints the time each step took. docs/testing.md describes the steps, labels and variables.
 #   EXOID_SANITIZE_TESTS=0   skip step 2
-#   EXOID_FUZZ_SECONDS=N     seconds per fuzz target in step 3 (default 15; 0 skips step 3)
+#   EXOID_FUZZ_SECONDS=N     seconds per fuzz target in step 3 (default 10; 0 skips step 3)
 #   arguments                passed to the ctest of step 1 (e.g. -L model, -R Regressor)
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -30,6 +30,6 @@ step "ctest (build/)" bash -c 'cd "$1/build" && shift && ctest --output-on-failu
 if [ "${EXOID_SANITIZE_TESTS:-1}" != 0 ]; then
   step "sanitizer build + tests" bash "$here/scripts/test-sanitize.sh"
 fi
-if [ "${EXOID_FUZZ_SECONDS:-15}" != 0 ]; then
+if [ "${EXOID_FUZZ_SECONDS:-10}" != 0 ]; then
   step "fuzzing" bash "$here/scripts/fuzz.sh"
 fi
