@@ -7,7 +7,6 @@
 #include <limits>
 
 #include "exoid/estimator/batch/consistent.hpp"
-#include "exoid/signal/filters.hpp"
 #include "exoid/estimator/batch/solvers.hpp"
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/inertial.hpp"
@@ -315,9 +314,9 @@ void OnlineEstimator::tryProcess() {
 
 void OnlineEstimator::process() {
   // The state of the middle tick of the window (evaluated L ticks late): the quadratic fits' slope and curvature
-  // (v, a; the gyro's value and slope), with L = 1 exactly the central differences. The configuration and the
-  // signals that enter y and K linearly or barely (torques, plates, accelerometer, orientation) are the middle
-  // tick's own: their noise is not squared anywhere.
+  // (v, a through the encoders; omega and its derivative through the base's rotation from the legs, or the gyro's
+  // value and slope), with L = 1 exactly the central differences. The configuration and the signals that enter y
+  // and K linearly or barely (torques, plates, accelerometer, orientation) are the middle tick's own.
   const int n = static_cast<int>(raw_.size()), L = n / 2;
   const Raw& r1 = raw_[(raw_head_ + L) % n];
   State& st = state_;
