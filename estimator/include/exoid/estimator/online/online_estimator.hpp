@@ -166,6 +166,8 @@ class OnlineEstimator {
   /// Last filtered equations handed to the update (tick, [K | E] [nv x (p + ne)], y [nv], gains corrected); valid
   /// when lastRowTick() >= 0.
   long lastRowTick() const { return row_tick_; }
+  /// The state reconstructed for the last row (tick lastRowTick()): q, v, a and the base's motion it was built from.
+  const State& lastState() const { return state_; }
   const Eigen::MatrixXd& lastK() const { return Kf_; }
   const Eigen::VectorXd& lastY() const { return yf_; }
   long incompleteTicks() const { return incomplete_; }
