@@ -290,8 +290,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       w = filt(w);
       dw = filt(dw);
     } else if (parallel && opt_.derivative_half_window > 1) {
-      Eigen::MatrixXd raw = w;
-      savitzkyGolay(raw, dt, opt_.derivative_half_window, &w, &dw, nullptr);
+      savitzkyGolay(w, dt, opt_.derivative_half_window, &w, &dw, nullptr);  // in place: outputs written last
     } else {
       filterAndDifferentiate(w, dt, input_cutoff, &w, &dw, nullptr);
     }

@@ -205,9 +205,11 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   slot_state_.q = slot_state_.tau = Eigen::VectorXd::Zero(model.njoints);
   slot_state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
   {
-    const int L = std::max(opt_.derivative_half_window, opt_.gyro_half_window);
+    // The gyro's window counts only where the gyro gives the base's rate (otherwise its weights are never used).
+    const bool gyro = !opt_.base_rate_from_legs;
+    const int L = gyro ? std::max(opt_.derivative_half_window, opt_.gyro_half_window) : opt_.derivative_half_window;
     sg_ = savitzkyGolayWeights(opt_.derivative_half_window, L);
-    sg_gyro_ = savitzkyGolayWeights(opt_.gyro_half_window, L);
+    if (gyro) sg_gyro_ = savitzkyGolayWeights(opt_.gyro_half_window, L);
     raw_.resize(2 * L + 1);
   }
   for (Raw& r : raw_) r.q = r.tau = Eigen::VectorXd::Zero(model.njoints);

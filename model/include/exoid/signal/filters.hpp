@@ -63,7 +63,7 @@ Eigen::Matrix<double, 3, Eigen::Dynamic> savitzkyGolayWeights(int half_window, i
 /// least-squares quadratic through the 2L + 1 samples around each sample (savitzkyGolayWeights); the first and
 /// last L samples take the fit of the first and last full window at their own position. Uniform sample time dt;
 /// fewer than 2L + 1 samples: the largest window that fits. L = 1: the central differences inside. Any output
-/// may be null.
+/// may be null, or the signal itself (the outputs are assigned after the signal has been read).
 void savitzkyGolay(const Eigen::MatrixXd& signal, double dt, int half_window, Eigen::MatrixXd* value,
                    Eigen::MatrixXd* first, Eigen::MatrixXd* second);
 

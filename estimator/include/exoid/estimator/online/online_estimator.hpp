@@ -249,9 +249,10 @@ class OnlineEstimator {
   long last_tick_[3] = {-1, -1, -1};
   RobotStateSample slot_state_;
   ForcePlateSample slot_plate_[2];
-  std::vector<Raw> raw_;        ///< [2L + 1] ring of the last ticks (L: the larger of the two half windows)
+  std::vector<Raw> raw_;        ///< [2L + 1] ring of the last ticks (L: the larger half window in use)
   Eigen::Matrix<double, 3, Eigen::Dynamic> sg_, sg_gyro_;  ///< [3 x 2L + 1] fit weights (value, slope per tick,
-                                                           ///< curvature), zero outside each one's own window
+                                                           ///< curvature), zero outside each one's own window;
+                                                           ///< sg_gyro_ only with base_rate_from_legs off
   int raw_count_ = 0, raw_head_ = 0;
   long rejected_[5] = {0, 0, 0, 0, 0};
   long incomplete_ = 0;
