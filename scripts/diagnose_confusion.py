@@ -2,8 +2,10 @@
 """Confusion table of `exoid diagnose` over the diagnosis scenarios (docs/diagnose.md).
 
 For every scenario in config/scenarios/diagnose/ (or the ones given): two closed-loop runs of `exoid experiment`
-(move seeds 1 and 2, the scenario's own noise seed), `exoid diagnose` trained on the first and validated on the
-second (sensors only), and the findings compared with the seeded effects read from the scenario file:
+(move seeds 1 and 2, the scenario's own noise seed) and a calibration run (`exoid calibrate`: the pelvis held in a
+harness, the legs swinging; --calibration-seconds 0 leaves it out), `exoid diagnose` trained on the first and the
+calibration and validated on the second (balancing data: sensors only), and the findings compared with the seeded
+effects read from the scenario file:
 
   joint_damping -> viscous, joint_frictionloss -> coulomb, armature -> armature,
   torque_sensor offset != 0 -> offset, gain != 1 -> gain, payload -> payload (a change of the link's inertial
@@ -28,7 +30,7 @@ Writes OUT/confusion.csv, OUT/confusion.md (the table, the detection rates over 
 meeting the criterion, one line per effect and per scenario), OUT/effects.csv (one row per seeded effect) and
 OUT/scenarios.csv.
 
-usage: scripts/diagnose_confusion.py [--moves N] [--out DIR] [--bin build/bin] [SCENARIO.yaml ...]
+usage: scripts/diagnose_confusion.py [--moves N] [--calibration-seconds S] [--out DIR] [--bin build/bin] [SCENARIO.yaml ...]
 """
 import argparse
 import csv
@@ -131,6 +133,9 @@ def main():
     ap.add_argument("--moves", type=int, default=6, help="CoM moves per run (default 6: 19 s simulated)")
     ap.add_argument("--out", default=os.path.join(here, "out", "diagnose_confusion"), help="output directory")
     ap.add_argument("--bin", default=os.path.join(here, "build", "bin"), help="directory of the exoid binary")
+    ap.add_argument("--calibration-seconds", type=float, default=40.0,
+                    help="length of the calibration run (`exoid calibrate`: pelvis held, legs swinging) added to the "
+                         "training data (default 40; 0: balancing data only, as before stop 10)")
     a = ap.parse_args()
     scenarios = a.scenarios or sorted(glob.glob(os.path.join(here, "config", "scenarios", "diagnose", "*.yaml")))
     if not scenarios:
@@ -151,8 +156,14 @@ def main():
         for seed in (1, 2):
             run([exoid, "experiment", "--no-estimator", "--scenario", path, "--moves", str(a.moves), "--seed", str(seed),
                  "--out", os.path.join(d, f"run{seed}")], os.path.join(d, f"experiment{seed}.txt"))
-        run([exoid, "diagnose", "--model", urdf, "--floating-base", "--train", os.path.join(d, "run1", "run.lcmlog"),
-             "--validate", os.path.join(d, "run2", "run.lcmlog"), "--no-plots", "--out", os.path.join(d, "diagnose")],
+        calibration = []
+        if a.calibration_seconds > 0:
+            run([exoid, "calibrate", "--scenario", path, "--duration", f"{a.calibration_seconds:g}",
+                 "--out", os.path.join(d, "calibration")], os.path.join(d, "calibration.txt"))
+            calibration = ["--calibration", os.path.join(d, "calibration", "run.lcmlog")]
+        run([exoid, "diagnose", "--model", urdf, "--floating-base", "--train", os.path.join(d, "run1", "run.lcmlog")] +
+            calibration + ["--validate", os.path.join(d, "run2", "run.lcmlog"), "--no-plots",
+                           "--out", os.path.join(d, "diagnose")],
             os.path.join(d, "diagnose.txt"))
         with open(os.path.join(d, "diagnose", "summary.json")) as f:
             summary = json.load(f)

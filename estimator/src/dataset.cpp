@@ -133,6 +133,11 @@ void measuredFromSensors(const Model& model, const RobotStateSample& s, const Fo
   contactsFromPlates(plates, feet, out);
 }
 
+bool heldBaseRowMeasured(const Model& model, int row) {
+  const int j = row - (model.floating_base ? 6 : 0);
+  return j >= 0 && j < model.njoints && (model.effort_limit.size() != model.njoints || model.effort_limit[j] > 0.0);
+}
+
 std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model) {
   std::vector<DatasetOptions::Foothold> out;
   const char* soles[2] = {"right_sole", "left_sole"};

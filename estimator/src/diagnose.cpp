@@ -169,6 +169,7 @@ struct Candidate {
 // Per-sample signals of one segment.
 struct Cache {
   long n = 0;
+  bool held = false;  // Segment::held_base: candidate signals are zero on its unmeasured rows, like K and y
   std::vector<double> t;
   Eigen::MatrixXd ext, dext;  // [n x nv] y minus the torque sensors' part (the plates' contribution), d/dt of it
   Eigen::MatrixXd v, a, y, tau0, tau, dtau;  // [n x nj], [n x nj], [n x nv], declared prediction [n x nv],
@@ -242,6 +243,8 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
 
   std::vector<Cache> caches(train.size() + validate.size());
   auto segment = [&](size_t i) -> const Segment& { return i < train.size() ? train[i] : validate[i - train.size()]; };
+  // Segment::held_base: the base rows of that segment are zero rows, not data.
+  auto unmeasured = [&](size_t s, int r) { return segment(s).held_base && !heldBaseRowMeasured(model, r); };
   auto bad_size = [&](const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
     return K.rows() != nv || K.cols() != p || y.size() != nv;
   };
@@ -265,6 +268,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   Eigen::VectorXd sig(ns2 + 1);
   std::vector<std::vector<char>> touched(nv, std::vector<char>(md, 0));
   std::string size_error;
+  for (size_t i = 0; i < caches.size(); ++i) caches[i].held = segment(i).held_base;
   for (size_t s = 0; s < train.size(); ++s) {
     Cache& cache = caches[s];
     std::vector<double> vs, ys, es;
@@ -279,6 +283,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           if (nw > 1)
             for (int j = 0; j < nj; ++j) {
               const int r = model.jointRow(j);
+              if (cache.held && !heldBaseRowMeasured(model, r)) continue;
               const double v = K(r, model.frictionParamIndex(j));
               for (int w = 0; w < nw; ++w) {
                 EffectShape sh = opt.shape;
@@ -426,9 +431,12 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
 
     // Row weights 1 / sigma_c from the declared model's training residual (WLS-R, thesis eqs. 29-32), so
     // that the test pools coordinates of very different torque scales fairly.
-    Eigen::VectorXd sse0 = Eigen::VectorXd::Zero(nv);
-    for (size_t s = 0; s < train.size(); ++s) sse0 += (caches[s].y - caches[s].tau0).colwise().squaredNorm().transpose();
-    Eigen::VectorXd sigma = (sse0 / static_cast<double>(out.train_samples)).cwiseSqrt();
+    Eigen::VectorXd sse0 = Eigen::VectorXd::Zero(nv), rows0 = Eigen::VectorXd::Zero(nv);
+    for (size_t s = 0; s < train.size(); ++s) {
+      sse0 += (caches[s].y - caches[s].tau0).colwise().squaredNorm().transpose();
+      for (int r = 0; r < nv; ++r) rows0[r] += unmeasured(s, r) ? 0.0 : static_cast<double>(caches[s].n);
+    }
+    Eigen::VectorXd sigma = (sse0.array() / rows0.array().max(1.0)).sqrt().matrix();
     const double smax = sigma.maxCoeff();
     for (int r = 0; r < nv; ++r) sigma[r] = std::max(sigma[r], 1e-9 * smax + 1e-300);
 
@@ -449,6 +457,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     out.candidates = nc;
     const int P = m + nc + 1, iy = P - 1;
     auto signal = [&](const Cache& c, long i, const Candidate& cd) {
+      if (c.held && !heldBaseRowMeasured(model, cd.coord)) return 0.0;
       // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus
       // what the plates contribute; all of y for a fixed base).
       return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width}), c.v(i, cd.joint),
@@ -540,7 +549,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       for (size_t k = 0; k < act.size(); ++k) xa[k] = xP[act[k]];
       return (fc[f * nv + r].R() * xa).squaredNorm();
     };
-    const long total_rows = out.train_samples * nv;
+    const long total_rows = static_cast<long>(rows0.sum());  // measured rows (held-base segments: no base rows)
     for (int step = 0; gn == 0 && step < opt.max_effects; ++step) {
       const int ns = static_cast<int>(S.size());
       // Per factor (folds, then all): QR of the current columns, the solution and the residual of y.
@@ -570,6 +579,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         double gain;
         bool admissible;
         double separable;  // fraction of the column outside the declared (and accepted) columns' span
+        double jackknife_se;  // standard error of the value over the folds
         Finding f;
       };
       std::vector<Eval> evals;
@@ -587,6 +597,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
             CandidateScore sc;
             sc.effect = {cd.kind, cd.joint, 0.0, cd.width};
             sc.separable = col.squaredNorm() > 0.0 ? nrc / col.squaredNorm() : 0.0;
+            sc.std_error = INFINITY;
             sc.status = "not separable from the declared model";
             out.first_step.push_back(sc);
           }
@@ -595,7 +606,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         const double beta = rc.dot(ry[F]) / nrc;
         const double sse_all = ry[F].squaredNorm() - beta * beta * nrc;
         // Held-out folds: refit on the other folds with the candidate, score on this one.
-        Eigen::VectorXd d(F);
+        Eigen::VectorXd d(F), bfold(F);
         double num = 0.0, den = 0.0;
         for (int f = 0; f < F; ++f) {
           const Eigen::VectorXd colf = Rtrain[f].col(m + c);
@@ -603,6 +614,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           const Eigen::VectorXd rcf = colf - A[f] * wf;
           const double nf = rcf.squaredNorm();
           const double bf = nf > 0 ? rcf.dot(ry[f]) / nf : 0.0;
+          bfold[f] = bf;
           Eigen::VectorXd xP = Eigen::VectorXd::Zero(P);
           for (int k = 0; k < ns; ++k) xP[S[k]] = xs[f][k] - bf * wf[k];
           xP[m + c] = bf;
@@ -622,6 +634,9 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         ev.gain = mean;
         ev.admissible = admissibleValue(cd.kind, beta);
         ev.separable = nrc / col.squaredNorm();
+        // Delete-one-fold jackknife of the value: the time-block folds keep the residual's correlation (filtered
+        // data: the white-noise error below is ~10x optimistic at 5 Hz) out of it.
+        ev.jackknife_se = std::sqrt((F - 1.0) / F * (bfold.array() - bfold.mean()).square().sum());
         ev.f.effect = {cd.kind, cd.joint, beta, cd.width};
         ev.f.std_error = std::sqrt(std::max(sse_all, 0.0) / std::max(dof_res, 1.0) / nrc);
         ev.f.explained = den > 0 ? num / den : 0.0;
@@ -669,6 +684,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           sc.explained = ev.f.explained;
           sc.p_value = ev.f.p_value;
           sc.separable = ev.separable;
+          sc.std_error = ev.jackknife_se;
           Eigen::VectorXd res(out.train_samples), sig(out.train_samples);
           long at = 0;
           for (size_t s = 0; s < train.size(); ++s)
@@ -785,12 +801,15 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     out.has_validation = !validate.empty();
     auto stack = [&](bool val, bool after, int r) {
       long n = 0;
-      for (const ResidualSeries& rs : out.series)
-        if (rs.validation == val) n += rs.t.size();
+      for (size_t s = 0; s < out.series.size(); ++s)
+        if (out.series[s].validation == val && !unmeasured(s, r)) n += out.series[s].t.size();
       Eigen::VectorXd v(n);
       long at = 0;
-      for (const ResidualSeries& rs : out.series)
-        if (rs.validation == val) v.segment(at, rs.t.size()) = after ? rs.after.col(r) : rs.before.col(r), at += rs.t.size();
+      for (size_t s = 0; s < out.series.size(); ++s) {
+        const ResidualSeries& rs = out.series[s];
+        if (rs.validation == val && !unmeasured(s, r))
+          v.segment(at, rs.t.size()) = after ? rs.after.col(r) : rs.before.col(r), at += rs.t.size();
+      }
       return v;
     };
     const bool held = out.has_validation;

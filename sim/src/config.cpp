@@ -257,7 +257,7 @@ bool loadScenario(const std::string& path, Scenario* out, std::string* err) {
   Scenario s;
   s.source = path;
   try {
-    if (!checkKeys(c, root, "", {"name", "description", "seed", "noise", "effects", "initial_state"})) return false;
+    if (!checkKeys(c, root, "", {"name", "description", "seed", "noise", "effects", "initial_state", "harness"})) return false;
     YAML::Node v;
     if (!getRequired(c, root, "", "name", &v) || !toString(c, v, "name", &s.name)) return false;
     if (s.name.empty()) return c.fail("name", "must not be empty");
@@ -292,6 +292,13 @@ bool loadScenario(const std::string& path, Scenario* out, std::string* err) {
       if (init["joints"] &&
           !toJointValues(c, init["joints"], "initial_state.joints", false, false, &s.initial.joints))
         return false;
+    }
+    if (const YAML::Node h = root["harness"]) {
+      if (!h.IsMap()) return c.fail("harness", std::string("expected a map (e.g. {lift: 0.2}), found ") + typeName(h));
+      if (!checkKeys(c, h, "harness", {"lift"})) return false;
+      s.harness.enabled = true;
+      if (h["lift"] && !toDouble(c, h["lift"], "harness.lift", &s.harness.lift)) return false;
+      if (!(s.harness.lift >= 0.0 && s.harness.lift <= 2.0)) return c.fail("harness.lift", "must be in [0, 2] m");
     }
   } catch (const YAML::Exception& e) {
     return c.fail("", std::string("YAML error: ") + e.what());

@@ -267,9 +267,21 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
     }
   }
 
+  if (scenario.harness.enabled) {  // a heavy, held pelvis (kHarnessMass); isotropic inertia keeps body_iquat valid
+    sm.harness_mass = kHarnessMass;
+    m->body_mass[sm.base_body] += kHarnessMass;
+    for (int i = 0; i < 3; ++i) m->body_inertia[3 * sm.base_body + i] += kHarnessMass;
+    for (size_t j = 0; j < nj; ++j)
+      if (sm.actuator[j] < 0) {
+        m->jnt_stiffness[sm.joint_id[j]] = kHarnessPinStiffness;
+        m->dof_damping[sm.dof_adr[j]] += kHarnessPinDamping;
+      }
+  }
+
   // Initial configuration.
   sm.qpos_init.assign(m->qpos0, m->qpos0 + m->nq);
-  sm.qpos_init[static_cast<size_t>(sm.base_qpos) + 2] += scenario.initial.base_height_offset;
+  sm.qpos_init[static_cast<size_t>(sm.base_qpos) + 2] +=
+      scenario.initial.base_height_offset + (scenario.harness.enabled ? scenario.harness.lift : 0.0);
   for (const JointValue& jv : scenario.initial.joints) {
     const auto it = std::find(sm.joint_names.begin(), sm.joint_names.end(), jv.joint);
     if (it == sm.joint_names.end())
@@ -372,10 +384,25 @@ void stageRecordState(const SimModel& sm, SimData& sd) {
   t.base_velocity = R.transpose() * Eigen::Vector3d(v[0], v[1], v[2]);  // qvel[0:3] is in the world frame
   t.base_omega = Eigen::Vector3d(v[3], v[4], v[5]);                     // qvel[3:6] is in the body frame
   t.com = Eigen::Vector3d(d->subtree_com + 3 * sm.base_body);  // mj_step1's CoM stage, undeclared payloads included
+  if (sm.harness_mass > 0.0) {  // the robot's CoM: without the harness's mass at the pelvis's CoM
+    const double M = sm.m->body_subtreemass[sm.base_body];
+    t.com = (M * t.com - sm.harness_mass * Eigen::Vector3d(d->xipos + 3 * sm.base_body)) / (M - sm.harness_mass);
+  }
   for (int j = 0; j < sm.nj; ++j) {
     t.q[j] = d->qpos[sm.qpos_adr[static_cast<size_t>(j)]];
     t.v[j] = d->qvel[sm.dof_adr[static_cast<size_t>(j)]];
   }
+}
+
+void stageHarness(const SimModel& sm, SimData& sd) {
+  if (sm.harness_mass <= 0.0) return;
+  const mjModel* m = sm.m;
+  mjData* d = sd.d;
+  const int b = sm.base_body;
+  const Eigen::Vector3d force = -m->body_subtreemass[b] * Eigen::Vector3d(m->opt.gravity);
+  const Eigen::Vector3d arm = Eigen::Vector3d(d->subtree_com + 3 * b) - Eigen::Vector3d(d->xipos + 3 * b);
+  const Eigen::Vector3d torque = arm.cross(force);  // xfrc_applied acts at the body's CoM: move it to the system's
+  for (int i = 0; i < 3; ++i) d->xfrc_applied[6 * b + i] = force[i], d->xfrc_applied[6 * b + 3 + i] = torque[i];
 }
 
 bool stageControl(const SimModel& sm, SimData& sd, const JointCommandSample& cmd) {
@@ -533,6 +560,7 @@ bool simStep(const SimModel& sm, SimData& sd, const JointCommandSample& command)
   mjData* d = sd.d;
   mj_step1(m, d);
   stageRecordState(sm, sd);
+  stageHarness(sm, sd);
   const bool applied = stageControl(sm, sd, command);
   mj_step2(m, d);
   stageTruth(sm, sd);

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <dirent.h>
 
+#include "exoid/controller/leg_swing.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/regressor.hpp"
@@ -174,6 +175,66 @@ TEST_F(SimExo, RegressorEquationsOfMotionHoldOnTruthAndPlates) {
   EXPECT_LE(r.plates, 1e-8);
   EXPECT_GT(r.min_load, 0.25 * kRobotMass * kG);  // both feet stayed loaded while squatting
   EXPECT_FALSE(simFell(sm, sd));
+}
+
+// The harness (calibration runs): the heavy, held pelvis stays put, the feet stay off the plates, the passive ankles
+// stay pinned, and the legs obey the fixed-base equations of motion: the URDF's joint rows with the base at rest
+// (K phi on the exact q, v, qacc) equal the applied torques of every actuated joint, here over 8 s of the
+// calibration swing (the sines fade in at 3-6 s; torques up to 23 N m).
+TEST_F(SimExo, HarnessHoldsThePelvisSoTheLegsSeeAFixedBase) {
+  Scenario sc = makeScenario(NoiseMode::Off);
+  sc.harness.enabled = true;
+  load(sc);
+  Eigen::VectorXd q0(sm.nj);
+  for (int j = 0; j < sm.nj; ++j) q0[j] = sd.d->qpos[sm.qpos_adr[j]];
+  controller::LegSwingTrajectory traj;
+  std::string err;
+  ASSERT_TRUE(controller::makeLegSwingTrajectory(model, q0, controller::LegSwingOptions(), traj, &err)) << err;
+  controller::LegSwingData swing(model);
+  JointCommandSample cmd = simZeroCommand(sm);
+  Data kin(model);
+  State st = State::zero(model);
+  const Eigen::Vector3d p0(sd.d->qpos + sm.base_qpos);
+  double worst = 0.0, largest = 0.0, drift = 0.0, plate = 0.0, pinned = 0.0;
+  Eigen::VectorXd q = q0, v = Eigen::VectorXd::Zero(sm.nj);
+  for (int k = 0; k < 8000; ++k) {
+    controller::legSwingTorque(model, traj, swing, k * 1e-3, q, v, cmd.tau);
+    cmd.tick = k;
+    simStep(sm, sd, cmd);
+    const GroundTruthSample& tr = sd.truth;
+    q = tr.q, v = tr.v;
+    st.q = tr.q, st.v = tr.v, st.a = tr.a;
+    st.base_orientation = tr.base_orientation;  // at rest: omega, domega, acceleration 0
+    computeJointTorqueRegressor(model, kin, st);
+    for (int j = 0; j < sm.nj; ++j) {
+      if (sm.actuator[j] < 0) {
+        pinned = std::max(pinned, std::abs(tr.q[j]));
+        continue;
+      }
+      const int r = model.jointRow(j);
+      worst = std::max(worst, std::abs(kin.K.row(r).dot(model.phi) - tr.tau_applied[j]));
+      largest = std::max(largest, std::abs(tr.tau_applied[j]));
+    }
+    drift = std::max(drift, (Eigen::Vector3d(sd.d->qpos + sm.base_qpos) - p0).norm());
+    for (const ForcePlateSample& pl : sd.plates) plate = std::max(plate, pl.force.norm());
+  }
+  std::printf("[ harness ] fixed-base joint rows: max |K phi - tau| %.2e N m of |tau| up to %.1f N m; pelvis drift "
+              "%.2e m; plates %.2e N; pinned ankles %.2e rad\n", worst, largest, drift, plate, pinned);
+  EXPECT_GT(largest, 20.0);      // the legs really swing against gravity
+  EXPECT_LT(worst, 2e-5 * largest);  // measured 2.6e-6 of the torques: the heavy base barely moves
+  EXPECT_LT(drift, 1e-4);
+  EXPECT_LT(plate, 1e-6);        // noise off: the feet never touch
+  EXPECT_LT(pinned, 0.02);
+  // The truth's CoM is the robot's (the URDF's at the exact state, exoid's kinematics), not the harness mass's.
+  State s = State::zero(model);
+  s.base_position = sd.truth.base_position;
+  s.base_orientation = sd.truth.base_orientation;
+  s.q = sd.truth.q;
+  DynamicsData dyn(model);
+  forwardKinematics(model, dyn.kin, s);
+  centroidal(model, dyn);
+  const Eigen::Vector3d c_model = s.base_position + s.base_orientation.toRotationMatrix() * dyn.com;
+  EXPECT_LE((sd.truth.com - c_model).norm(), 1e-6) << sd.truth.com.transpose() << " vs " << c_model.transpose();
 }
 
 // ...and every undeclared effect breaks it (the residual is what an estimator would have to explain).

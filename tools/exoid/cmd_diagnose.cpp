@@ -142,7 +142,7 @@ std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
 int cmdDiagnose(int argc, char** argv) {
   CLI::App app(kDescription, "exoid diagnose");
   common::configureCli(app);
-  std::vector<std::string> train_files, val_files, kinds;
+  std::vector<std::string> train_files, val_files, kinds, calib_files;
   std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "parallel";
   bool floating = false, skip_bad = false, no_plots = false;
   double gravity = 9.81, cutoff = -1.0;
@@ -154,6 +154,10 @@ int cmdDiagnose(int argc, char** argv) {
                  "`exoid experiment`")->required();
   app.add_option("--validate", val_files, "held-out data for the before/after report (same kinds); without it the "
                  "training data are reported and only the fold test guards the choice");
+  app.add_option("--calibration", calib_files, "more training data: LCM logs of `exoid calibrate` (the pelvis held in a "
+                 "harness, the legs swinging; needs --floating-base). Their base rows are left out (the harness's wrench "
+                 "is not measured) and the base is taken at rest. Swinging legs separate a constant torque offset from "
+                 "the links' first moments, which balancing data cannot (docs/diagnose.md)")->type_name("LOG");
   app.add_option("--out", out_dir, "output directory (created)")->required();
   app.add_option("--gravity", gravity, "gravity magnitude, m/s^2, along -z of the world / root link")->transform(common::strictNumber(0.0, 100.0));
   app.add_option("--declared", declared, "declared model: 'rigid' (URDF rigid-body parameters; default) or "
@@ -211,19 +215,26 @@ int cmdDiagnose(int argc, char** argv) {
   so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
   so.dataset.trim_edges = true;  // the filter's start-up transient is no residual of the model
   so.skip_bad_rows = skip_bad;
-  std::vector<tools::InputStats> stats(train_files.size() + val_files.size());
-  auto makeSegment = [&](const std::string& path, size_t k) {
+  if (!calib_files.empty() && !floating) return fail("--calibration needs --floating-base (an exoskeleton held in a harness)");
+  tools::SourceOptions so_held = so;
+  so_held.held_base = true;
+  std::vector<tools::InputStats> stats(train_files.size() + calib_files.size() + val_files.size());
+  auto makeSegment = [&](const std::string& path, size_t k, bool held) {
     est::Segment s;
     s.name = fs::path(path).stem().string();
-    s.stream = [&, path, k](const est::DiagnosisRowSink& sink, std::string* e) {
+    s.held_base = held;
+    s.stream = [&, path, k, held](const est::DiagnosisRowSink& sink, std::string* e) {
       stats[k] = tools::InputStats{};
-      return tools::streamFileRows(path, model, so, sink, stats[k], e);
+      return tools::streamFileRows(path, model, held ? so_held : so, sink, stats[k], e);
     };
     return s;
   };
   std::vector<est::Segment> train, validate;
-  for (size_t i = 0; i < train_files.size(); ++i) train.push_back(makeSegment(train_files[i], i));
-  for (size_t i = 0; i < val_files.size(); ++i) validate.push_back(makeSegment(val_files[i], train_files.size() + i));
+  for (size_t i = 0; i < train_files.size(); ++i) train.push_back(makeSegment(train_files[i], i, false));
+  for (size_t i = 0; i < calib_files.size(); ++i)
+    train.push_back(makeSegment(calib_files[i], train_files.size() + i, true));
+  for (size_t i = 0; i < val_files.size(); ++i)
+    validate.push_back(makeSegment(val_files[i], train_files.size() + calib_files.size() + i, false));
 
   est::DiagnosisResult res;
   if (!est::diagnose(model, train, validate, opt, res, &err)) return fail(err);
@@ -272,11 +283,11 @@ int cmdDiagnose(int argc, char** argv) {
   {
     std::ofstream f;
     if (!open("candidates.csv", f)) return 2;
-    f << "joint,kind,value,unit,correlation,explained,p_value,separable,status\n";
+    f << "joint,kind,value,unit,correlation,explained,p_value,separable,status,std_error\n";
     for (const est::CandidateScore& c : res.first_step)
       f << model.joint_names[c.effect.joint] << ',' << est::effectKindName(c.effect.kind) << ',' << c.effect.value << ','
         << est::effectUnit(c.effect.kind) << ',' << c.correlation << ',' << c.explained << ',' << c.p_value << ','
-        << c.separable << ",\"" << c.status << "\"\n";
+        << c.separable << ",\"" << c.status << "\"," << c.std_error << "\n";
   }
   {
     std::ofstream f;
@@ -457,6 +468,11 @@ int cmdDiagnose(int argc, char** argv) {
   if (res.dropped_columns) md << " (" << res.dropped_columns << " structural ones not excited, left out)";
   md << ".\n\nTraining: ";
   for (const std::string& f : train_files) md << '`' << f << "` ";
+  if (!calib_files.empty()) {
+    md << "and the calibration run" << (calib_files.size() > 1 ? "s " : " ");
+    for (const std::string& f : calib_files) md << '`' << f << "` ";
+    md << "(pelvis held in a harness, legs swinging: joint rows only) ";
+  }
   md << "(" << res.train_samples << " samples). Held-out validation: ";
   if (val_files.empty()) md << "none (the before/after numbers below are training numbers)";
   for (const std::string& f : val_files) md << '`' << f << "` ";
@@ -515,15 +531,19 @@ int cmdDiagnose(int argc, char** argv) {
       if (c.separable < kHiddenSeparable) hidden[est::effectKindWords(c.effect.kind)].push_back(&c);
     if (!hidden.empty()) {
       md << "## What these data cannot show\n\nCandidates with less than " << 100 * kHiddenSeparable
-         << " % of their signal outside the span of the declared model's columns: whatever their size, the "
-            "identified rigid-body parameters absorb them (e.g. a constant torque on a joint of a robot that only "
-            "balances is a first-moment shift of the links around it). Motions that turn the joints through "
-            "large angles separate them.\n\n| kind | joints (fraction of the signal outside the span) |\n|---|---|\n";
+         << " % of their signal outside the span of the declared model's columns: the identified rigid-body parameters "
+            "absorb nearly all of them (e.g. a constant torque on a joint of a robot that only balances is a "
+            "first-moment shift of the links around it), and only an effect well above the smallest visible value "
+            "given here (3 standard errors of its estimate, jackknifed over the time-block folds) could show. Motions that turn the "
+            "joints through large angles separate them: a calibration run (`exoid calibrate`, `--calibration`) makes a "
+            "torque offset of a few hundredths of a N m visible.\n\n"
+            "| kind | joints (fraction of the signal outside the span; smallest visible value) |\n|---|---|\n";
       for (const auto& [kind, list] : hidden) {
         md << "| " << kind << " | ";
         for (size_t i = 0; i < list.size(); ++i) {
-          std::snprintf(buf, sizeof buf, "%s%s (%.2g %%)", i ? ", " : "", model.joint_names[list[i]->effect.joint].c_str(),
-                        100 * list[i]->separable);
+          const est::CandidateScore& c = *list[i];
+          std::snprintf(buf, sizeof buf, "%s%s (%.2g %%; %.2g %s)", i ? ", " : "", model.joint_names[c.effect.joint].c_str(),
+                        100 * c.separable, 3.0 * c.std_error, est::effectUnit(c.effect.kind));
           md << buf;
         }
         md << " |\n";

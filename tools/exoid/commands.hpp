@@ -9,4 +9,5 @@ int cmdExperiment(int argc, char** argv);
 int cmdIdentify(int argc, char** argv);
 int cmdStudy(int argc, char** argv);
 int cmdDiagnose(int argc, char** argv);
+int cmdCalibrate(int argc, char** argv);
 }  // namespace exoid::cli

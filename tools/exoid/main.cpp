@@ -19,6 +19,7 @@ const Command kCommands[] = {
     {"export", exoid::cli::cmdExport, "a logged run as one CSV row per tick (sensors, or --truth)"},
     {"identify", exoid::cli::cmdIdentify, "batch identification (OLS / WLS-R / WLS-C / WLS-RC, truncated SVD) from logs or measured CSVs"},
     {"study", exoid::cli::cmdStudy, "the thesis's comparison protocol (Tables II and C.1) on training, validation and test runs"},
+    {"calibrate", exoid::cli::cmdCalibrate, "calibration run: the pelvis held in a harness, the legs swinging (for diagnose --calibration)"},
     {"diagnose", exoid::cli::cmdDiagnose, "find what the rigid-body model leaves out (friction, offsets, gain, delay, ...) from the residual"},
 };
 

@@ -358,6 +358,16 @@ estimator::RowSink accumulatorSink(estimator::LsqAccumulator& acc, long& nonfini
   };
 }
 
+// A sample of a run with the pelvis held by a harness (SourceOptions::held_base): the base at rest, no contact.
+void heldBase(estimator::MeasuredSample& s) {
+  s.base_omega.setZero();
+  s.base_domega.setZero();
+  s.base_acceleration.setZero();
+  s.has_base_domega = true;
+  s.has_base_position = true;  // not needed by K; keeps the footholds (feet on the plates) out of it
+  s.ncontacts = 0;
+}
+
 using BuilderRowSink = std::function<void(const estimator::DatasetBuilder& builder, double t, const Eigen::MatrixXd& K,
                                           const Eigen::VectorXd& y)>;
 
@@ -367,8 +377,21 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
   int feet[2];
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
+  if (options.held_base && !model.floating_base) {
+    if (error) *error = path + ": a held base needs a floating-base model";
+    return false;
+  }
+  if (options.held_base) dopt.orientation_from_legs = false;  // the feet swing: they say nothing of the base
   const estimator::DatasetBuilder* self = nullptr;
-  const estimator::RowSink direct = [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows(*self, t, K, y); };
+  Eigen::MatrixXd Kh;  // held base: the rows with the base rows zeroed
+  Eigen::VectorXd yh;
+  const estimator::RowSink direct = [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+    if (!options.held_base) return rows(*self, t, K, y);
+    Kh = K, yh = y;
+    for (int r = 0; r < model.nv; ++r)
+      if (!estimator::heldBaseRowMeasured(model, r)) Kh.row(r).setZero(), yh[r] = 0.0;
+    rows(*self, t, Kh, yh);
+  };
   std::unique_ptr<estimator::EffectCorrector> corrector;
   if (options.effects) corrector = std::make_unique<estimator::EffectCorrector>(model, *options.effects, direct);
   estimator::DatasetBuilder builder(model, dopt, corrector ? estimator::RowSink([&](double t, const Eigen::MatrixXd& K,
@@ -377,7 +400,13 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
                                                  })
                                                            : direct);
   self = &builder;
-  const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) { return builder.add(s, err); };
+  estimator::MeasuredSample held;
+  const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) {
+    if (!options.held_base) return builder.add(s, err);
+    held = s;
+    heldBase(held);
+    return builder.add(held, err);
+  };
   if (!readFile(path, model, options, feet, sink, stats, error)) return false;
   std::string err;
   if (!builder.finish(&err)) {
@@ -413,6 +442,10 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
 
 bool readSamples(const std::string& path, const Model& model, const SourceOptions& options,
                  std::vector<estimator::MeasuredSample>& out, InputStats& stats, std::string* error) {
+  if (options.held_base) {  // the study's path: held-base runs go through streamFileRows
+    if (error) *error = "readSamples: held-base runs are not supported here";
+    return false;
+  }
   int feet[2];
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
@@ -424,8 +457,8 @@ bool readSamples(const std::string& path, const Model& model, const SourceOption
 bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
                        const SourceOptions& options, estimator::LsqAccumulator& acc, InputStats& stats,
                        std::string* error) {
-  if (options.effects) {  // the study's path; a sidecar goes through streamFileRows
-    if (error) *error = "accumulateSamples: sidecar corrections are not supported here";
+  if (options.effects || options.held_base) {  // the study's path; a sidecar, a held base go through streamFileRows
+    if (error) *error = "accumulateSamples: sidecar corrections and held-base runs are not supported here";
     return false;
   }
   int feet[2];

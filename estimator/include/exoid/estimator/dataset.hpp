@@ -127,6 +127,11 @@ struct DatasetOptions {
   bool trim_edges = false;
 };
 
+/// A run with the pelvis held by a harness (`exoid calibrate`): whether row `row` of K, y is measured. The base
+/// rows are not (the harness's wrench is unknown), nor are the rows of unactuated joints (URDF effort limit 0:
+/// the harness pins them, with an unmeasured torque); the actuated joints' rows are.
+bool heldBaseRowMeasured(const Model& model, int row);
+
 /// The footholds of a lab setup: the model's `right_sole` / `left_sole` frames on their plates' sensor origins
 /// (each sole centred on its plate, as the feet are placed in the lab); frames the model lacks are skipped.
 std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model);

@@ -75,6 +75,14 @@ struct InitialState {
   std::vector<JointValue> joints;   ///< rad, initial joint angles (others 0); "all" not allowed
 };
 
+/// The pelvis held still in the air by a rigid harness, the feet hanging free above the plates: the set-up of a
+/// calibration run (`exoid calibrate`, docs/sim.md "Harness"). Balancing data cannot tell a constant torque-sensor
+/// offset from a first-moment shift of the links around its joint; legs swinging through large angles can.
+struct Harness {
+  bool enabled = false;
+  double lift = 0.2;  ///< m the pelvis is raised above its standing height, so that the swinging feet clear the plates
+};
+
 struct Scenario {
   std::string name = "default";
   std::string description;
@@ -83,6 +91,7 @@ struct Scenario {
   std::string noise_file;             ///< NoiseMode::File: sensors file (resolved against the scenario's dir)
   Effects effects;
   InitialState initial;
+  Harness harness;                    ///< YAML `harness: {lift: 0.2}` (present: enabled)
   std::string source;                 ///< file it was read from ("" = built-in default)
 };
 

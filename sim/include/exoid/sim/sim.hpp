@@ -25,6 +25,17 @@ namespace exoid::sim {
 
 inline constexpr int kNumFeet = 2;  ///< index 0 right, 1 left (also the force plate index)
 inline constexpr double kFallDrop = 0.25;  ///< m: the robot "fell" when its base dropped more than this
+/// Scenario::harness: kg added to the pelvis (and kg m^2 to each of its principal moments), so that the legs'
+/// reactions move it by ~1e-6 m and ~1e-6 rad: the legs see a fixed base to ~1e-4 of their torques. The harness
+/// wrench (stageHarness) carries the whole weight at the system's CoM. A heavy base rather than a weld: MuJoCo's
+/// equality constraints are soft, and their compliance would put base motion into the joint torques.
+inline constexpr double kHarnessMass = 1e6;
+/// Scenario::harness: the unactuated joints (the passive ankle in/eversion) are pinned by a spring-damper, as a
+/// lab pins them for a calibration: free, a foot dangling on its ankle's long axis spins round (it turned 14 rad
+/// in a 40 s swing). The pin's torque is not measured: those joints' rows of a held-base run are left out
+/// (estimator::heldBaseRowMeasured).
+inline constexpr double kHarnessPinStiffness = 20.0;  ///< N m/rad (a foot of ~0.005 kg m^2: ~10 Hz)
+inline constexpr double kHarnessPinDamping = 0.6;     ///< N m s/rad (about critical)
 
 /// Names the sim looks up in the MJCF (its contract with tools/model/gen_exo_model.py).
 struct SimNames {
@@ -98,6 +109,7 @@ struct SimModel {
   std::array<Eigen::Vector3d, kNumFeet> plate_tare_torque;  ///< raw reading of the unloaded plate, site frame
 
   std::vector<double> qpos_init;  ///< [nq] initial configuration (MJCF qpos0 + scenario initial_state)
+  double harness_mass = 0.0;      ///< kg added to the base by Scenario::harness (kHarnessMass, else 0)
 
   /// Payloads attached mid-run (effects.payload attach_at_s > 0): simStep composes each into its link at the
   /// start of its tick, changing the mjModel in place (the one part of SimModel a run changes); simReset
@@ -147,7 +159,8 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
 /// Allocates mjData and the samples for `model`, then simReset. False (and *err) if MuJoCo cannot allocate.
 bool simMakeData(const SimModel& model, SimData& data, std::string* err);
 
-/// Initial state of the scenario (velocities 0), tick 0, counters 0, RNG reseeded.
+/// Initial state of the scenario (velocities 0), tick 0, counters 0, RNG reseeded. With a harness the pelvis
+/// starts Harness::lift above its standing height.
 void simReset(const SimModel& model, SimData& data);
 
 /// A zero-torque command sized for the model (for tick 0 and fallbacks). Allocates: call on setup.
@@ -166,6 +179,9 @@ bool simFell(const SimModel& model, const SimData& data);
 // --- stages, in the order simStep runs them (exposed for tests) -----------------------------------------
 /// After mj_step1: ground truth q_k, v_k and the base pose/velocity (conventions above).
 void stageRecordState(const SimModel& model, SimData& data);
+/// After mj_step1, Scenario::harness only: the harness wrench on the base, -(subtree mass) g through the system's
+/// CoM (xfrc_applied), so that the held robot neither falls nor turns. No-op without a harness.
+void stageHarness(const SimModel& model, SimData& data);
 /// Validates/clamps the command into d->ctrl. Returns false if refused.
 bool stageControl(const SimModel& model, SimData& data, const JointCommandSample& command);
 /// After mj_step2: qacc_k, applied torques, per-foot contact wrenches from MuJoCo's contacts.

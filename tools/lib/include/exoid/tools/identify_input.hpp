@@ -56,6 +56,11 @@ struct SourceOptions {
   estimator::DatasetOptions dataset;
   bool skip_bad_rows = false;                   ///< CSV only
   const estimator::EffectSet* effects = nullptr;  ///< a diagnose sidecar applied as known corrections (no delay)
+  /// The run was recorded with the pelvis held still by a harness and the feet free (`exoid calibrate`): the base
+  /// at rest (no velocity, no acceleration; orientation from the IMU, or the truth), no foot contact, and the rows
+  /// that are not measured (estimator::heldBaseRowMeasured: the base's, the pinned unactuated joints') handed on
+  /// as zero rows, K and y both, which carry no information into a least-squares fit. Floating base only.
+  bool held_base = false;
 };
 
 /// The measured samples of one file (the dataset pipeline's input: before noise, filtering and
