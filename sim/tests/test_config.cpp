@@ -92,6 +92,7 @@ effects:
 initial_state:
   base_height_offset: 0.01
   joints: {right_knee: 0.2}
+harness: {lift: 0.3}
 )";
 
 TEST(SimConfig, ScenarioParses) {
@@ -117,6 +118,17 @@ TEST(SimConfig, ScenarioParses) {
   ASSERT_EQ(s.initial.joints.size(), 1u);
   EXPECT_DOUBLE_EQ(s.initial.joints[0].value, 0.2);
   EXPECT_TRUE(s.effects.any());
+  EXPECT_TRUE(s.harness.enabled);
+  EXPECT_DOUBLE_EQ(s.harness.lift, 0.3);
+  {  // no harness key: no harness; an empty map: the default lift
+    Scenario plain, empty;
+    ASSERT_TRUE(loadScenario(writeTemp("no_harness.yaml", "name: f\nseed: 1\nnoise: off\n"), &plain, &err)) << err;
+    EXPECT_FALSE(plain.harness.enabled);
+    ASSERT_TRUE(loadScenario(writeTemp("empty_harness.yaml", "name: f\nseed: 1\nnoise: off\nharness: {}\n"), &empty, &err))
+        << err;
+    EXPECT_TRUE(empty.harness.enabled);
+    EXPECT_DOUBLE_EQ(empty.harness.lift, Harness().lift);
+  }
 
   // noise: a sensors file, relative to the scenario's directory.
   const std::string sensors = writeTemp("rel_sensors.yaml", kGoodSensors);
@@ -221,6 +233,10 @@ TEST(SimConfig, BadScenariosNameTheKey) {
       {"joints: {right_knee: 0.2}", "joints: {all: 0.2}", "initial_state.joints.all: 'all' is not allowed here"},
       {"base_height_offset: 0.01", "base_height: 0.01", "initial_state.base_height: unknown key"},
       {"name: demo", "name: [demo]", "name: expected a string, found a sequence"},
+      {"harness: {lift: 0.3}", "harness: {lift: -0.1}", "harness.lift: must be in [0, 2] m"},
+      {"harness: {lift: 0.3}", "harness: {lift: high}", "harness.lift: expected a finite number, got 'high'"},
+      {"harness: {lift: 0.3}", "harness: {height: 0.3}", "harness.height: unknown key"},
+      {"harness: {lift: 0.3}", "harness: 0.3", "harness: expected a map (e.g. {lift: 0.2}), found a scalar"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     std::string text = kGoodScenario;

@@ -78,6 +78,13 @@ TEST(DiagnoseCli, BadInputExitsTwoWithOneLine) {
   EXPECT_NE(r.err.find("magic"), std::string::npos) << r.err;
   r = test::runCommand(test::exoidBinary() + " diagnose" + kukaArgs() + " --alpha 2 --out " + dir.file("o"), dir.path);
   EXPECT_EQ(r.exit_code, 2);
+  // A calibration run (pelvis held in a harness) belongs to a floating-base robot: refused on the fixed-base arm.
+  r = test::runCommand(test::exoidBinary() + " diagnose" + kukaArgs() + " --calibration " + d + "measurements_1.csv --out " +
+                           dir.file("o"),
+                       dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--calibration and --validate-calibration need --floating-base"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;  // one line
 }
 
 }  // namespace

@@ -34,6 +34,7 @@ TEST_F(CliOptions, EveryBinaryHasGeneratedHelp) {
       {bin("exoid") + " regressor", {"--model", "--states", "--out", "--gravity", "base_qw", "exit codes"}},
       {bin("exoid") + " export", {"--log", "--out", "--truth", "--filter", "--model", "exit codes"}},
       {bin("exoid") + " experiment", {"--scenario", "--out", "--seed", "--moves", "INTEGER in [0, 1000]", "exit codes"}},
+      {bin("exoid") + " calibrate", {"--scenario", "--out", "--duration", "--seed", "--mjcf", "NUMBER in [1, 3600]", "exit codes"}},
       {bin("exo_sim"), {"--duration", "--mode", "--hold-ticks", "INTEGER in [0, 3600000]", "exit codes"}},
       {bin("exo_controller"), {"--moves", "--seed", "--idle-timeout-ms", "--print-duration", "exit codes"}},
       {bin("exo_estimator"),
@@ -59,7 +60,7 @@ TEST_F(CliOptions, EveryBinaryHasGeneratedHelp) {
 TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   for (const std::string& command : {bin("exoid") + " model", bin("exoid") + " base-params",
                                      bin("exoid") + " regressor", bin("exoid") + " export",
-                                     bin("exoid") + " experiment", bin("exo_sim"), bin("exo_controller"),
+                                     bin("exoid") + " experiment", bin("exoid") + " calibrate", bin("exo_sim"), bin("exo_controller"),
                                      bin("exo_estimator"), bin("exoid_logger"), bin("exoid_lcm_demo_publisher")}) {
     expectError(command + " --bogus 1", "unknown option '--bogus'");
     expectError(command + " --bogus=1", "unknown option '--bogus'");

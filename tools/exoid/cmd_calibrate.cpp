@@ -22,13 +22,14 @@ int fail(const std::string& msg) {
 
 constexpr char kDescription[] =
     "A calibration run of the simulated exoskeleton: its pelvis held still in a harness (raised by the scenario's\n"
-    "harness.lift, 0.2 m when the file has no harness) and the feet free, every actuated joint swinging through\n"
-    "60 % of its half range (hip abduction 10 %: the soles must not meet) as a sum of sines at 0.11, 0.23 and\n"
-    "0.37 Hz with phases from --seed, tracked by computed torque on --model plus a PD. The scenario's undeclared\n"
+    "harness.lift, 0.2 m when the file has no harness; passive joints pinned) and the feet free, every actuated\n"
+    "joint swinging about mid-range by up to 60 % of its half range (hip abduction: 30 %, outward only, so the\n"
+    "soles never meet) as a sum of sines at 0.11, 0.23 and 0.37 Hz with phases from --seed, tracked by computed\n"
+    "torque on --model plus a PD (3 Hz). The scenario's undeclared\n"
     "effects and sensor noise apply as in `exoid experiment`. Why: a robot that only balances on both feet\n"
     "cannot show a constant joint-torque offset (it is a first-moment shift of the links around the joint);\n"
     "swinging legs can. Give the log to `exoid diagnose --calibration`.\n"
-    "Runs in process (no LCM traffic) at about 10x real time.\n\n"
+    "Runs in process (no LCM traffic): about 0.5 s for the default 40 s. Docs: docs/diagnose.md \"Calibration run\".\n\n"
     "Writes DIR/run.lcmlog (EXO_STATE, EXO_PLATE_RIGHT/LEFT, EXO_TRUTH, EXO_COMMAND, as `exoid experiment`) and\n"
     "DIR/calibration.txt (the figures printed). Fails (exit 2) when a foot touches a plate.";
 }  // namespace
@@ -46,10 +47,13 @@ int cmdCalibrate(int argc, char** argv) {
   app.add_option("--out", out_dir, "output directory (created)")->required()->type_name("DIR");
   app.add_option("--duration", opt.duration_s, "seconds of simulated time (default 40)")
       ->transform(common::strictNumber(1.0, 3600.0));
-  app.add_option("--seed", seed, "phases of the sines (default 1)")->check(CLI::Range(int64_t{0}, INT64_MAX));
+  app.add_option("--seed", seed, "phases of the sines (default 1; another seed: another swing, e.g. held-out data)")
+      ->transform(common::strictInteger(0, INT64_MAX))->type_name("N");
   app.add_option("--sensors", sensors, "sensor noise configuration")->type_name("FILE");
   app.add_option("--model", model_path, "URDF of the drives' computed torque (the declared model)")->type_name("FILE");
   app.add_option("--mjcf", mjcf, "simulated robot")->type_name("FILE");
+  app.footer("exit codes: 0 run completed, the feet free; 2 bad input, a log that cannot be written, or a foot that\n"
+             "            touched a plate (one line on stderr; the log is kept for inspection)");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   opt.swing.seed = static_cast<uint64_t>(seed);
   opt.mjcf = mjcf;

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "commands.hpp"
@@ -142,7 +143,7 @@ std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
 int cmdDiagnose(int argc, char** argv) {
   CLI::App app(kDescription, "exoid diagnose");
   common::configureCli(app);
-  std::vector<std::string> train_files, val_files, kinds, calib_files;
+  std::vector<std::string> train_files, val_files, kinds, calib_files, val_calib_files;
   std::string model_path, out_dir, declared = "rigid", pipeline = "sensors", python = "python3", filter_mode = "parallel";
   bool floating = false, skip_bad = false, no_plots = false;
   double gravity = 9.81, cutoff = -1.0;
@@ -158,6 +159,8 @@ int cmdDiagnose(int argc, char** argv) {
                  "harness, the legs swinging; needs --floating-base). Their base rows are left out (the harness's wrench "
                  "is not measured) and the base is taken at rest. Swinging legs separate a constant torque offset from "
                  "the links' first moments, which balancing data cannot (docs/diagnose.md)")->type_name("LOG");
+  app.add_option("--validate-calibration", val_calib_files, "more held-out data: logs of `exoid calibrate` (another "
+                 "--seed), read like --calibration; the before/after figures pool them with --validate")->type_name("LOG");
   app.add_option("--out", out_dir, "output directory (created)")->required();
   app.add_option("--gravity", gravity, "gravity magnitude, m/s^2, along -z of the world / root link")->transform(common::strictNumber(0.0, 100.0));
   app.add_option("--declared", declared, "declared model: 'rigid' (URDF rigid-body parameters; default) or "
@@ -215,13 +218,19 @@ int cmdDiagnose(int argc, char** argv) {
   so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
   so.dataset.trim_edges = true;  // the filter's start-up transient is no residual of the model
   so.skip_bad_rows = skip_bad;
-  if (!calib_files.empty() && !floating) return fail("--calibration needs --floating-base (an exoskeleton held in a harness)");
+  if ((!calib_files.empty() || !val_calib_files.empty()) && !floating)
+    return fail("--calibration and --validate-calibration need --floating-base (an exoskeleton held in a harness)");
   tools::SourceOptions so_held = so;
   so_held.held_base = true;
-  std::vector<tools::InputStats> stats(train_files.size() + calib_files.size() + val_files.size());
+  std::vector<tools::InputStats> stats(train_files.size() + calib_files.size() + val_files.size() + val_calib_files.size());
+  std::set<std::string> names;  // segment names name the residual_<name>.csv files: unique
   auto makeSegment = [&](const std::string& path, size_t k, bool held) {
     est::Segment s;
-    s.name = fs::path(path).stem().string();
+    const fs::path p(path);
+    s.name = p.stem().string();
+    if (names.count(s.name)) s.name = p.parent_path().filename().string() + "_" + s.name;  // e.g. two run.lcmlog
+    for (int i = 2; names.count(s.name); ++i) s.name = p.stem().string() + "_" + std::to_string(i);
+    names.insert(s.name);
     s.held_base = held;
     s.stream = [&, path, k, held](const est::DiagnosisRowSink& sink, std::string* e) {
       stats[k] = tools::InputStats{};
@@ -235,6 +244,9 @@ int cmdDiagnose(int argc, char** argv) {
     train.push_back(makeSegment(calib_files[i], train_files.size() + i, true));
   for (size_t i = 0; i < val_files.size(); ++i)
     validate.push_back(makeSegment(val_files[i], train_files.size() + calib_files.size() + i, false));
+  for (size_t i = 0; i < val_calib_files.size(); ++i)
+    validate.push_back(
+        makeSegment(val_calib_files[i], train_files.size() + calib_files.size() + val_files.size() + i, true));
 
   est::DiagnosisResult res;
   if (!est::diagnose(model, train, validate, opt, res, &err)) return fail(err);
@@ -360,8 +372,7 @@ int cmdDiagnose(int argc, char** argv) {
     const int ne = static_cast<int>(rows.size()), p = model.nparams();
     Eigen::MatrixXd Ka(nv, p + ne);
     Eigen::VectorXd ya(nv), pr(nv), pa(nv);
-    Eigen::VectorXd sse_b = Eigen::VectorXd::Zero(nv), sse_a = Eigen::VectorXd::Zero(nv);
-    long n_val = 0;
+    Eigen::VectorXd sse_b = Eigen::VectorXd::Zero(nv), sse_a = Eigen::VectorXd::Zero(nv), n_row = Eigen::VectorXd::Zero(nv);
     for (size_t sgi = 0; sgi < res.series.size(); ++sgi) {
       const est::ResidualSeries& rs = res.series[sgi];
       const est::Segment& sg = sgi < train.size() ? train[sgi] : validate[sgi - train.size()];
@@ -385,9 +396,12 @@ int cmdDiagnose(int argc, char** argv) {
                   const int r = model.jointRow(e.joint);
                   pa[r] += e.value * (pa[r] - (y[r] - tau_sensor[r]));
                 }
-              sse_b += (y - pr).cwiseAbs2();
-              sse_a += (y - pa).cwiseAbs2();
-              ++n_val;
+              for (int r = 0; r < nv; ++r) {
+                if (sg.held_base && !est::heldBaseRowMeasured(model, r)) continue;  // a zero row, not data
+                sse_b[r] += (y[r] - pr[r]) * (y[r] - pr[r]);
+                sse_a[r] += (y[r] - pa[r]) * (y[r] - pa[r]);
+                n_row[r] += 1.0;
+              }
             }
             ++i;
           },
@@ -399,10 +413,11 @@ int cmdDiagnose(int argc, char** argv) {
       }
     }
     const int j0 = model.floating_base ? 6 : 0;
-    online_joint_before = (sse_b.tail(nv - j0) / std::max(n_val, 1L)).cwiseSqrt();
-    online_joint_after = (sse_a.tail(nv - j0) / std::max(n_val, 1L)).cwiseSqrt();
-    online_before = std::sqrt(sse_b.tail(nv - j0).sum() / std::max(n_val * (nv - j0), 1L));
-    online_after = std::sqrt(sse_a.tail(nv - j0).sum() / std::max(n_val * (nv - j0), 1L));
+    const Eigen::ArrayXd n_joint = n_row.tail(nv - j0).array().max(1.0);
+    online_joint_before = (sse_b.tail(nv - j0).array() / n_joint).sqrt().matrix();
+    online_joint_after = (sse_a.tail(nv - j0).array() / n_joint).sqrt().matrix();
+    online_before = std::sqrt(sse_b.tail(nv - j0).sum() / std::max(n_row.tail(nv - j0).sum(), 1.0));
+    online_after = std::sqrt(sse_a.tail(nv - j0).sum() / std::max(n_row.tail(nv - j0).sum(), 1.0));
   }
 
   // summary.json
@@ -474,9 +489,10 @@ int cmdDiagnose(int argc, char** argv) {
     md << "(pelvis held in a harness, legs swinging: joint rows only) ";
   }
   md << "(" << res.train_samples << " samples). Held-out validation: ";
-  if (val_files.empty()) md << "none (the before/after numbers below are training numbers)";
+  if (val_files.empty() && val_calib_files.empty()) md << "none (the before/after numbers below are training numbers)";
   for (const std::string& f : val_files) md << '`' << f << "` ";
-  if (!val_files.empty()) md << "(" << res.validation_samples << " samples)";
+  for (const std::string& f : val_calib_files) md << '`' << f << "` (calibration) ";
+  if (!val_files.empty() || !val_calib_files.empty()) md << "(" << res.validation_samples << " samples)";
   std::snprintf(buf, sizeof buf,
                 ".\n\nSelection: %d candidate columns, forward selection; an effect is accepted when the one-sided paired "
                 "t-test of the held-out squared-error reduction over %d time-block folds has p < %g / (candidates of the "
