@@ -2,6 +2,7 @@
 // the effect is found on the right joint with the right kind and value; clean data give no finding.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <array>
@@ -218,6 +219,87 @@ TEST(Diagnose, TwoEffectsOnDifferentJointsAreBothFound) {
   EXPECT_TRUE(visc);
   EXPECT_TRUE(off);
   EXPECT_LT(res.pooled_after, 1.2 * 0.05);
+}
+
+// A held-base segment (a calibration run: the pelvis in a harness, tools::SourceOptions::held_base) hands its
+// unmeasured rows (the base's, the passive ankles') on as zero rows. They must carry nothing: not into the fit,
+// the row weights or the figures, and no candidate signal either. Synthetic exoskeleton data: a floating-base
+// segment (base and legs moving, every row measured) with a constant 0.5 N m torque on the right ankle's passive
+// in/eversion row, and a held segment (base at rest, legs swinging) whose measured rows carry the same model.
+// With the flag the in/eversion offset is estimated from the floating segment alone (0.5) and the base rows'
+// training RMS is the floating segment's; without it the held segment's zero rows would count as data: the
+// offset's signal 1 against y = 0 pulls the estimate towards 0 and the zeros dilute the base rows' RMS.
+TEST(Diagnose, HeldBaseSegmentsZeroRowsAreNotData) {
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) << err;
+  const int ie = static_cast<int>(std::find(model.joint_names.begin(), model.joint_names.end(), "right_ankle_ie") -
+                                  model.joint_names.begin());
+  ASSERT_LT(ie, model.njoints);
+  ASSERT_FALSE(heldBaseRowMeasured(model, model.jointRow(ie)));  // unactuated: pinned in the harness
+  std::mt19937_64 rng(7);
+  const Trajectory tr = randomTrajectory(model, rng);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  estimator::Run floating, held;
+  Data data(model);
+  for (double t = 0; t < 30.0; t += 0.005) {
+    State s = tr.at(model, t);
+    s.base_orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.2 * std::sin(0.7 * t), Eigen::Vector3d::UnitX()) *
+                                            Eigen::AngleAxisd(0.1 * std::sin(0.3 * t), Eigen::Vector3d::UnitY()));
+    s.base_omega = Eigen::Vector3d(0.3 * std::sin(0.9 * t), 0.2 * std::cos(0.4 * t), 0.1 * std::sin(1.3 * t));
+    s.base_domega = Eigen::Vector3d(0.27 * std::cos(0.9 * t), -0.08 * std::sin(0.4 * t), 0.13 * std::cos(1.3 * t));
+    s.base_acceleration = Eigen::Vector3d(0.5 * std::sin(1.1 * t), 0.4 * std::cos(0.6 * t), 0.3 * std::sin(0.5 * t));
+    computeJointTorqueRegressor(model, data, s);
+    Eigen::VectorXd y = data.K * model.phi;
+    y[model.jointRow(ie)] += 0.5;
+    for (int r = 0; r < model.nv; ++r) y[r] += noise(rng);
+    floating.states.push_back(s), floating.t.push_back(t), floating.y.push_back(y);
+    State h = tr.at(model, t + 100.0);  // another stretch of the swing; base at rest, upright
+    computeJointTorqueRegressor(model, data, h);
+    Eigen::VectorXd yh = data.K * model.phi;
+    for (int r = 0; r < model.nv; ++r) yh[r] = heldBaseRowMeasured(model, r) ? yh[r] + noise(rng) : 0.0;
+    held.states.push_back(h), held.t.push_back(t), held.y.push_back(yh);
+  }
+  auto heldSegment = [&](bool flag) {
+    Segment sg;
+    sg.name = "held";
+    sg.held_base = flag;
+    sg.stream = [&](const DiagnosisRowSink& sink, std::string*) {
+      Data d(model);
+      Eigen::MatrixXd K;
+      for (size_t i = 0; i < held.states.size(); ++i) {
+        computeJointTorqueRegressor(model, d, held.states[i]);
+        K = d.K;
+        for (int r = 0; r < model.nv; ++r)
+          if (!heldBaseRowMeasured(model, r)) K.row(r).setZero();
+        sink(held.t[i], K, held.y[i], held.y[i]);
+      }
+      return true;
+    };
+    return sg;
+  };
+  DiagnoseOptions opt;
+  opt.kinds = {EffectKind::Offset};
+  opt.coulomb_widths.clear();
+  auto run = [&](bool flag, double& ie_offset, double& base_rms, double& floating_base_rms) {
+    DiagnosisResult res;
+    ASSERT_TRUE(diagnose(model, {segmentOf(model, floating, "floating"), heldSegment(flag)}, {}, opt, res, &err)) << err;
+    ie_offset = NAN;
+    for (const CandidateScore& c : res.first_step)
+      if (c.effect.joint == ie) ie_offset = c.effect.value;
+    base_rms = res.coordinates[3].train_rms_before;  // base_fx
+    const Eigen::VectorXd r0 = res.series[0].before.col(3);
+    floating_base_rms = std::sqrt(r0.squaredNorm() / r0.size());
+  };
+  double off_held, rms_held, rms_floating, off_plain, rms_plain, rms_floating2;
+  run(true, off_held, rms_held, rms_floating);
+  run(false, off_plain, rms_plain, rms_floating2);
+  std::printf("[ held ] in/eversion offset %.4f (flag) / %.4f (no flag); base_fx training RMS %.4f / %.4f (floating "
+              "segment %.4f)\n", off_held, off_plain, rms_held, rms_plain, rms_floating);
+  EXPECT_NEAR(off_held, 0.5, 0.02);
+  EXPECT_LT(off_plain, 0.35);  // measured 0.001: the held rows say 0 with the full weight of the data
+  EXPECT_NEAR(rms_held, rms_floating, 1e-12 * rms_floating);
+  EXPECT_LT(rms_plain, 0.8 * rms_floating2);  // sqrt(1/2) of it
 }
 
 // Dry friction sharper than the default width (tanh(v / 0.004) on joint 3, 0.5 N m): each joint's width is
