@@ -243,7 +243,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
 
   std::vector<Cache> caches(train.size() + validate.size());
   auto segment = [&](size_t i) -> const Segment& { return i < train.size() ? train[i] : validate[i - train.size()]; };
-  // Segment::held_base: the base rows of that segment are zero rows, not data.
+  // Segment::held_base: that segment's unmeasured rows (heldBaseRowMeasured) are zero rows, not data.
   auto unmeasured = [&](size_t s, int r) { return segment(s).held_base && !heldBaseRowMeasured(model, r); };
   auto bad_size = [&](const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
     return K.rows() != nv || K.cols() != p || y.size() != nv;

@@ -383,7 +383,7 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
   }
   if (options.held_base) dopt.orientation_from_legs = false;  // the feet swing: they say nothing of the base
   const estimator::DatasetBuilder* self = nullptr;
-  Eigen::MatrixXd Kh;  // held base: the rows with the base rows zeroed
+  Eigen::MatrixXd Kh;  // held base: the rows with the unmeasured ones (heldBaseRowMeasured) zeroed
   Eigen::VectorXd yh;
   const estimator::RowSink direct = [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
     if (!options.held_base) return rows(*self, t, K, y);
