@@ -75,6 +75,12 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
               "--lcm-url: '239.255.76.67:+7667' is not a multicast GROUP:PORT");
   expectError(bin("exoid_lcm_demo_publisher") + " --count 1.5", "--count: '1.5': not an integer");
   expectError(bin("exoid") + " export --log a --out b --filter nan", "--filter: 'nan': not finite");
+  {  // a harness scenario is a calibration set-up: refused by name before anything starts
+    const std::string harness = dir_.file("harness.yaml");
+    std::ofstream(harness) << "name: h\nseed: 1\nnoise: off\nharness: {lift: 0.2}\n";
+    expectError(bin("exoid") + " experiment --scenario " + harness + " --out " + dir_.file("h"),
+                "harness: a calibration set-up (the pelvis held, the feet free); run it with `exoid calibrate`");
+  }
   expectError(bin("exo_estimator") + " --lambda 1.5", "--lambda: '1.5': out of range");
   expectError(bin("exo_estimator") + " --forgetting sometimes", "--forgetting");
   expectError(bin("exo_estimator") + " --consistent-every -1", "--consistent-every: '-1': out of range");

@@ -354,6 +354,9 @@ int cmdExperiment(int argc, char** argv) {
     if (!sim::loadSensorConfig(sensors, &realistic, &err) || !sim::loadScenario(scenario_path, &scenario, &err) ||
         !sim::resolveSensorConfig(scenario, realistic, &noise, &err) || !sim::simLoad(mjcf, noise, scenario, probe, &err))
       return fail(err);
+    if (scenario.harness.enabled)  // the balance controller needs the feet on the plates
+      return fail(scenario_path + ": harness: a calibration set-up (the pelvis held, the feet free); run it with "
+                  "`exoid calibrate`");
     for (const sim::Payload& p : scenario.effects.payloads)
       if (p.attach_at_s > 0.0) payload_attach_s = p.attach_at_s, payload_mass_kg = p.mass;
   }
