@@ -236,7 +236,9 @@ def main():
         return f"{ok} of {len(es)}" + (f" ({100.0 * ok / len(es):.0f} %)" if es else "")
     with open(os.path.join(a.out, "confusion.md"), "w") as f:
         f.write(f"Seeded effect kind (rows) x kind of the first finding on its joint (columns); {len(rows)} scenarios, "
-                f"{a.moves} moves per run, train on move seed 1, validate on move seed 2. Row (none): findings on joints "
+                f"{a.moves} moves per run, train on move seed 1"
+                + (f" and a {a.calibration_seconds:g} s calibration run" if a.calibration_seconds > 0 else "")
+                + ", validate on move seed 2. Row (none): findings on joints "
                 "without a seeded effect (a clean run without any finding counts once in its 'none' column).\n\n")
         f.write("| seeded \\ found | " + " | ".join(found_kinds) + " |\n")
         f.write("|---" * (len(found_kinds) + 1) + "|\n")
