@@ -169,7 +169,6 @@ struct Candidate {
 // Per-sample signals of one segment.
 struct Cache {
   long n = 0;
-  bool held = false;  // Segment::held_base: candidate signals are zero on its unmeasured rows, like K and y
   std::vector<double> t;
   Eigen::MatrixXd ext, dext;  // [n x nv] y minus the torque sensors' part (the plates' contribution), d/dt of it
   Eigen::MatrixXd v, a, y, tau0, tau, dtau;  // [n x nj], [n x nj], [n x nv], declared prediction [n x nv],
@@ -243,8 +242,8 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
 
   std::vector<Cache> caches(train.size() + validate.size());
   auto segment = [&](size_t i) -> const Segment& { return i < train.size() ? train[i] : validate[i - train.size()]; };
-  // Segment::held_base: that segment's unmeasured rows (heldBaseRowMeasured) are zero rows, not data.
-  auto unmeasured = [&](size_t s, int r) { return segment(s).held_base && !heldBaseRowMeasured(model, r); };
+  // Segment::held_base: that segment's unmeasured rows are zero rows (K, y and every candidate signal), not data.
+  auto unmeasured = [&](size_t s, int r) { return !segmentRowMeasured(model, segment(s), r); };
   auto bad_size = [&](const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
     return K.rows() != nv || K.cols() != p || y.size() != nv;
   };
@@ -268,7 +267,6 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   Eigen::VectorXd sig(ns2 + 1);
   std::vector<std::vector<char>> touched(nv, std::vector<char>(md, 0));
   std::string size_error;
-  for (size_t i = 0; i < caches.size(); ++i) caches[i].held = segment(i).held_base;
   for (size_t s = 0; s < train.size(); ++s) {
     Cache& cache = caches[s];
     std::vector<double> vs, ys, es;
@@ -283,7 +281,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           if (nw > 1)
             for (int j = 0; j < nj; ++j) {
               const int r = model.jointRow(j);
-              if (cache.held && !heldBaseRowMeasured(model, r)) continue;
+              if (unmeasured(s, r)) continue;
               const double v = K(r, model.frictionParamIndex(j));
               for (int w = 0; w < nw; ++w) {
                 EffectShape sh = opt.shape;
@@ -456,8 +454,9 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     const int nc = static_cast<int>(cands.size());
     out.candidates = nc;
     const int P = m + nc + 1, iy = P - 1;
-    auto signal = [&](const Cache& c, long i, const Candidate& cd) {
-      if (c.held && !heldBaseRowMeasured(model, cd.coord)) return 0.0;
+    auto signal = [&](size_t s, long i, const Candidate& cd) {  // s: the segment (cache) index
+      if (unmeasured(s, cd.coord)) return 0.0;
+      const Cache& c = caches[s];
       // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus
       // what the plates contribute; all of y for a fixed base).
       return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width}), c.v(i, cd.joint),
@@ -500,7 +499,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
               const std::vector<int>& act = active[r];
               for (size_t k = 0; k < act.size(); ++k) {
                 const int c = act[k];
-                const double val = c < m ? K(r, decl[c]) : c < iy ? signal(cache, i, cands[c - m]) : y[r];
+                const double val = c < m ? K(r, decl[c]) : c < iy ? signal(s, i, cands[c - m]) : y[r];
                 row[k] = val / sigma[r];
               }
             }
@@ -690,7 +689,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
           for (size_t s = 0; s < train.size(); ++s)
             for (long i = 0; i < caches[s].n; ++i, ++at) {
               res[at] = caches[s].y(i, cd.coord) - caches[s].tau0(i, cd.coord);
-              sig[at] = signal(caches[s], i, cd);
+              sig[at] = signal(s, i, cd);
             }
           sc.correlation = correlation(res, sig);
           sc.status = ev.c == best                          ? "accepted"
@@ -788,7 +787,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
               rs.after(i, r) = y[r] - pr;
             }
             for (size_t e = 0; e < chosen.size(); ++e)
-              rs.after(i, chosen[e].coord) -= xa[m + e] * signal(cache, i, chosen[e]);
+              rs.after(i, chosen[e].coord) -= xa[m + e] * signal(s, i, chosen[e]);
             ++i;
           },
           error);

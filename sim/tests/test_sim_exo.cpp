@@ -132,6 +132,30 @@ struct EomRun {
 
 // A squat: bends smoothly to a = 0.1 rad over 1 s (hip and ankle flexion a, knee 2a: trunk stays upright),
 // then oscillates a by +-0.05 rad at 2 Hz (joint speeds up to ~1 rad/s).
+// The CoM the truth should report at its own state, from exoid's kinematics of the URDF (world): the model's, and with
+// a rigid payload at payload.com on `body` (body < 0: none), the two combined. An independent computation of
+// GroundTruthSample::com.
+struct ExpectedCom {
+  Eigen::Vector3d model, with_payload;
+};
+ExpectedCom expectedCom(const Model& model, const GroundTruthSample& truth, int body = -1, const Payload& payload = {}) {
+  State s = State::zero(model);
+  s.base_position = truth.base_position;
+  s.base_orientation = truth.base_orientation;
+  s.q = truth.q;
+  DynamicsData dyn(model);
+  forwardKinematics(model, dyn.kin, s);
+  centroidal(model, dyn);
+  const Eigen::Matrix3d R = s.base_orientation.toRotationMatrix();
+  ExpectedCom c;
+  c.model = c.with_payload = s.base_position + R * dyn.com;
+  if (body >= 0) {
+    const Eigen::Vector3d c_payload = s.base_position + R * (dyn.kin.p[body] + dyn.kin.R[body] * payload.com);
+    c.with_payload = (dyn.mass * c.model + payload.mass * c_payload) / (dyn.mass + payload.mass);
+  }
+  return c;
+}
+
 EomRun runEom(const Model& model, const SimModel& sm, SimData& sd, int ticks) {
   Data kin(model);
   JointCommandSample cmd = simZeroCommand(sm);
@@ -226,14 +250,7 @@ TEST_F(SimExo, HarnessHoldsThePelvisSoTheLegsSeeAFixedBase) {
   EXPECT_LT(plate, 1e-6);        // noise off: the feet never touch
   EXPECT_LT(pinned, 0.02);
   // The truth's CoM is the robot's (the URDF's at the exact state, exoid's kinematics), not the harness mass's.
-  State s = State::zero(model);
-  s.base_position = sd.truth.base_position;
-  s.base_orientation = sd.truth.base_orientation;
-  s.q = sd.truth.q;
-  DynamicsData dyn(model);
-  forwardKinematics(model, dyn.kin, s);
-  centroidal(model, dyn);
-  const Eigen::Vector3d c_model = s.base_position + s.base_orientation.toRotationMatrix() * dyn.com;
+  const Eigen::Vector3d c_model = expectedCom(model, sd.truth).model;
   EXPECT_LE((sd.truth.com - c_model).norm(), 1e-6) << sd.truth.com.transpose() << " vs " << c_model.transpose();
 }
 
@@ -284,21 +301,11 @@ TEST_F(SimExo, TruthCoMIncludesUndeclaredPayloads) {
   load(sc);
   JointCommandSample cmd = simZeroCommand(sm);
   for (int k = 0; k < 50; ++k) simStep(sm, sd, cmd);  // moving: the truth's CoM must belong to its own tick
-  State s = State::zero(model);
-  s.base_position = sd.truth.base_position;
-  s.base_orientation = sd.truth.base_orientation;
-  s.q = sd.truth.q;
-  DynamicsData dyn(model);
-  forwardKinematics(model, dyn.kin, s);
-  centroidal(model, dyn);
-  const Eigen::Matrix3d R = s.base_orientation.toRotationMatrix();
   const int b = model.bodyIndex("right_thigh");
   ASSERT_GE(b, 0);
-  const Eigen::Vector3d c_model = s.base_position + R * dyn.com;
-  const Eigen::Vector3d c_payload = s.base_position + R * (dyn.kin.p[b] + dyn.kin.R[b] * p.com);
-  const Eigen::Vector3d expected = (dyn.mass * c_model + p.mass * c_payload) / (dyn.mass + p.mass);
-  EXPECT_LE((sd.truth.com - expected).norm(), 1e-9) << sd.truth.com.transpose() << " vs " << expected.transpose();
-  EXPECT_GT((sd.truth.com - c_model).norm(), 5e-3);  // the payload moved it
+  const ExpectedCom c = expectedCom(model, sd.truth, b, p);
+  EXPECT_LE((sd.truth.com - c.with_payload).norm(), 1e-9) << sd.truth.com.transpose() << " vs " << c.with_payload.transpose();
+  EXPECT_GT((sd.truth.com - c.model).norm(), 5e-3);  // the payload moved it
 }
 
 // A payload attached mid-run (effects.payload attach_at_s): before its tick the run is bit-identical to one
@@ -358,19 +365,9 @@ TEST_F(SimExo, PayloadAttachedMidRunIsAbsentBeforeAndComposedAfter) {
         EXPECT_EQ(sd.truth.q, q_ref[static_cast<size_t>(k)]);  // the positions of its tick are not yet affected
       }
       if (k == attach || k == ticks - 1) {
-        State s = State::zero(model);
-        s.base_position = sd.truth.base_position;
-        s.base_orientation = sd.truth.base_orientation;
-        s.q = sd.truth.q;
-        DynamicsData dyn(model);
-        forwardKinematics(model, dyn.kin, s);
-        centroidal(model, dyn);
-        const Eigen::Matrix3d R = s.base_orientation.toRotationMatrix();
-        const Eigen::Vector3d c_model = s.base_position + R * dyn.com;
-        const Eigen::Vector3d c_payload = s.base_position + R * (dyn.kin.p[b] + dyn.kin.R[b] * p.com);
-        const Eigen::Vector3d expected = (dyn.mass * c_model + p.mass * c_payload) / (dyn.mass + p.mass);
-        EXPECT_LE((sd.truth.com - expected).norm(), 1e-9) << "tick " << k;
-        EXPECT_GT((sd.truth.com - c_model).norm(), 0.02);  // 3 kg 0.37 m from the base: ~ 2.6 cm
+        const ExpectedCom c = expectedCom(model, sd.truth, b, p);
+        EXPECT_LE((sd.truth.com - c.with_payload).norm(), 1e-9) << "tick " << k;
+        EXPECT_GT((sd.truth.com - c.model).norm(), 0.02);  // 3 kg 0.37 m from the base: ~ 2.6 cm
       }
       if (k >= ticks - 500) {  // standing still again: the plates carry the new weight
         const double W = (kRobotMass + p.mass) * kG;

@@ -81,6 +81,15 @@ sim::Scenario quietScenario() {
   return sc;
 }
 
+// A run of the shipped robot into dir/run.lcmlog.
+tools::CalibrationRunOptions runOptions(const test::TempDir& dir, double duration_s) {
+  tools::CalibrationRunOptions opt;
+  opt.mjcf = test::configPath("exo.xml");
+  opt.log_path = dir.file("run.lcmlog");
+  opt.duration_s = duration_s;
+  return opt;
+}
+
 // The log of a noise-free calibration run through the dataset pipeline as a held-base run: the unmeasured rows (base,
 // pinned passive ankles) are zero rows, and the measured joint rows satisfy the URDF's equations, K phi = y, to
 // the harness's fixed-base approximation (truth pipeline, no filter) and to the state fit's and filter's
@@ -88,10 +97,7 @@ sim::Scenario quietScenario() {
 TEST(CalibrationRun, HeldBaseRowsOfTheLogHoldTheUrdfEquations) {
   const Model model = exoModel();
   test::TempDir dir("calibration_run");
-  tools::CalibrationRunOptions opt;
-  opt.mjcf = test::configPath("exo.xml");
-  opt.log_path = dir.file("run.lcmlog");
-  opt.duration_s = 8.0;  // the sines fade in over 3-6 s
+  const tools::CalibrationRunOptions opt = runOptions(dir, 8.0);  // the sines fade in over 3-6 s
   tools::CalibrationRunResult res;
   std::string err;
   ASSERT_TRUE(tools::runCalibration(model, quietScenario(), sim::SensorConfig(), opt, res, &err)) << err;
@@ -154,10 +160,7 @@ TEST(CalibrationRun, HeldBaseRowsOfTheLogHoldTheUrdfEquations) {
 TEST(CalibrationRun, AFootOnAPlateFailsTheRun) {
   const Model model = exoModel();
   test::TempDir dir("calibration_touch");
-  tools::CalibrationRunOptions opt;
-  opt.mjcf = test::configPath("exo.xml");
-  opt.log_path = dir.file("run.lcmlog");
-  opt.duration_s = 2.0;
+  const tools::CalibrationRunOptions opt = runOptions(dir, 2.0);
   sim::Scenario sc = quietScenario();
   sc.harness.enabled = true;
   sc.harness.lift = 0.0;  // the feet start on the plates

@@ -397,7 +397,7 @@ int cmdDiagnose(int argc, char** argv) {
                   pa[r] += e.value * (pa[r] - (y[r] - tau_sensor[r]));
                 }
               for (int r = 0; r < nv; ++r) {
-                if (sg.held_base && !est::heldBaseRowMeasured(model, r)) continue;  // a zero row, not data
+                if (!est::segmentRowMeasured(model, sg, r)) continue;  // a zero row, not data
                 sse_b[r] += (y[r] - pr[r]) * (y[r] - pr[r]);
                 sse_a[r] += (y[r] - pa[r]) * (y[r] - pa[r]);
                 n_row[r] += 1.0;

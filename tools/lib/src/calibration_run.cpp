@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <vector>
 
@@ -35,7 +36,7 @@ struct LogWriter {
     }
     lcm_eventlog_event_t e{};
     e.timestamp = utime;
-    e.channellen = static_cast<int32_t>(std::string(channel).size());
+    e.channellen = static_cast<int32_t>(std::strlen(channel));
     e.channel = const_cast<char*>(channel);
     e.datalen = size;
     e.data = buffer.data();
@@ -76,9 +77,8 @@ bool runCalibration(const Model& model, const sim::Scenario& scenario_in, const 
   JointCommandSample cmd = sim::simZeroCommand(sm);
   cmd.tau_ff = Eigen::VectorXd::Zero(nj);
   Eigen::VectorXd q = q0, v = Eigen::VectorXd::Zero(nj);  // the drives' state: the last tick's (one tick late)
-  const Eigen::Vector3d p0(sd.d->qpos + sm.base_qpos);
-  const Eigen::Quaterniond R0(sd.d->qpos[sm.base_qpos + 3], sd.d->qpos[sm.base_qpos + 4], sd.d->qpos[sm.base_qpos + 5],
-                              sd.d->qpos[sm.base_qpos + 6]);
+  Eigen::Vector3d p0 = Eigen::Vector3d::Zero();  // the pelvis at tick 0 (the truth's pose, recorded before the step)
+  Eigen::Quaterniond R0 = Eigen::Quaterniond::Identity();
   const double dt = sm.m->opt.timestep;
   const int64_t ticks = static_cast<int64_t>(std::llround(o.duration_s / dt));
   res = CalibrationRunResult{};
@@ -103,11 +103,10 @@ bool runCalibration(const Model& model, const sim::Scenario& scenario_in, const 
       sse += e * e, ++nse;
       res.tracking_max_rad = std::max(res.tracking_max_rad, std::abs(e));
     }
-    const Eigen::Vector3d p(sd.d->qpos + sm.base_qpos);
-    const Eigen::Quaterniond R(sd.d->qpos[sm.base_qpos + 3], sd.d->qpos[sm.base_qpos + 4], sd.d->qpos[sm.base_qpos + 5],
-                               sd.d->qpos[sm.base_qpos + 6]);
-    res.base_drift_m = std::max(res.base_drift_m, (p - p0).norm());
-    res.base_tilt_rad = std::max(res.base_tilt_rad, Eigen::AngleAxisd(R0.conjugate() * R).angle());
+    if (k == 0) p0 = sd.truth.base_position, R0 = sd.truth.base_orientation;
+    res.base_drift_m = std::max(res.base_drift_m, (sd.truth.base_position - p0).norm());
+    res.base_tilt_rad =
+        std::max(res.base_tilt_rad, Eigen::AngleAxisd(R0.conjugate() * sd.truth.base_orientation).angle());
     for (const ForcePlateSample& pl : sd.plates) res.plate_force_max_n = std::max(res.plate_force_max_n, pl.force.norm());
     const int64_t utime = sd.state.utime;
     toLcm(sd.state, sm.joint_names, state_msg);

@@ -79,6 +79,12 @@ struct Segment {
   bool held_base = false;
 };
 
+/// Whether row `row` of the segment's samples is data: every row, except the unmeasured ones of a held-base segment
+/// (heldBaseRowMeasured), which come as zero rows.
+inline bool segmentRowMeasured(const Model& model, const Segment& segment, int row) {
+  return !segment.held_base || heldBaseRowMeasured(model, row);
+}
+
 struct DiagnoseOptions {
   std::vector<EffectKind> kinds = {EffectKind::Viscous,  EffectKind::Coulomb,   EffectKind::Stribeck, EffectKind::Offset,
                                    EffectKind::Armature, EffectKind::GainError, EffectKind::Delay};
