@@ -373,10 +373,13 @@ int cmdDiagnose(int argc, char** argv) {
     Eigen::MatrixXd Ka(nv, p + ne);
     Eigen::VectorXd ya(nv), pr(nv), pa(nv);
     Eigen::VectorXd sse_b = Eigen::VectorXd::Zero(nv), sse_a = Eigen::VectorXd::Zero(nv), n_row = Eigen::VectorXd::Zero(nv);
+    // One tick count over all training segments: RecursiveLs refuses a tick not after the last one, so a count
+    // restarted per file made it drop every later file's rows as duplicates.
+    long tick = 0, refused = 0;
     for (size_t sgi = 0; sgi < res.series.size(); ++sgi) {
       const est::ResidualSeries& rs = res.series[sgi];
       const est::Segment& sg = sgi < train.size() ? train[sgi] : validate[sgi - train.size()];
-      long i = 0, tick = 0;
+      long i = 0;
       const bool ok = sg.stream(
           [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
             if (i >= rs.t.size()) return;
@@ -385,8 +388,9 @@ int cmdDiagnose(int argc, char** argv) {
             ya = y;
             est::correctMeasurement(model, set, ya, tau_sensor);
             if (!rs.validation) {
-              est::updateRecursiveLs(rigid, dr, ++tick, K, y);
-              est::updateRecursiveLs(augmented, da, tick, Ka, ya);
+              ++tick;
+              refused += est::updateRecursiveLs(rigid, dr, tick, K, y) != est::SampleStatus::Accepted;
+              refused += est::updateRecursiveLs(augmented, da, tick, Ka, ya) != est::SampleStatus::Accepted;
             } else {
               est::predictRecursiveLs(rigid, dr, K, pr);
               est::predictRecursiveLs(augmented, da, Ka, pa);
@@ -407,6 +411,7 @@ int cmdDiagnose(int argc, char** argv) {
           },
           &err);
       if (!ok) return fail(err);
+      if (refused > 0) return fail("the online comparison refused " + std::to_string(refused) + " training rows (non-finite)");
       if (sgi + 1 == train.size()) {
         est::solveRecursiveLs(rigid, dr, false);
         est::solveRecursiveLs(augmented, da, false);
