@@ -180,6 +180,18 @@ TEST_F(DamagedLogCommands, DiagnoseRefusesWithTheReportOrReadsTheReadablePart) {
   }
 }
 
+TEST(IntakeHelp, EveryCommandReadingLogsDocumentsAllowPartial) {
+  const test::TempDir dir("intake_help");
+  for (const char* command : {"export", "identify", "diagnose", "study"}) {
+    const auto r = test::runCommand(test::exoidBinary() + " " + command + " --help", dir.path);
+    EXPECT_EQ(r.exit_code, 0) << command;
+    EXPECT_NE(r.out.find("--allow-partial"), std::string::npos) << command;
+    if (std::string(command) != "study") {
+      EXPECT_NE(r.out.find("3 the log is damaged"), std::string::npos) << command << r.out;
+    }
+  }
+}
+
 // The KUKA LWR4+ run 1 (data/kuka_lwr4, 200 Hz) with edits.
 class CsvIntake : public ::testing::Test {
  protected:

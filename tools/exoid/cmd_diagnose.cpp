@@ -39,7 +39,8 @@ constexpr char kDescription[] =
     "residual_<segment>.csv, effects.yaml (the sidecar of the augmented model) next to a copy of the URDF,\n"
     "plot_diagnose.py and its PNGs (rmse.png, residual_vs_signal.png, spectra.png; python3 with matplotlib).\n\n"
     "exit codes: 0 success, 2 bad input or data that cannot identify the declared model (one line on stderr),\n"
-    "            3 a damaged LCM log (damaged stretches, a cut-off tail, rejected events; see --allow-partial).";
+    "            3 the log is damaged (damaged stretches, a cut-off tail, rejected events; nothing written; see\n"
+    "            --allow-partial).";
 
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid diagnose: error: %s\n", msg.c_str());

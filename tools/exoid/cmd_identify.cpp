@@ -30,7 +30,8 @@ constexpr char kDescription[] =
     "parameters the data did not excite, and with --out a JSON summary, the estimate as CSV and, when every\n"
     "link is physically consistent, a URDF with the identified inertials.\n\n"
     "exit codes: 0 success, 2 bad input or data that cannot support an estimate (one-line message on stderr),\n"
-    "            3 a damaged LCM log (damaged stretches, a cut-off tail, rejected events; see --allow-partial).";
+    "            3 the log is damaged (damaged stretches, a cut-off tail, rejected events; nothing written; see\n"
+    "            --allow-partial).";
 
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid identify: error: %s\n", msg.c_str());
