@@ -23,7 +23,7 @@ void take(const LogEvent& e, const std::string& channel, std::vector<Sample>& ou
     return;
   }
   ++log.rejected;
-  if (log.first_rejection.empty()) log.first_rejection = printable(channel + ": " + why);
+  if (log.first_rejection.empty()) log.first_rejection = printable(channel + " at byte " + std::to_string(e.offset) + ": " + why);
 }
 
 void dispatch(const LogEvent& e, const std::vector<std::string>& joints, RunLog& log) {
