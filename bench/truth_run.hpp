@@ -7,13 +7,13 @@
 
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/model/urdf.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 
 namespace exoid::bench {
 
 struct TruthRun {
   Model model;                                  ///< config/exo.urdf, floating base
-  tools::RunLog log;                            ///< the messages (the ticks point into it)
+  intake::RunLog log;                            ///< the messages (the ticks point into it)
   std::vector<estimator::AlignedTick> ticks;    ///< ticks with a state, both plates and the truth
 };
 
@@ -21,7 +21,7 @@ struct TruthRun {
 inline bool loadTruthRun(const char* log_path, TruthRun& run) {
   std::string err;
   if (!buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, run.model, &err) ||
-      !tools::readRunLog(log_path, run.model.joint_names, run.log, &err)) {
+      !intake::readRunLog(log_path, run.model.joint_names, run.log, &err)) {
     std::fprintf(stderr, "%s\n", err.c_str());
     return false;
   }

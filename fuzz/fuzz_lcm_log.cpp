@@ -1,4 +1,4 @@
-// LCM event-log reader (tools::readRunLog, what `exoid export` reads) on arbitrary file contents.
+// LCM event-log reader (intake::readRunLog, what `exoid export` reads) on arbitrary file contents.
 // Properties: a failure is one line; every event read is accounted for exactly once (decoded into a
 // sample, rejected, or on an unknown channel); the damage figures lie inside the file and the damage
 // report is one line.
@@ -7,7 +7,7 @@
 #include <string>
 
 #include "exoid/model/urdf.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 #include "fuzz_support.hpp"
 
 namespace {
@@ -27,9 +27,9 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static exoid::fuzz::MemFile file;
-  exoid::tools::RunLog log;
+  exoid::intake::RunLog log;
   std::string error;
-  if (!exoid::tools::readRunLog(file.write(data, size), g_joints, log, &error)) {
+  if (!exoid::intake::readRunLog(file.write(data, size), g_joints, log, &error)) {
     exoid::fuzz::checkOneLine(error, "a rejected log gets a one-line error");
     return 0;
   }

@@ -10,7 +10,7 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 seconds="${EXOID_FUZZ_SECONDS:-10}"
 jobs="${EXOID_FUZZ_JOBS:-$(nproc)}"
-all=(urdf states_csv sim_config controller_config lcm_decode lcm_log lcm_wire)
+all=(urdf states_csv sim_config controller_config lcm_decode lcm_log lcm_wire log_samples measured_csv)
 targets=("$@")
 ((${#targets[@]})) || targets=("${all[@]}")
 if [ "$seconds" = 0 ]; then echo "[fuzz] EXOID_FUZZ_SECONDS=0: skipped"; exit 0; fi
@@ -29,6 +29,9 @@ seed states_csv "$here/config/exo_true_parameters.csv"
 for f in "$here"/data/kuka_lwr4/measurements_*.csv; do  # 1.8 MB each: the header and 30 samples suffice
   head -n 31 "$f" >"$work/seeds/states_csv/$(basename "$f")"
 done
+cp -r "$work/seeds/lcm_log" "$work/seeds/log_samples"  # the generated log: every channel, three ticks
+mkdir -p "$work/seeds/measured_csv"
+for f in "$here"/data/kuka_lwr4/measurements_*.csv; do head -n 31 "$f" >"$work/seeds/measured_csv/$(basename "$f")"; done
 seed sim_config "$here"/config/scenarios/*.yaml "$here/config/sensors.yaml"
 seed controller_config "$here/config/controller.yaml"
 for t in "${all[@]}"; do

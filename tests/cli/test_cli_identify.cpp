@@ -256,7 +256,7 @@ TEST_F(IdentifyMessy, BadRowsAreNamedOrSkippedAndCounted) {
   l.back() = l.back().substr(0, l.back().size() / 2);     // truncated last line
   auto r = run(l);
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("row 101: column 't'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("m.csv:101: column 1 't'"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   r = run(l, "--skip-bad-rows --out " + dir_.file("o"), false);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -264,7 +264,7 @@ TEST_F(IdentifyMessy, BadRowsAreNamedOrSkippedAndCounted) {
   const auto& in = j["inputs"][0];
   EXPECT_EQ(in["skipped"].get<long>(), 5);
   EXPECT_EQ(in["samples"].get<long>(), static_cast<long>(lines_.size()) - 1 - 5);
-  EXPECT_EQ(in["skipped_by_reason"]["time not increasing"].get<long>(), 1);
+  EXPECT_EQ(in["skipped_by_reason"]["time out of order"].get<long>(), 1);
   EXPECT_EQ(in["skipped_by_reason"]["not a finite number"].get<long>(), 2);
   EXPECT_EQ(in["skipped_by_reason"]["absurd value"].get<long>(), 1);
   EXPECT_EQ(in["skipped_by_reason"]["truncated last line"].get<long>(), 1);
@@ -275,7 +275,7 @@ TEST_F(IdentifyMessy, DecreasingTimeIsNamed) {
   l[50] = replaceCell(l[50], 0, "0.0001");
   const auto r = run(l);
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("row 51: column 't'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("m.csv:51: column 1 't'"), std::string::npos) << r.err;
 }
 
 TEST_F(IdentifyMessy, TooShortDataAreRejected) {

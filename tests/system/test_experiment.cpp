@@ -26,7 +26,7 @@
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/process.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 #include "exoid/tools/run_table.hpp"
 #include "exoid/tools/state_columns.hpp"
 #include "support/paths.hpp"
@@ -44,13 +44,13 @@ class Experiment : public ::testing::Test {
   }
   static void TearDownTestSuite() { delete model_; }
   /// Runs a short experiment (2 moves) and reads its log.
-  test::CommandResult run(const std::string& scenario, const test::TempDir& dir, tools::RunLog& log) {
+  test::CommandResult run(const std::string& scenario, const test::TempDir& dir, intake::RunLog& log) {
     const auto r = test::runCommand(test::exoidBinary() + " experiment --moves 2 --scenario " +
                                         test::configPath("scenarios/" + scenario) + " --out " + dir.file("run"),
                                     dir.path);
     std::string err;
     if (r.exit_code == 0) {
-      EXPECT_TRUE(tools::readRunLog(dir.file("run/run.lcmlog"), model_->joint_names, log, &err)) << err;
+      EXPECT_TRUE(intake::readRunLog(dir.file("run/run.lcmlog"), model_->joint_names, log, &err)) << err;
     }
     return r;
   }
@@ -60,7 +60,7 @@ Model* Experiment::model_ = nullptr;
 
 TEST_F(Experiment, IdealRunSatisfiesTheEquationsOfMotionFromItsLog) {
   test::TempDir dir("exp_ideal");
-  tools::RunLog log;
+  intake::RunLog log;
   const auto r = run("ideal.yaml", dir, log);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const auto summary = nlohmann::json::parse(test::slurp(dir.file("run/summary.json")));
@@ -130,7 +130,7 @@ TEST_F(Experiment, IdealRunSatisfiesTheEquationsOfMotionFromItsLog) {
 
 TEST_F(Experiment, UndeclaredFrictionShowsInTheResidual) {
   test::TempDir dir("exp_friction");
-  tools::RunLog log;
+  intake::RunLog log;
   const auto r = run("undeclared_friction.yaml", dir, log);
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   tools::EomResidual eom;
@@ -242,8 +242,8 @@ TEST_F(RunEnd, AFallEndsTheRunAtOnceAndTheSummarySaysWhenAndAfterWhichMove) {
   Model model;
   std::string err;
   ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
-  tools::RunLog log;
-  ASSERT_TRUE(tools::readRunLog(dir_.file("run/run.lcmlog"), model.joint_names, log, &err)) << err;
+  intake::RunLog log;
+  ASSERT_TRUE(intake::readRunLog(dir_.file("run/run.lcmlog"), model.joint_names, log, &err)) << err;
   ASSERT_FALSE(log.truth.empty());
   EXPECT_EQ(log.truth.back().tick, fall_tick);
   const double z0 = log.truth.front().base_position.z();

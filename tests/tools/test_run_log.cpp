@@ -16,7 +16,7 @@
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/experiment_summary.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 #include "exoid/tools/run_table.hpp"
 #include "support/paths.hpp"
 #include "support/run_command.hpp"
@@ -89,9 +89,9 @@ TEST_F(RunLogTest, EveryEventIsAccountedForAndTicksAreAligned) {
   writeRaw(log, "SOMEONE_ELSE", {1, 2, 3}, 12);           // a channel exoid does not know
   lcm_eventlog_destroy(log);
 
-  tools::RunLog run;
+  intake::RunLog run;
   std::string err;
-  ASSERT_TRUE(tools::readRunLog(path, model_.joint_names, run, &err)) << err;
+  ASSERT_TRUE(intake::readRunLog(path, model_.joint_names, run, &err)) << err;
   EXPECT_EQ(run.states.size(), 10u);
   EXPECT_EQ(run.plates[0].size(), 10u);
   EXPECT_EQ(run.plates[1].size(), 9u);
@@ -196,9 +196,9 @@ TEST_F(DamagedLogTest, FlippedBitsInEventHeadersLoseOnlyThoseEvents) {
   flip(w.path, w.offsets[plate_70] + 20, 0x40);       // channel length of the right plate of tick 70 (huge)
   const long lcm_events = lcmReaderEvents(w.path);
   EXPECT_LT(lcm_events, static_cast<long>(state_40) + 1);  // the old reader stopped here
-  tools::RunLog run;
+  intake::RunLog run;
   std::string err;
-  ASSERT_TRUE(tools::readRunLog(w.path, model_.joint_names, run, &err)) << err;
+  ASSERT_TRUE(intake::readRunLog(w.path, model_.joint_names, run, &err)) << err;
   EXPECT_EQ(run.states.size(), static_cast<size_t>(w.ticks - 1));
   EXPECT_EQ(run.plates[0].size(), static_cast<size_t>(w.ticks - 1));
   EXPECT_EQ(run.plates[1].size(), static_cast<size_t>(w.ticks));
@@ -223,9 +223,9 @@ TEST_F(DamagedLogTest, ACutOffTailIsReportedWithWhereTheReadablePartEnds) {
   WrittenLog w = writeLog("cut.lcmlog", 50);
   const long last = w.offsets.back();  // left plate of tick 49
   std::filesystem::resize_file(w.path, static_cast<uintmax_t>(last + 30));  // header complete, body cut
-  tools::RunLog run;
+  intake::RunLog run;
   std::string err;
-  ASSERT_TRUE(tools::readRunLog(w.path, model_.joint_names, run, &err)) << err;
+  ASSERT_TRUE(intake::readRunLog(w.path, model_.joint_names, run, &err)) << err;
   EXPECT_TRUE(run.truncated);
   EXPECT_EQ(run.corrupt_events, 0);
   EXPECT_EQ(run.readable_end, last);
@@ -240,13 +240,13 @@ TEST_F(DamagedLogTest, ACutOffTailIsReportedWithWhereTheReadablePartEnds) {
       << run.damageReport();
   // Cut inside the sync word of the last event: still a cut-off tail, not damage.
   std::filesystem::resize_file(w.path, static_cast<uintmax_t>(last + 2));
-  ASSERT_TRUE(tools::readRunLog(w.path, model_.joint_names, run, &err)) << err;
+  ASSERT_TRUE(intake::readRunLog(w.path, model_.joint_names, run, &err)) << err;
   EXPECT_TRUE(run.truncated);
   EXPECT_EQ(run.corrupt_events, 0);
   EXPECT_EQ(run.readable_end, last);
   // An intact log is intact.
   WrittenLog ok = writeLog("ok.lcmlog", 5);
-  ASSERT_TRUE(tools::readRunLog(ok.path, model_.joint_names, run, &err)) << err;
+  ASSERT_TRUE(intake::readRunLog(ok.path, model_.joint_names, run, &err)) << err;
   EXPECT_TRUE(run.intact());
   EXPECT_EQ(run.damageReport(), "");
   EXPECT_EQ(run.readable_end, ok.size);
@@ -275,7 +275,7 @@ TEST_F(DamagedLogTest, ExportRefusesADamagedLogUnlessAllowPartial) {
 // The true-CoM figures against a direct computation: the true CoM off the reference by a horizontal wiggle
 // and a vertical offset of 20 mm plus a small drift; the relative figure leaves out the offset at the first tick.
 TEST_F(RunLogTest, TrueComFiguresAgainstADirectComputation) {
-  tools::RunLog log;
+  intake::RunLog log;
   double sq = 0.0, sq_xy = 0.0, sq_rel = 0.0;
   const int n = 200;
   for (int64_t k = 0; k < n; ++k) {
@@ -309,7 +309,7 @@ TEST_F(RunLogTest, TrueComFiguresAgainstADirectComputation) {
 // The summary's figures against an independent count on a synthetic run: 150 ticks simulated, the log holds
 // ticks 0..99 (the logger died), the robot "fell" at tick 80 during the third move.
 TEST_F(RunLogTest, SummaryFiguresAreMeasuredAgainstTheSimulatedRunNotTheLog) {
-  tools::RunLog log;
+  intake::RunLog log;
   for (int64_t k = 0; k < 100; ++k) {
     GroundTruthSample t;
     t.tick = k;
@@ -383,10 +383,10 @@ TEST_F(RunLogTest, SummaryFiguresAreMeasuredAgainstTheSimulatedRunNotTheLog) {
 
 TEST_F(RunLogTest, NotALogIsAnError) {
   std::ofstream(dir_.file("text.lcmlog")) << "this is not an LCM log\n";
-  tools::RunLog run;
+  intake::RunLog run;
   std::string err;
-  EXPECT_FALSE(tools::readRunLog(dir_.file("text.lcmlog"), model_.joint_names, run, &err));
-  EXPECT_FALSE(tools::readRunLog(dir_.file("missing.lcmlog"), model_.joint_names, run, &err));
+  EXPECT_FALSE(intake::readRunLog(dir_.file("text.lcmlog"), model_.joint_names, run, &err));
+  EXPECT_FALSE(intake::readRunLog(dir_.file("missing.lcmlog"), model_.joint_names, run, &err));
   EXPECT_NE(err.find("missing.lcmlog"), std::string::npos);
 }
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 #include "support/run_command.hpp"
 
 namespace exoid {
@@ -39,9 +39,9 @@ TEST(RunLogRegressions, DataLengthOfIntMaxIsDamageNotACrash) {
   bytes.insert(bytes.end(), bad.begin(), bad.end());
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), bytes.size());
 
-  tools::RunLog log;
+  intake::RunLog log;
   std::string err;
-  ASSERT_TRUE(tools::readRunLog(path, {}, log, &err)) << err;
+  ASSERT_TRUE(intake::readRunLog(path, {}, log, &err)) << err;
   EXPECT_EQ(log.unknown_channel, 1);
   EXPECT_FALSE(log.intact());
   EXPECT_EQ(log.readable_end, 28 + 5 + 3);  // header, channel, data of the good event

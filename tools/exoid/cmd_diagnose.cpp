@@ -38,7 +38,9 @@ constexpr char kDescription[] =
     "Writes to --out: report.md (findings in words, tables, plots), summary.json, rmse.csv, candidates.csv,\n"
     "residual_<segment>.csv, effects.yaml (the sidecar of the augmented model) next to a copy of the URDF,\n"
     "plot_diagnose.py and its PNGs (rmse.png, residual_vs_signal.png, spectra.png; python3 with matplotlib).\n\n"
-    "exit codes: 0 success, 2 bad input or data that cannot identify the declared model (one line on stderr).";
+    "exit codes: 0 success, 2 bad input or data that cannot identify the declared model (one line on stderr),\n"
+    "            3 the log is damaged (damaged stretches, a cut-off tail, rejected events; nothing written; see\n"
+    "            --allow-partial).";
 
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid diagnose: error: %s\n", msg.c_str());
@@ -192,7 +194,13 @@ int cmdDiagnose(int argc, char** argv) {
                  "column of W and on y, so filter lag and attenuation cancel) or 'inputs' (filter q, differentiate, filter "
                  "again, y unfiltered: leaves the filtered-away motion in the residual); docs/identification.md")
       ->check(CLI::IsMember({"inputs", "parallel"}));
-  app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
+  app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first (the count and "
+               "the first are reported on stdout, in summary.json and report.md)");
+  bool allow_partial = false;
+  app.add_flag("--allow-partial", allow_partial, "LCM logs (--train, --validate, --calibration, --validate-calibration): a "
+               "damaged log (damaged stretches, a cut-off tail, events the adapters reject) is refused (exit 3, the damage "
+               "on stderr); with this flag its readable part is used and the damage reported on stdout, in summary.json "
+               "and report.md");
   app.add_flag("--no-plots", no_plots, "do not run the plot script (it is still written)");
   app.add_option("--python", python, "python interpreter for the plots (default python3; needs matplotlib and numpy)");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
@@ -218,6 +226,7 @@ int cmdDiagnose(int argc, char** argv) {
   so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
   so.dataset.trim_edges = true;  // the filter's start-up transient is no residual of the model
   so.skip_bad_rows = skip_bad;
+  so.allow_partial = allow_partial;
   if ((!calib_files.empty() || !val_calib_files.empty()) && !floating)
     return fail("--calibration and --validate-calibration need --floating-base (an exoskeleton held in a harness)");
   tools::SourceOptions so_held = so;
@@ -249,7 +258,34 @@ int cmdDiagnose(int argc, char** argv) {
         makeSegment(val_calib_files[i], train_files.size() + calib_files.size() + val_files.size() + i, true));
 
   est::DiagnosisResult res;
-  if (!est::diagnose(model, train, validate, opt, res, &err)) return fail(err);
+  if (!est::diagnose(model, train, validate, opt, res, &err)) {
+    for (const tools::InputStats& st : stats)
+      if (st.refused_damaged) return fail(err), 3;
+    return fail(err);
+  }
+  // What the intake skipped, per file (rows of a CSV, ticks and damage of a log): on stdout, in summary.json
+  // and report.md, never only counted.
+  std::vector<std::string> all_files = train_files;
+  for (const auto* v : {&calib_files, &val_files, &val_calib_files}) all_files.insert(all_files.end(), v->begin(), v->end());
+  nlohmann::json js_inputs = nlohmann::json::array();
+  std::ostringstream md_inputs;
+  for (size_t k = 0; k < all_files.size(); ++k) {
+    const tools::InputStats& st = stats[k];
+    nlohmann::json why = nlohmann::json::object();
+    for (const auto& [reason, n] : st.why) why[reason] = n;
+    js_inputs.push_back({{"file", all_files[k]}, {"samples", st.samples}, {"skipped", st.skipped}, {"skipped_by_reason", why}});
+    if (!st.first_skip.empty()) js_inputs.back()["first_skipped"] = st.first_skip;
+    if (!st.damage_report.empty()) js_inputs.back()["damage"] = st.damage_report;
+    if (st.skipped == 0 && st.damage_report.empty()) continue;
+    std::printf("input %s: %ld samples, %ld skipped%s%s%s%s\n", all_files[k].c_str(), st.samples, st.skipped,
+                st.first_skip.empty() ? "" : " (first: ", st.first_skip.c_str(), st.first_skip.empty() ? "" : ")",
+                st.damage_report.empty() ? "" : ("; damaged log, readable part used: " + st.damage_report).c_str());
+    md_inputs << "- `" << all_files[k] << "`: " << st.samples << " samples, " << st.skipped << " skipped";
+    for (const auto& [reason, n] : st.why) md_inputs << "; " << n << " " << reason;
+    if (!st.first_skip.empty()) md_inputs << " (first: " << st.first_skip << ")";
+    if (!st.damage_report.empty()) md_inputs << "; damaged log, its readable part used: " << st.damage_report;
+    md_inputs << "\n";
+  }
 
   std::error_code ec;
   fs::create_directories(out_dir, ec);
@@ -434,6 +470,7 @@ int cmdDiagnose(int argc, char** argv) {
   js["candidates"] = res.candidates;
   js["train_samples"] = res.train_samples;
   js["validation_samples"] = res.validation_samples;
+  js["inputs"] = js_inputs;
   js["alpha"] = opt.alpha;
   js["folds"] = opt.folds;
   js["pooled_rmse_before"] = res.pooled_before;
@@ -506,6 +543,7 @@ int cmdDiagnose(int argc, char** argv) {
                 "docs/diagnose.md.\n\n",
                 res.candidates, opt.folds, opt.alpha, 100 * opt.min_explained, opt.alpha);
   md << buf;
+  if (!md_inputs.str().empty()) md << "## Input skipped\n\n" << md_inputs.str() << "\n";
   md << "## Findings\n\n";
   if (res.findings.empty()) md << "None: no candidate effect passed the test; the residual is what the data allow.\n";
   for (const est::Finding& f : res.findings) md << "- " << f.sentence << "\n";

@@ -31,7 +31,7 @@
 #include "exoid/tools/experiment_summary.hpp"
 #include "exoid/tools/online_vs_batch.hpp"
 #include "exoid/tools/process.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 
 namespace exoid::cli {
 
@@ -594,8 +594,8 @@ int cmdExperiment(int argc, char** argv) {
   facts.controller_phi = ctrl_model.phi;
   facts.payload_attach_s = payload_attach_s;
   facts.payload_mass_kg = payload_mass_kg;
-  tools::RunLog log;
-  facts.log_readable = tools::readRunLog(log_path, model.joint_names, log, &facts.log_error);
+  intake::RunLog log;
+  facts.log_readable = intake::readRunLog(log_path, model.joint_names, log, &facts.log_error);
   const tools::ExperimentSummary s = tools::summarizeExperiment(model, log, facts);
   // Online vs batch on this run's log (the estimator's default options plus the --effects sidecar if given, the
   // controller's model as prior).

@@ -4,7 +4,7 @@
 #include "exoid/common/cli.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 #include "exoid/tools/run_table.hpp"
 
 namespace exoid::cli {
@@ -62,8 +62,8 @@ int cmdExport(int argc, char** argv) {
   std::string err;
   Model model;
   if (!buildModelFromUrdfFile(model_path, true, model, &err)) return fail(err);
-  tools::RunLog log;
-  if (!tools::readRunLog(log_path, model.joint_names, log, &err)) return fail(err);
+  intake::RunLog log;
+  if (!intake::readRunLog(log_path, model.joint_names, log, &err)) return fail(err);
   if (!log.intact()) {
     std::fprintf(stderr, "exoid export: %s: %s: %s\n", allow_partial ? "warning" : "error", log_path.c_str(),
                  log.damageReport().c_str());

@@ -29,7 +29,9 @@ constexpr char kDescription[] =
     "friction), the per-link consistency verdict, singular values, chosen rank z, condition number, the\n"
     "parameters the data did not excite, and with --out a JSON summary, the estimate as CSV and, when every\n"
     "link is physically consistent, a URDF with the identified inertials.\n\n"
-    "exit codes: 0 success, 2 bad input or data that cannot support an estimate (one-line message on stderr).";
+    "exit codes: 0 success, 2 bad input or data that cannot support an estimate (one-line message on stderr),\n"
+    "            3 the log is damaged (damaged stretches, a cut-off tail, rejected events; nothing written; see\n"
+    "            --allow-partial).";
 
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid identify: error: %s\n", msg.c_str());
@@ -126,6 +128,10 @@ int cmdIdentify(int argc, char** argv) {
       ->transform(common::strictNumber(1e-3, 1e6));
   app.add_option("--threads", threads, "threads for the QR updates")->transform(common::strictInteger(1, 64));
   app.add_flag("--skip-bad-rows", skip_bad, "CSV: drop and count bad rows instead of failing at the first");
+  bool allow_partial = false;
+  app.add_flag("--allow-partial", allow_partial, "LCM logs: a damaged log (damaged stretches, a cut-off tail, events the "
+               "adapters reject) is refused (exit 3, the damage on stderr); with this flag its readable part is used and "
+               "the damage reported on stderr and in summary.json");
   app.add_option("--effects", effects_path, "sidecar effects.yaml of `exoid diagnose` (docs/diagnose.md): its effects are "
                  "applied to the training data as known corrections before identification (friction, offset, armature "
                  "torques subtracted; torque-sensor gains divided out; a time delay is refused)");
@@ -165,6 +171,7 @@ int cmdIdentify(int argc, char** argv) {
   so.dataset.encoder_noise = noise;
   so.dataset.noise_seed = seed;
   so.skip_bad_rows = skip_bad;
+  so.allow_partial = allow_partial;
   estimator::EffectSet effects;
   if (!effects_path.empty()) {
     if (!estimator::readEffects(effects_path, model, effects, &err)) return fail(err);
@@ -178,16 +185,22 @@ int cmdIdentify(int argc, char** argv) {
   ao.threads = threads;
   ao.chunk = 1;  // set from the first file's rate below
   nlohmann::json inputs = nlohmann::json::array();
+  bool damaged = false;  // a load failed on a damaged log: exit 3
   auto load = [&](const std::vector<std::string>& files, const tools::SourceOptions& opt, estimator::LsqAccumulator& acc) {
     for (const std::string& f : files) {
       tools::InputStats st;
-      if (!tools::accumulateFile(f, model, opt, acc, st, &err)) return false;
+      if (!tools::accumulateFile(f, model, opt, acc, st, &err)) return damaged = st.refused_damaged, false;
       nlohmann::json why = nlohmann::json::object();
       for (const auto& [k, v] : st.why) why[k] = v;
       inputs.push_back({{"file", f}, {"samples", st.samples}, {"skipped", st.skipped}, {"skipped_by_reason", why},
                         {"rejected_log_events", st.rejected_events}});
+      if (!st.first_skip.empty()) inputs.back()["first_skipped"] = st.first_skip;
+      if (!st.damage_report.empty()) inputs.back()["damage"] = st.damage_report;  // read with --allow-partial
       std::fprintf(stderr, "exoid identify: %s: %ld samples, %ld skipped%s%s\n", f.c_str(), st.samples, st.skipped,
                    st.first_skip.empty() ? "" : " (first: ", st.first_skip.empty() ? "" : (st.first_skip + ")").c_str());
+      if (!st.damage_report.empty())
+        std::fprintf(stderr, "exoid identify: warning: %s: damaged log, its readable part used: %s\n", f.c_str(),
+                     st.damage_report.c_str());
     }
     return true;
   };
@@ -205,7 +218,7 @@ int cmdIdentify(int argc, char** argv) {
   }
   ao.chunk = std::max(1, static_cast<int>(std::lround(chunk_s * rate)));
   estimator::LsqAccumulator train(model, base, ao);
-  if (!load(data, so, train)) return fail(err);
+  if (!load(data, so, train)) return damaged ? (fail(err), 3) : fail(err);
   train.flush();
   const double t_read = seconds(t0);
   std::unique_ptr<estimator::LsqAccumulator> val;
@@ -220,7 +233,7 @@ int cmdIdentify(int argc, char** argv) {
     estimator::AccumulatorOptions va = ao;
     va.folds = 1;
     val = std::make_unique<estimator::LsqAccumulator>(model, base, va);
-    if (!load(validate, vo, *val)) return fail(err);
+    if (!load(validate, vo, *val)) return damaged ? (fail(err), 3) : fail(err);
     val->flush();
   }
   const auto t1 = std::chrono::steady_clock::now();

@@ -10,7 +10,7 @@
 #include <cstring>
 
 #include "exoid/model/urdf.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 #include "support/paths.hpp"
 #include "support/run_command.hpp"
 
@@ -26,7 +26,7 @@ void sameInBothModes(const std::string& scenario) {
   std::string err;
   ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
   test::TempDir dir("plugin_equivalence_" + scenario);
-  tools::RunLog logs[2];
+  intake::RunLog logs[2];
   std::string summaries[2];
   const char* modes[2] = {"process", "plugin"};
   for (int m = 0; m < 2; ++m) {
@@ -35,11 +35,11 @@ void sameInBothModes(const std::string& scenario) {
                                         " --scenario " + test::configPath("scenarios/" + scenario + ".yaml") + " --out " + out,
                                     dir.path);
     ASSERT_EQ(r.exit_code, 0) << modes[m] << "\n" << r.out << r.err;
-    ASSERT_TRUE(tools::readRunLog(out + "/run.lcmlog", model.joint_names, logs[m], &err)) << err;
+    ASSERT_TRUE(intake::readRunLog(out + "/run.lcmlog", model.joint_names, logs[m], &err)) << err;
     summaries[m] = test::slurp(out + "/summary.json");
     EXPECT_EQ(logs[m].rejected, 0) << logs[m].first_rejection;
   }
-  const tools::RunLog &proc = logs[0], &plug = logs[1];
+  const intake::RunLog &proc = logs[0], &plug = logs[1];
   // 5.2 s planned (latch, hold, one move, holds): one command per state.
   ASSERT_GT(plug.commands.size(), 5000u);
   ASSERT_EQ(proc.commands.size(), plug.commands.size());

@@ -12,6 +12,7 @@
 #include "exoid/model/inertial.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/signal/filters.hpp"
+#include "exoid/tick_order.hpp"
 
 namespace exoid::estimator {
 
@@ -224,9 +225,12 @@ long OnlineEstimator::rejected(InputStatus why) const { return rejected_[static_
 
 InputStatus OnlineEstimator::admit(int channel, long tick, bool finite, bool sizes_ok) {
   InputStatus s = InputStatus::Accepted;
+  // The gate's order rule (tick_order.hpp, as MessageGate's); besides it, ticks are >= 0 here and a message
+  // older than the tick being assembled is out of order (the assembly holds one tick).
+  const TickOrder order = tickOrder(last_tick_[channel] >= 0, last_tick_[channel], tick);
   if (!sizes_ok) s = InputStatus::Malformed;
-  else if (last_tick_[channel] >= 0 && tick == last_tick_[channel]) s = InputStatus::Duplicate;
-  else if (tick < 0 || (last_tick_[channel] >= 0 && tick < last_tick_[channel]) || tick < slot_tick_)
+  else if (order == TickOrder::Duplicate) s = InputStatus::Duplicate;
+  else if (tick < 0 || order == TickOrder::Older || tick < slot_tick_)
     s = InputStatus::OutOfOrder;
   else if (!finite) s = InputStatus::NonFinite;
   if (s != InputStatus::Accepted) {

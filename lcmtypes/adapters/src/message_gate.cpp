@@ -1,4 +1,5 @@
 #include <exoid/lcm/message_gate.hpp>
+#include <exoid/tick_order.hpp>
 
 #include <cstring>
 #include <stdexcept>
@@ -36,8 +37,9 @@ MessageGate::Channel& MessageGate::at(int channel) {
 
 bool MessageGate::inOrder(int channel, int64_t tick, RejectReason* reason, std::string* why) const {
   const Channel& c = at(channel);
-  if (!c.has_tick || tick > c.last_tick) return true;
-  const bool duplicate = tick == c.last_tick;
+  const TickOrder order = tickOrder(c.has_tick, c.last_tick, tick);
+  if (order == TickOrder::Newer) return true;
+  const bool duplicate = order == TickOrder::Duplicate;
   if (reason) *reason = duplicate ? RejectReason::Duplicate : RejectReason::OutOfOrder;
   if (why)
     *why = c.name + ": tick " + std::to_string(tick) + (duplicate ? " repeats" : " is older than") +

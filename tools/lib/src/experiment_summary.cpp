@@ -32,7 +32,7 @@ long missingIn(const std::vector<Sample>& samples, int64_t n) {
 }
 
 // Truth-channel figures: CoM tracking against the controller's reference, foot slip, fall.
-void truthFigures(const Model& model, const RunLog& log, ExperimentSummary& s, int64_t* first_drop_tick) {
+void truthFigures(const Model& model, const intake::RunLog& log, ExperimentSummary& s, int64_t* first_drop_tick) {
   const int sole[2] = {model.frameIndex("right_sole"), model.frameIndex("left_sole")};
   if (log.truth.empty() || sole[0] < 0 || sole[1] < 0) return;
   std::unordered_map<int64_t, const ControllerStatusSample*> status;
@@ -76,7 +76,7 @@ void truthFigures(const Model& model, const RunLog& log, ExperimentSummary& s, i
   s.true_com_rmse_rel_m = n ? std::sqrt(true_rel_sq / n) : 0.0;
 }
 // The controller's joint-torque prediction error (see ExperimentSummary) and the estimate's use.
-void torquePrediction(const Model& model, const RunLog& log, const Eigen::VectorXd& phi_ctrl, ExperimentSummary& s) {
+void torquePrediction(const Model& model, const intake::RunLog& log, const Eigen::VectorXd& phi_ctrl, ExperimentSummary& s) {
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
   for (const auto& c : log.commands)
     if (c.tau_ff.size() == model.njoints && c.tau_ff.cwiseAbs().maxCoeff() > 0.0) ++s.estimate_in_use_ticks;
@@ -125,7 +125,7 @@ void torquePrediction(const Model& model, const RunLog& log, const Eigen::Vector
 }
 
 // Estimates in the log; the mid-run payload's mass response.
-void estimateFigures(const Model& model, const RunLog& log, const RunFacts& f, ExperimentSummary& s) {
+void estimateFigures(const Model& model, const intake::RunLog& log, const RunFacts& f, ExperimentSummary& s) {
   s.payload_attach_s = f.payload_attach_s;
   s.payload_mass_kg = f.payload_mass_kg;
   std::vector<std::pair<int64_t, double>> mass;  // (tick, estimated total mass)
@@ -155,7 +155,7 @@ void estimateFigures(const Model& model, const RunLog& log, const RunFacts& f, E
 }
 }  // namespace
 
-ExperimentSummary summarizeExperiment(const Model& model, const RunLog& log, const RunFacts& f) {
+ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& log, const RunFacts& f) {
   ExperimentSummary s;
   s.moves_planned = f.moves_planned;
   s.lockstep = f.lockstep;

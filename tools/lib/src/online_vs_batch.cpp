@@ -53,7 +53,7 @@ double jointRmse(const Model& model, const estimator::LsqAccumulator& acc, const
 }
 }  // namespace
 
-OnlineVsBatch compareOnlineBatch(const Model& model, const RunLog& log, const Eigen::VectorXd& prior,
+OnlineVsBatch compareOnlineBatch(const Model& model, const intake::RunLog& log, const Eigen::VectorXd& prior,
                                  const estimator::OnlineEstimatorOptions& options, int publish_every,
                                  const std::string& live_csv, double train_fraction) {
   using namespace estimator;

@@ -11,7 +11,7 @@ namespace {
 const char* const kSides[2] = {"right", "left"};
 }  // namespace
 
-bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& opt, RunTable& table,
+bool buildRunTable(const Model& model, const intake::RunLog& log, const ExportOptions& opt, RunTable& table,
                    std::string* error) {
   auto fail = [&](const std::string& m) {
     if (error) *error = m;
@@ -107,7 +107,7 @@ bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& o
   return true;
 }
 
-bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& log, EomResidual& out,
+bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const intake::RunLog& log, EomResidual& out,
                  std::string* error) {
   out = EomResidual();
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};

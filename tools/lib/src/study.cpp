@@ -26,7 +26,7 @@
 #include "exoid/signal/filters.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/tools/identify_input.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 
 namespace exoid::tools {
 
@@ -74,11 +74,13 @@ struct ScoredSample {
   double t = 0.0;
 };
 
-bool metricsFromRun(const Model& model, const std::string& path, int stride, estimator::MetricAccumulator& acc,
-                    std::string* error, std::vector<ScoredSample>* keep = nullptr) {
-  RunLog log;
+bool metricsFromRun(const Model& model, const std::string& path, int stride, bool allow_partial,
+                    estimator::MetricAccumulator& acc, std::string* error, std::vector<ScoredSample>* keep = nullptr) {
+  intake::RunLog log;
   std::string err;
-  if (!readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
+  if (!intake::readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
+  if (!log.intact() && !allow_partial)
+    return fail(error, path + ": damaged log: " + log.damageReport() + " (--allow-partial reads the readable part)");
   if (log.truth.empty()) return fail(error, path + ": no EXO_TRUTH samples (needed for validation)");
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
   if (feet[0] < 0 || feet[1] < 0) return fail(error, "model has no right_foot / left_foot body");
@@ -104,11 +106,13 @@ bool metricsFromRun(const Model& model, const std::string& path, int stride, est
 /// filtered causally by a 2nd-order Butterworth (as the controller would in real time), the IMU orientation
 /// and gyro, the ideal (simulator) accelerations as the desired ones, the torque sensors of the previous tick
 /// for the ground reaction forces and of this tick as the measurement. Every stride-th tick is scored.
-bool realisticFromRun(const Model& model, const std::string& path, int stride, double cutoff_hz,
+bool realisticFromRun(const Model& model, const std::string& path, int stride, double cutoff_hz, bool allow_partial,
                       estimator::MetricAccumulator& acc, std::string* error) {
-  RunLog log;
+  intake::RunLog log;
   std::string err;
-  if (!readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
+  if (!intake::readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
+  if (!log.intact() && !allow_partial)
+    return fail(error, path + ": damaged log: " + log.damageReport() + " (--allow-partial reads the readable part)");
   std::map<int64_t, const GroundTruthSample*> truth;
   for (const GroundTruthSample& t : log.truth) truth.emplace(t.tick, &t);
   int soles[2] = {model.frameIndex("right_sole"), model.frameIndex("left_sole")};
@@ -229,21 +233,23 @@ bool runStudy(const StudyOptions& o, std::string* error) {
   say("reading the validation run " + o.validation);
   estimator::MetricAccumulator vm(model, model.phi, actuated);
   std::vector<ScoredSample> vsamples;
-  if (!metricsFromRun(model, o.validation, o.stride, vm, error, &vsamples)) return false;
+  if (!metricsFromRun(model, o.validation, o.stride, o.allow_partial, vm, error, &vsamples)) return false;
   std::unique_ptr<estimator::MetricAccumulator> tm;
   if (!o.test.empty()) {
     say("reading the test run " + o.test);
     tm = std::make_unique<estimator::MetricAccumulator>(model, model.phi, actuated);
-    if (!metricsFromRun(model, o.test, o.stride, *tm, error)) return false;
-    if (!realisticFromRun(model, o.test, o.stride, o.realistic_cutoff_hz, *tm, error)) return false;
+    if (!metricsFromRun(model, o.test, o.stride, o.allow_partial, *tm, error)) return false;
+    if (!realisticFromRun(model, o.test, o.stride, o.realistic_cutoff_hz, o.allow_partial, *tm, error)) return false;
   }
   SourceOptions vo;
   vo.pipeline = LogPipeline::Truth;
+  vo.allow_partial = o.allow_partial;
   estimator::AccumulatorOptions va;
   va.folds = 1;
   estimator::LsqAccumulator vacc(model, base, va);
   InputStats vst;
   if (!accumulateFile(o.validation, model, vo, vacc, vst, &err)) return fail(error, err);
+  if (!vst.damage_report.empty()) say(o.validation + ": damaged log, its readable part used: " + vst.damage_report);
   vacc.flush();
   const estimator::LsqFactor vfac = estimator::toStandard(vacc.mergedBase(), base.base_map);
   say("validation: " + std::to_string(vst.samples) + " samples (" + std::to_string(vm.samples()) +
@@ -281,9 +287,11 @@ bool runStudy(const StudyOptions& o, std::string* error) {
   for (const std::string& pipe : o.pipelines) {
     SourceOptions so;
     so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
+    so.allow_partial = o.allow_partial;
     InputStats st;
     const auto tr = clock();
     if (!readSamples(o.train, model, so, samples[pipe], st, &err)) return fail(error, err);
+    if (!st.damage_report.empty()) say(o.train + ": damaged log, its readable part used: " + st.damage_report);
     seconds["reading the training run"] += since(tr);
   }
   // One job per (pipeline, cutoff), independent of the others: run by o.threads workers, merged in order.
@@ -317,6 +325,7 @@ bool runStudy(const StudyOptions& o, std::string* error) {
     auto& le = job.le;
     SourceOptions so;
     so.pipeline = pipe == "thesis" ? LogPipeline::Truth : LogPipeline::Sensors;
+    so.allow_partial = o.allow_partial;
     so.dataset.cutoff_hz = cutoff;
     if (pipe == "sensors" && o.parallel_filter) so.dataset.filter = estimator::FilterMode::Parallel;
     so.dataset.orientation_from_legs = pipe == "sensors" && o.orientation_from_legs;

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "exoid/model/model.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 
 namespace exoid::tools {
 
@@ -95,7 +95,7 @@ struct ExperimentSummary {
 
 /// Summarises a run. Never fails: with an unreadable log (facts.log_readable false) only the facts and the
 /// sim's report fill the summary, and the outcome is failed.
-ExperimentSummary summarizeExperiment(const Model& model, const RunLog& log, const RunFacts& facts);
+ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& log, const RunFacts& facts);
 
 /// summary.json (nlohmann/json; field names as in ExperimentSummary, docs/data-formats.md).
 std::string summaryJson(const ExperimentSummary& s);

@@ -1,8 +1,8 @@
 #pragma once
-// Streaming readers for `exoid identify`: an LCM log of `exoid experiment` or a CSV of measured data, turned
-// into estimator::MeasuredSample one at a time, so memory does not grow with the data length. Damaged input
-// is reported with the file, row/tick, column and value; with skip_bad_rows bad rows/ticks are dropped and
-// counted instead.
+// One data file (an LCM log of `exoid experiment` or a CSV of measured data) through the dataset pipeline into
+// regressor rows, for `exoid identify`, `diagnose` and `study`. The file is read by the intake layer
+// (exoid/intake/measured_input.hpp): damaged input is refused naming the file and where, unless the options
+// allow skipping (skip_bad_rows, allow_partial), and what was skipped is counted in InputStats.
 #include <functional>
 #include <map>
 #include <string>
@@ -11,44 +11,15 @@
 #include "exoid/estimator/batch/accumulator.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/diagnose.hpp"
+#include "exoid/intake/measured_input.hpp"
 #include "exoid/model/model.hpp"
 
 namespace exoid::tools {
 
-/// Which samples of a run log to use.
-enum class LogPipeline {
-  Sensors,  ///< EXO_STATE + both plates: encoders, torque sensors, IMU, plates (what a lab has)
-  Truth,    ///< EXO_TRUTH (exact state, applied torques) + both plates: the thesis protocol's input
-};
-
-struct InputStats {
-  long samples = 0;                 ///< handed to the sink
-  long skipped = 0;                 ///< bad rows / incomplete or out-of-order ticks dropped
-  std::map<std::string, long> why;  ///< skipped, by reason
-  std::string first_skip;           ///< where and why the first one was skipped
-  long rejected_events = 0;         ///< log events the adapters rejected (LCM only)
-};
-
-using SampleSink = std::function<bool(const estimator::MeasuredSample&, std::string* error)>;
-
-/// Streams a run log in tick order. A tick missing a needed channel is skipped and counted (never an
-/// error); a message for a tick older than one already passed on is counted as out of order.
-/// feet: the model's right and left foot bodies. False with *error if the file is not a readable LCM log,
-/// holds none of the needed channels, or the sink fails.
-bool streamRunLog(const std::string& path, const Model& model, LogPipeline pipeline, const int feet[2],
-                  const SampleSink& sink, InputStats& stats, std::string* error);
-
-/// Streams a measured-data CSV (docs/identification.md): `t`, `q_<joint>` for every joint, `tau_<joint>`
-/// for every actuated joint (URDF effort limit > 0; absent columns of unactuated joints read as 0),
-/// optional `v_<joint>` and `a_<joint>` (all joints or none), and for a floating base `base_qw..qz`,
-/// `base_wx..wz`, `base_ax..az`, `fp_<right|left>_<fx..nz>`, optional `base_dwx..dwz`, `base_px..pz`.
-/// Rejected rows: wrong cell count (also a truncated last line), a cell that is not a finite number,
-/// a time not after the previous row's, an absurd value (|q| beyond the joint limits by more than 1 rad
-/// or above 100 rad without limits, |v| > 1e3 rad/s, |a| > 1e5 rad/s^2, |tau| > 100 x the effort limit or 1e5,
-/// a quaternion off unit norm by more than 1e-3, |force| > 1e6 N). Without skip_bad_rows the first one is
-/// an error naming the row, column and value.
-bool streamMeasuredCsv(const std::string& path, const Model& model, const int feet[2], bool skip_bad_rows,
-                       const SampleSink& sink, InputStats& stats, std::string* error);
+// The readers are the intake layer's (estimator/intake): one home for recorded data.
+using intake::InputStats;
+using intake::LogPipeline;
+using intake::SampleSink;
 
 /// Options for turning one data file into rows of the accumulator.
 struct SourceOptions {
@@ -61,6 +32,8 @@ struct SourceOptions {
   /// that are not measured (estimator::heldBaseRowMeasured: the base's, the pinned unactuated joints') handed on
   /// as zero rows, K and y both, which carry no information into a least-squares fit. Floating base only.
   bool held_base = false;
+  /// LCM logs: use the readable part of a damaged log (damage reported in InputStats) instead of refusing it.
+  bool allow_partial = false;
 };
 
 /// The measured samples of one file (the dataset pipeline's input: before noise, filtering and

@@ -10,7 +10,7 @@
 
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/model.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 
 namespace exoid::tools {
 
@@ -40,7 +40,7 @@ struct OnlineVsBatch {
 
 /// publish_every: exo_estimator's publication step (the replay publishes alike). live_csv: exo_estimator --final output (name,prior,estimate,stddev); "" or unreadable: the live figures are
 /// left out (live_read false) and the rest is still computed.
-OnlineVsBatch compareOnlineBatch(const Model& model, const RunLog& log, const Eigen::VectorXd& prior,
+OnlineVsBatch compareOnlineBatch(const Model& model, const intake::RunLog& log, const Eigen::VectorXd& prior,
                                  const estimator::OnlineEstimatorOptions& options, int publish_every,
                                  const std::string& live_csv, double train_fraction = 0.75);
 

@@ -7,7 +7,7 @@
 
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/model/model.hpp"
-#include "exoid/tools/run_log.hpp"
+#include "exoid/intake/run_log.hpp"
 
 namespace exoid::tools {
 
@@ -23,7 +23,7 @@ struct RunTable {
 };
 
 /// Builds the table. Fails with *error if the log has no usable tick or the options are invalid.
-bool buildRunTable(const Model& model, const RunLog& log, const ExportOptions& options, RunTable& table,
+bool buildRunTable(const Model& model, const intake::RunLog& log, const ExportOptions& options, RunTable& table,
                    std::string* error);
 
 // Sample alignment, state from samples and plate wrenches live in the estimator library (dataset.hpp).
@@ -42,7 +42,7 @@ struct EomResidual {
 /// channel (the simulator's own accelerations), joint torques from the joint torque sensors (EXO_STATE,
 /// unactuated joints 0) and external wrenches from the force plates. phi: parameters to test (e.g. the
 /// model's). Needs the model's "right_foot" and "left_foot" bodies.
-bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const RunLog& log, EomResidual& out,
+bool eomResidual(const Model& model, const Eigen::VectorXd& phi, const intake::RunLog& log, EomResidual& out,
                  std::string* error);
 
 }  // namespace exoid::tools

@@ -44,6 +44,7 @@ struct StudyOptions {
   double pc_nullspace = 3e-2;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
   double realistic_cutoff_hz = 50.0;  ///< causal velocity filter of the realistic torque prediction (test run)
   std::function<void(const std::string&)> progress;  ///< one line per step (may be empty)
+  bool allow_partial = false;  ///< use the readable part of a damaged log instead of refusing it (reported on progress)
 };
 
 /// Runs the study. False with *error (file, reason) when an input cannot be read or is unusable.

@@ -1,9 +1,8 @@
 #pragma once
-// Reads an lcm-logger file of a run into plain samples, channel by channel (the offline tools' view of a
-// run). Every event is accounted for: decoded, rejected by the adapters (counted with a reason), or on a
-// channel exoid does not know (counted). Every byte is accounted for too: a damaged stretch (bad sync word,
-// impossible lengths) is skipped up to the next valid event and counted, a cut-off last event is reported;
-// LCM's own reader stopped silently at the first damaged event and dropped the rest of the file.
+// Reads an lcm-logger file of a run into plain samples, channel by channel (the offline tools' whole-run
+// view: export, experiment summaries, study, benchmarks). Every event is accounted for: decoded, rejected by
+// the adapters (counted with a reason), or on a channel exoid does not know (counted). Every byte is
+// accounted for too (log_events.hpp: the one log reader): damaged stretches and a cut-off tail are reported.
 #include <map>
 #include <string>
 #include <vector>
@@ -12,7 +11,7 @@
 #include "exoid/samples.hpp"
 #include "exoid/status_samples.hpp"
 
-namespace exoid::tools {
+namespace exoid::intake {
 
 struct RunLog {
   std::vector<RobotStateSample> states;        ///< EXO_STATE, in log order
@@ -45,4 +44,4 @@ struct RunLog {
 /// be and reported in `log` (see intact(), damageReport()), the caller decides whether that is acceptable.
 bool readRunLog(const std::string& path, const std::vector<std::string>& joint_names, RunLog& log, std::string* error);
 
-}  // namespace exoid::tools
+}  // namespace exoid::intake
