@@ -61,6 +61,9 @@ struct SourceOptions {
   /// that are not measured (estimator::heldBaseRowMeasured: the base's, the pinned unactuated joints') handed on
   /// as zero rows, K and y both, which carry no information into a least-squares fit. Floating base only.
   bool held_base = false;
+  /// Parameters held at known values (`exoid diagnose --declared-model`, `exoid identify --only-links`): every row's y
+  /// becomes y - K held_phi [Model::nparams()], so what is fitted to it is what those parameters leave. Not owned.
+  const Eigen::VectorXd* held_phi = nullptr;
 };
 
 /// The measured samples of one file (the dataset pipeline's input: before noise, filtering and
