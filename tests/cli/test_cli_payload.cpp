@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -152,6 +153,23 @@ TEST(PayloadCli, WithoutADeclaredModelThePayloadIsReportedAsAbsorbed) {
   EXPECT_TRUE(js["payloads"].empty());
   ASSERT_EQ(js["payload_candidates"].size(), 7u);
   for (const auto& c : js["payload_candidates"]) EXPECT_NE(c["status"].get<std::string>().find("absorbed"), std::string::npos);
+}
+
+// Bad input: a declared model of another tree, a link that is not there: exit 2 with one line naming it.
+TEST(PayloadCli, BadInputExitsTwoWithOneLine) {
+  test::TempDir dir("payload_bad");
+  const std::string d = test::dataPath("kuka_lwr4/");
+  test::CommandResult r = test::runCommand(test::exoidBinary() + " diagnose --model " + d + "kuka_lwr4.urdf --declared-model " +
+                                               test::configPath("exo.urdf") + " --train " + d + "measurements_1.csv --out " +
+                                               dir.file("o"), dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--declared-model"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  r = test::runCommand(test::exoidBinary() + " identify --fixed-base --model " + d + "kuka_lwr4.urdf --only-links lwr_9_link --data " +
+                           d + "measurements_1.csv", dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("'lwr_9_link'"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
 }
 
 }  // namespace

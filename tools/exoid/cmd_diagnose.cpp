@@ -186,8 +186,9 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--declared-model", declared_model_path, "hold the declared rigid-body parameters at this URDF's values "
                  "(e.g. identified.urdf of `exoid identify` on earlier data; the links and joints of --model) instead of "
                  "identifying them: the residual is y - K phi_declared, so a change of the robot since then is a finding; "
-                 "with it each link is also tested for a payload (a rigid body fixed to it: mass > 0, CoM within "
-                 "--payload-com-bound of the link frame), which an identified declared model absorbs (docs/diagnose.md)")
+                 "with it each link is also tested for a payload (a rigid body fixed to it: mass and CoM; admissible with a mass "
+                 "above 3 standard errors and the CoM within --payload-com-bound of the link frame), which an identified "
+                 "declared model absorbs. Training and validation rows both become y - K phi_declared (docs/diagnose.md)")
       ->type_name("URDF");
   app.add_option("--payload-com-bound", opt.payload_com_bound, "m: an admissible payload's CoM lies within this distance "
                  "of its link frame's origin (default 0.5)")->transform(common::strictNumber(1e-6, 1e3));

@@ -121,8 +121,8 @@ int cmdIdentify(int argc, char** argv) {
   std::vector<std::string> only_links;
   app.add_option("--only-links", only_links, "identify only these links' inertial parameters (URDF names of moving links; "
                  "the joints' friction stays free), every other link held at the prior (the --model URDF's or --prior's "
-                 "values): the standard payload identification, e.g. --model identified.urdf --only-links lwr_6_link on "
-                 "runs with a load (docs/identification.md)")->type_name("LINK");
+                 "values): the standard payload identification, e.g. --model identified.urdf --only-links lwr_7_link on "
+                 "runs with a load on the KUKA's flange (docs/identification.md)")->type_name("LINK");
   app.add_option("--prior-perturb", perturb, "scale each URDF parameter by a uniform random factor in [1-F, 1+F] for the prior")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("F");
   app.add_option("--prior-seed", prior_seed, "seed of --prior-perturb")->transform(common::strictInteger(0, INT64_MAX));
