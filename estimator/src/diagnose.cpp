@@ -872,7 +872,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     for (int k = 0; k < ns; ++k) Au.col(k) = Ru.col(S[k]), Aw.col(k) = Rtrain[F].col(S[k]);
     const Eigen::VectorXd xprev = xa;
     xa = Au.householderQr().solve(Ru.col(iy));
-    {
+    if (ns > 0) {  // (none: a held declared model and nothing found)
       Eigen::HouseholderQR<Eigen::MatrixXd> qr(Aw);
       const Eigen::MatrixXd Rw = qr.matrixQR().topRows(ns).triangularView<Eigen::Upper>();
       const Eigen::VectorXd xw = Rw.triangularView<Eigen::Upper>().solve(
