@@ -155,6 +155,33 @@ TEST(PayloadCli, WithoutADeclaredModelThePayloadIsReportedAsAbsorbed) {
   for (const auto& c : js["payload_candidates"]) EXPECT_NE(c["status"].get<std::string>().find("absorbed"), std::string::npos);
 }
 
+// `identify --only-links` alone (short, also run sanitized): the named link moves, every other parameter of every other
+// link stays at the URDF's value, the friction is identified.
+TEST(PayloadCli, OnlyLinksHoldsEveryOtherLink) {
+  test::TempDir dir("payload_only");
+  const std::string d = test::dataPath("kuka_lwr4/"), urdf = d + "kuka_lwr4.urdf";
+  Model arm;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(urdf, false, arm, &err)) << err;
+  const test::CommandResult r = test::runCommand(test::exoidBinary() + " identify --fixed-base --model " + urdf +
+                                                     " --only-links lwr_5_link --data " + d + "measurements_1.csv --out " +
+                                                     dir.file("o"), dir.path);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json js = nlohmann::json::parse(test::slurp(dir.file("o/summary.json")));
+  EXPECT_EQ(js["rank_rule"], "full");
+  const std::vector<std::string> names = arm.paramNames();
+  const int b = arm.bodyIndex("lwr_5_link");
+  double moved = 0.0, friction = 0.0;
+  for (int i = 0; i < arm.nparams(); ++i) {
+    const double e = js["estimate"][names[i]].get<double>();
+    if (i >= arm.nInertialParams()) friction += std::abs(e);
+    else if (i / kParamsPerBody == b) moved += std::abs(e - arm.phi[i]);
+    else EXPECT_NEAR(e, arm.phi[i], 1e-8 * (1.0 + std::abs(arm.phi[i]))) << names[i];
+  }
+  EXPECT_GT(moved, 1e-3);
+  EXPECT_GT(friction, 0.1);
+}
+
 // Bad input: a declared model of another tree, a link that is not there: exit 2 with one line naming it.
 TEST(PayloadCli, BadInputExitsTwoWithOneLine) {
   test::TempDir dir("payload_bad");
