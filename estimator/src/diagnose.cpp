@@ -883,6 +883,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
         const int k = posOf(pcol[i]);
         out.payloads[i].mass = xa[k];
         out.payloads[i].com = Eigen::Vector3d(xa[posOf(pcol[i] + 1)], xa[posOf(pcol[i] + 2)], xa[posOf(pcol[i] + 3)]) / xa[k];
+        // Admissibility is decided at selection; a final refit that leaves it says the data do not pin the CoM (a
+        // load on a foot flat on its plate: its height moves no torque).
+        const bool ok = xa[k] > 0.0 && out.payloads[i].com.norm() <= opt.payload_com_bound;
+        out.payloads[i].status = ok ? "accepted" : "accepted; the final refit puts its CoM beyond the bound: not determined";
       }
       for (size_t i = 0; i < out.findings.size(); ++i) {
         const int k = posOf(fcol[i]);
@@ -1025,9 +1029,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "%s carries a payload of %.3g kg (+- %.2g) at CoM (%.4f, %.4f, %.4f) m (+- %.2g, %.2g, %.2g) in the link "
-                  "frame, explains %.0f %% of the residual of the rows it moves (held-out folds; p = %.2g, %d tested)",
+                  "frame, explains %.0f %% of the residual of the rows it moves (held-out folds; p = %.2g, %d tested)%s",
                   model.body_names[pf.link].c_str(), pf.mass, pf.mass_se, pf.com[0], pf.com[1], pf.com[2], pf.com_se[0],
-                  pf.com_se[1], pf.com_se[2], 100.0 * pf.explained, pf.p_value, pf.tested);
+                  pf.com_se[1], pf.com_se[2], 100.0 * pf.explained, pf.p_value, pf.tested,
+                  pf.status == "accepted" ? "" : "; its CoM is not determined by these data (the final refit leaves the bound)");
     pf.sentence = buf;
   }
   // Sentences.

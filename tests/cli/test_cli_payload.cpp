@@ -105,6 +105,7 @@ TEST(PayloadCli, KukaSyntheticPayloadIsNamedByDiagnoseAndReidentifiedByOnlyLinks
   ASSERT_EQ(js["payloads"].size(), 1u) << js["payloads"].dump(1) << js["findings"].dump(1);
   const nlohmann::json& p = js["payloads"][0];
   EXPECT_EQ(p["link"], pl.link);
+  EXPECT_EQ(p["status"], "accepted");
   EXPECT_NEAR(p["mass"].get<double>(), pl.mass, 0.05 * pl.mass) << p.dump(1);
   const Eigen::Vector3d com(p["com"][0].get<double>(), p["com"][1].get<double>(), p["com"][2].get<double>());
   EXPECT_LT((com - pl.com).norm(), 0.01) << p.dump(1);
