@@ -22,6 +22,8 @@ BaseParameters computeBaseParameters(const Model& model, const BaseParameterOpti
     computeJointTorqueRegressor(model, data, s);
     W.middleRows(k * nv, nv) = data.K;
   }
+  for (int c = 0; c < p && c < static_cast<int>(options.held.size()); ++c)
+    if (options.held[c]) W.col(c).setZero();
   BaseParameters out;
   out.nparams = p;
   out.column_norm.resize(p);

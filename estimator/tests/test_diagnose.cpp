@@ -12,6 +12,8 @@
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/inertial.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 
@@ -326,6 +328,64 @@ TEST(Diagnose, TheCoulombWidthIsProfiledPerJoint) {
               old.coordinates[3].rms_after);
   EXPECT_EQ(old.findings.front().effect.width, 0.03);
   EXPECT_GT(old.coordinates[3].rms_after, 1.3 * res.coordinates[3].rms_after);
+}
+
+// A payload against a held declared model (the caller streams y - K phi_declared, as `--declared-model` does): 2 kg on
+// lwr_6_link at (0.02, 0.05, 0.03) m with its own inertia, its torque from rnea on a model holding only the payload,
+// and viscous friction on lwr_2_joint. The payload is named on its link with its mass and CoM (the fit has no inertia
+// column: the error is the inertia's), the friction beside it; without the payload, no payload.
+TEST(Diagnose, APayloadAgainstAHeldModelIsNamedWithItsMassAndCom) {
+  const Model& model = kuka();
+  const int link = model.bodyIndex("lwr_6_link");
+  ASSERT_GE(link, 0);
+  const double mass = 2.0;
+  const Eigen::Vector3d com(0.02, 0.05, 0.03);
+  Eigen::VectorXd payload = Eigen::VectorXd::Zero(model.nparams());
+  payload.segment<kParamsPerBody>(model.bodyParamIndex(link)) =
+      paramsFromInertial(mass, com, Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity() * 0.003);
+  for (const double m : {1.0, 0.0}) {
+    std::vector<estimator::Run> runs;
+    for (uint64_t seed : {71, 72}) {
+      estimator::Run r = makeRun(model, seed, 10.0, 0.05, {{EffectKind::Viscous, 2, 0.5}}, EffectShape{});
+      DynamicsData dd(model);
+      for (size_t i = 0; i < r.states.size(); ++i) {
+        rnea(model, Eigen::VectorXd(m * payload), dd, r.states[i]);
+        r.y[i] += dd.tau;
+      }
+      runs.push_back(std::move(r));
+    }
+    auto held = [&model](const estimator::Run& run, const std::string& name) {
+      return Segment{name, [&model, &run](const DiagnosisRowSink& sink, std::string*) {
+                       Data data(model);
+                       for (size_t i = 0; i < run.states.size(); ++i) {
+                         computeJointTorqueRegressor(model, data, run.states[i]);
+                         sink(run.t[i], data.K, run.y[i] - data.K * model.phi, run.y[i]);  // the sensor: y itself
+                       }
+                       return true;
+                     }};
+    };
+    DiagnoseOptions opt;
+    opt.hold_declared = true;
+    opt.kinds = {EffectKind::Viscous, EffectKind::Offset, EffectKind::GainError};
+    DiagnosisResult res;
+    std::string err;
+    ASSERT_TRUE(diagnose(model, {held(runs[0], "a")}, {held(runs[1], "v")}, opt, res, &err)) << err;
+    EXPECT_EQ(res.declared_columns, 0);
+    EXPECT_EQ(static_cast<int>(res.payload_first_step.size()), model.nbodies);
+    ASSERT_EQ(res.findings.size(), 1u);
+    EXPECT_EQ(res.findings[0].effect.kind, EffectKind::Viscous);
+    EXPECT_NEAR(res.findings[0].effect.value, 0.5, 0.02);
+    if (m == 0.0) {
+      EXPECT_TRUE(res.payloads.empty()) << res.payloads[0].sentence;
+      continue;
+    }
+    ASSERT_EQ(res.payloads.size(), 1u);
+    std::printf("%s\n", res.payloads[0].sentence.c_str());
+    EXPECT_EQ(res.payloads[0].link, link) << res.payloads[0].sentence;
+    EXPECT_NEAR(res.payloads[0].mass, mass, 0.01 * mass) << res.payloads[0].sentence;
+    EXPECT_LT((res.payloads[0].com - com).norm(), 0.002) << res.payloads[0].sentence;
+    EXPECT_LT(res.pooled_after, 1.2 * 0.05);
+  }
 }
 
 TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {

@@ -16,8 +16,10 @@
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
+#include "exoid/model/inertial.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/identify_input.hpp"
+#include "exoid/tools/urdf_inertials.hpp"
 
 namespace exoid::cli {
 
@@ -125,6 +127,21 @@ std::string safeName(std::string s) {
   return s;
 }
 
+// --declared-model: the same kinematic tree as --model (names, parents, joint placements and axes), else why not.
+std::string differentTree(const Model& a, const Model& b) {
+  if (a.nbodies != b.nbodies || a.njoints != b.njoints) return "another number of links or joints";
+  for (int i = 0; i < a.nbodies; ++i) {
+    if (a.body_names[i] != b.body_names[i] || a.parent[i] != b.parent[i]) return "link '" + a.body_names[i] + "' differs";
+    if ((a.tree_position[i] - b.tree_position[i]).norm() > 1e-9)
+      return "the joint origin of link '" + a.body_names[i] + "' differs";
+    if ((a.tree_rotation[i] - b.tree_rotation[i]).norm() > 1e-9 || (a.joint_axis[i] - b.joint_axis[i]).norm() > 1e-9)
+      return "the joint frame or axis of link '" + a.body_names[i] + "' differs";
+  }
+  for (int j = 0; j < a.njoints; ++j)
+    if (a.joint_names[j] != b.joint_names[j]) return "joint '" + a.joint_names[j] + "' differs";
+  return "";
+}
+
 std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
   char buf[128];
   switch (k) {
@@ -167,6 +184,16 @@ int cmdDiagnose(int argc, char** argv) {
   app.add_option("--gravity", gravity, "gravity magnitude, m/s^2, along -z of the world / root link")->transform(common::strictNumber(0.0, 100.0));
   app.add_option("--declared", declared, "declared model: 'rigid' (URDF rigid-body parameters; default) or "
                  "'rigid+friction' (plus fv, fc of every joint)")->check(CLI::IsMember({"rigid", "rigid+friction"}));
+  std::string declared_model_path;
+  app.add_option("--declared-model", declared_model_path, "hold the declared rigid-body parameters at this URDF's values "
+                 "(e.g. identified.urdf of `exoid identify` on earlier data; the links and joints of --model) instead of "
+                 "identifying them: the residual is y - K phi_declared, so a change of the robot since then is a finding; "
+                 "with it each link is also tested for a payload (a rigid body fixed to it: mass and CoM; admissible with a mass "
+                 "above 3 standard errors and the CoM within --payload-com-bound of the link frame), which an identified "
+                 "declared model absorbs. Training and validation rows both become y - K phi_declared (docs/diagnose.md)")
+      ->type_name("URDF");
+  app.add_option("--payload-com-bound", opt.payload_com_bound, "m: an admissible payload's CoM lies within this distance "
+                 "of its link frame's origin (default 0.5)")->transform(common::strictNumber(1e-6, 1e3));
   app.add_option("--effects", kinds, "candidate kinds to test (default all): viscous coulomb stribeck offset armature gain delay");
   app.add_option("--alpha", opt.alpha, "false-alarm rate per data set (family-wise per selection step; default 0.01)")
       ->transform(common::strictNumber(1e-9, 0.5));
@@ -227,6 +254,17 @@ int cmdDiagnose(int argc, char** argv) {
   so.dataset.trim_edges = true;  // the filter's start-up transient is no residual of the model
   so.skip_bad_rows = skip_bad;
   so.allow_partial = allow_partial;
+  Model declared_model;
+  Eigen::VectorXd held_phi;  // --declared-model: its parameters, taken off y (friction too, unless it is fitted)
+  if (!declared_model_path.empty()) {
+    if (!buildModelFromUrdfFile(declared_model_path, floating, declared_model, &err, gravity)) return fail(err);
+    const std::string why = differentTree(model, declared_model);
+    if (!why.empty()) return fail("--declared-model " + declared_model_path + ": not the tree of " + model_path + ": " + why);
+    held_phi = declared_model.phi;
+    if (opt.declared_friction) held_phi.tail(model.nparams() - model.nInertialParams()).setZero();  // fitted instead
+    so.held_phi = &held_phi;
+    opt.hold_declared = true;
+  }
   if ((!calib_files.empty() || !val_calib_files.empty()) && !floating)
     return fail("--calibration and --validate-calibration need --floating-base (an exoskeleton held in a harness)");
   tools::SourceOptions so_held = so;
@@ -331,11 +369,15 @@ int cmdDiagnose(int argc, char** argv) {
   {
     std::ofstream f;
     if (!open("candidates.csv", f)) return 2;
-    f << "joint,kind,value,unit,correlation,explained,p_value,separable,status,std_error\n";
+    f << "joint,kind,value,unit,correlation,explained,p_value,separable,status,std_error,com_x,com_y,com_z\n";
     for (const est::CandidateScore& c : res.first_step)
       f << model.joint_names[c.effect.joint] << ',' << est::effectKindName(c.effect.kind) << ',' << c.effect.value << ','
         << est::effectUnit(c.effect.kind) << ',' << c.correlation << ',' << c.explained << ',' << c.p_value << ','
-        << c.separable << ",\"" << c.status << "\"," << c.std_error << "\n";
+        << c.separable << ",\"" << c.status << "\"," << c.std_error << ",,,\n";
+    // Payload candidates: the row names the link; value = mass, std_error = its jackknife error, com = CoM (link frame).
+    for (const est::PayloadFinding& c : res.payload_first_step)
+      f << model.body_names[c.link] << ",payload," << c.mass << ",kg,," << c.explained << ',' << c.p_value << ','
+        << c.separable << ",\"" << c.status << "\"," << c.mass_se << ',' << c.com[0] << ',' << c.com[1] << ',' << c.com[2] << "\n";
   }
   {
     std::ofstream f;
@@ -385,15 +427,27 @@ int cmdDiagnose(int argc, char** argv) {
   fs::copy_file(model_path, out / set.model, fs::copy_options::overwrite_existing, ec);
   if (ec) return fail("cannot copy the URDF: " + ec.message());
   if (!est::writeEffects((out / "effects.yaml").string(), model, set, &err)) return fail(err);
+  // The declared model with the payloads found added to their links (point masses at their CoMs: their own
+  // rotational inertia is not fitted).
+  std::string payload_urdf;
+  if (!res.payloads.empty()) {
+    Eigen::VectorXd phi = declared_model.phi;
+    for (const est::PayloadFinding& pf : res.payloads)
+      phi.segment<kParamsPerBody>(model.bodyParamIndex(pf.link)) +=
+          paramsFromInertial(pf.mass, pf.com, Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero());
+    payload_urdf = fs::path(declared_model_path).stem().string() + "_with_payload.urdf";
+    if (!tools::writeUrdfWithInertials(declared_model_path, model, phi, (out / payload_urdf).string(), &err)) return fail(err);
+  }
 
   // The online estimator with and without the sidecar's columns (issue 9 item 4), offline: the training rows fed
   // sample by sample through RecursiveLs (no forgetting, prior = the URDF +-25 %, effects prior 0 with sigma 10 x
   // their value; gains corrected on the sensor part of y), then its torque prediction on the validation rows,
   // back in measured units. Both see the same rows, so the difference is the sidecar alone. Only with validation
-  // data and a finding.
+  // data and a finding, and not with --declared-model (the rows then hold y - K phi_declared, not what the online
+  // estimator sees).
   double online_before = -1.0, online_after = -1.0;
   Eigen::VectorXd online_joint_before, online_joint_after;
-  if (!validate.empty() && !set.effects.empty()) {
+  if (!validate.empty() && !set.effects.empty() && !opt.hold_declared) {
     const BaseParameters base = computeBaseParameters(model);
     const Eigen::MatrixXd info = est::diagonalPriorInformation(model, base, model.phi, 0.25);
     est::RecursiveLsModel rigid, augmented;
@@ -492,6 +546,18 @@ int cmdDiagnose(int argc, char** argv) {
     if (f.effect.width > 0.0) js["findings"].back()["width"] = f.effect.width;  // rad/s, Coulomb and Stribeck
   }
   if (res.findings.empty()) js["findings"] = nlohmann::json::array();
+  js["declared_model"] = declared_model_path.empty() ? nlohmann::json(nullptr) : nlohmann::json(declared_model_path);
+  auto payloadJson = [&](const est::PayloadFinding& pf) {
+    return nlohmann::json{{"link", model.body_names[pf.link]}, {"mass", pf.mass}, {"mass_se", pf.mass_se},
+                          {"com", {pf.com[0], pf.com[1], pf.com[2]}}, {"com_se", {pf.com_se[0], pf.com_se[1], pf.com_se[2]}},
+                          {"explained", pf.explained}, {"p_value", pf.p_value}, {"separable", pf.separable},
+                          {"tested", pf.tested}, {"status", pf.status}, {"sentence", pf.sentence}};
+  };
+  js["payloads"] = nlohmann::json::array();
+  for (const est::PayloadFinding& pf : res.payloads) js["payloads"].push_back(payloadJson(pf));
+  js["payload_candidates"] = nlohmann::json::array();
+  for (const est::PayloadFinding& pf : res.payload_first_step) js["payload_candidates"].push_back(payloadJson(pf));
+  if (!payload_urdf.empty()) js["payload_urdf"] = payload_urdf;
   for (const est::CoordinateSummary& c : res.coordinates)
     js["coordinates"].push_back({{"name", c.name}, {"rmse_before", c.rms_before}, {"rmse_after", c.rms_after},
                                  {"train_rmse_before", c.train_rms_before}, {"train_rmse_after", c.train_rms_after},
@@ -544,9 +610,28 @@ int cmdDiagnose(int argc, char** argv) {
                 res.candidates, opt.folds, opt.alpha, 100 * opt.min_explained, opt.alpha);
   md << buf;
   if (!md_inputs.str().empty()) md << "## Input skipped\n\n" << md_inputs.str() << "\n";
+  if (opt.hold_declared)
+    md << "Declared rigid-body parameters held at `" << declared_model_path << "` (not identified: the residual is y - K "
+          "phi_declared); every link tested for a payload.\n\n";
   md << "## Findings\n\n";
-  if (res.findings.empty()) md << "None: no candidate effect passed the test; the residual is what the data allow.\n";
+  if (res.findings.empty() && res.payloads.empty())
+    md << "None: no candidate effect passed the test; the residual is what the data allow.\n";
+  for (const est::PayloadFinding& pf : res.payloads) md << "- " << pf.sentence << "\n";
   for (const est::Finding& f : res.findings) md << "- " << f.sentence << "\n";
+  if (opt.payload && !opt.hold_declared)
+    md << "\nPayloads: not tested. The declared model is identified from these data, so a rigid body fixed to a link "
+          "moves that link's identified parameters instead of the residual (not separable); `--declared-model URDF` "
+          "holds them and tests every link.\n";
+  if (opt.hold_declared && !res.payload_first_step.empty()) {
+    md << "\n### Payload candidates (first step)\n\n| link | mass (kg) | CoM in the link frame (m) | explains | p | "
+          "separable | verdict |\n|---|---|---|---|---|---|---|\n";
+    for (const est::PayloadFinding& pf : res.payload_first_step) {
+      std::snprintf(buf, sizeof buf, "| %s | %.3g | (%.3f, %.3f, %.3f) | %.0f %% | %.2g | %.2g | %s |\n",
+                    model.body_names[pf.link].c_str(), pf.mass, pf.com[0], pf.com[1], pf.com[2], 100 * pf.explained,
+                    pf.p_value, pf.separable, pf.status.c_str());
+      md << buf;
+    }
+  }
   std::snprintf(buf, sizeof buf, "\n## Torque RMSE before and after (%s)\n\n", res.has_validation ? "held-out validation data" : "training data");
   md << buf;
   md << "| coordinate | before (N m) | after (N m) | change | noise floor (N m) | lag-1 autocorr. before / after | training before / after |\n"
@@ -619,6 +704,8 @@ int cmdDiagnose(int argc, char** argv) {
     md << "Not drawn (run `python3 plot_diagnose.py " << plot_csv << "` here with matplotlib).\n\n";
   md << "## Augmented model\n\n`" << set.model << "` (the rigid-body model, unchanged) + `effects.yaml` (the accepted "
         "effects: dynamics columns and measurement corrections; format in docs/diagnose.md).\n";
+  if (!payload_urdf.empty())
+    md << "\n`" << payload_urdf << "`: the declared model with the payloads found added to their links (point masses).\n";
   {
     std::ofstream f;
     if (!open("report.md", f)) return 2;
@@ -628,8 +715,9 @@ int cmdDiagnose(int argc, char** argv) {
   // Console summary.
   std::printf("declared model: %d base-parameter columns; %d candidates; %ld training / %ld validation samples\n",
               res.declared_columns, res.candidates, res.train_samples, res.validation_samples);
+  for (const est::PayloadFinding& pf : res.payloads) std::printf("  %s\n", pf.sentence.c_str());
   for (const est::Finding& f : res.findings) std::printf("  %s\n", f.sentence.c_str());
-  if (res.findings.empty()) std::printf("  no finding\n");
+  if (res.findings.empty() && res.payloads.empty()) std::printf("  no finding\n");
   std::printf("%-16s %10s %10s\n", "coordinate", "before", "after");
   for (const est::CoordinateSummary& c : res.coordinates) std::printf("%-16s %10.4f %10.4f\n", c.name.c_str(), c.rms_before, c.rms_after);
   std::printf("%-16s %10.4f %10.4f   (%s RMSE, N m)\n", "pooled", res.pooled_before, res.pooled_after,

@@ -113,13 +113,18 @@ int cmdIdentify(int argc, char** argv) {
                  "guaranteed); case-insensitive")
       ->transform(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC", "WLS-RC-PC"}, CLI::ignore_case));
   double prior_uncertainty = 0.25;
-  app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
+  auto* rank_opt = app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
                  "choice), or from the training data alone: 'jackknife' (noise-based cap from time-block jackknife, "
                  "see --prior-uncertainty; default), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
-                 "docs/identification.md compares them");
+                 "docs/identification.md compares them; with --only-links the default is 'full'");
   app.add_option("--prior-uncertainty", prior_uncertainty, "--rank jackknife: the prior is within +-this relative "
                  "error of the truth")->transform(common::strictNumber(1e-6, 10.0));
   app.add_option("--prior", prior_path, "prior parameters, CSV name,value (default: the URDF's)");
+  std::vector<std::string> only_links;
+  app.add_option("--only-links", only_links, "identify only these links' inertial parameters (URDF names of moving links; "
+                 "the joints' friction stays free), every other link held at the prior (the --model URDF's or --prior's "
+                 "values): the standard payload identification, e.g. --model identified.urdf --only-links lwr_7_link on "
+                 "runs with a load on the KUKA's flange (docs/identification.md)")->type_name("LINK");
   app.add_option("--prior-perturb", perturb, "scale each URDF parameter by a uniform random factor in [1-F, 1+F] for the prior")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("F");
   app.add_option("--prior-seed", prior_seed, "seed of --prior-perturb")->transform(common::strictInteger(0, INT64_MAX));
@@ -138,6 +143,9 @@ int cmdIdentify(int argc, char** argv) {
   app.add_option("--out", out_dir, "directory for summary.json, estimate.csv and (all links consistent) identified.urdf");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   const auto t0 = std::chrono::steady_clock::now();
+  // --only-links: the named links' prior is what the data are to correct (a load added to them), not a value within
+  // --prior-uncertainty of the truth as the jackknife rule assumes, and their few columns are well excited: full rank.
+  if (!only_links.empty() && rank_opt->count() == 0) rank_name = "full";
   estimator::IdentifyOptions io;
   io.physically_consistent = method_name.size() > 3 && method_name.compare(method_name.size() - 3, 3, "-PC") == 0;
   if (io.physically_consistent) method_name.resize(method_name.size() - 3);
@@ -160,8 +168,25 @@ int cmdIdentify(int argc, char** argv) {
     std::uniform_real_distribution<double> u(-perturb, perturb);
     for (int i = 0; i < prior.size(); ++i) prior[i] *= 1.0 + u(rng);
   }
-  const BaseParameters base = computeBaseParameters(model);
+  BaseParameterOptions bo;
+  Eigen::VectorXd held_phi;  // --only-links: the other links' parameters, taken off y
+  if (!only_links.empty()) {
+    bo.held.assign(static_cast<size_t>(model.nparams()), false);
+    for (int i = 0; i < model.nInertialParams(); ++i) bo.held[static_cast<size_t>(i)] = true;
+    for (const std::string& name : only_links) {
+      const int b = model.bodyIndex(name);
+      if (b < 0)
+        return fail("--only-links: '" + name + "' is not a moving link of " + model_path +
+                    " (links on fixed joints are lumped into their parent)");
+      for (int k = 0; k < kParamsPerBody; ++k) bo.held[static_cast<size_t>(model.bodyParamIndex(b) + k)] = false;
+    }
+    held_phi = Eigen::VectorXd::Zero(model.nparams());
+    for (int i = 0; i < model.nparams(); ++i)
+      if (bo.held[static_cast<size_t>(i)]) held_phi[i] = prior[i];
+  }
+  const BaseParameters base = computeBaseParameters(model, bo);
   tools::SourceOptions so;
+  if (!only_links.empty()) so.held_phi = &held_phi;
   so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
   so.dataset.cutoff_hz = cutoff;
   so.dataset.filter = filter_mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
@@ -308,6 +333,7 @@ int cmdIdentify(int argc, char** argv) {
     j["options"] = {{"pipeline", pipeline}, {"cutoff_hz", cutoff}, {"filter_mode", filter_mode}, {"noise", noise},
                     {"base_orientation", orientation}, {"orientation_cutoff_hz", orientation_cutoff},
                     {"folds", folds}, {"chunk_seconds", chunk_s}, {"prior_perturb", perturb}};
+    if (!only_links.empty()) j["options"]["only_links"] = only_links;  // the other links held at the prior
     j["timing_s"] = {{"read_filter_factor", t_read}, {"solve", t_solve}};
     // URDF with the identified inertials, only when every link is physically consistent.
     if (consistent == static_cast<int>(r.links.size())) {

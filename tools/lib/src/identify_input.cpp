@@ -71,14 +71,19 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
     return false;
   }
   if (options.held_base) dopt.orientation_from_legs = false;  // the feet swing: they say nothing of the base
+  if (options.held_phi && options.held_phi->size() != model.nparams()) {
+    if (error) *error = path + ": the held parameters do not match the model's size";
+    return false;
+  }
   const estimator::DatasetBuilder* self = nullptr;
   Eigen::MatrixXd Kh;  // held base: the rows with the unmeasured ones (heldBaseRowMeasured) zeroed
   Eigen::VectorXd yh;
   const estimator::RowSink direct = [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
-    if (!options.held_base) return rows(*self, t, K, y);
+    if (!options.held_base && !options.held_phi) return rows(*self, t, K, y);
     Kh = K, yh = y;
-    for (int r = 0; r < model.nv; ++r)
+    for (int r = 0; options.held_base && r < model.nv; ++r)
       if (!estimator::heldBaseRowMeasured(model, r)) Kh.row(r).setZero(), yh[r] = 0.0;
+    if (options.held_phi) yh.noalias() -= Kh * *options.held_phi;  // what the held parameters leave
     rows(*self, t, Kh, yh);
   };
   std::unique_ptr<estimator::EffectCorrector> corrector;
@@ -146,7 +151,7 @@ bool readSamples(const std::string& path, const Model& model, const SourceOption
 bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
                        const SourceOptions& options, estimator::LsqAccumulator& acc, InputStats& stats,
                        std::string* error) {
-  if (options.effects || options.held_base) {  // the study's path; a sidecar, a held base go through streamFileRows
+  if (options.effects || options.held_base || options.held_phi) {  // the study's path; these go through streamFileRows
     if (error) *error = "accumulateSamples: sidecar corrections and held-base runs are not supported here";
     return false;
   }

@@ -31,6 +31,9 @@ struct BaseParameterOptions {
   int samples = 200;
   uint64_t seed = 1;
   double tolerance = 1e-9;  ///< pivots below tolerance * |R_11| count as zero
+  /// [p] or empty: parameters held at known values (`exoid identify --only-links`). Their columns are left out
+  /// (zeroed before the QR), so they are never base parameters and the map phi_base = base_map phi ignores them.
+  std::vector<bool> held;
 };
 
 /// Computes the base parameters of a model. Random states: q uniform in [-pi, pi], velocities and

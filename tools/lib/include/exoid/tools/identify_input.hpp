@@ -34,6 +34,9 @@ struct SourceOptions {
   bool held_base = false;
   /// LCM logs: use the readable part of a damaged log (damage reported in InputStats) instead of refusing it.
   bool allow_partial = false;
+  /// Parameters held at known values (`exoid diagnose --declared-model`, `exoid identify --only-links`): every row's y
+  /// becomes y - K held_phi [Model::nparams()], so what is fitted to it is what those parameters leave. Not owned.
+  const Eigen::VectorXd* held_phi = nullptr;
 };
 
 /// The measured samples of one file (the dataset pipeline's input: before noise, filtering and
