@@ -6,6 +6,7 @@
 
 namespace exoid::estimator {
 
+
 const char* methodName(Method m) {
   switch (m) {
     case Method::Ols: return "OLS";
@@ -270,10 +271,29 @@ RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const E
   return rankByJackknife(trainingFactors(acc, model, method), model, prior, prior_uncertainty);
 }
 
+Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prior, const WeightedFactor& all,
+                                 double relative) {
+  const int p = static_cast<int>(prior.size());
+  const Eigen::VectorXd h = columnScale(model, prior);
+  Eigen::VectorXd sigma = (relative / std::sqrt(3.0)) * h;
+  // A kind whose prior is zero throughout (friction: a URDF has none) is unknown, not "0 +- 25 %": its scale is
+  // the value that alone would explain all the measured forces, ||G y|| / ||G W_j||.
+  bool known[5] = {false, false, false, false, false};
+  for (int i = 0; i < p; ++i)
+    if (prior[i] != 0.0) known[kindOf(model, i)] = true;
+  const double y_norm = std::sqrt(all.z.squaredNorm() + all.rss);
+  for (int i = 0; i < p; ++i) {
+    if (known[kindOf(model, i)]) continue;
+    const double c = all.Rf.col(i).norm();
+    sigma[i] = c > 0.0 ? y_norm / c : 0.0;  // a column the data never touch: no direction contains it
+  }
+  return sigma;
+}
+
 RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const Eigen::VectorXd& prior,
                           double prior_uncertainty) {
   RankCurve c;
-  c.rule = "jackknife over time blocks: keep directions whose std is below the prior's";
+  c.rule = "jackknife over time blocks: z of least risk, data variance against the prior's per direction";
   const ScaledProblem all = prepare(tf.all, model, prior, tf.method);
   const int r = all.numericalRank(), K = static_cast<int>(tf.without.size());
   std::vector<Eigen::VectorXd> a;
@@ -293,13 +313,20 @@ RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const E
   for (const auto& x : a) mean += x / used;
   for (const auto& x : a) var += (x - mean).cwiseAbs2();
   var *= (used - 1.0) / used;
-  // Prior uniform within +-u of the truth: std u / sqrt(3) of each scaled coordinate (with C scaling).
-  const double tau = prior_uncertainty / std::sqrt(3.0);
-  bool stop = false;
+  // The prior's variance of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma): ||diag(sigma / h) v_i||^2.
+  const Eigen::VectorXd sh = priorUncertainty(model, prior, tf.all, prior_uncertainty).cwiseQuotient(all.h);
+  Eigen::VectorXd prior_var(r);
+  for (int i = 0; i < r; ++i) prior_var[i] = sh.cwiseProduct(all.V.col(i)).squaredNorm();
+  // Expected squared error of the rank-z fit on data like the training data: a kept direction costs its
+  // variance, a dropped one (left at the prior) the prior's, each weighted by s_i^2 (its share of the forces).
+  double risk = 0.0;
+  for (int i = 0; i < r; ++i) risk += all.s[i] * all.s[i] * prior_var[i];
+  c.score[0] = risk;
+  double best = risk;
   for (int z = 1; z <= r; ++z) {
-    c.score[z] = std::sqrt(var[z - 1]);
-    if (!stop && c.score[z] <= tau) c.best = z;
-    else stop = true;
+    risk += all.s[z - 1] * all.s[z - 1] * (var[z - 1] - prior_var[z - 1]);
+    c.score[z] = risk;
+    if (risk < best) best = risk, c.best = z;
   }
   return c;
 }

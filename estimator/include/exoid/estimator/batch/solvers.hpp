@@ -129,15 +129,26 @@ RankCurve rankByCrossValidation(const TrainingFactors& factors, const LsqAccumul
 std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors& factors, const LsqAccumulator& acc,
                                                           const Model& model, const Eigen::VectorXd& prior,
                                                           const FillOptions& fill = {});
-/// (b3) Training data only, noise-based cap: the jackknife over the time-block folds gives the standard
-/// deviation of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of the full-rank estimate (it sees
-/// the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); directions are kept, in singular-value
-/// order, while that deviation is below the prior's own, prior_uncertainty / sqrt(3) (prior uniform within
-/// +-prior_uncertainty relative). Meaningful with column scaling (WLS-C, WLS-RC). score[z] = std of alpha_z.
+/// (b3) Training data only, the default of `exoid identify`: the z of least expected error. The jackknife over
+/// the time-block folds gives the variance var_i of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of
+/// the full-rank estimate (it sees the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); the prior's
+/// variance along the same direction is pv_i = ||diag(sigma / h) v_i||^2 with sigma = priorUncertainty (a stated
+/// prior within +-prior_uncertainty, an unknown kind scaled by the data). A kept direction costs its variance,
+/// a dropped one (left at the prior) the prior's, each weighted by s_i^2, its share of the training forces:
+///   risk(z) = sum_{i <= z} s_i^2 var_i + sum_{i > z} s_i^2 pv_i,   best = argmin_z risk(z) = score.
+/// With every prior entry stated and h = |prior| (pv_i = prior_uncertainty^2 / 3) a direction pays for itself
+/// where the former cap (std_i <= prior_uncertainty / sqrt(3)) kept it. Meaningful with column scaling.
 RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
                           double prior_uncertainty);
 RankCurve rankByJackknife(const TrainingFactors& factors, const Model& model, const Eigen::VectorXd& prior,
                           double prior_uncertainty);
+/// Per-parameter prior standard deviation sigma [p] of the jackknife rule: a meaningful prior (a kind of
+/// parameter with some nonzero prior entry: the URDF's inertials) is within +-relative of the truth, uniform,
+/// sigma_j = relative h_j / sqrt(3) with h the column scale (|prior_j|, or its kind's median where that is ~0);
+/// a kind whose prior is zero throughout (friction without a friction prior) is unknown: sigma_j = ||G y|| /
+/// ||G W_j|| from the weighted training factor, the value that alone would explain all the measured forces.
+Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prior, const WeightedFactor& all,
+                                 double relative);
 /// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2 with the
 /// weighted training residual RSS(z).
 RankCurve rankByGcv(const ScaledProblem& problem);
