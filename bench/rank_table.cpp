@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <random>
 
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/batch/identify.hpp"
@@ -96,6 +97,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> exo_train, exo_validate, rules{"validation", "full", "cv", "cv-1se", "gcv", "jackknife"};
   std::string kuka_dir = std::string(EXOID_DATA_DIR) + "/kuka_lwr4", tmp = "out/rank_table";
   bool no_kuka = false, no_arms = false;
+  int random_arms = 0;
+  app.add_option("--random-arms", random_arms, "that many more synthetic arms drawn at random (seeds 101, ...)");
   app.add_option("--exo-train", exo_train, "exoskeleton training log(s) (exoid experiment's run.lcmlog)");
   app.add_option("--exo-validate", exo_validate, "exoskeleton validation log(s)");
   app.add_option("--rules", rules, "rank rules to compare");
@@ -117,15 +120,24 @@ int main(int argc, char** argv) {
     k.prior = k.model.phi;
     k.train = {kuka_dir + "/measurements_2.csv", kuka_dir + "/measurements_3.csv"};
     k.validate = {kuka_dir + "/measurements_1.csv"};
-    k.rate = 200.0;
+    k.rate = 1.0 / 0.00664687157;  // as identify reads it: the spacing of measurements_2's first two rows
     evaluate(k, rules);
   }
   if (!no_arms) {
     fs::create_directories(tmp);
-    struct Case { int joints; uint64_t seed; double friction, noise, offset, rate; };
-    const Case cases[] = {{6, 1, 0.2, 0.02, 0.0, 200}, {7, 2, 0.1, 0.01, 0.0, 200}, {5, 3, 0.3, 0.03, 0.0, 100},
-                          {6, 4, 1.5, 0.10, 0.0, 100}, {6, 5, 1.0, 0.10, 0.05, 100}, {7, 6, 0.5, 0.05, 0.0, 100},
-                          {5, 7, 2.0, 0.10, 0.0, 100}, {6, 8, 0.2, 0.02, 0.02, 200}};
+    // vmax, train_s: a weakly exciting training run (slow, short), where truncation matters.
+    struct Case { int joints; uint64_t seed; double friction, noise, offset, rate, vmax = 1.5, train_s = 40.0; };
+    std::vector<Case> cases = {{6, 1, 0.2, 0.02, 0.0, 200}, {7, 2, 0.1, 0.01, 0.0, 200}, {5, 3, 0.3, 0.03, 0.0, 100},
+                               {6, 4, 1.5, 0.10, 0.0, 100}, {6, 5, 1.0, 0.10, 0.05, 100}, {7, 6, 0.5, 0.05, 0.0, 100},
+                               {5, 7, 2.0, 0.10, 0.0, 100}, {6, 8, 0.2, 0.02, 0.02, 200},
+                               {6, 9, 0.3, 0.05, 0.0, 100, 0.3, 10.0}, {7, 10, 1.5, 0.10, 0.0, 100, 0.3, 10.0}};
+    // More arms drawn at random: 5-7 joints, friction ratio log-uniform in [0.05, 3], noise 1-10 %, offsets in
+    // half of them, 100 or 200 Hz (seeds 101, 102, ...).
+    std::mt19937_64 rng(2026);
+    const auto unit = [&]() { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+    for (int k = 0; k < random_arms; ++k)
+      cases.push_back({5 + static_cast<int>(unit() * 3), 101u + static_cast<uint64_t>(k), 0.05 * std::pow(60.0, unit()),
+                       0.01 + 0.09 * unit(), unit() < 0.5 ? 0.05 * unit() : 0.0, unit() < 0.5 ? 100.0 : 200.0, 1.5, 40.0});
     for (const Case& c : cases) {
       tools::SyntheticArmOptions ao;
       ao.joints = c.joints, ao.seed = c.seed, ao.friction_ratio = c.friction, ao.offset_ratio = c.offset;
@@ -133,8 +145,8 @@ int main(int argc, char** argv) {
       if (!tools::makeSyntheticArm(ao, arm, &err)) return std::fprintf(stderr, "%s\n", err.c_str()), 2;
       DataSet d;
       char name[128];
-      std::snprintf(name, sizeof name, "arm s%llu %dj f%.1f n%.0f%%%s %gHz", static_cast<unsigned long long>(c.seed), c.joints,
-                    c.friction, 100 * c.noise, c.offset > 0 ? " off" : "", c.rate);
+      std::snprintf(name, sizeof name, "arm s%llu %dj f%.2f n%.0f%%%s %gHz%s", static_cast<unsigned long long>(c.seed), c.joints,
+                    c.friction, 100 * c.noise, c.offset > 0 ? " off" : "", c.rate, c.train_s < 40.0 ? " weak" : "");
       d.name = name;
       d.model = arm.model;
       d.rate = c.rate;
@@ -147,7 +159,8 @@ int main(int argc, char** argv) {
         tools::ArmRunOptions ro;
         ro.seed = 1000 * c.seed + run;
         ro.rate = c.rate;
-        ro.duration = run == 0 ? 40.0 : 20.0;
+        ro.duration = run == 0 ? c.train_s : 20.0;
+        if (run == 0) ro.max_velocity = c.vmax;
         ro.torque_noise = c.noise;
         const std::string path = stem + (run == 0 ? "_train.csv" : "_validate.csv");
         if (!tools::writeArmRunCsv(path, arm.model, tools::simulateArmRun(arm, ro), &err)) return std::fprintf(stderr, "%s\n", err.c_str()), 2;

@@ -107,7 +107,7 @@ TEST(RankRule, FrictionDominantArmWithAZeroFrictionPriorKeepsTheFrictionDirectio
 
 TEST(RankRule, UnknownPriorUncertaintyIsTheDataScale) {
   // priorUncertainty against the stacked problem: sigma_j = relative |prior_j| / sqrt(3) where the prior is
-  // meaningful (h the column scale), ||G y|| / ||G W_j|| for the friction columns.
+  // meaningful (h the column scale), ||G y_j|| / ||G W_j|| over joint j's torque for its friction columns.
   test::TempDir dir("rank_sigma");
   tools::SyntheticArmOptions a;
   a.joints = 5, a.seed = 15;
@@ -119,21 +119,23 @@ TEST(RankRule, UnknownPriorUncertaintyIsTheDataScale) {
   const tools::ArmRun& run = d.train_run;
   Data data(m);
   State s = State::zero(m);
-  Eigen::VectorXd col2 = Eigen::VectorXd::Zero(m.nparams());
-  double y2 = 0.0;
+  Eigen::VectorXd col2 = Eigen::VectorXd::Zero(m.nparams()), y2 = Eigen::VectorXd::Zero(m.nv);
   for (Eigen::Index i = 0; i < run.t.size(); ++i) {
     s.q = run.q.row(i).transpose(), s.v = run.v.row(i).transpose(), s.a = run.a.row(i).transpose();
     computeJointTorqueRegressor(m, data, s);
     for (int c = 0; c < m.nv; ++c) {
       const double g = wf.row_weight[c];
       col2 += (g * data.K.row(c).transpose()).cwiseAbs2();
-      y2 += g * g * run.tau(i, c) * run.tau(i, c);
+      y2[c] += g * g * run.tau(i, c) * run.tau(i, c);
     }
   }
   const Eigen::VectorXd h = estimator::columnScale(m, d.prior);
   for (int i = 0; i < m.nInertialParams(); ++i) EXPECT_NEAR(sigma[i], 0.25 / std::sqrt(3.0) * h[i], 1e-12 * h[i]) << i;
-  for (int i = m.nInertialParams(); i < m.nparams(); ++i)
-    EXPECT_NEAR(sigma[i], std::sqrt(y2 / col2[i]), 1e-6 * sigma[i]) << i;
+  for (int j = 0; j < m.njoints; ++j)  // a joint's friction acts on that joint's torque alone
+    for (int k = 0; k < 2; ++k) {
+      const int i = m.frictionParamIndex(j) + k;
+      EXPECT_NEAR(sigma[i], std::sqrt(y2[j] / col2[i]), 1e-6 * sigma[i]) << i;
+    }
 }
 
 TEST(RankRule, NotExcitedCountsWhatStayedAtThePrior) {

@@ -106,6 +106,22 @@ WeightedFactor weightedFactor(const LsqAccumulator& acc, const Model& model, boo
     const double floor = std::max(1e-10 * std::sqrt(y2 / std::max<long>(1, rows_all)), 1e-6 * maxsig);
     for (int c = 0; c < nv; ++c) wf.row_weight[c] = sigma[c] > 0.0 || floor > 0.0 ? 1.0 / std::max(sigma[c], floor) : 1.0;
   }
+  // Per coordinate: ||G_c y_c||^2 and each standard column's ||G_c W_c e_j||^2 = ||R_c B_(cols, j)||^2 (the
+  // augmented factor's last row holds only sqrt(rss)).
+  const Eigen::MatrixXd& B = acc.base().base_map;
+  wf.coordinate_y2 = Eigen::VectorXd::Zero(nv);
+  wf.coordinate_col2 = Eigen::MatrixXd::Zero(nv, p);
+  for (int c = 0; c < nv; ++c)
+    for (int f = 0; f < acc.folds(); ++f) {
+      if (!(include.empty() || include[f])) continue;
+      const CoordinateFactor& cf = acc.factor(f, c);
+      const int k = static_cast<int>(cf.columns.size());
+      Eigen::MatrixXd Bc(k, p);
+      for (int j = 0; j < k; ++j) Bc.row(j) = B.row(cf.columns[j]);
+      const double g2 = wf.row_weight[c] * wf.row_weight[c];
+      wf.coordinate_col2.row(c) += g2 * (cf.R_aug.topLeftCorner(k, k).triangularView<Eigen::Upper>() * Bc).colwise().squaredNorm();
+      wf.coordinate_y2[c] += g2 * acc.residual(c, Eigen::VectorXd::Zero(acc.baseColumns()), f);
+    }
   const LsqFactor f = acc.mergedBase(wf.row_weight, include);
   wf.rows = f.rows;
   wf.Rf = f.R.triangularView<Eigen::Upper>() * acc.base().base_map;  // m x p, same singular values and V as G W
@@ -281,11 +297,13 @@ Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prio
   bool known[5] = {false, false, false, false, false};
   for (int i = 0; i < p; ++i)
     if (prior[i] != 0.0) known[kindOf(model, i)] = true;
-  const double y_norm = std::sqrt(all.z.squaredNorm() + all.rss);
   for (int i = 0; i < p; ++i) {
     if (known[kindOf(model, i)]) continue;
-    const double c = all.Rf.col(i).norm();
-    sigma[i] = c > 0.0 ? y_norm / c : 0.0;  // a column the data never touch: no direction contains it
+    const double cmax = all.coordinate_col2.col(i).maxCoeff();
+    double y2 = 0.0, c2 = 0.0;
+    for (int c = 0; c < all.coordinate_col2.rows(); ++c)
+      if (all.coordinate_col2(c, i) > 1e-24 * cmax) y2 += all.coordinate_y2[c], c2 += all.coordinate_col2(c, i);
+    sigma[i] = c2 > 0.0 ? std::sqrt(y2 / c2) : 0.0;  // a column the data never touch: no direction contains it
   }
   return sigma;
 }

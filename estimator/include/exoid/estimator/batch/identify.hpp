@@ -19,7 +19,7 @@ enum class RankRule {
   CrossValidation,  ///< (b) time-block cross-validation on the training data, minimum
   CrossValidation1Se,  ///< (b) the same, paired one-standard-error rule
   Gcv,              ///< (b) generalized cross-validation on the training data
-  Jackknife,        ///< (b) noise-based cap: jackknife std of each direction below the prior's uncertainty
+  Jackknife,        ///< (b) least expected error: each direction's jackknife variance against the prior's
 };
 const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "cv-1se", "gcv", "jackknife"
 bool parseRankRule(const std::string& name, RankRule& r);
@@ -35,7 +35,8 @@ struct IdentifyOptions {
   int consistent_iterations = 500;  ///< Newton iterations of WLS-RC-PC
   RankRule rank_rule = RankRule::Jackknife;
   int rank = -1;                  ///< for RankRule::Fixed
-  double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: prior within +-this (relative) of the truth
+  double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: the prior's stated kinds within +-this
+                                    ///< (relative) of the truth; a kind it leaves at 0 is unknown (priorUncertainty)
   double excitation_threshold = 0.1;  ///< a parameter whose unit direction has less than this norm in the
                                       ///< kept right singular vectors is reported as weakly excited
   /// Held-out / training RMSE above this says the validation data differ from the training data (a load, a

@@ -56,6 +56,8 @@ struct WeightedFactor {
   Eigen::VectorXd z;               ///< [m]
   double rss = 0.0;
   long rows = 0;
+  Eigen::VectorXd coordinate_y2;    ///< [nv] ||G_c y_c||^2 per generalized coordinate c
+  Eigen::MatrixXd coordinate_col2;  ///< [nv x p] ||G_c W_c e_j||^2: standard parameter j's column in coordinate c
 };
 WeightedFactor weightedFactor(const LsqAccumulator& acc, const Model& model, bool row_scaled,
                               const std::vector<bool>& include = {});
@@ -145,8 +147,9 @@ RankCurve rankByJackknife(const TrainingFactors& factors, const Model& model, co
 /// Per-parameter prior standard deviation sigma [p] of the jackknife rule: a meaningful prior (a kind of
 /// parameter with some nonzero prior entry: the URDF's inertials) is within +-relative of the truth, uniform,
 /// sigma_j = relative h_j / sqrt(3) with h the column scale (|prior_j|, or its kind's median where that is ~0);
-/// a kind whose prior is zero throughout (friction without a friction prior) is unknown: sigma_j = ||G y|| /
-/// ||G W_j|| from the weighted training factor, the value that alone would explain all the measured forces.
+/// a kind whose prior is zero throughout (friction without a friction prior) is unknown: sigma_j = ||G y_Cj|| /
+/// ||G W_Cj,j|| over the coordinates C_j that parameter j acts on (a joint's friction: that joint's torque), the
+/// value that alone would explain all the forces it can reach.
 Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prior, const WeightedFactor& all,
                                  double relative);
 /// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2 with the
