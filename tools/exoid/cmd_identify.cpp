@@ -84,7 +84,8 @@ int cmdIdentify(int argc, char** argv) {
   uint64_t seed = 1, prior_seed = 1;
   int folds = 5, threads = 2;
   app.add_option("--data", data, "training data: LCM logs (exoid experiment's run.lcmlog) and/or CSVs (*.csv)")->required();
-  app.add_option("--validate", validate, "validation data (same kinds); needed by --rank validation; its RMSE is reported");
+  app.add_option("--validate", validate, "validation data (same kinds); needed by --rank validation; its RMSE is reported, "
+                 "with a warning when it is more than 2 x the training RMSE (the data differ)");
   app.add_option("--model", model_path, "robot URDF (default config/exo.urdf)");
   app.add_flag("--fixed-base", fixed_base, "the model's root link is fixed to the world (e.g. data/kuka_lwr4)");
   app.add_option("--pipeline", pipeline, "LCM logs: 'sensors' (encoders, torque sensors, IMU, plates; no ground truth) or "
