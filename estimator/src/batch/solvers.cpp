@@ -161,6 +161,13 @@ ScaledProblem prepare(const WeightedFactor& f, const Model& model, const Eigen::
   sp.row_weight = f.row_weight;
   sp.rows = f.rows;
   sp.h = columnScaled(method) ? columnScale(model, prior) : Eigen::VectorXd::Ones(p);
+  if (columnScaled(method) && f.coordinate_y2.size() > 0) {
+    // A kind the prior leaves at zero throughout has no scale of its own: the data's (priorUncertainty at
+    // relative sqrt(3), i.e. sigma_j itself), so that its scaled coordinates are commensurate with the stated ones.
+    const Eigen::VectorXd u = priorUncertainty(model, prior, f, std::sqrt(3.0));
+    for (int i = 0; i < p; ++i)
+      if (u[i] > 0.0) sp.h[i] = u[i];  // the stated kinds' entries equal columnScale's
+  }
   sp.gamma = columnScaled(method) ? prior : Eigen::VectorXd::Zero(p);
   const Eigen::VectorXd zt = f.z - f.Rf * sp.gamma;
   const Eigen::MatrixXd A = f.Rf * sp.h.asDiagonal();

@@ -8,7 +8,7 @@
 //           (N - p); then as OLS (nullspace toward the prior)
 //   WLS-C   eq. (27) with H = diag(|phi_prior|) and gamma = phi_prior: W~ = W H, y~ = y - W phi_prior,
 //           phi = phi_prior + H phi~ (the directions not kept stay at the prior); zero prior entries get
-//           the scale of their kind (see columnScale)
+//           the scale of their kind (see columnScale), a kind zero throughout the data's (priorUncertainty)
 //   WLS-RC  both scalings
 // Truncated SVD (III-D): only the z largest singular values of the scaled problem are used.
 // Fill (the directions not kept): FillMetric::Scaled is the thesis's (eq. 23 for OLS / WLS-R, eq. 27's
@@ -78,7 +78,8 @@ struct ScaledProblem {
   Eigen::VectorXd s;          ///< [r] singular values of G W H, descending
   Eigen::MatrixXd V;          ///< [p x r]
   Eigen::VectorXd d;          ///< [r]
-  Eigen::VectorXd h;          ///< [p] column scale (ones without C)
+  Eigen::VectorXd h;          ///< [p] column scale (ones without C): columnScale, a kind the prior leaves at 0
+                              ///< throughout scaled by the data (priorUncertainty's sigma)
   Eigen::VectorXd gamma;      ///< [p] offset (prior with C, zero without)
   Eigen::VectorXd prior;      ///< [p]
   Eigen::VectorXd fill;       ///< [p] prior scale sigma of the fill metric (h for FillMetric::Scaled)
