@@ -131,10 +131,14 @@ TEST(RankRule, UnknownPriorUncertaintyIsTheDataScale) {
   }
   const Eigen::VectorXd h = estimator::columnScale(m, d.prior);
   for (int i = 0; i < m.nInertialParams(); ++i) EXPECT_NEAR(sigma[i], 0.25 / std::sqrt(3.0) * h[i], 1e-12 * h[i]) << i;
+  // WLS-RC's column scale of the unknown kind is the same data scale (the stated kinds keep columnScale's).
+  const estimator::ScaledProblem sp = estimator::prepare(*d.train, m, d.prior, estimator::Method::WlsRC);
+  for (int i = 0; i < m.nInertialParams(); ++i) EXPECT_EQ(sp.h[i], h[i]) << i;
   for (int j = 0; j < m.njoints; ++j)  // a joint's friction acts on that joint's torque alone
     for (int k = 0; k < 2; ++k) {
       const int i = m.frictionParamIndex(j) + k;
       EXPECT_NEAR(sigma[i], std::sqrt(y2[j] / col2[i]), 1e-6 * sigma[i]) << i;
+      EXPECT_NEAR(sp.h[i], sigma[i], 1e-12 * sigma[i]) << i;
     }
 }
 
