@@ -108,6 +108,32 @@ TEST(BatchAccumulator, RejectsNonFiniteRows) {
   EXPECT_EQ(acc.samples(), 0);
 }
 
+// The column scale of WLS-C from the stacked problem: columnScale, except a kind whose prior is zero throughout
+// (friction absent from the prior), which takes the data's scale sqrt(sum_c ||G_c y_c||^2 / sum_c ||G_c W_c e_j||^2)
+// over the coordinates c its column reaches (priorUncertainty's unknown prior).
+Eigen::VectorXd denseColumnScale(const Problem& pb, const Eigen::VectorXd& prior, const Eigen::VectorXd& wrow) {
+  Eigen::VectorXd h = columnScale(pb.model, prior);
+  const int ni = pb.model.nInertialParams(), p = pb.model.nparams();
+  for (int kind = 0; kind < 2; ++kind) {
+    bool stated = false;
+    for (int i = ni + kind; i < p; i += 2) stated = stated || prior[i] != 0.0;
+    if (stated) continue;
+    for (int i = ni + kind; i < p; i += 2) {
+      Eigen::VectorXd col2 = Eigen::VectorXd::Zero(pb.nv), y2 = Eigen::VectorXd::Zero(pb.nv);
+      for (int r = 0; r < pb.N; ++r)
+        for (int c = 0; c < pb.nv; ++c) {
+          const int row = r * pb.nv + c;
+          col2[c] += std::pow(wrow[row] * pb.W(row, i), 2), y2[c] += std::pow(wrow[row] * pb.y[row], 2);
+        }
+      double a = 0.0, b = 0.0;
+      for (int c = 0; c < pb.nv; ++c)
+        if (col2[c] > 1e-24 * col2.maxCoeff()) a += y2[c], b += col2[c];
+      if (b > 0.0) h[i] = std::sqrt(a / b);
+    }
+  }
+  return h;
+}
+
 // The thesis's formulas on the stacked, scaled W (all 130 columns, dense SVD).
 std::vector<Eigen::VectorXd> denseSolve(const Problem& pb, Method method, const Eigen::VectorXd& prior,
                                         const std::vector<int>& ranks, Eigen::VectorXd* singular) {
@@ -126,7 +152,7 @@ std::vector<Eigen::VectorXd> denseSolve(const Problem& pb, Method method, const 
     }
   }
   const bool C = method == Method::WlsC || method == Method::WlsRC;
-  const Eigen::VectorXd h = C ? columnScale(pb.model, prior) : Eigen::VectorXd::Ones(p);
+  const Eigen::VectorXd h = C ? denseColumnScale(pb, prior, wrow) : Eigen::VectorXd::Ones(p);
   const Eigen::VectorXd gamma = C ? prior : Eigen::VectorXd::Zero(p);
   const Eigen::MatrixXd A = wrow.asDiagonal() * pb.W * h.asDiagonal();
   const Eigen::VectorXd yt = wrow.asDiagonal() * (pb.y - pb.W * gamma);
@@ -176,11 +202,11 @@ TEST(BatchSolvers, EveryMethodAtEveryRankEqualsTheDenseSvdOfTheStackedProblem) {
       // the thesis's formulas satisfies them), and among those the point closest to the prior in the metric
       // P^-1, P = diag(sigma^2): phi = prior + P C^T (C P C^T)^-1 C (b - prior), evaluated densely.
       const bool C = method == Method::WlsC || method == Method::WlsRC;
-      const Eigen::VectorXd h = C ? columnScale(pb.model, prior) : Eigen::VectorXd::Ones(prior.size());
-      const Eigen::VectorXd sigma = priorScale(pb.model, prior, h);
       Eigen::VectorXd wrow = Eigen::VectorXd::Ones(pb.W.rows());
       for (int i = 0; i < pb.N; ++i)
         for (int c = 0; c < pb.nv; ++c) wrow[i * pb.nv + c] = sp.row_weight[c];
+      const Eigen::VectorXd h = C ? denseColumnScale(pb, prior, wrow) : Eigen::VectorXd::Ones(prior.size());
+      const Eigen::VectorXd sigma = priorScale(pb.model, prior, h);
       Eigen::BDCSVD<Eigen::MatrixXd> svd(wrow.asDiagonal() * pb.W * h.asDiagonal(), Eigen::ComputeThinV);
       const Eigen::MatrixXd Cz = svd.matrixV().leftCols(z).transpose() * h.cwiseInverse().asDiagonal();
       const Eigen::MatrixXd P = sigma.cwiseAbs2().asDiagonal();

@@ -15,6 +15,7 @@
 #include <Eigen/SVD>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "exoid/estimator/base_parameters.hpp"
@@ -297,6 +298,83 @@ TEST_F(IdentifyMessy, UnexcitingDataReportTheUnexcitedParameters) {
   const nlohmann::json j = readJson(dir_.file("o/summary.json"));
   EXPECT_GT(j["not_excited"].size(), 40u) << r.out;  // inertia and friction cannot show without motion
   EXPECT_GT(j["condition_number"].get<double>(), 0.0);
+}
+
+TEST_F(IdentifyMessy, LeftAtThePriorIsWhatEstimateCsvLeavesAtThePrior) {
+  // The arm standing still (as above), the default rank rule: the stdout count, summary.json's not_excited and the
+  // rows of estimate.csv with excited = 0 are the same parameters, and exactly those whose estimate is the prior.
+  std::vector<std::string> l{lines_[0]};
+  for (int i = 1; i <= 200; ++i) {
+    std::string row = replaceCell(lines_[1], 0, std::to_string(i * 0.005));
+    for (int c = 8; c < 22; ++c) row = replaceCell(row, c, "0");
+    l.push_back(row);
+  }
+  const auto r = run(l, "--out " + dir_.file("o"), true, "jackknife");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = readJson(dir_.file("o/summary.json"));
+  std::ifstream in(dir_.file("o/estimate.csv"));
+  std::string line;
+  std::getline(in, line);
+  ASSERT_EQ(line, "name,prior,estimate,excited");
+  std::set<std::string> at_prior;
+  int rows = 0;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string name, prior, est, excited;
+    std::getline(ss, name, ','), std::getline(ss, prior, ','), std::getline(ss, est, ','), std::getline(ss, excited, ',');
+    const double a = std::stod(prior), b = std::stod(est);
+    ++rows;
+    if (excited == "0") {
+      at_prior.insert(name);
+      EXPECT_LE(std::abs(b - a), 1e-8 * std::max(1.0, std::abs(a))) << line;
+    } else {
+      EXPECT_NE(a, b) << line;
+    }
+  }
+  EXPECT_EQ(rows, 84);
+  EXPECT_GT(at_prior.size(), 40u);  // inertia and friction cannot show without motion
+  EXPECT_EQ(j["not_excited"].size(), at_prior.size());
+  for (const auto& n : j["not_excited"]) EXPECT_TRUE(at_prior.count(n.get<std::string>())) << n;
+  EXPECT_NE(r.out.find("not excited (left at the prior): " + std::to_string(at_prior.size()) + " of 84"), std::string::npos) << r.out;
+}
+
+TEST_F(IdentifyMessy, HeldOutDataThatDifferAreNamedWithTheRatio) {
+  // Validation on run 2 as recorded: no warning. The same run with every torque tripled (another arm, as far as
+  // the model can tell): the held-out RMSE is several times the training RMSE, and the report says so.
+  std::ifstream in(kuka("measurements_2.csv"));
+  std::vector<std::string> v;
+  for (std::string line; std::getline(in, line);) v.push_back(line);
+  std::ofstream f(dir_.file("v3.csv"));
+  f << v[0] << "\n";
+  for (size_t i = 1; i < v.size(); ++i) {
+    std::string row = v[i];
+    for (int c = 22; c < 29; ++c) {
+      std::stringstream ss(row);
+      std::string cell;
+      for (int k = 0; k <= c; ++k) std::getline(ss, cell, ',');
+      row = replaceCell(row, c, std::to_string(3.0 * std::stod(cell)));
+    }
+    f << row << "\n";
+  }
+  f.close();
+  const auto same = run(lines_, "--validate " + kuka("measurements_2.csv") + " --out " + dir_.file("same"), true, "jackknife");
+  ASSERT_EQ(same.exit_code, 0) << same.err;
+  EXPECT_EQ(same.out.find("warning:"), std::string::npos) << same.out;
+  const nlohmann::json js = readJson(dir_.file("same/summary.json"));
+  EXPECT_FALSE(js["validation"]["data_differ"].get<bool>());
+  EXPECT_LT(js["validation"]["heldout_training_ratio"].get<double>(), 2.0);
+  const auto other = run(lines_, "--validate " + dir_.file("v3.csv") + " --out " + dir_.file("other"), true, "jackknife");
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  const nlohmann::json jo = readJson(dir_.file("other/summary.json"));
+  const double ratio = jo["validation"]["rmse"].get<double>() / jo["training"]["rmse"].get<double>();
+  EXPECT_GT(ratio, 2.0);
+  EXPECT_TRUE(jo["validation"]["data_differ"].get<bool>());
+  EXPECT_NEAR(jo["validation"]["heldout_training_ratio"].get<double>(), ratio, 1e-9 * ratio);
+  char expect[64];
+  std::snprintf(expect, sizeof expect, "held-out RMSE is %.2f x the training RMSE", ratio);
+  EXPECT_NE(other.out.find(std::string("warning: ") + expect), std::string::npos) << other.out;
+  EXPECT_NE(other.out.find("the data differ"), std::string::npos);
+  ASSERT_EQ(jo["warnings"].size(), 1u);
 }
 
 TEST(IdentifyCli, ALogWithoutTheNeededChannelsIsAnError) {

@@ -86,7 +86,8 @@ int cmdIdentify(int argc, char** argv) {
   uint64_t seed = 1, prior_seed = 1;
   int folds = 5, threads = 2;
   app.add_option("--data", data, "training data: LCM logs (exoid experiment's run.lcmlog) and/or CSVs (*.csv)")->required();
-  app.add_option("--validate", validate, "validation data (same kinds); needed by --rank validation; its RMSE is reported");
+  app.add_option("--validate", validate, "validation data (same kinds); needed by --rank validation; its RMSE is reported, "
+                 "with a warning when it is more than 2 x the training RMSE (the data differ)");
   app.add_option("--model", model_path, "robot URDF (default config/exo.urdf)");
   app.add_flag("--fixed-base", fixed_base, "the model's root link is fixed to the world (e.g. data/kuka_lwr4)");
   app.add_option("--pipeline", pipeline, "LCM logs: 'sensors' (encoders, torque sensors, IMU, plates; no ground truth) or "
@@ -114,11 +115,14 @@ int cmdIdentify(int argc, char** argv) {
       ->transform(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC", "WLS-RC-PC"}, CLI::ignore_case));
   double prior_uncertainty = 0.25;
   auto* rank_opt = app.add_option("--rank", rank_name, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
-                 "choice), or from the training data alone: 'jackknife' (noise-based cap from time-block jackknife, "
-                 "see --prior-uncertainty; default), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
+                 "choice), or from the training data alone: 'jackknife' (default: the z of least expected error, each "
+                 "direction's time-block jackknife variance against the prior's variance along it, see "
+                 "--prior-uncertainty), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them; with --only-links the default is 'full'");
-  app.add_option("--prior-uncertainty", prior_uncertainty, "--rank jackknife: the prior is within +-this relative "
-                 "error of the truth")->transform(common::strictNumber(1e-6, 10.0));
+  app.add_option("--prior-uncertainty", prior_uncertainty, "--rank jackknife: the prior's parameters that it states (the "
+                 "URDF's inertials, any kind with a nonzero entry) are within +-this relative error of the truth "
+                 "(default 0.25); a kind the prior leaves at zero throughout (friction without a --prior for it) is "
+                 "taken as unknown, scaled by the data")->transform(common::strictNumber(1e-6, 10.0));
   app.add_option("--prior", prior_path, "prior parameters, CSV name,value (default: the URDF's)");
   std::vector<std::string> only_links;
   app.add_option("--only-links", only_links, "identify only these links' inertial parameters (URDF names of moving links; "
@@ -286,7 +290,17 @@ int cmdIdentify(int argc, char** argv) {
   std::printf("links physically consistent: %d of %d", consistent, static_cast<int>(r.links.size()));
   for (const auto& l : r.links)
     if (!l.consistent) std::printf("  [%s: mass %.4g, min eig(J) %.3g]", l.name.c_str(), l.mass, l.min_eigenvalue);
-  std::printf("\nnot excited (left at the prior): %zu of %d parameters\n", r.unexcited.size(), model.nparams());
+  std::printf("\nnot excited (left at the prior): %zu of %d parameters (estimate = prior); %zu more weakly excited "
+              "(moved only through their correlation with the kept directions)\n",
+              r.unexcited.size(), model.nparams(), r.weakly_excited.size());
+  std::string differ;
+  if (r.data_differ) {
+    char b[256];
+    std::snprintf(b, sizeof b, "held-out RMSE is %.2f x the training RMSE (warning above %g): the data differ (a load, "
+                  "a tool, another state of the robot?)", r.heldout_ratio, io.data_differ_ratio);
+    differ = b;
+    std::printf("warning: %s\n", differ.c_str());
+  }
   std::fprintf(stderr, "exoid identify: read + filter + factor %.3f s, solve + rank choice %.3f s\n", t_read, t_solve);
   if (!out_dir.empty()) {
     std::error_code ec;
@@ -317,7 +331,8 @@ int cmdIdentify(int argc, char** argv) {
                      {"y_rms", r.training_y_rms}};
     if (r.validation_rmse >= 0.0)
       j["validation"] = {{"rmse", r.validation_rmse}, {"prior_rmse", r.prior_validation_rmse},
-                         {"rmse_per_coordinate", r.validation_rmse_per_coordinate}};
+                         {"rmse_per_coordinate", r.validation_rmse_per_coordinate},
+                         {"heldout_training_ratio", r.heldout_ratio}, {"data_differ", r.data_differ}};
     nlohmann::json params = nlohmann::json::object();
     for (int i = 0; i < model.nparams(); ++i) params[names[i]] = r.phi[i];
     j["estimate"] = params;
@@ -329,6 +344,10 @@ int cmdIdentify(int argc, char** argv) {
     std::vector<std::string> unexcited;
     for (int i : r.unexcited) unexcited.push_back(names[i]);
     j["not_excited"] = unexcited;
+    std::vector<std::string> weak;
+    for (int i : r.weakly_excited) weak.push_back(names[i]);
+    j["weakly_excited"] = weak;
+    j["warnings"] = differ.empty() ? nlohmann::json::array() : nlohmann::json::array({differ});
     j["inputs"] = inputs;
     j["options"] = {{"pipeline", pipeline}, {"cutoff_hz", cutoff}, {"filter_mode", filter_mode}, {"noise", noise},
                     {"base_orientation", orientation}, {"orientation_cutoff_hz", orientation_cutoff},

@@ -113,10 +113,13 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
   }
   out.phi_base = train.base().base_map * out.phi;
   out.condition = out.rank > 0 ? sp.s[0] / sp.s[out.rank - 1] : 1.0;
-  // Excitation of each standard parameter: the norm of its (scaled) unit direction inside span(V_z).
+  // Left at the prior: the estimate is the prior's value (the fill and WLS-RC-PC move parameters the kept
+  // directions barely reach, so reach alone overstates what stayed). Weakly excited: the norm of the
+  // parameter's (scaled) unit direction inside span(V_z) is small, yet it moved.
   for (int i = 0; i < p; ++i) {
     const double reach = out.rank > 0 ? sp.V.row(i).head(out.rank).norm() : 0.0;
-    if (reach < o.excitation_threshold) out.unexcited.push_back(i);
+    if (std::abs(out.phi[i] - prior[i]) <= 1e-9 * sp.fill[i]) out.unexcited.push_back(i);
+    else if (reach < o.excitation_threshold) out.weakly_excited.push_back(i);
   }
   for (int b = 0; b < model.nbodies; ++b)
     out.links.push_back(checkLink(model.body_names[b], out.phi.segment<kParamsPerBody>(model.bodyParamIndex(b))));
@@ -133,6 +136,10 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
     const Eigen::VectorXd xb = validation->base().base_map * out.phi;
     for (int c = 0; c < nv; ++c)
       out.validation_rmse_per_coordinate.push_back(std::sqrt(validation->residual(c, xb) / std::max<long>(1, validation->rows(c))));
+    if (out.training_rmse > 0.0) {
+      out.heldout_ratio = out.validation_rmse / out.training_rmse;
+      out.data_differ = out.heldout_ratio > o.data_differ_ratio;
+    }
   }
   return true;
 }

@@ -6,6 +6,7 @@
 
 namespace exoid::estimator {
 
+
 const char* methodName(Method m) {
   switch (m) {
     case Method::Ols: return "OLS";
@@ -105,6 +106,22 @@ WeightedFactor weightedFactor(const LsqAccumulator& acc, const Model& model, boo
     const double floor = std::max(1e-10 * std::sqrt(y2 / std::max<long>(1, rows_all)), 1e-6 * maxsig);
     for (int c = 0; c < nv; ++c) wf.row_weight[c] = sigma[c] > 0.0 || floor > 0.0 ? 1.0 / std::max(sigma[c], floor) : 1.0;
   }
+  // Per coordinate: ||G_c y_c||^2 and each standard column's ||G_c W_c e_j||^2 = ||R_c B_(cols, j)||^2 (the
+  // augmented factor's last row holds only sqrt(rss)).
+  const Eigen::MatrixXd& B = acc.base().base_map;
+  wf.coordinate_y2 = Eigen::VectorXd::Zero(nv);
+  wf.coordinate_col2 = Eigen::MatrixXd::Zero(nv, p);
+  for (int c = 0; c < nv; ++c)
+    for (int f = 0; f < acc.folds(); ++f) {
+      if (!(include.empty() || include[f])) continue;
+      const CoordinateFactor& cf = acc.factor(f, c);
+      const int k = static_cast<int>(cf.columns.size());
+      Eigen::MatrixXd Bc(k, p);
+      for (int j = 0; j < k; ++j) Bc.row(j) = B.row(cf.columns[j]);
+      const double g2 = wf.row_weight[c] * wf.row_weight[c];
+      wf.coordinate_col2.row(c) += g2 * (cf.R_aug.topLeftCorner(k, k).triangularView<Eigen::Upper>() * Bc).colwise().squaredNorm();
+      wf.coordinate_y2[c] += g2 * acc.residual(c, Eigen::VectorXd::Zero(acc.baseColumns()), f);
+    }
   const LsqFactor f = acc.mergedBase(wf.row_weight, include);
   wf.rows = f.rows;
   wf.Rf = f.R.triangularView<Eigen::Upper>() * acc.base().base_map;  // m x p, same singular values and V as G W
@@ -144,6 +161,13 @@ ScaledProblem prepare(const WeightedFactor& f, const Model& model, const Eigen::
   sp.row_weight = f.row_weight;
   sp.rows = f.rows;
   sp.h = columnScaled(method) ? columnScale(model, prior) : Eigen::VectorXd::Ones(p);
+  if (columnScaled(method) && f.coordinate_y2.size() > 0) {
+    // A kind the prior leaves at zero throughout has no scale of its own: the data's (priorUncertainty at
+    // relative sqrt(3), i.e. sigma_j itself), so that its scaled coordinates are commensurate with the stated ones.
+    const Eigen::VectorXd u = priorUncertainty(model, prior, f, std::sqrt(3.0));
+    for (int i = 0; i < p; ++i)
+      if (u[i] > 0.0) sp.h[i] = u[i];  // the stated kinds' entries equal columnScale's
+  }
   sp.gamma = columnScaled(method) ? prior : Eigen::VectorXd::Zero(p);
   const Eigen::VectorXd zt = f.z - f.Rf * sp.gamma;
   const Eigen::MatrixXd A = f.Rf * sp.h.asDiagonal();
@@ -270,10 +294,31 @@ RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const E
   return rankByJackknife(trainingFactors(acc, model, method), model, prior, prior_uncertainty);
 }
 
+Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prior, const WeightedFactor& all,
+                                 double relative) {
+  const int p = static_cast<int>(prior.size());
+  const Eigen::VectorXd h = columnScale(model, prior);
+  Eigen::VectorXd sigma = (relative / std::sqrt(3.0)) * h;
+  // A kind whose prior is zero throughout (friction: a URDF has none) is unknown, not "0 +- 25 %": its scale is
+  // the value that alone would explain all the measured forces, ||G y|| / ||G W_j||.
+  bool known[5] = {false, false, false, false, false};
+  for (int i = 0; i < p; ++i)
+    if (prior[i] != 0.0) known[kindOf(model, i)] = true;
+  for (int i = 0; i < p; ++i) {
+    if (known[kindOf(model, i)]) continue;
+    const double cmax = all.coordinate_col2.col(i).maxCoeff();
+    double y2 = 0.0, c2 = 0.0;
+    for (int c = 0; c < all.coordinate_col2.rows(); ++c)
+      if (all.coordinate_col2(c, i) > 1e-24 * cmax) y2 += all.coordinate_y2[c], c2 += all.coordinate_col2(c, i);
+    sigma[i] = c2 > 0.0 ? std::sqrt(y2 / c2) : 0.0;  // a column the data never touch: no direction contains it
+  }
+  return sigma;
+}
+
 RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const Eigen::VectorXd& prior,
                           double prior_uncertainty) {
   RankCurve c;
-  c.rule = "jackknife over time blocks: keep directions whose std is below the prior's";
+  c.rule = "jackknife over time blocks: z of least risk, data variance against the prior's per direction";
   const ScaledProblem all = prepare(tf.all, model, prior, tf.method);
   const int r = all.numericalRank(), K = static_cast<int>(tf.without.size());
   std::vector<Eigen::VectorXd> a;
@@ -293,13 +338,20 @@ RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const E
   for (const auto& x : a) mean += x / used;
   for (const auto& x : a) var += (x - mean).cwiseAbs2();
   var *= (used - 1.0) / used;
-  // Prior uniform within +-u of the truth: std u / sqrt(3) of each scaled coordinate (with C scaling).
-  const double tau = prior_uncertainty / std::sqrt(3.0);
-  bool stop = false;
+  // The prior's variance of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma): ||diag(sigma / h) v_i||^2.
+  const Eigen::VectorXd sh = priorUncertainty(model, prior, tf.all, prior_uncertainty).cwiseQuotient(all.h);
+  Eigen::VectorXd prior_var(r);
+  for (int i = 0; i < r; ++i) prior_var[i] = sh.cwiseProduct(all.V.col(i)).squaredNorm();
+  // Expected squared error of the rank-z fit on data like the training data: a kept direction costs its
+  // variance, a dropped one (left at the prior) the prior's, each weighted by s_i^2 (its share of the forces).
+  double risk = 0.0;
+  for (int i = 0; i < r; ++i) risk += all.s[i] * all.s[i] * prior_var[i];
+  c.score[0] = risk;
+  double best = risk;
   for (int z = 1; z <= r; ++z) {
-    c.score[z] = std::sqrt(var[z - 1]);
-    if (!stop && c.score[z] <= tau) c.best = z;
-    else stop = true;
+    risk += all.s[z - 1] * all.s[z - 1] * (var[z - 1] - prior_var[z - 1]);
+    c.score[z] = risk;
+    if (risk < best) best = risk, c.best = z;
   }
   return c;
 }

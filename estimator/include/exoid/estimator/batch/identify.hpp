@@ -19,7 +19,7 @@ enum class RankRule {
   CrossValidation,  ///< (b) time-block cross-validation on the training data, minimum
   CrossValidation1Se,  ///< (b) the same, paired one-standard-error rule
   Gcv,              ///< (b) generalized cross-validation on the training data
-  Jackknife,        ///< (b) noise-based cap: jackknife std of each direction below the prior's uncertainty
+  Jackknife,        ///< (b) least expected error: each direction's jackknife variance against the prior's
 };
 const char* rankRuleName(RankRule r);  ///< "full", "fixed", "validation", "cv", "cv-1se", "gcv", "jackknife"
 bool parseRankRule(const std::string& name, RankRule& r);
@@ -35,9 +35,13 @@ struct IdentifyOptions {
   int consistent_iterations = 500;  ///< Newton iterations of WLS-RC-PC
   RankRule rank_rule = RankRule::Jackknife;
   int rank = -1;                  ///< for RankRule::Fixed
-  double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: prior within +-this (relative) of the truth
+  double prior_uncertainty = 0.25;  ///< for RankRule::Jackknife: the prior's stated kinds within +-this
+                                    ///< (relative) of the truth; a kind it leaves at 0 is unknown (priorUncertainty)
   double excitation_threshold = 0.1;  ///< a parameter whose unit direction has less than this norm in the
-                                      ///< kept right singular vectors is reported as not excited
+                                      ///< kept right singular vectors is reported as weakly excited
+  /// Held-out / training RMSE above this says the validation data differ from the training data (a load, a
+  /// tool, another robot state): noise and an adequate model give ~1 (docs/identification.md, "Output").
+  double data_differ_ratio = 2.0;
 };
 
 /// Physical consistency of one body's 10 parameters (about the body origin): the pseudo-inertia
@@ -64,7 +68,8 @@ struct IdentifyResult {
   int numerical_rank = 0;      ///< s_i > 1e-10 s_1
   double condition = 0.0;      ///< s_1 / s_z
   RankCurve curve;             ///< the rank rule's score per z (empty for Full / Fixed)
-  std::vector<int> unexcited;  ///< standard parameters the kept directions do not reach (stay at the prior)
+  std::vector<int> unexcited;  ///< standard parameters whose estimate is the prior's value (|phi_i - prior_i| <=
+                               ///< 1e-9 of the prior's scale): nothing in the data or the fill moved them
   std::vector<LinkVerdict> links;
   std::vector<double> row_weight;  ///< [nv] WLS-R weights (ones without R)
   long training_rows = 0;
@@ -73,6 +78,11 @@ struct IdentifyResult {
   double validation_rmse = -1.0;   ///< pooled, when validation data were given (< 0 otherwise)
   std::vector<double> validation_rmse_per_coordinate;  ///< [nv]
   double prior_validation_rmse = -1.0;  ///< the prior's (Ref)
+  /// Parameters the kept directions barely reach (norm of the unit direction in span(V_z) below
+  /// excitation_threshold) that moved all the same, through the fill's correlation with the kept ones.
+  std::vector<int> weakly_excited;
+  double heldout_ratio = -1.0;  ///< validation_rmse / training_rmse (< 0 without validation data)
+  bool data_differ = false;     ///< heldout_ratio > IdentifyOptions::data_differ_ratio
 };
 
 /// Identifies from the training accumulator. validation may be null (then RankRule::Validation fails).

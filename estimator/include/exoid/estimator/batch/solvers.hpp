@@ -8,7 +8,7 @@
 //           (N - p); then as OLS (nullspace toward the prior)
 //   WLS-C   eq. (27) with H = diag(|phi_prior|) and gamma = phi_prior: W~ = W H, y~ = y - W phi_prior,
 //           phi = phi_prior + H phi~ (the directions not kept stay at the prior); zero prior entries get
-//           the scale of their kind (see columnScale)
+//           the scale of their kind (see columnScale), a kind zero throughout the data's (priorUncertainty)
 //   WLS-RC  both scalings
 // Truncated SVD (III-D): only the z largest singular values of the scaled problem are used.
 // Fill (the directions not kept): FillMetric::Scaled is the thesis's (eq. 23 for OLS / WLS-R, eq. 27's
@@ -56,6 +56,8 @@ struct WeightedFactor {
   Eigen::VectorXd z;               ///< [m]
   double rss = 0.0;
   long rows = 0;
+  Eigen::VectorXd coordinate_y2;    ///< [nv] ||G_c y_c||^2 per generalized coordinate c
+  Eigen::MatrixXd coordinate_col2;  ///< [nv x p] ||G_c W_c e_j||^2: standard parameter j's column in coordinate c
 };
 WeightedFactor weightedFactor(const LsqAccumulator& acc, const Model& model, bool row_scaled,
                               const std::vector<bool>& include = {});
@@ -76,7 +78,8 @@ struct ScaledProblem {
   Eigen::VectorXd s;          ///< [r] singular values of G W H, descending
   Eigen::MatrixXd V;          ///< [p x r]
   Eigen::VectorXd d;          ///< [r]
-  Eigen::VectorXd h;          ///< [p] column scale (ones without C)
+  Eigen::VectorXd h;          ///< [p] column scale (ones without C): columnScale, a kind the prior leaves at 0
+                              ///< throughout scaled by the data (priorUncertainty's sigma)
   Eigen::VectorXd gamma;      ///< [p] offset (prior with C, zero without)
   Eigen::VectorXd prior;      ///< [p]
   Eigen::VectorXd fill;       ///< [p] prior scale sigma of the fill metric (h for FillMetric::Scaled)
@@ -129,15 +132,27 @@ RankCurve rankByCrossValidation(const TrainingFactors& factors, const LsqAccumul
 std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors& factors, const LsqAccumulator& acc,
                                                           const Model& model, const Eigen::VectorXd& prior,
                                                           const FillOptions& fill = {});
-/// (b3) Training data only, noise-based cap: the jackknife over the time-block folds gives the standard
-/// deviation of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of the full-rank estimate (it sees
-/// the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); directions are kept, in singular-value
-/// order, while that deviation is below the prior's own, prior_uncertainty / sqrt(3) (prior uniform within
-/// +-prior_uncertainty relative). Meaningful with column scaling (WLS-C, WLS-RC). score[z] = std of alpha_z.
+/// (b3) Training data only, the default of `exoid identify`: the z of least expected error. The jackknife over
+/// the time-block folds gives the variance var_i of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of
+/// the full-rank estimate (it sees the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); the prior's
+/// variance along the same direction is pv_i = ||diag(sigma / h) v_i||^2 with sigma = priorUncertainty (a stated
+/// prior within +-prior_uncertainty, an unknown kind scaled by the data). A kept direction costs its variance,
+/// a dropped one (left at the prior) the prior's, each weighted by s_i^2, its share of the training forces:
+///   risk(z) = sum_{i <= z} s_i^2 var_i + sum_{i > z} s_i^2 pv_i,   best = argmin_z risk(z) = score.
+/// With every prior entry stated and h = |prior| (pv_i = prior_uncertainty^2 / 3) a direction pays for itself
+/// where the former cap (std_i <= prior_uncertainty / sqrt(3)) kept it. Meaningful with column scaling.
 RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
                           double prior_uncertainty);
 RankCurve rankByJackknife(const TrainingFactors& factors, const Model& model, const Eigen::VectorXd& prior,
                           double prior_uncertainty);
+/// Per-parameter prior standard deviation sigma [p] of the jackknife rule: a meaningful prior (a kind of
+/// parameter with some nonzero prior entry: the URDF's inertials) is within +-relative of the truth, uniform,
+/// sigma_j = relative h_j / sqrt(3) with h the column scale (|prior_j|, or its kind's median where that is ~0);
+/// a kind whose prior is zero throughout (friction without a friction prior) is unknown: sigma_j = ||G y_Cj|| /
+/// ||G W_Cj,j|| over the coordinates C_j that parameter j acts on (a joint's friction: that joint's torque), the
+/// value that alone would explain all the forces it can reach.
+Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prior, const WeightedFactor& all,
+                                 double relative);
 /// (b2) Training data only: generalized cross-validation, GCV(z) = rows * RSS(z) / (rows - z)^2 with the
 /// weighted training residual RSS(z).
 RankCurve rankByGcv(const ScaledProblem& problem);
