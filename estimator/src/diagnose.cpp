@@ -854,8 +854,8 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     out.train_pooled_before = std::sqrt(tb / std::max(nt, 1L));
     out.train_pooled_after = std::sqrt(ta / std::max(nt, 1L));
     // The last stage: is what remains predictable from the state at all?
-    if (!residualPredictability(model, out.series, opt.alpha, opt.min_explained, opt.predictability, out.predictability,
-                                error))
+    if (!residualPredictability(model, out.series, opt.alpha, opt.min_explained, out.pooled_after, opt.predictability,
+                                out.predictability, error))
       return false;
   }
 

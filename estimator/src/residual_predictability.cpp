@@ -66,7 +66,8 @@ std::string fmt(const char* f, double x) {
 }  // namespace
 
 bool residualPredictability(const Model& model, const std::vector<ResidualSeries>& series, double alpha, double min_share,
-                            const PredictabilityOptions& o, PredictabilityResult& out, std::string* error) {
+                            double pooled_rms, const PredictabilityOptions& o, PredictabilityResult& out,
+                            std::string* error) {
   out = PredictabilityResult{};
   const int nj = model.njoints;
   if (nj == 0 || series.empty() || !o.enabled) return true;
@@ -168,6 +169,8 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
   std::vector<std::vector<long>> seg_rows(series.size());
   for (long k = 0; k < N; ++k) seg_rows[seg[k]].push_back(k);
   Eigen::MatrixXd Psp = Eigen::MatrixXd::Constant(N, nj, std::nan("")), Ptr = Psp;
+  double pooled_ss = 0.0;
+  long pooled_n = 0;
 
   for (int j : tested) {
     // Dictionary (sparse model) and raw features (trees).
@@ -363,7 +366,7 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     jp.share_sparse = bs.share, jp.se_sparse = bs.se, jp.p_sparse = bs.p;
     jp.share_trees = bt.share, jp.se_trees = bt.se, jp.p_trees = bt.p;
     const bool sig_s = bs.p < out.level && bs.share >= min_share, sig_t = o.trees && bt.p < out.level && bt.share >= min_share;
-    jp.predictable = sig_s || sig_t;
+    jp.predictable = sig_s || sig_t;  // the size floor is applied below, once the pooled RMS is known
     const bool use_trees = o.trees && ((sig_t && (!sig_s || bt.share > bs.share)) || (!jp.predictable && bt.share > bs.share));
     jp.method = use_trees ? "trees" : "sparse";
     const BlockTest& b = use_trees ? bt : bs;
@@ -399,6 +402,8 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     for (const auto& [name, w] : vw)
       if (w > 0.05) jp.variables.push_back({name, w});
     std::sort(jp.variables.begin(), jp.variables.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
+    jp.predictable_rms = std::sqrt(std::max(jp.share, 0.0)) * jp.rms;
+    pooled_ss += sr, pooled_n += nr;
     if (jp.predictable) {
       std::string vars;
       for (size_t i = 0; i < jp.variables.size() && i < 4; ++i)
@@ -413,6 +418,14 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
       jp.sentence = buf;
     }
     out.joints.push_back(std::move(jp));
+  }
+  // The relevance floor: a significant predictable part below min_rms_fraction of the pooled held-out RMS is not named.
+  out.pooled_rms = pooled_rms > 0.0 ? pooled_rms : std::sqrt(pooled_ss / std::max(pooled_n, 1L));
+  for (JointPredictability& jp : out.joints) {
+    const bool significant = jp.predictable;
+    jp.predictable = significant && jp.predictable_rms >= o.min_rms_fraction * out.pooled_rms;
+    jp.verdict = jp.predictable ? "predictable" : significant ? "significant but small" : "not significant";
+    if (!jp.predictable) jp.sentence.clear();
   }
   for (size_t s = 0; s < series.size(); ++s) {
     PredictabilityResult::Series ps;

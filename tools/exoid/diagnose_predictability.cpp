@@ -105,10 +105,11 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
   {
     std::ofstream f;
     if (!open("predictability.csv", f)) return false;
-    f << "joint,predictable,method,share,std_error,p_value,level,share_sparse,se_sparse,p_sparse,share_trees,se_trees,"
+    f << "joint,predictable,verdict,predictable_rms,method,share,std_error,p_value,level,share_sparse,se_sparse,p_sparse,share_trees,se_trees,"
          "p_trees,validation_share_sparse,validation_share_trees,rms,blocks,variables,terms\n";
     for (const estimator::JointPredictability& j : res.joints) {
-      f << model.joint_names[j.joint] << ',' << (j.predictable ? 1 : 0) << ',' << j.method << ',' << j.share << ','
+      f << model.joint_names[j.joint] << ',' << (j.predictable ? 1 : 0) << ',' << j.verdict << ',' << j.predictable_rms
+        << ',' << j.method << ',' << j.share << ','
         << j.se << ',' << j.p << ',' << res.level << ',' << j.share_sparse << ',' << j.se_sparse << ',' << j.p_sparse << ',';
       if (opt.trees) f << j.share_trees << ',' << j.se_trees << ',' << j.p_trees;
       else f << ",,";
@@ -151,6 +152,8 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
   nlohmann::json pj;
   pj["ran"] = true;
   pj["level"] = res.level;
+  pj["pooled_rms"] = res.pooled_rms;
+  pj["min_rms_fraction"] = opt.min_rms_fraction;
   pj["tests"] = res.tests;
   pj["has_q"] = res.has_q;
   pj["block_seconds"] = opt.block_seconds;
@@ -161,7 +164,8 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
     for (const auto& [name, w] : j.variables) v.push_back({{"name", name}, {"weight", w}});
     for (const estimator::PredictabilityTerm& x : j.terms)
       t.push_back({{"term", x.name}, {"coefficient", x.coefficient}, {"weight", x.weight}});
-    pj["joints"].push_back({{"joint", model.joint_names[j.joint]}, {"predictable", j.predictable}, {"method", j.method},
+    pj["joints"].push_back({{"joint", model.joint_names[j.joint]}, {"predictable", j.predictable}, {"verdict", j.verdict},
+                            {"predictable_rms", j.predictable_rms}, {"method", j.method},
                             {"share", j.share}, {"std_error", j.se}, {"p_value", j.p}, {"share_sparse", j.share_sparse},
                             {"p_sparse", j.p_sparse}, {"share_trees", j.share_trees}, {"p_trees", j.p_trees},
                             {"validation_share_sparse", j.validation_share_sparse},
@@ -178,11 +182,12 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
                 "and q(t) - q(t - L)) by sparse regression, and against the raw state by gradient-boosted trees%s. Held "
                 "out: %d contiguous training folds (each predicted by models fitted %g s away from it) and the validation "
                 "runs; share = 1 - SSE(r - prediction) / SSE(r) over held-out blocks of %g s, +- its jackknife standard "
-                "error; a joint is named when the one-sided t-test over the blocks has p < %.2g (alpha / %d tests) and "
-                "the share is at least the minimum. Never the lagged residual: an autocorrelated noise is not "
+                "error; a joint is named when the one-sided t-test over the blocks has p < %.2g (alpha / %d tests), "
+                "the share is at least the minimum and the predictable part, sqrt(share) x RMS, is at least %g of the "
+                "pooled held-out RMS (%.3g N m). Never the lagged residual: an autocorrelated noise is not "
                 "predictable from the state.\n\n",
                 opt.rate_hz, res.has_q ? "q, sin q, cos q, " : "", opt.trees ? " (XGBoost)" : " (off)", opt.folds,
-                opt.block_seconds, opt.block_seconds, res.level, res.tests);
+                opt.block_seconds, opt.block_seconds, res.level, res.tests, opt.min_rms_fraction, res.pooled_rms);
   md << buf;
   bool any = false;
   for (const estimator::JointPredictability& j : res.joints)
@@ -191,16 +196,16 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
     md << "Nothing: no joint's remaining residual is predictable from the state on held-out data.\n";
     con << "  residual predictability: nothing predictable from the state on held-out data\n";
   }
-  md << "\n| joint | held-out RMS (N m) | sparse: share +- SE (p) | trees: share +- SE (p) | validation only: sparse / trees | "
-        "depends on | sparse terms |\n|---|---|---|---|---|---|---|\n";
+  md << "\n| joint | verdict | held-out RMS (N m) | sparse: share +- SE (p) | trees: share +- SE (p) | validation only: sparse / trees | "
+        "depends on | sparse terms |\n|---|---|---|---|---|---|---|---|\n";
   for (const estimator::JointPredictability& j : res.joints) {
     std::string trees = "-";
     if (opt.trees) {
       std::snprintf(buf, sizeof buf, "%.0f %% +- %.0f (%.2g)", 100 * j.share_trees, 100 * j.se_trees, j.p_trees);
       trees = buf;
     }
-    std::snprintf(buf, sizeof buf, "| %s%s | %.3f | %.0f %% +- %.0f (%.2g) | %s | %.0f %% / %.0f %% | ",
-                  model.joint_names[j.joint].c_str(), j.predictable ? " **" : "", j.rms, 100 * j.share_sparse,
+    std::snprintf(buf, sizeof buf, "| %s | %s | %.3f | %.0f %% +- %.0f (%.2g) | %s | %.0f %% / %.0f %% | ",
+                  model.joint_names[j.joint].c_str(), j.verdict.c_str(), j.rms, 100 * j.share_sparse,
                   100 * j.se_sparse, j.p_sparse, trees.c_str(), 100 * j.validation_share_sparse,
                   100 * j.validation_share_trees);
     md << buf << vars(j) << " | " << terms(j) << " |\n";
