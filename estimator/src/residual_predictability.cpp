@@ -276,7 +276,6 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     // Sparse model size by cross-validation over the folds in `among` (SSE summed per size).
     auto chooseSize = [&](const std::vector<int>& among, const std::vector<int>& also_held) {
       std::vector<double> sse(o.max_terms + 1, 0.0);
-      std::vector<int> count(o.max_terms + 1, 0);
       for (int g : among) {
         std::vector<int> held = also_held;
         held.push_back(g);
@@ -286,7 +285,6 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
         for (int s = 0; s <= o.max_terms; ++s) {
           const SparseModel& m = path[std::min<size_t>(s, path.size() - 1)];
           for (long k : te) sse[s] += std::pow(r[k] - m.predict(X, k), 2);
-          ++count[s];
         }
       }
       return static_cast<int>(std::min_element(sse.begin(), sse.end()) - sse.begin());
