@@ -63,6 +63,95 @@ std::string fmt(const char* f, double x) {
   return buf;
 }
 
+// The state at the stage samples [N x nj]: q (zero when not given), v, a, the model torque tau, and per lag L
+// v(t - L) and q(t) - q(t - L).
+struct StateTable {
+  bool has_q = false;
+  Eigen::MatrixXd Q, V, A, T;
+  std::vector<Eigen::MatrixXd> Vlag, Dq;
+};
+
+// The joint's dictionary (the sparse model's terms) and raw state features (the trees'), over the stage samples:
+// residual_predictability.hpp lists the terms. Every column names the state variables it is a function of.
+void stateDictionary(const Model& model, const StateTable& st, int j, const std::vector<int>& neighbours,
+                     const PredictabilityOptions& o, std::vector<Column>& dict, std::vector<Column>& raw) {
+  const long N = st.Q.rows();
+  const int nl = static_cast<int>(o.lags.size());
+  const bool has_q = st.has_q;
+  const Eigen::MatrixXd &Q = st.Q, &V = st.V, &A = st.A, &T = st.T;
+  const std::vector<Eigen::MatrixXd>& Vlag = st.Vlag;
+  const std::vector<Eigen::MatrixXd>& Dq = st.Dq;
+  const std::vector<std::string>& jn = model.joint_names;
+  auto qn = [&](int i) { return "q_" + jn[i]; };
+  auto vn = [&](int i) { return "v_" + jn[i]; };
+  auto an = [&](int i) { return "a_" + jn[i]; };
+  auto tn = [&](int i) { return "tau_" + jn[i]; };
+  const double w0 = o.widths.empty() ? 0.03 : o.widths.front();
+  // Dictionary (sparse model) and raw features (trees).
+  auto add = [&](std::vector<Column>& to, std::string name, std::vector<std::string> vars,
+                 const std::function<double(long)>& f) {
+    Column c{std::move(name), std::move(vars), Eigen::VectorXd(N)};
+    for (long k = 0; k < N; ++k) c.x[k] = f(k);
+    to.push_back(std::move(c));
+  };
+  const std::string q = qn(j), v = vn(j), a = an(j), tau = tn(j);
+  if (has_q) {
+    add(dict, q, {q}, [&](long k) { return Q(k, j); });
+    add(dict, "sin(" + q + ")", {q}, [&](long k) { return std::sin(Q(k, j)); });
+    add(dict, "cos(" + q + ")", {q}, [&](long k) { return std::cos(Q(k, j)); });
+  }
+  add(dict, v, {v}, [&](long k) { return V(k, j); });
+  add(dict, "|" + v + "|", {v}, [&](long k) { return std::fabs(V(k, j)); });
+  add(dict, v + "|" + v + "|", {v}, [&](long k) { return V(k, j) * std::fabs(V(k, j)); });
+  for (double w : o.widths) {
+    const std::string th = "tanh(" + v + "/" + fmt("%g", w) + ")";
+    add(dict, th, {v}, [&, w](long k) { return std::tanh(V(k, j) / w); });
+    add(dict, tau + "*" + th, {tau, v}, [&, w](long k) { return T(k, j) * std::tanh(V(k, j) / w); });
+    add(dict, "|" + tau + "|*" + th, {tau, v}, [&, w](long k) { return std::fabs(T(k, j)) * std::tanh(V(k, j) / w); });
+  }
+  add(dict, a, {a}, [&](long k) { return A(k, j); });
+  add(dict, tau, {tau}, [&](long k) { return T(k, j); });
+  const std::string th0 = "tanh(" + v + "/" + fmt("%g", w0) + ")";
+  if (has_q) {
+    add(dict, "sin(" + q + ")*" + th0, {q, v}, [&](long k) { return std::sin(Q(k, j)) * std::tanh(V(k, j) / w0); });
+    add(dict, "cos(" + q + ")*" + th0, {q, v}, [&](long k) { return std::cos(Q(k, j)) * std::tanh(V(k, j) / w0); });
+    add(dict, q + "*" + th0, {q, v}, [&](long k) { return Q(k, j) * std::tanh(V(k, j) / w0); });
+    add(dict, q + "*" + v, {q, v}, [&](long k) { return Q(k, j) * V(k, j); });
+  }
+  for (int l = 0; l < nl; ++l) {
+    const std::string L = fmt("%g s", o.lags[l]);
+    const double rmsd = std::sqrt(Dq[l].col(j).squaredNorm() / N) + 1e-12;
+    add(dict, v + "(t-" + L + ")", {v}, [&, l](long k) { return Vlag[l](k, j); });
+    add(dict, q + "(t)-" + q + "(t-" + L + ")", {q}, [&, l](long k) { return Dq[l](k, j); });
+    add(dict, "tanh((" + q + "(t)-" + q + "(t-" + L + "))/" + fmt("%.2g", 0.1 * rmsd) + ")", {q},
+        [&, l, rmsd](long k) { return std::tanh(Dq[l](k, j) / (0.1 * rmsd)); });
+    add(raw, v + "(t-" + L + ")", {v}, [&, l](long k) { return Vlag[l](k, j); });
+    add(raw, q + "(t)-" + q + "(t-" + L + ")", {q}, [&, l](long k) { return Dq[l](k, j); });
+  }
+  for (int m : neighbours) {
+    const std::string qm = qn(m), vm = vn(m), am = an(m);
+    if (has_q) {
+      add(dict, qm, {qm}, [&, m](long k) { return Q(k, m); });
+      add(dict, "sin(" + qm + ")", {qm}, [&, m](long k) { return std::sin(Q(k, m)); });
+      add(dict, "cos(" + qm + ")", {qm}, [&, m](long k) { return std::cos(Q(k, m)); });
+      add(dict, "sin(" + q + "+" + qm + ")", {q, qm}, [&, m](long k) { return std::sin(Q(k, j) + Q(k, m)); });
+      add(dict, "cos(" + q + "+" + qm + ")", {q, qm}, [&, m](long k) { return std::cos(Q(k, j) + Q(k, m)); });
+    }
+    add(dict, vm, {vm}, [&, m](long k) { return V(k, m); });
+    add(dict, "tanh(" + vm + "/" + fmt("%g", w0) + ")", {vm}, [&, m](long k) { return std::tanh(V(k, m) / w0); });
+    add(dict, am, {am}, [&, m](long k) { return A(k, m); });
+    add(dict, v + "*" + vm, {v, vm}, [&, m](long k) { return V(k, j) * V(k, m); });
+  }
+  // Raw state for the trees.
+  for (int m : [&] { std::vector<int> js{j}; js.insert(js.end(), neighbours.begin(), neighbours.end()); return js; }()) {
+    if (has_q) add(raw, qn(m), {qn(m)}, [&, m](long k) { return Q(k, m); });
+    add(raw, vn(m), {vn(m)}, [&, m](long k) { return V(k, m); });
+    add(raw, an(m), {an(m)}, [&, m](long k) { return A(k, m); });
+    add(raw, tn(m), {tn(m)}, [&, m](long k) { return T(k, m); });
+  }
+}
+
+
 }  // namespace
 
 bool residualPredictability(const Model& model, const std::vector<ResidualSeries>& series, double alpha, double min_share,
@@ -109,8 +198,14 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     seg[k] = samples[k].seg, tt[k] = series[samples[k].seg].t[samples[k].i], val[k] = series[samples[k].seg].validation;
   }
   // Base state variables at the stage samples [N x nj]; lagged [N x nj] per lag.
-  Eigen::MatrixXd Q(N, nj), V(N, nj), A(N, nj), T(N, nj), Rz(N, nj);
-  std::vector<Eigen::MatrixXd> Vlag(nl, Eigen::MatrixXd(N, nj)), Dq(nl, Eigen::MatrixXd(N, nj));
+  StateTable st;
+  st.has_q = has_q;
+  st.Q.resize(N, nj), st.V.resize(N, nj), st.A.resize(N, nj), st.T.resize(N, nj);
+  st.Vlag.assign(nl, Eigen::MatrixXd(N, nj)), st.Dq.assign(nl, Eigen::MatrixXd(N, nj));
+  Eigen::MatrixXd Rz(N, nj);
+  Eigen::MatrixXd &Q = st.Q, &V = st.V, &A = st.A, &T = st.T;
+  std::vector<Eigen::MatrixXd>& Vlag = st.Vlag;
+  std::vector<Eigen::MatrixXd>& Dq = st.Dq;
   std::vector<Eigen::MatrixXd> cumv(series.size());  // integral of v (q up to a constant) when q is not given
   if (!has_q)
     for (size_t s = 0; s < series.size(); ++s) {
@@ -143,11 +238,6 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     }
   }
   const std::vector<std::string>& jn = model.joint_names;
-  auto qn = [&](int j) { return "q_" + jn[j]; };
-  auto vn = [&](int j) { return "v_" + jn[j]; };
-  auto an = [&](int j) { return "a_" + jn[j]; };
-  auto tn = [&](int j) { return "tau_" + jn[j]; };
-  const double w0 = o.widths.empty() ? 0.03 : o.widths.front();
 
   // Joints tested: those with data (a held-base segment's unmeasured rows are not).
   std::vector<int> tested;
@@ -173,69 +263,8 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
   long pooled_n = 0;
 
   for (int j : tested) {
-    // Dictionary (sparse model) and raw features (trees).
     std::vector<Column> dict, raw;
-    auto add = [&](std::vector<Column>& to, std::string name, std::vector<std::string> vars,
-                   const std::function<double(long)>& f) {
-      Column c{std::move(name), std::move(vars), Eigen::VectorXd(N)};
-      for (long k = 0; k < N; ++k) c.x[k] = f(k);
-      to.push_back(std::move(c));
-    };
-    const std::string q = qn(j), v = vn(j), a = an(j), tau = tn(j);
-    if (has_q) {
-      add(dict, q, {q}, [&](long k) { return Q(k, j); });
-      add(dict, "sin(" + q + ")", {q}, [&](long k) { return std::sin(Q(k, j)); });
-      add(dict, "cos(" + q + ")", {q}, [&](long k) { return std::cos(Q(k, j)); });
-    }
-    add(dict, v, {v}, [&](long k) { return V(k, j); });
-    add(dict, "|" + v + "|", {v}, [&](long k) { return std::fabs(V(k, j)); });
-    add(dict, v + "|" + v + "|", {v}, [&](long k) { return V(k, j) * std::fabs(V(k, j)); });
-    for (double w : o.widths) {
-      const std::string th = "tanh(" + v + "/" + fmt("%g", w) + ")";
-      add(dict, th, {v}, [&, w](long k) { return std::tanh(V(k, j) / w); });
-      add(dict, tau + "*" + th, {tau, v}, [&, w](long k) { return T(k, j) * std::tanh(V(k, j) / w); });
-      add(dict, "|" + tau + "|*" + th, {tau, v}, [&, w](long k) { return std::fabs(T(k, j)) * std::tanh(V(k, j) / w); });
-    }
-    add(dict, a, {a}, [&](long k) { return A(k, j); });
-    add(dict, tau, {tau}, [&](long k) { return T(k, j); });
-    const std::string th0 = "tanh(" + v + "/" + fmt("%g", w0) + ")";
-    if (has_q) {
-      add(dict, "sin(" + q + ")*" + th0, {q, v}, [&](long k) { return std::sin(Q(k, j)) * std::tanh(V(k, j) / w0); });
-      add(dict, "cos(" + q + ")*" + th0, {q, v}, [&](long k) { return std::cos(Q(k, j)) * std::tanh(V(k, j) / w0); });
-      add(dict, q + "*" + th0, {q, v}, [&](long k) { return Q(k, j) * std::tanh(V(k, j) / w0); });
-      add(dict, q + "*" + v, {q, v}, [&](long k) { return Q(k, j) * V(k, j); });
-    }
-    for (int l = 0; l < nl; ++l) {
-      const std::string L = fmt("%g s", o.lags[l]);
-      const double rmsd = std::sqrt(Dq[l].col(j).squaredNorm() / N) + 1e-12;
-      add(dict, v + "(t-" + L + ")", {v}, [&, l](long k) { return Vlag[l](k, j); });
-      add(dict, q + "(t)-" + q + "(t-" + L + ")", {q}, [&, l](long k) { return Dq[l](k, j); });
-      add(dict, "tanh((" + q + "(t)-" + q + "(t-" + L + "))/" + fmt("%.2g", 0.1 * rmsd) + ")", {q},
-          [&, l, rmsd](long k) { return std::tanh(Dq[l](k, j) / (0.1 * rmsd)); });
-      add(raw, v + "(t-" + L + ")", {v}, [&, l](long k) { return Vlag[l](k, j); });
-      add(raw, q + "(t)-" + q + "(t-" + L + ")", {q}, [&, l](long k) { return Dq[l](k, j); });
-    }
-    for (int m : nb[j]) {
-      const std::string qm = qn(m), vm = vn(m), am = an(m);
-      if (has_q) {
-        add(dict, qm, {qm}, [&, m](long k) { return Q(k, m); });
-        add(dict, "sin(" + qm + ")", {qm}, [&, m](long k) { return std::sin(Q(k, m)); });
-        add(dict, "cos(" + qm + ")", {qm}, [&, m](long k) { return std::cos(Q(k, m)); });
-        add(dict, "sin(" + q + "+" + qm + ")", {q, qm}, [&, m](long k) { return std::sin(Q(k, j) + Q(k, m)); });
-        add(dict, "cos(" + q + "+" + qm + ")", {q, qm}, [&, m](long k) { return std::cos(Q(k, j) + Q(k, m)); });
-      }
-      add(dict, vm, {vm}, [&, m](long k) { return V(k, m); });
-      add(dict, "tanh(" + vm + "/" + fmt("%g", w0) + ")", {vm}, [&, m](long k) { return std::tanh(V(k, m) / w0); });
-      add(dict, am, {am}, [&, m](long k) { return A(k, m); });
-      add(dict, v + "*" + vm, {v, vm}, [&, m](long k) { return V(k, j) * V(k, m); });
-    }
-    // Raw state for the trees.
-    for (int m : [&] { std::vector<int> js{j}; js.insert(js.end(), nb[j].begin(), nb[j].end()); return js; }()) {
-      if (has_q) add(raw, qn(m), {qn(m)}, [&, m](long k) { return Q(k, m); });
-      add(raw, vn(m), {vn(m)}, [&, m](long k) { return V(k, m); });
-      add(raw, an(m), {an(m)}, [&, m](long k) { return A(k, m); });
-      add(raw, tn(m), {tn(m)}, [&, m](long k) { return T(k, m); });
-    }
+    stateDictionary(model, st, j, nb[j], o, dict, raw);
     Eigen::MatrixXd X(N, static_cast<Eigen::Index>(dict.size())), F(N, static_cast<Eigen::Index>(raw.size()));
     for (size_t c = 0; c < dict.size(); ++c) X.col(c) = dict[c].x;
     for (size_t c = 0; c < raw.size(); ++c) F.col(c) = raw[c].x;
