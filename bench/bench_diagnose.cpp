@@ -42,6 +42,10 @@ void BM_DiagnoseLog(benchmark::State& state) {
       tools::InputStats st;
       return tools::streamFileRows(log, model, so, sink, st, e);
     };
+    seg.stream_state = [&](const estimator::DiagnosisStateSink& sink, std::string* e) {  // q for the last stage
+      tools::InputStats st;
+      return tools::streamFileStateRows(log, model, so, sink, st, e);
+    };
     estimator::DiagnosisResult res;
     if (!estimator::diagnose(model, {seg}, {}, estimator::DiagnoseOptions{}, res, &err)) {
       state.SkipWithError(err.c_str());

@@ -17,6 +17,7 @@ DEB_PACKAGES=(
   libgtest-dev libbenchmark-dev libyaml-cpp-dev libcereal-dev libcli11-dev nlohmann-json3-dev
   iproute2 util-linux xvfb xauth x11-apps imagemagick xdotool
   python3-matplotlib
+  libxgboost-dev
   clang libclang-rt-14-dev llvm-14
 )
 PROXSUITE_VERSION=0.8.0

@@ -398,6 +398,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       Tall_.row(i - from) = s.tau.transpose();
     } else if (keep(i)) {
       setSensorTorque(s.tau);
+      joint_position_ = q.row(i).transpose();
       sink_(s.t, kin.K, y);
       ++emitted_;
     }
@@ -413,6 +414,7 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       if (!keep(i)) continue;
       for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);
       setSensorTorque(Tall_.row(i).transpose());
+      joint_position_ = q.row(i).transpose();
       sink_(buffer_[i].t, K, Yall.row(i).transpose());
       ++emitted_;
     }

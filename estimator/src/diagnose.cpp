@@ -946,9 +946,9 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
       rs.v = cache.v;
       rs.a = cache.a;
       rs.tau_model = cache.tau;
+      rs.held_base = segment(s).held_base;
       long i = 0;
-      const bool ok = segment(s).stream(
-          [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
+      const DiagnosisRowSink row = [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd&) {
             if (i >= cache.n) return;
             for (int r = 0; r < nv; ++r) {
               double pr = 0.0;
@@ -961,8 +961,18 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
               for (int r = 0; r < nv; ++r)
                 rs.after(i, r) -= K(r, payloadParam(pcol[e / 4] + static_cast<int>(e % 4))) * xa[payload_pos[e]];
             ++i;
-          },
-          error);
+          };
+      // With Segment::stream_state the same rows come with q (for the last stage's dictionary).
+      if (segment(s).stream_state) rs.q.resize(cache.n, nj);
+      const bool ok = segment(s).stream_state
+                          ? segment(s).stream_state(
+                                [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
+                                    const Eigen::VectorXd& ts, const Eigen::VectorXd& q) {
+                                  if (i < cache.n && q.size() == nj) rs.q.row(i) = q.transpose();
+                                  row(t, K, y, ts);
+                                },
+                                error)
+                          : segment(s).stream(row, error);
       if (!ok) return false;
       if (i != cache.n) return fail(segment(s).name + ": the data changed between two reads");
       out.series.push_back(std::move(rs));
@@ -1015,6 +1025,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
     out.pooled_after = std::sqrt(pa / std::max(nh, 1L));
     out.train_pooled_before = std::sqrt(tb / std::max(nt, 1L));
     out.train_pooled_after = std::sqrt(ta / std::max(nt, 1L));
+    // The last stage: is what remains predictable from the state at all?
+    if (!residualPredictability(model, out.series, opt.alpha, opt.min_explained, out.pooled_after, opt.predictability,
+                                out.predictability, error))
+      return false;
   }
 
   // Payload candidates without a held declared model: the identified link parameters absorb any payload exactly

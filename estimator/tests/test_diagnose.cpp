@@ -168,6 +168,9 @@ TEST_P(SingleEffect, FoundOnTheRightJointWithTheRightKindAndValue) {
   EXPECT_LT(res.pooled_after, 1.1 * sigma);
   EXPECT_LT(res.coordinates[c.joint].rms_after, 1.1 * sigma);
   EXPECT_LT(res.coordinates[c.joint].rms_after, res.coordinates[c.joint].rms_before);
+  // What remains is white noise: the last stage (residual predictability) names nothing.
+  EXPECT_TRUE(res.predictability.ran);
+  for (const JointPredictability& j : res.predictability.joints) EXPECT_FALSE(j.predictable) << j.sentence;
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, SingleEffect,
@@ -177,16 +180,22 @@ INSTANTIATE_TEST_SUITE_P(Kinds, SingleEffect,
                                            Case{EffectKind::Delay, 3, 0.01}));
 
 // Clean data (no undeclared effect, different noise seeds): no finding at the documented false-alarm rate
-// alpha = 0.01 per data set; 10 seeds may give at most one.
+// alpha = 0.01 per data set; 10 seeds may give at most one. The last stage (residual predictability, the same alpha)
+// likewise: at most one data set with a joint named.
 TEST(Diagnose, CleanDataGiveNoFinding) {
-  int found = 0;
+  int found = 0, predictable = 0;
   for (uint64_t seed = 100; seed < 110; ++seed) {
     const DiagnosisResult res = runDiagnosis(seed, 0.05, {});
     for (const Finding& f : res.findings) std::printf("seed %llu: %s\n", (unsigned long long)seed, f.sentence.c_str());
     found += res.findings.empty() ? 0 : 1;
     EXPECT_NEAR(res.pooled_before, 0.05, 0.005);
+    EXPECT_EQ(res.predictability.joints.size(), 7u);
+    bool any = false;
+    for (const JointPredictability& j : res.predictability.joints) any = any || j.predictable;
+    predictable += any ? 1 : 0;
   }
   EXPECT_LE(found, 1);
+  EXPECT_LE(predictable, 1);
 }
 
 // The first joint's axis is vertical: its armature column (joint acceleration) is the link's own Izz column,

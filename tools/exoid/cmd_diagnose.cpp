@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "diagnose_predictability.hpp"
 #include "exoid/common/cli.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/diagnose.hpp"
@@ -36,10 +37,13 @@ constexpr char kDescription[] =
     "sign, Stribeck, constant offset, armature, torque-sensor gain error, time delay) by forward selection with\n"
     "a one-sided paired t-test over held-out time-block folds (Bonferroni over the candidates of each step:\n"
     "false-alarm rate <= --alpha per data set), re-identifies with the accepted effects and reports the torque\n"
-    "RMSE before and after on the validation data, per joint and pooled.\n\n"
+    "RMSE before and after on the validation data, per joint and pooled. A last stage asks whether what remains of\n"
+    "each joint's residual is predictable from the state at all (sparse regression over a dictionary of the state,\n"
+    "gradient-boosted trees; held-out time blocks, Bonferroni over the joints) and names the state variables.\n\n"
     "Writes to --out: report.md (findings in words, tables, plots), summary.json, rmse.csv, candidates.csv,\n"
     "residual_<segment>.csv, effects.yaml (the sidecar of the augmented model) next to a copy of the URDF,\n"
-    "plot_diagnose.py and its PNGs (rmse.png, residual_vs_signal.png, spectra.png; python3 with matplotlib).\n\n"
+    "plot_diagnose.py and its PNGs (rmse.png, residual_vs_signal.png, spectra.png; python3 with matplotlib);\n"
+    "the last stage's predictability.csv, predictability_series.csv, plot_predictability.py, predictability.png.\n\n"
     "exit codes: 0 success, 2 bad input or data that cannot identify the declared model (one line on stderr),\n"
     "            3 the log is damaged (damaged stretches, a cut-off tail, rejected events; nothing written; see\n"
     "            --allow-partial).";
@@ -229,10 +233,18 @@ int cmdDiagnose(int argc, char** argv) {
                "on stderr); with this flag its readable part is used and the damage reported on stdout, in summary.json "
                "and report.md");
   app.add_flag("--no-plots", no_plots, "do not run the plot script (it is still written)");
+  bool no_predictability = false;
+  app.add_flag("--no-predictability", no_predictability, "skip the last stage, which asks whether the residual left after "
+               "augmentation is predictable from the state (sparse regression over a dictionary of q, v, a of each joint "
+               "and its neighbours, their products and history; gradient-boosted trees; docs/diagnose.md)");
+  app.add_option("--predictability-block", opt.predictability.block_seconds, "s: held-out blocks of the last stage's test "
+                 "and the guard between its training and held-out data; longer than the time over which noise in the "
+                 "residual is correlated (default 5)")->transform(common::strictNumber(0.01, 1e6));
   app.add_option("--python", python, "python interpreter for the plots (default python3; needs matplotlib and numpy)");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   if (width_opt->count() > 0) opt.coulomb_widths = {opt.shape.coulomb_width};  // one width, as asked
   opt.folds = folds;
+  opt.predictability.enabled = !no_predictability;
   opt.max_effects = max_effects;
   opt.declared_friction = declared == "rigid+friction";
   if (!kinds.empty()) {
@@ -282,6 +294,10 @@ int cmdDiagnose(int argc, char** argv) {
     s.stream = [&, path, k, held](const est::DiagnosisRowSink& sink, std::string* e) {
       stats[k] = tools::InputStats{};
       return tools::streamFileRows(path, model, held ? so_held : so, sink, stats[k], e);
+    };
+    s.stream_state = [&, path, k, held](const est::DiagnosisStateSink& sink, std::string* e) {
+      stats[k] = tools::InputStats{};
+      return tools::streamFileStateRows(path, model, held ? so_held : so, sink, stats[k], e);
     };
     return s;
   };
@@ -562,6 +578,10 @@ int cmdDiagnose(int argc, char** argv) {
     js["coordinates"].push_back({{"name", c.name}, {"rmse_before", c.rms_before}, {"rmse_after", c.rms_after},
                                  {"train_rmse_before", c.train_rms_before}, {"train_rmse_after", c.train_rms_after},
                                  {"noise_floor", c.noise_floor}, {"lag1_before", c.lag1_before}, {"lag1_after", c.lag1_after}});
+  std::string predictability_md, predictability_console;
+  if (!writePredictability(out_dir, model, res.predictability, opt.predictability, !no_plots, python, js,
+                           &predictability_md, &predictability_console, &err))
+    return fail(err);
   {
     std::ofstream f;
     if (!open("summary.json", f)) return 2;
@@ -695,6 +715,7 @@ int cmdDiagnose(int argc, char** argv) {
       md << "\n";
     }
   }
+  md << predictability_md;
   md << "## Plots\n\n";
   if (plotted)
     md << "![RMSE per coordinate](rmse.png)\n\n![Residual against the chosen signal](residual_vs_signal.png)\n\n"
@@ -718,6 +739,7 @@ int cmdDiagnose(int argc, char** argv) {
   for (const est::PayloadFinding& pf : res.payloads) std::printf("  %s\n", pf.sentence.c_str());
   for (const est::Finding& f : res.findings) std::printf("  %s\n", f.sentence.c_str());
   if (res.findings.empty() && res.payloads.empty()) std::printf("  no finding\n");
+  std::printf("%s", predictability_console.c_str());
   std::printf("%-16s %10s %10s\n", "coordinate", "before", "after");
   for (const est::CoordinateSummary& c : res.coordinates) std::printf("%-16s %10.4f %10.4f\n", c.name.c_str(), c.rms_before, c.rms_after);
   std::printf("%-16s %10.4f %10.4f   (%s RMSE, N m)\n", "pooled", res.pooled_before, res.pooled_after,

@@ -134,6 +134,20 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
       stats, error);
 }
 
+bool streamFileStateRows(const std::string& path, const Model& model, const SourceOptions& options,
+                         const StateRowSink& rows, InputStats& stats, std::string* error) {
+  if (options.effects) {
+    if (error) *error = "streamFileStateRows: sensor torques and sidecar corrections together are not supported";
+    return false;
+  }
+  return streamRows(
+      path, model, options,
+      [&](const estimator::DatasetBuilder& b, double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+        rows(t, K, y, b.sensorTorque(), b.jointPosition());
+      },
+      stats, error);
+}
+
 bool readSamples(const std::string& path, const Model& model, const SourceOptions& options,
                  std::vector<estimator::MeasuredSample>& out, InputStats& stats, std::string* error) {
   if (options.held_base) {  // the study's path: held-base runs go through streamFileRows

@@ -160,6 +160,9 @@ class DatasetBuilder {
   /// the base rows), processed like y (filtered with parallel filtering). Valid only inside the sink call;
   /// y minus it is the part the external wrenches (plates) contribute.
   const Eigen::VectorXd& sensorTorque() const { return sensor_torque_; }
+  /// The joint positions q [njoints] the row being handed to the sink was computed from (filtered in Inputs mode, as
+  /// measured in Parallel mode). Valid only inside the sink call.
+  const Eigen::VectorXd& jointPosition() const { return joint_position_; }
   /// Samples not emitted because of trim_edges.
   long trimmed() const { return trimmed_; }
   /// Margin (samples) on each side of a block for the filter's transient to die out.
@@ -181,6 +184,7 @@ class DatasetBuilder {
   Eigen::VectorXd sensor_torque_;       ///< see sensorTorque()
   int margin_ = 0;
   uint64_t rng_ = 0;
+  Eigen::VectorXd joint_position_;      ///< see jointPosition()
 };
 
 }  // namespace exoid::estimator

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/residual_predictability.hpp"
 #include "exoid/model/model.hpp"
 
 namespace exoid::estimator {
@@ -69,6 +70,9 @@ EffectShape effectShape(const EffectShape& shape, const Effect& effect);
 /// also holds the plate wrenches mapped through the leg, which no sensor gain scales.
 using DiagnosisRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
                                             const Eigen::VectorXd& tau_sensor)>;
+/// DiagnosisRowSink plus the joint positions q [njoints] the row was computed from.
+using DiagnosisStateSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
+                                              const Eigen::VectorXd& tau_sensor, const Eigen::VectorXd& q)>;
 /// One run: streams all its samples, in time order, to the sink; must give the same rows every call.
 struct Segment {
   std::string name;
@@ -77,6 +81,9 @@ struct Segment {
   /// (heldBaseRowMeasured) come as zero rows; they add nothing to the fits and are left out of the row weights
   /// and of every residual figure.
   bool held_base = false;
+  /// Optional: `stream` with the joint positions q [njoints] behind each row (tools::streamFileStateRows). The last
+  /// stage (residual predictability) builds its dictionary from q; without it, only from v, a and their history.
+  std::function<bool(const DiagnosisStateSink& sink, std::string* error)> stream_state = nullptr;
 };
 
 /// Whether row `row` of the segment's samples is data: every row, except the unmeasured ones of a held-base segment
@@ -138,6 +145,9 @@ struct PayloadFinding {
   int tested = 0;          ///< candidates tested in its step (Bonferroni factor)
   std::string status;      ///< first step: like CandidateScore::status; findings: "accepted"
   std::string sentence;
+  /// The last stage: is the augmented model's residual predictable from the state? (residual_predictability.hpp;
+  /// its test uses alpha and min_explained.)
+  PredictabilityOptions predictability;
 };
 
 /// One accepted effect.
@@ -191,6 +201,8 @@ struct ResidualSeries {
   Eigen::MatrixXd before, after;  ///< [n x nv] y - prediction of the declared / augmented model
   Eigen::MatrixXd v, a;           ///< [n x nj] joint velocity (from K's fv column) and acceleration (dv/dt)
   Eigen::MatrixXd tau_model;      ///< [n x nv] declared model's prediction
+  Eigen::MatrixXd q;              ///< [n x nj] joint positions (segments with Segment::stream_state; else empty)
+  bool held_base = false;         ///< Segment::held_base
 };
 
 struct DiagnosisResult {
@@ -208,6 +220,7 @@ struct DiagnosisResult {
   std::vector<ResidualSeries> series;  ///< one per segment, training first
   std::vector<PayloadFinding> payloads;             ///< accepted payloads, in the order accepted (values: final fit)
   std::vector<PayloadFinding> payload_first_step;   ///< every link's payload candidate in the first step
+  PredictabilityResult predictability;  ///< the last stage, on the residual after augmentation
 };
 
 /// The diagnosis loop. train: at least one segment; validate: may be empty (then "held-out" numbers are the

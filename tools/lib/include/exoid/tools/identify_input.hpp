@@ -62,6 +62,12 @@ using TorqueRowSink = std::function<void(double t, const Eigen::MatrixXd& K, con
                                          const Eigen::VectorXd& tau_sensor)>;
 bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
                     const TorqueRowSink& sink, InputStats& stats, std::string* error);
+/// The TorqueRowSink rows with the joint positions q [njoints] they were computed from
+/// (DatasetBuilder::jointPosition()): the residual-predictability stage of `exoid diagnose` needs the state.
+using StateRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
+                                        const Eigen::VectorXd& tau_sensor, const Eigen::VectorXd& q)>;
+bool streamFileStateRows(const std::string& path, const Model& model, const SourceOptions& options,
+                         const StateRowSink& sink, InputStats& stats, std::string* error);
 
 /// Streams one file (LCM log or CSV) through the dataset pipeline (filtering, K and y) into the accumulator.
 /// Floating base: the feet are the model's right_foot / left_foot bodies; without a measured base position

@@ -1,0 +1,473 @@
+// Is the residual the augmented model leaves predictable from the state? (residual_predictability.hpp)
+#include "exoid/estimator/residual_predictability.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <map>
+#include <numeric>
+
+#include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/diagnose.hpp"
+#include "exoid/estimator/sparse_regression.hpp"
+
+namespace exoid::estimator {
+
+namespace {
+
+// A column of a dictionary and the state variables it is a function of.
+struct Column {
+  std::string name;
+  std::vector<std::string> vars;
+  Eigen::VectorXd x;
+};
+
+// Held-out figures of one method on one joint from per-block sums.
+struct BlockTest {
+  double share = 0.0, se = 0.0, p = 1.0;
+};
+
+BlockTest blockTest(const std::vector<double>& ssr, const std::vector<double>& sse) {
+  BlockTest bt;
+  const int B = static_cast<int>(ssr.size());
+  const double R = std::accumulate(ssr.begin(), ssr.end(), 0.0), E = std::accumulate(sse.begin(), sse.end(), 0.0);
+  if (B == 0 || !(R > 0.0)) return bt;
+  bt.share = 1.0 - E / R;
+  if (B < 3) return bt;  // no test with fewer than 3 blocks
+  // Delete-one-block jackknife of the share.
+  std::vector<double> s(B);
+  double ms = 0.0;
+  for (int b = 0; b < B; ++b) {
+    const double r = R - ssr[b], e = E - sse[b];
+    s[b] = r > 0.0 ? 1.0 - e / r : 0.0;
+    ms += s[b] / B;
+  }
+  double v = 0.0;
+  for (double x : s) v += (x - ms) * (x - ms);
+  bt.se = std::sqrt((B - 1.0) / B * v);
+  // One-sided t-test of the mean block gain g_b = ssr_b - sse_b > 0.
+  double mg = 0.0;
+  for (int b = 0; b < B; ++b) mg += (ssr[b] - sse[b]) / B;
+  double vg = 0.0;
+  for (int b = 0; b < B; ++b) vg += (ssr[b] - sse[b] - mg) * (ssr[b] - sse[b] - mg);
+  vg /= (B - 1.0);
+  if (vg > 0.0) bt.p = studentTUpperTail(mg / std::sqrt(vg / B), B - 1.0);
+  else bt.p = mg > 0.0 ? 0.0 : 1.0;
+  return bt;
+}
+
+std::string fmt(const char* f, double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, x);
+  return buf;
+}
+
+// The state at the stage samples [N x nj]: q (zero when not given), v, a, the model torque tau, and per lag L
+// v(t - L) and q(t) - q(t - L).
+struct StateTable {
+  bool has_q = false;
+  Eigen::MatrixXd Q, V, A, T;
+  std::vector<Eigen::MatrixXd> Vlag, Dq;
+};
+
+// The joint's dictionary (the sparse model's terms) and raw state features (the trees'), over the stage samples:
+// residual_predictability.hpp lists the terms. Every column names the state variables it is a function of.
+void stateDictionary(const Model& model, const StateTable& st, int j, const std::vector<int>& neighbours,
+                     const PredictabilityOptions& o, std::vector<Column>& dict, std::vector<Column>& raw) {
+  const long N = st.Q.rows();
+  const int nl = static_cast<int>(o.lags.size());
+  const bool has_q = st.has_q;
+  const Eigen::MatrixXd &Q = st.Q, &V = st.V, &A = st.A, &T = st.T;
+  const std::vector<Eigen::MatrixXd>& Vlag = st.Vlag;
+  const std::vector<Eigen::MatrixXd>& Dq = st.Dq;
+  const std::vector<std::string>& jn = model.joint_names;
+  auto qn = [&](int i) { return "q_" + jn[i]; };
+  auto vn = [&](int i) { return "v_" + jn[i]; };
+  auto an = [&](int i) { return "a_" + jn[i]; };
+  auto tn = [&](int i) { return "tau_" + jn[i]; };
+  const double w0 = o.widths.empty() ? 0.03 : o.widths.front();
+  // Dictionary (sparse model) and raw features (trees).
+  auto add = [&](std::vector<Column>& to, std::string name, std::vector<std::string> vars,
+                 const std::function<double(long)>& f) {
+    Column c{std::move(name), std::move(vars), Eigen::VectorXd(N)};
+    for (long k = 0; k < N; ++k) c.x[k] = f(k);
+    to.push_back(std::move(c));
+  };
+  const std::string q = qn(j), v = vn(j), a = an(j), tau = tn(j);
+  if (has_q) {
+    add(dict, q, {q}, [&](long k) { return Q(k, j); });
+    add(dict, "sin(" + q + ")", {q}, [&](long k) { return std::sin(Q(k, j)); });
+    add(dict, "cos(" + q + ")", {q}, [&](long k) { return std::cos(Q(k, j)); });
+  }
+  add(dict, v, {v}, [&](long k) { return V(k, j); });
+  add(dict, "|" + v + "|", {v}, [&](long k) { return std::fabs(V(k, j)); });
+  add(dict, v + "|" + v + "|", {v}, [&](long k) { return V(k, j) * std::fabs(V(k, j)); });
+  for (double w : o.widths) {
+    const std::string th = "tanh(" + v + "/" + fmt("%g", w) + ")";
+    add(dict, th, {v}, [&, w](long k) { return std::tanh(V(k, j) / w); });
+    add(dict, tau + "*" + th, {tau, v}, [&, w](long k) { return T(k, j) * std::tanh(V(k, j) / w); });
+    add(dict, "|" + tau + "|*" + th, {tau, v}, [&, w](long k) { return std::fabs(T(k, j)) * std::tanh(V(k, j) / w); });
+  }
+  add(dict, a, {a}, [&](long k) { return A(k, j); });
+  add(dict, tau, {tau}, [&](long k) { return T(k, j); });
+  const std::string th0 = "tanh(" + v + "/" + fmt("%g", w0) + ")";
+  if (has_q) {
+    add(dict, "sin(" + q + ")*" + th0, {q, v}, [&](long k) { return std::sin(Q(k, j)) * std::tanh(V(k, j) / w0); });
+    add(dict, "cos(" + q + ")*" + th0, {q, v}, [&](long k) { return std::cos(Q(k, j)) * std::tanh(V(k, j) / w0); });
+    add(dict, q + "*" + th0, {q, v}, [&](long k) { return Q(k, j) * std::tanh(V(k, j) / w0); });
+    add(dict, q + "*" + v, {q, v}, [&](long k) { return Q(k, j) * V(k, j); });
+  }
+  for (int l = 0; l < nl; ++l) {
+    const std::string L = fmt("%g s", o.lags[l]);
+    const double rmsd = std::sqrt(Dq[l].col(j).squaredNorm() / N) + 1e-12;
+    add(dict, v + "(t-" + L + ")", {v}, [&, l](long k) { return Vlag[l](k, j); });
+    add(dict, q + "(t)-" + q + "(t-" + L + ")", {q}, [&, l](long k) { return Dq[l](k, j); });
+    add(dict, "tanh((" + q + "(t)-" + q + "(t-" + L + "))/" + fmt("%.2g", 0.1 * rmsd) + ")", {q},
+        [&, l, rmsd](long k) { return std::tanh(Dq[l](k, j) / (0.1 * rmsd)); });
+    add(raw, v + "(t-" + L + ")", {v}, [&, l](long k) { return Vlag[l](k, j); });
+    add(raw, q + "(t)-" + q + "(t-" + L + ")", {q}, [&, l](long k) { return Dq[l](k, j); });
+  }
+  for (int m : neighbours) {
+    const std::string qm = qn(m), vm = vn(m), am = an(m);
+    if (has_q) {
+      add(dict, qm, {qm}, [&, m](long k) { return Q(k, m); });
+      add(dict, "sin(" + qm + ")", {qm}, [&, m](long k) { return std::sin(Q(k, m)); });
+      add(dict, "cos(" + qm + ")", {qm}, [&, m](long k) { return std::cos(Q(k, m)); });
+      add(dict, "sin(" + q + "+" + qm + ")", {q, qm}, [&, m](long k) { return std::sin(Q(k, j) + Q(k, m)); });
+      add(dict, "cos(" + q + "+" + qm + ")", {q, qm}, [&, m](long k) { return std::cos(Q(k, j) + Q(k, m)); });
+    }
+    add(dict, vm, {vm}, [&, m](long k) { return V(k, m); });
+    add(dict, "tanh(" + vm + "/" + fmt("%g", w0) + ")", {vm}, [&, m](long k) { return std::tanh(V(k, m) / w0); });
+    add(dict, am, {am}, [&, m](long k) { return A(k, m); });
+    add(dict, v + "*" + vm, {v, vm}, [&, m](long k) { return V(k, j) * V(k, m); });
+  }
+  // Raw state for the trees.
+  for (int m : [&] { std::vector<int> js{j}; js.insert(js.end(), neighbours.begin(), neighbours.end()); return js; }()) {
+    if (has_q) add(raw, qn(m), {qn(m)}, [&, m](long k) { return Q(k, m); });
+    add(raw, vn(m), {vn(m)}, [&, m](long k) { return V(k, m); });
+    add(raw, an(m), {an(m)}, [&, m](long k) { return A(k, m); });
+    add(raw, tn(m), {tn(m)}, [&, m](long k) { return T(k, m); });
+  }
+}
+
+
+}  // namespace
+
+bool residualPredictability(const Model& model, const std::vector<ResidualSeries>& series, double alpha, double min_share,
+                            double pooled_rms, const PredictabilityOptions& o, PredictabilityResult& out,
+                            std::string* error) {
+  out = PredictabilityResult{};
+  const int nj = model.njoints;
+  if (nj == 0 || series.empty() || !o.enabled) return true;
+  if (!(o.rate_hz > 0.0) || !(o.block_seconds > 0.0) || o.folds < 3) {
+    if (error) *error = "residual predictability: rate_hz and block_seconds must be positive and folds >= 3";
+    return false;
+  }
+  bool has_q = true;
+  for (const ResidualSeries& rs : series) has_q = has_q && rs.q.rows() == rs.t.size() && rs.q.cols() == nj;
+  const double max_lag = o.lags.empty() ? 0.0 : *std::max_element(o.lags.begin(), o.lags.end());
+  const int nl = static_cast<int>(o.lags.size());
+
+  // Stage samples: every segment decimated to rate_hz, from max_lag after its start (the lagged terms need history).
+  struct Sample {
+    int seg;
+    long i;  // index in the segment
+  };
+  std::vector<Sample> samples;
+  std::vector<double> seg_dt(series.size(), 0.0);
+  for (size_t s = 0; s < series.size(); ++s) {
+    const ResidualSeries& rs = series[s];
+    const long n = rs.t.size();
+    if (n < 3) continue;
+    std::vector<double> d(n - 1);
+    for (long i = 0; i + 1 < n; ++i) d[i] = rs.t[i + 1] - rs.t[i];
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    const double dt = d[d.size() / 2];
+    if (!(dt > 0.0)) continue;
+    seg_dt[s] = dt;
+    const long step = std::max(1L, std::lround(1.0 / (o.rate_hz * dt)));
+    for (long i = std::lround(max_lag / dt); i < n; i += step) samples.push_back({static_cast<int>(s), i});
+  }
+  const long N = static_cast<long>(samples.size());
+  if (N == 0) return true;
+  Eigen::VectorXd tt(N);
+  std::vector<int> seg(N);
+  std::vector<bool> val(N);
+  for (long k = 0; k < N; ++k) {
+    seg[k] = samples[k].seg, tt[k] = series[samples[k].seg].t[samples[k].i], val[k] = series[samples[k].seg].validation;
+  }
+  // Base state variables at the stage samples [N x nj]; lagged [N x nj] per lag.
+  StateTable st;
+  st.has_q = has_q;
+  st.Q.resize(N, nj), st.V.resize(N, nj), st.A.resize(N, nj), st.T.resize(N, nj);
+  st.Vlag.assign(nl, Eigen::MatrixXd(N, nj)), st.Dq.assign(nl, Eigen::MatrixXd(N, nj));
+  Eigen::MatrixXd Rz(N, nj);
+  Eigen::MatrixXd &Q = st.Q, &V = st.V, &A = st.A, &T = st.T;
+  std::vector<Eigen::MatrixXd>& Vlag = st.Vlag;
+  std::vector<Eigen::MatrixXd>& Dq = st.Dq;
+  std::vector<Eigen::MatrixXd> cumv(series.size());  // integral of v (q up to a constant) when q is not given
+  if (!has_q)
+    for (size_t s = 0; s < series.size(); ++s) {
+      const ResidualSeries& rs = series[s];
+      cumv[s] = Eigen::MatrixXd::Zero(rs.t.size(), nj);
+      for (long i = 1; i < rs.t.size(); ++i)
+        cumv[s].row(i) = cumv[s].row(i - 1) + 0.5 * (rs.t[i] - rs.t[i - 1]) * (rs.v.row(i) + rs.v.row(i - 1));
+    }
+  for (long k = 0; k < N; ++k) {
+    const ResidualSeries& rs = series[seg[k]];
+    const long i = samples[k].i;
+    for (int j = 0; j < nj; ++j) {
+      const int r = model.jointRow(j);
+      Q(k, j) = has_q ? rs.q(i, j) : 0.0;
+      V(k, j) = rs.v(i, j), A(k, j) = rs.a(i, j), T(k, j) = rs.tau_model(i, r), Rz(k, j) = rs.after(i, r);
+      for (int l = 0; l < nl; ++l) {
+        const long il = std::max(0L, i - std::lround(o.lags[l] / seg_dt[seg[k]]));
+        Vlag[l](k, j) = rs.v(il, j);
+        Dq[l](k, j) = has_q ? rs.q(i, j) - rs.q(il, j) : cumv[seg[k]](i, j) - cumv[seg[k]](il, j);
+      }
+    }
+  }
+  // Kinematic neighbours: the parent body's joint and the children's.
+  std::vector<std::vector<int>> nb(nj);
+  for (int j = 0; j < nj; ++j) {
+    const int pb = model.parent[model.joint_body[j]];
+    if (pb >= 0 && model.jointOfBody(pb) >= 0) {
+      const int pj = model.jointOfBody(pb);
+      nb[j].push_back(pj), nb[pj].push_back(j);
+    }
+  }
+  const std::vector<std::string>& jn = model.joint_names;
+
+  // Joints tested: those with data (a held-base segment's unmeasured rows are not).
+  std::vector<int> tested;
+  std::vector<std::vector<bool>> usable(nj, std::vector<bool>(N, true));
+  for (int j = 0; j < nj; ++j) {
+    long ntr = 0;
+    for (long k = 0; k < N; ++k) {
+      usable[j][k] = !series[seg[k]].held_base || heldBaseRowMeasured(model, model.jointRow(j));
+      if (usable[j][k] && !val[k]) ++ntr;
+    }
+    if (ntr >= 10L * o.folds) tested.push_back(j);
+  }
+  const int methods = o.trees ? 2 : 1;
+  out.ran = true;
+  out.has_q = has_q;
+  out.tests = static_cast<int>(tested.size()) * methods;
+  out.level = out.tests > 0 ? alpha / out.tests : alpha;
+  // Plot series: every segment's stage samples.
+  std::vector<std::vector<long>> seg_rows(series.size());
+  for (long k = 0; k < N; ++k) seg_rows[seg[k]].push_back(k);
+  Eigen::MatrixXd Psp = Eigen::MatrixXd::Constant(N, nj, std::nan("")), Ptr = Psp;
+  double pooled_ss = 0.0;
+  long pooled_n = 0;
+
+  for (int j : tested) {
+    std::vector<Column> dict, raw;
+    stateDictionary(model, st, j, nb[j], o, dict, raw);
+    Eigen::MatrixXd X(N, static_cast<Eigen::Index>(dict.size())), F(N, static_cast<Eigen::Index>(raw.size()));
+    for (size_t c = 0; c < dict.size(); ++c) X.col(c) = dict[c].x;
+    for (size_t c = 0; c < raw.size(); ++c) F.col(c) = raw[c].x;
+    const Eigen::VectorXd r = Rz.col(j);
+
+    // Training rows in time order per segment, cut into contiguous folds.
+    std::vector<long> train_rows, val_rows;
+    for (long k = 0; k < N; ++k)
+      if (usable[j][k]) (val[k] ? val_rows : train_rows).push_back(k);
+    const int nf = o.folds;
+    std::vector<int> fold(N, -1);
+    for (size_t i = 0; i < train_rows.size(); ++i) fold[train_rows[i]] = static_cast<int>(i * nf / train_rows.size());
+    // Training rows outside the folds in `held` and outside block_seconds of them within their segment.
+    auto trainingOutside = [&](const std::vector<int>& held) {
+      std::map<int, std::pair<double, double>> span;  // segment -> time range of the held rows
+      for (long k : train_rows)
+        if (std::find(held.begin(), held.end(), fold[k]) != held.end()) {
+          auto it = span.find(seg[k]);
+          if (it == span.end()) span[seg[k]] = {tt[k], tt[k]};
+          else it->second.first = std::min(it->second.first, tt[k]), it->second.second = std::max(it->second.second, tt[k]);
+        }
+      std::vector<long> rows;
+      for (long k : train_rows) {
+        if (std::find(held.begin(), held.end(), fold[k]) != held.end()) continue;
+        auto it = span.find(seg[k]);
+        if (it != span.end() && tt[k] >= it->second.first - o.block_seconds && tt[k] <= it->second.second + o.block_seconds)
+          continue;
+        rows.push_back(k);
+      }
+      return rows;
+    };
+    auto foldRows = [&](int f) {
+      std::vector<long> rows;
+      for (long k : train_rows)
+        if (fold[k] == f) rows.push_back(k);
+      return rows;
+    };
+    // Sparse model size by cross-validation over the folds in `among` (SSE summed per size).
+    auto chooseSize = [&](const std::vector<int>& among, const std::vector<int>& also_held) {
+      std::vector<double> sse(o.max_terms + 1, 0.0);
+      for (int g : among) {
+        std::vector<int> held = also_held;
+        held.push_back(g);
+        const std::vector<long> tr = trainingOutside(held), te = foldRows(g);
+        if (tr.size() < 20 || te.empty()) continue;
+        const std::vector<SparseModel> path = forwardSelectionPath(X, r, tr, o.max_terms);
+        for (int s = 0; s <= o.max_terms; ++s) {
+          const SparseModel& m = path[std::min<size_t>(s, path.size() - 1)];
+          for (long k : te) sse[s] += std::pow(r[k] - m.predict(X, k), 2);
+        }
+      }
+      return static_cast<int>(std::min_element(sse.begin(), sse.end()) - sse.begin());
+    };
+    // Cross-fitted predictions of the training rows.
+    std::string err;
+    for (int f = 0; f < nf; ++f) {
+      const std::vector<long> tr = trainingOutside({f}), te = foldRows(f);
+      if (te.empty()) continue;
+      if (tr.size() < 20) {  // too little data outside the guard: predict zero (no skill claimed)
+        for (long k : te) Psp(k, j) = Ptr(k, j) = 0.0;
+        continue;
+      }
+      std::vector<int> others;
+      for (int g = 0; g < nf; ++g)
+        if (g != f) others.push_back(g);
+      const int size = chooseSize(others, {f});
+      const std::vector<SparseModel> path = forwardSelectionPath(X, r, tr, size);
+      for (long k : te) Psp(k, j) = path.back().predict(X, k);
+      if (o.trees) {
+        Eigen::VectorXd pred;
+        if (!fitBoostedTrees(F, r, tr, te, o.tree, pred, nullptr, &err)) {
+          if (error) *error = "residual predictability: " + err;
+          return false;
+        }
+        for (size_t i = 0; i < te.size(); ++i) Ptr(te[i], j) = pred[static_cast<Eigen::Index>(i)];
+      }
+    }
+    // Final models on all training rows: validation predictions, terms, importances.
+    std::vector<int> all(nf);
+    std::iota(all.begin(), all.end(), 0);
+    const int size = chooseSize(all, {});
+    const std::vector<SparseModel> path = forwardSelectionPath(X, r, train_rows, size);
+    const SparseModel& sm = path.back();
+    for (long k : val_rows) Psp(k, j) = sm.predict(X, k);
+    Eigen::VectorXd gain = Eigen::VectorXd::Zero(F.cols());
+    if (o.trees) {
+      Eigen::VectorXd pred;
+      if (!fitBoostedTrees(F, r, train_rows, val_rows, o.tree, pred, &gain, &err)) {
+        if (error) *error = "residual predictability: " + err;
+        return false;
+      }
+      for (size_t i = 0; i < val_rows.size(); ++i) Ptr(val_rows[i], j) = pred[static_cast<Eigen::Index>(i)];
+    }
+
+    // Held-out blocks: per segment, block_seconds of the stage samples (a last piece under half a block joins the
+    // one before).
+    JointPredictability jp;
+    jp.joint = j;
+    std::vector<double> ssr, sse_s, sse_t, vr(3, 0.0);
+    double sr = 0.0;
+    long nr = 0, nvr = 0;
+    for (size_t s = 0; s < series.size(); ++s) {
+      std::vector<long> rows;
+      for (long k : seg_rows[s])
+        if (usable[j][k] && !std::isnan(Psp(k, j))) rows.push_back(k);
+      if (rows.empty()) continue;
+      const double t0 = tt[rows.front()], span = tt[rows.back()] - t0;
+      const int nb_seg = std::max(1, static_cast<int>(std::floor(span / o.block_seconds + 0.5)));
+      const size_t first = ssr.size();
+      ssr.resize(first + nb_seg, 0.0), sse_s.resize(first + nb_seg, 0.0), sse_t.resize(first + nb_seg, 0.0);
+      for (long k : rows) {
+        const int b = std::min(nb_seg - 1, static_cast<int>((tt[k] - t0) / o.block_seconds));
+        const double e_s = r[k] - Psp(k, j), e_t = o.trees ? r[k] - Ptr(k, j) : r[k];
+        ssr[first + b] += r[k] * r[k], sse_s[first + b] += e_s * e_s, sse_t[first + b] += e_t * e_t;
+        sr += r[k] * r[k], ++nr;
+        if (series[s].validation) vr[0] += r[k] * r[k], vr[1] += e_s * e_s, vr[2] += e_t * e_t, ++nvr;
+      }
+    }
+    jp.blocks = static_cast<int>(ssr.size());
+    jp.rms = std::sqrt(sr / std::max(nr, 1L));
+    if (nvr > 0) {
+      jp.validation_rms = std::sqrt(vr[0] / nvr);
+      if (vr[0] > 0) jp.validation_share_sparse = 1 - vr[1] / vr[0], jp.validation_share_trees = o.trees ? 1 - vr[2] / vr[0] : 0.0;
+    }
+    const BlockTest bs = blockTest(ssr, sse_s), bt = o.trees ? blockTest(ssr, sse_t) : BlockTest{};
+    jp.share_sparse = bs.share, jp.se_sparse = bs.se, jp.p_sparse = bs.p;
+    jp.share_trees = bt.share, jp.se_trees = bt.se, jp.p_trees = bt.p;
+    const bool sig_s = bs.p < out.level && bs.share >= min_share, sig_t = o.trees && bt.p < out.level && bt.share >= min_share;
+    jp.predictable = sig_s || sig_t;  // the size floor is applied below, once the pooled RMS is known
+    const bool use_trees = o.trees && ((sig_t && (!sig_s || bt.share > bs.share)) || (!jp.predictable && bt.share > bs.share));
+    jp.method = use_trees ? "trees" : "sparse";
+    const BlockTest& b = use_trees ? bt : bs;
+    jp.share = b.share, jp.se = b.se, jp.p = b.p;
+    // The sparse model's terms and their weights (squared standardized coefficients).
+    double tw = 0.0;
+    for (size_t i = 0; i < sm.terms.size(); ++i) {
+      const Eigen::VectorXd& x = dict[sm.terms[i]].x;
+      double m = 0.0, s2 = 0.0;
+      for (long k : train_rows) m += x[k];
+      m /= static_cast<double>(train_rows.size());
+      for (long k : train_rows) s2 += (x[k] - m) * (x[k] - m);
+      const double w = std::pow(sm.coef[static_cast<Eigen::Index>(i)], 2) * s2 / static_cast<double>(train_rows.size());
+      jp.terms.push_back({dict[sm.terms[i]].name, sm.coef[static_cast<Eigen::Index>(i)], w});
+      tw += w;
+    }
+    for (PredictabilityTerm& t : jp.terms) t.weight = tw > 0 ? t.weight / tw : 0.0;
+    std::sort(jp.terms.begin(), jp.terms.end(), [](const auto& x, const auto& y) { return x.weight > y.weight; });
+    std::map<std::string, double> vw;
+    if (use_trees) {
+      const double g = gain.sum();
+      for (size_t c = 0; c < raw.size(); ++c)
+        if (g > 0) vw[raw[c].vars.front()] += gain[static_cast<Eigen::Index>(c)] / g;
+    } else {
+      for (size_t i = 0; i < sm.terms.size(); ++i) {
+        const Column& c = dict[sm.terms[i]];
+        double w = 0.0;
+        for (const PredictabilityTerm& t : jp.terms)
+          if (t.name == c.name) w = t.weight;
+        for (const std::string& var : c.vars) vw[var] += w / c.vars.size();
+      }
+    }
+    for (const auto& [name, w] : vw)
+      if (w > 0.05) jp.variables.push_back({name, w});
+    std::sort(jp.variables.begin(), jp.variables.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
+    jp.predictable_rms = std::sqrt(std::max(jp.share, 0.0)) * jp.rms;
+    pooled_ss += sr, pooled_n += nr;
+    if (jp.predictable) {
+      std::string vars;
+      for (size_t i = 0; i < jp.variables.size() && i < 4; ++i)
+        vars += (i == 0 ? "" : i + 1 == std::min<size_t>(jp.variables.size(), 4) ? " and " : ", ") + jp.variables[i].first;
+      char buf[512];
+      std::snprintf(buf, sizeof buf,
+                    "an effect the model lacks on %s: %.0f %% (+- %.0f) of the remaining held-out residual (RMS %.3g N m) "
+                    "is predictable from the state (%s; p = %.2g, level %.2g); depends on %s",
+                    jn[j].c_str(), 100 * jp.share, 100 * jp.se, jp.rms,
+                    use_trees ? "gradient-boosted trees" : "sparse regression", jp.p, out.level,
+                    vars.empty() ? "(no single variable)" : vars.c_str());
+      jp.sentence = buf;
+    }
+    out.joints.push_back(std::move(jp));
+  }
+  // The relevance floor: a significant predictable part below min_rms_fraction of the pooled held-out RMS is not named.
+  out.pooled_rms = pooled_rms > 0.0 ? pooled_rms : std::sqrt(pooled_ss / std::max(pooled_n, 1L));
+  for (JointPredictability& jp : out.joints) {
+    const bool significant = jp.predictable;
+    jp.predictable = significant && jp.predictable_rms >= o.min_rms_fraction * out.pooled_rms;
+    jp.verdict = jp.predictable ? "predictable" : significant ? "significant but small" : "not significant";
+    if (!jp.predictable) jp.sentence.clear();
+  }
+  for (size_t s = 0; s < series.size(); ++s) {
+    PredictabilityResult::Series ps;
+    ps.segment = series[s].segment;
+    ps.validation = series[s].validation;
+    const long n = static_cast<long>(seg_rows[s].size());
+    ps.t.resize(n), ps.residual.resize(n, nj), ps.sparse.resize(n, nj), ps.trees.resize(n, nj);
+    for (long i = 0; i < n; ++i) {
+      const long k = seg_rows[s][i];
+      ps.t[i] = tt[k];
+      ps.residual.row(i) = Rz.row(k), ps.sparse.row(i) = Psp.row(k), ps.trees.row(i) = Ptr.row(k);
+    }
+    out.series.push_back(std::move(ps));
+  }
+  return true;
+}
+
+}  // namespace exoid::estimator
