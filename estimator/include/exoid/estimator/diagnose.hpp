@@ -131,6 +131,9 @@ struct DiagnoseOptions {
   /// re-distribution of the same load between the two links (KUKA: 0.0094 and 0.00056 beside the flange's), whose
   /// split the data decide by their model error, not by the load.
   double payload_min_separable = 0.05;
+  /// The last stage: is the augmented model's residual predictable from the state? (residual_predictability.hpp;
+  /// its test uses alpha and min_explained.)
+  PredictabilityOptions predictability;
 };
 
 /// A rigid body the data say is fixed to one link (a payload): mass m > 0 and CoM c in the link frame, from the
@@ -145,9 +148,6 @@ struct PayloadFinding {
   int tested = 0;          ///< candidates tested in its step (Bonferroni factor)
   std::string status;      ///< first step: like CandidateScore::status; findings: "accepted"
   std::string sentence;
-  /// The last stage: is the augmented model's residual predictable from the state? (residual_predictability.hpp;
-  /// its test uses alpha and min_explained.)
-  PredictabilityOptions predictability;
 };
 
 /// One accepted effect.
