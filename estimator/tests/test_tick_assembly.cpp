@@ -4,7 +4,11 @@
 
 #include <vector>
 
+#include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/online/online_estimator.hpp"
+#include "exoid/model/urdf.hpp"
+#include "synthetic_sensors.hpp"
 #include "exoid/estimator/tick_assembly.hpp"
 #include "support/alloc_counter.hpp"
 
@@ -206,6 +210,41 @@ TEST(TickAssembly, AlignByTickKeepsTheFirstOfARepeatedStateAndCountsIt) {
   EXPECT_EQ(alignByTick(states, right, left, {}, TickNeeds{}, &skipped, &counts).size(), 4u);
   EXPECT_EQ(skipped, 1);
   EXPECT_EQ(counts.incomplete, 1);
+}
+
+// The online estimator's admit applies the gate's value rules (sample_checks.hpp, the ones fromLcm applies):
+// a quaternion off unit by 2e-6 is malformed (it used to pass: admit only asked |q| > 0.5), by 5e-7 accepted;
+// a torque where the joint has no sensor is malformed. A rejected message leaves its tick open for a good one.
+TEST(Gate, OnlineAdmitAppliesTheGateRules) {
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) << err;
+  OnlineEstimator est(model, computeBaseParameters(model), model.phi, OnlineEstimatorOptions());
+  ASSERT_TRUE(est.ok()) << est.error();
+  testing::SensorTick t = testing::makeSensorTick(model);
+  std::mt19937_64 rng(3);
+  testing::fillSensorTick(model, 0, 0.3, 1.0, rng, t);
+  RobotStateSample s = t.state;
+  s.imu_orientation.coeffs() *= 1.0 + 2e-6;
+  EXPECT_EQ(checkStateValues(s), SampleFault::Malformed);
+  EXPECT_EQ(est.addState(s), InputStatus::Malformed);
+  s = t.state;
+  s.has_tau[1] = false;
+  s.tau[1] = 0.5;
+  EXPECT_EQ(est.addState(s), InputStatus::Malformed);
+  ForcePlateSample p = t.plate[0];
+  p.plate_orientation.coeffs() *= 1.0 - 2e-6;
+  EXPECT_EQ(est.addPlate(p), InputStatus::Malformed);
+  p = t.plate[0];
+  p.cop.y() = std::nan("");
+  EXPECT_EQ(est.addPlate(p), InputStatus::NonFinite);
+  s = t.state;
+  s.imu_orientation.coeffs() *= 1.0 + 5e-7;
+  EXPECT_EQ(est.addState(s), InputStatus::Accepted);
+  EXPECT_EQ(est.addPlate(t.plate[0]), InputStatus::Accepted);
+  EXPECT_EQ(est.rejected(InputStatus::Malformed), 3);
+  EXPECT_EQ(est.rejected(InputStatus::NonFinite), 1);
+  EXPECT_EQ(est.rejected(InputStatus::Duplicate), 0);
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 #include "exoid/estimator/online/online_estimator.hpp"
+#include "exoid/sample_checks.hpp"
 
 #include <algorithm>
 #include <Eigen/QR>
@@ -36,7 +37,6 @@ bool parseForgetting(const std::string& name, Forgetting& f) {
 namespace {
 enum Channel { kStateChannel = kTickState, kRightPlate = kTickPlateRight, kLeftPlate = kTickPlateLeft };
 
-bool finite3(const Eigen::Vector3d& v) { return v.allFinite(); }
 }  // namespace
 
 OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
@@ -224,7 +224,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
 
 long OnlineEstimator::rejected(InputStatus why) const { return rejected_[static_cast<int>(why)]; }
 
-InputStatus OnlineEstimator::admit(int channel, long tick, bool finite, bool sizes_ok, int* slot) {
+InputStatus OnlineEstimator::admit(int channel, long tick, SampleFault values, bool sizes_ok, int* slot) {
   InputStatus s = InputStatus::Accepted;
   // Sizes, then the tick assembly's order (a tick < 0, before the one being assembled, or already given on
   // this channel), then the values; a rejected message leaves the assembly untouched.
@@ -232,7 +232,8 @@ InputStatus OnlineEstimator::admit(int channel, long tick, bool finite, bool siz
   if (!sizes_ok) s = InputStatus::Malformed;
   else if (order == TickPlacement::Duplicate) s = InputStatus::Duplicate;
   else if (order != TickPlacement::Accepted) s = InputStatus::OutOfOrder;  // window 0 with 2 slots: no Overflow
-  else if (!finite) s = InputStatus::NonFinite;
+  else if (values == SampleFault::NonFinite) s = InputStatus::NonFinite;
+  else if (values == SampleFault::Malformed) s = InputStatus::Malformed;
   if (s != InputStatus::Accepted) {
     ++rejected_[static_cast<int>(s)];
     return s;
@@ -249,12 +250,10 @@ void OnlineEstimator::processReleased() {
 
 InputStatus OnlineEstimator::addState(const RobotStateSample& s) {
   if (!ok()) return InputStatus::Malformed;
-  const int nj = model_.njoints;
-  const bool sizes = s.q.size() == nj && s.tau.size() == nj && s.has_tau.size() == nj;
-  const bool finite = sizes && s.q.allFinite() && s.tau.allFinite() && s.imu_orientation.coeffs().allFinite() &&
-                      finite3(s.imu_gyro) && finite3(s.imu_accel) && s.imu_orientation.norm() > 0.5;
+  // The gate's rules (sample_checks.hpp), as the LCM adapters apply them.
+  const bool sizes = stateSizesOk(s, model_.njoints);
   int slot = -1;
-  const InputStatus st = admit(kStateChannel, s.tick, finite, sizes, &slot);
+  const InputStatus st = admit(kStateChannel, s.tick, sizes ? checkStateValues(s) : SampleFault::None, sizes, &slot);
   if (st != InputStatus::Accepted) return st;
   RobotStateSample& held = slot_state_[slot];  // sizes as preallocated: no allocation
   held.tick = s.tick;
@@ -271,11 +270,9 @@ InputStatus OnlineEstimator::addState(const RobotStateSample& s) {
 
 InputStatus OnlineEstimator::addPlate(const ForcePlateSample& p) {
   if (!ok()) return InputStatus::Malformed;
-  const bool sizes = p.plate == 0 || p.plate == 1;
-  const bool finite = finite3(p.force) && finite3(p.moment) && finite3(p.plate_position) &&
-                      p.plate_orientation.coeffs().allFinite() && p.plate_orientation.norm() > 0.5;
+  const bool sizes = plateIndexOk(p);
   int slot = -1;
-  const InputStatus st = admit(sizes ? kRightPlate + p.plate : kRightPlate, p.tick, finite, sizes, &slot);
+  const InputStatus st = admit(sizes ? kRightPlate + p.plate : kRightPlate, p.tick, checkPlateValues(p), sizes, &slot);
   if (st != InputStatus::Accepted) return st;
   slot_plate_[slot][p.plate] = p;
   processReleased();

@@ -29,6 +29,7 @@
 #include "exoid/estimator/online/row_filter.hpp"
 #include "exoid/estimator/tick_assembly.hpp"
 #include "exoid/model/model.hpp"
+#include "exoid/sample_checks.hpp"
 #include "exoid/samples.hpp"
 #include "exoid/status_samples.hpp"
 
@@ -105,8 +106,10 @@ class OnlineEstimator {
   bool ok() const { return error_.empty(); }
   const std::string& error() const { return error_; }
 
-  /// One message of a tick (any order within the tick). Rejected (counted, state untouched): non-finite
-  /// values, a tick equal to (duplicate) or before (out of order) the channel's last accepted one, wrong sizes.
+  /// One message of a tick (any order within the tick). Rejected (counted, state untouched): wrong sizes, a
+  /// tick equal to (duplicate) or before (out of order) the channel's last accepted one, then the gate's value
+  /// rules (sample_checks.hpp, as fromLcm's): non-finite values; a non-unit quaternion or a torque where
+  /// has_tau is false (malformed).
   /// A tick is processed once its state and both plates are in; a tick left incomplete by a newer one is
   /// dropped (it shows up as missing). Allocation-free.
   InputStatus addState(const RobotStateSample& state);
@@ -187,7 +190,7 @@ class OnlineEstimator {
     Eigen::Vector3d plate_position[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     Eigen::Matrix3d foot_rotation[2] = {Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity()};  ///< R_bf(q)
   };
-  InputStatus admit(int channel, long tick, bool finite, bool sizes_ok, int* slot);
+  InputStatus admit(int channel, long tick, SampleFault values, bool sizes_ok, int* slot);
   void processReleased();  // every tick the assembly releases: complete ones are processed
   void assemble(int held, long tick);  // a complete tick's messages -> the ring
   void process();
