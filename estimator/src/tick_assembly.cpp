@@ -3,6 +3,8 @@
 
 #include <algorithm>
 
+#include "exoid/tick_order.hpp"
+
 namespace exoid::estimator {
 
 TickAssembly::TickAssembly(unsigned needed, long window, int capacity)
@@ -25,7 +27,8 @@ TickPlacement TickAssembly::check(int channel, int64_t tick) const {
   const unsigned bit = 1u << channel;
   const int s = find(tick);
   if (s >= 0) return slots_[s].present & bit ? TickPlacement::Duplicate : TickPlacement::Accepted;
-  if (tick == last_[channel]) return TickPlacement::Duplicate;  // its tick already left
+  // The channel's own order rule is MessageGate's (tick_order.hpp): its last tick again is a duplicate.
+  if (tickOrder(last_[channel] >= 0, last_[channel], tick) == TickOrder::Duplicate) return TickPlacement::Duplicate;
   if (tick <= last_released_ || (newest_ >= 0 && tick < newest_ - window_)) return TickPlacement::OutOfOrder;
   return held_ == capacity() ? TickPlacement::Overflow : TickPlacement::Accepted;
 }
