@@ -31,48 +31,56 @@ void footWrenchFromPlate(const ForcePlateSample& p, Eigen::Vector3d& f, Eigen::V
   n = -(R * p.moment) + p.plate_position.cross(f);
 }
 
-namespace {
-template <class T>
-std::unordered_map<int64_t, const T*> byTick(const std::vector<T>& v) {
-  std::unordered_map<int64_t, const T*> m;
-  for (const T& s : v) m.emplace(s.tick, &s);
-  return m;
-}
-}  // namespace
-
 std::vector<AlignedTick> alignByTick(const std::vector<RobotStateSample>& states,
                                      const std::vector<ForcePlateSample>& plates_right,
                                      const std::vector<ForcePlateSample>& plates_left,
                                      const std::vector<GroundTruthSample>& truth, const TickNeeds& needs,
-                                     long* skipped) {
-  const auto st = byTick(states);
-  const auto pr = byTick(plates_right);
-  const auto pl = byTick(plates_left);
-  const auto tr = byTick(truth);
-  std::vector<AlignedTick> out;
-  long skip = 0;
-  auto look = [](const auto& map, int64_t tick) -> decltype(map.begin()->second) {
-    auto it = map.find(tick);
-    return it == map.end() ? nullptr : it->second;
-  };
-  auto consider = [&](int64_t tick, const RobotStateSample* s, const GroundTruthSample* t) {
-    AlignedTick a;
-    a.state = s ? s : look(st, tick);
-    a.plate[0] = look(pr, tick);
-    a.plate[1] = look(pl, tick);
-    a.truth = t ? t : look(tr, tick);
-    if ((needs.state && !a.state) || (needs.plates && (!a.plate[0] || !a.plate[1])) || (needs.truth && !a.truth)) {
-      ++skip;
-      return;
+                                     long* skipped, TickAssemblyCounts* counts) {
+  // The channels' messages go to the one tick assembly merged by tick (each channel in its log order), so
+  // that a channel's own disorder is judged by the assembly's window, not by how the decoder split the log.
+  const int drive = needs.state ? kTickState : kTickTruth;
+  const unsigned needed = (needs.state ? 1u << kTickState : 0u) | (needs.truth ? 1u << kTickTruth : 0u) |
+                          (needs.plates ? (1u << kTickPlateRight) | (1u << kTickPlateLeft) : 0u) | (1u << drive);
+  const int capacity = static_cast<int>(kLogLagWindow) + 2;
+  TickAssembly assembly(needed, kLogLagWindow, capacity);
+  std::vector<AlignedTick> held(static_cast<size_t>(capacity)), out;
+  const size_t size[kTickChannels] = {states.size(), plates_right.size(), plates_left.size(), truth.size()};
+  size_t next[kTickChannels] = {0, 0, 0, 0};
+  auto tickOf = [&](int c, size_t i) -> int64_t {
+    switch (c) {
+      case kTickState: return states[i].tick;
+      case kTickPlateRight: return plates_right[i].tick;
+      case kTickPlateLeft: return plates_left[i].tick;
+      default: return truth[i].tick;
     }
-    out.push_back(a);
   };
-  if (needs.state) {
-    for (const RobotStateSample& s : states) consider(s.tick, &s, nullptr);
-  } else {
-    for (const GroundTruthSample& t : truth) consider(t.tick, nullptr, &t);
+  long skip = 0;
+  auto drain = [&](bool flush) {
+    ReleasedTick r;
+    while (assembly.release(r, flush)) {
+      AlignedTick& a = held[static_cast<size_t>(r.slot)];
+      if (r.complete) out.push_back(a);
+      else if (r.present & (1u << drive)) ++skip;  // a driving message without its tick's other needed ones
+      a = AlignedTick();
+    }
+  };
+  for (;;) {
+    int c = -1;  // the channel whose next message has the smallest tick (ties: channel order)
+    for (int k = 0; k < kTickChannels; ++k)
+      if (next[k] < size[k] && (c < 0 || tickOf(k, next[k]) < tickOf(c, next[c]))) c = k;
+    if (c < 0) break;
+    const size_t i = next[c]++;
+    int slot = -1;
+    if (assembly.place(c, tickOf(c, i), &slot) != TickPlacement::Accepted) continue;
+    AlignedTick& a = held[static_cast<size_t>(slot)];
+    if (c == kTickState) a.state = &states[i];
+    else if (c == kTickTruth) a.truth = &truth[i];
+    else a.plate[c - kTickPlateRight] = c == kTickPlateRight ? &plates_right[i] : &plates_left[i];
+    drain(false);
   }
+  drain(true);
   if (skipped) *skipped = skip;
+  if (counts) *counts = assembly.counts();
   return out;
 }
 

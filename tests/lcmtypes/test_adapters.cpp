@@ -464,3 +464,73 @@ TEST(ToLcm, ReusedMessageKeepsItsStorage) {
 
 }  // namespace
 }  // namespace exoid
+
+namespace exoid {
+namespace {
+// ----------------------------------------------------------------------------------------------------
+// The gate's value rules are written once (sample_checks.hpp): fromLcm's verdict on a message is the sample
+// checks' verdict on the same values, case by case, at the one quaternion tolerance (1e-6) and either side of it.
+RejectReason expectedReason(SampleFault f) { return f == SampleFault::NonFinite ? RejectReason::NonFinite : RejectReason::Malformed; }
+
+TEST(Gate, FromLcmAndTheSampleChecksGiveTheSameVerdict) {
+  std::vector<std::pair<const char*, RobotStateSample>> states;
+  const RobotStateSample clean = test::makeState();
+  states.push_back({"clean", clean});
+  RobotStateSample s = clean;
+  s.q[3] = kNaN;
+  states.push_back({"q NaN", s});
+  s = clean;
+  s.imu_gyro.y() = kInf;
+  states.push_back({"gyro Inf", s});
+  s = clean;
+  s.imu_orientation.coeffs() *= 1.0 + 2e-6;
+  states.push_back({"|q| 1 + 2e-6", s});
+  s = clean;
+  s.imu_orientation.coeffs() *= 1.0 + 5e-7;
+  states.push_back({"|q| 1 + 5e-7", s});
+  s = clean;
+  s.has_tau[2] = false;
+  s.tau[2] = 1.0;
+  states.push_back({"torque without sensor", s});
+  const SampleFault want_state[] = {SampleFault::None,      SampleFault::NonFinite, SampleFault::NonFinite,
+                                    SampleFault::Malformed, SampleFault::None,      SampleFault::Malformed};
+  for (size_t i = 0; i < states.size(); ++i) {
+    const RobotStateSample& in = states[i].second;
+    ASSERT_TRUE(stateSizesOk(in, static_cast<int>(jointNames().size())));
+    const SampleFault f = checkStateValues(in);
+    EXPECT_EQ(f, want_state[i]) << states[i].first;
+    exoid_lcm::robot_state_t msg;
+    toLcm(in, jointNames(), msg);
+    RobotStateSample out;
+    RejectReason reason = RejectReason::Duplicate;
+    EXPECT_EQ(fromLcm(encodeDecode(msg), jointNames(), out, nullptr, &reason), f == SampleFault::None) << states[i].first;
+    if (f != SampleFault::None) EXPECT_EQ(reason, expectedReason(f)) << states[i].first;
+  }
+  std::vector<std::pair<const char*, ForcePlateSample>> plates;
+  const ForcePlateSample pclean = test::makePlate(1);
+  plates.push_back({"clean", pclean});
+  ForcePlateSample p = pclean;
+  p.cop.x() = kNaN;
+  plates.push_back({"cop NaN", p});
+  p = pclean;
+  p.plate_orientation.coeffs() *= 1.0 - 2e-6;
+  plates.push_back({"|q| 1 - 2e-6", p});
+  p = pclean;
+  p.plate_orientation.coeffs() *= 1.0 - 5e-7;
+  plates.push_back({"|q| 1 - 5e-7", p});
+  const SampleFault want_plate[] = {SampleFault::None, SampleFault::NonFinite, SampleFault::Malformed, SampleFault::None};
+  for (size_t i = 0; i < plates.size(); ++i) {
+    const ForcePlateSample& in = plates[i].second;
+    const SampleFault f = checkPlateValues(in);
+    EXPECT_EQ(f, want_plate[i]) << plates[i].first;
+    exoid_lcm::force_plate_t msg;
+    toLcm(in, msg);
+    ForcePlateSample out;
+    RejectReason reason = RejectReason::Duplicate;
+    EXPECT_EQ(fromLcm(encodeDecode(msg), 1, out, nullptr, &reason), f == SampleFault::None) << plates[i].first;
+    if (f != SampleFault::None) EXPECT_EQ(reason, expectedReason(f)) << plates[i].first;
+  }
+}
+
+}  // namespace
+}  // namespace exoid

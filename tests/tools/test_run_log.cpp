@@ -70,6 +70,50 @@ class RunLogTest : public ::testing::Test {
   test::TempDir dir_{"run_log"};
 };
 
+// A state message repeated for the same tick (the publisher sent it twice) is one tick: the tick assembly keeps
+// the first and counts the repeat; export writes one row per tick and says so (before: one row per state).
+TEST_F(RunLogTest, ARepeatedStateTickExportsOneRowAndIsReported) {
+  const std::string path = dir_.file("repeat.lcmlog");
+  lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+  ASSERT_NE(log, nullptr);
+  exoid_lcm::robot_state_t sm;
+  exoid_lcm::force_plate_t pm;
+  for (int64_t k = 0; k < 6; ++k) {
+    toLcm(state(k), model_.joint_names, sm);
+    write(log, channels::kState, sm, k);
+    if (k == 2) {  // tick 2's state again, with other joint values: the first must be kept
+      RobotStateSample again = state(2);
+      again.q.setConstant(0.7);
+      toLcm(again, model_.joint_names, sm);
+      write(log, channels::kState, sm, k);
+    }
+    for (int p = 0; p < 2; ++p) {
+      toLcm(plate(p, k), pm);
+      write(log, p == 0 ? channels::kPlateRight : channels::kPlateLeft, pm, k);
+    }
+  }
+  lcm_eventlog_destroy(log);
+  intake::RunLog run;
+  std::string err;
+  ASSERT_TRUE(intake::readRunLog(path, model_.joint_names, run, &err)) << err;
+  ASSERT_EQ(run.states.size(), 7u);
+  tools::RunTable table;
+  ASSERT_TRUE(tools::buildRunTable(model_, run, tools::ExportOptions{}, table, &err)) << err;
+  ASSERT_EQ(table.rows.size(), 6u);
+  EXPECT_EQ(table.repeated_messages, 1);
+  EXPECT_EQ(table.out_of_order_messages, 0);
+  EXPECT_EQ(table.skipped_ticks, 0);
+  const int qcol = static_cast<int>(std::find(table.header.begin(), table.header.end(), "q_right_knee") - table.header.begin());
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_DOUBLE_EQ(table.rows[k][0], 0.001 * k) << k;
+    EXPECT_DOUBLE_EQ(table.rows[k][qcol], 0.01 * k) << k;
+  }
+  const auto r = test::runCommand(test::exoidBinary() + " export --log " + path + " --out " + dir_.file("r.csv"), dir_.path);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("6 ticks -> "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1 repeated and 0 out-of-order messages dropped"), std::string::npos) << r.err;
+}
+
 TEST_F(RunLogTest, EveryEventIsAccountedForAndTicksAreAligned) {
   const std::string path = dir_.file("run.lcmlog");
   lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");

@@ -80,8 +80,10 @@ int cmdExport(int argc, char** argv) {
     std::fputc('\n', out.file());
   }
   if (!out.commit(&err)) return fail(err);
-  std::fprintf(stderr, "exoid export: %zu ticks -> %s (%ld ticks skipped for a missing message; %ld log events "
-               "rejected%s%s; %ld damaged stretches%s)\n", table.rows.size(), out_path.c_str(), table.skipped_ticks,
+  std::fprintf(stderr, "exoid export: %zu ticks -> %s (%ld ticks skipped for a missing message; %ld repeated and "
+               "%ld out-of-order messages dropped; %ld log events rejected%s%s; %ld damaged stretches%s)\n",
+               table.rows.size(), out_path.c_str(), table.skipped_ticks, table.repeated_messages,
+               table.out_of_order_messages,
                log.rejected, log.first_rejection.empty() ? "" : ", first: ", log.first_rejection.c_str(),
                log.corrupt_events, log.truncated ? "; cut off at the end" : "");
   return 0;

@@ -1,6 +1,7 @@
 // Run log -> measured samples in tick order (measured_input.hpp), on the one log reader (log_events.hpp).
-#include <optional>
+#include <vector>
 
+#include "exoid/estimator/tick_assembly.hpp"
 #include "exoid/intake/measured_input.hpp"
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
@@ -15,10 +16,11 @@ void skip(InputStats& st, const std::string& reason, const std::string& where) {
   if (st.first_skip.empty()) st.first_skip = where + ": " + reason;
 }
 
-struct Pending {
-  std::optional<RobotStateSample> state;
-  std::optional<ForcePlateSample> plate[2];
-  std::optional<GroundTruthSample> truth;
+// The payloads of the ticks the assembly holds, by slot.
+struct Held {
+  RobotStateSample state;
+  ForcePlateSample plate[2];
+  GroundTruthSample truth;
 };
 }  // namespace
 
@@ -30,43 +32,44 @@ bool streamRunLog(const std::string& path, const Model& model, LogPipeline pipel
   };
   stats = InputStats();
   const bool truth = pipeline == LogPipeline::Truth;
-  std::map<int64_t, Pending> pending;  // by tick; complete ticks leave in tick order
-  int64_t last_done = -1, newest = -1;
-  constexpr int64_t kWindow = 200;      // ticks a channel may lag before a tick is declared incomplete
+  // The one tick assembly (tick_assembly.hpp): channels may lag kLogLagWindow ticks; the first message of a
+  // tick on each channel is kept.
+  using estimator::TickAssembly;
+  using estimator::TickPlacement;
+  const unsigned main_channel = truth ? estimator::kTickTruth : estimator::kTickState;
+  const unsigned needed = (1u << main_channel) | (1u << estimator::kTickPlateRight) | (1u << estimator::kTickPlateLeft);
+  const int capacity = static_cast<int>(estimator::kLogLagWindow) + 2;
+  TickAssembly assembly(needed, estimator::kLogLagWindow, capacity);
+  std::vector<Held> held(static_cast<size_t>(capacity));
   long events = 0, needed_events = 0;
   std::string first_rejection;
   estimator::MeasuredSample sample;
   std::string sink_error;
   bool sink_failed = false;
-  auto complete = [&](const Pending& p) { return p.plate[0] && p.plate[1] && (truth ? p.truth.has_value() : p.state.has_value()); };
-  auto emit = [&](const Pending& p) {
-    const ForcePlateSample* plates[2] = {&*p.plate[0], &*p.plate[1]};
-    if (truth) estimator::measuredFromTruth(model, *p.truth, plates, feet, sample);
-    else estimator::measuredFromSensors(model, *p.state, plates, feet, sample);
-    if (!sink(sample, &sink_error)) sink_failed = true;
-    ++stats.samples;
-  };
   auto drain = [&](bool all) {
-    while (!pending.empty() && !sink_failed) {
-      auto it = pending.begin();
-      if (complete(it->second)) {
-        emit(it->second);
-      } else if (all || newest - it->first > kWindow) {
-        skip(stats, "tick missing a needed message", "tick " + std::to_string(it->first));
-      } else {
-        break;
+    estimator::ReleasedTick r;
+    while (!sink_failed && assembly.release(r, all)) {
+      const std::string where = "tick " + std::to_string(r.tick);
+      if (!r.complete) {
+        skip(stats, "tick missing a needed message", where);
+        continue;
       }
-      last_done = it->first;
-      pending.erase(it);
+      const Held& h = held[static_cast<size_t>(r.slot)];
+      const ForcePlateSample* plates[2] = {&h.plate[0], &h.plate[1]};
+      if (truth) estimator::measuredFromTruth(model, h.truth, plates, feet, sample);
+      else estimator::measuredFromSensors(model, h.state, plates, feet, sample);
+      if (!sink(sample, &sink_error)) sink_failed = true;
+      ++stats.samples;
     }
   };
-  auto place = [&](int64_t tick, auto&& assign) {
-    if (tick <= last_done) {
-      skip(stats, "message for a tick already passed (out of order or repeated)", "tick " + std::to_string(tick));
-      return;
-    }
-    newest = std::max(newest, tick);
-    assign(pending[tick]);
+  // Offers one decoded message to the assembly; on acceptance `store` copies it into its tick's slot.
+  auto place = [&](int channel, int64_t tick, auto&& store) {
+    int slot = -1;
+    const TickPlacement p = assembly.place(channel, tick, &slot);
+    if (p == TickPlacement::Accepted) store(held[static_cast<size_t>(slot)]);
+    else if (p == TickPlacement::Duplicate)
+      skip(stats, "repeated message (the tick's first one kept)", "tick " + std::to_string(tick));
+    else skip(stats, "message for a tick already passed (out of order)", "tick " + std::to_string(tick));
   };
   int64_t last_tick = -1;
   const LogEventSink read = [&](const LogEvent& e) {
@@ -81,19 +84,19 @@ bool streamRunLog(const std::string& path, const Model& model, LogPipeline pipel
       exoid_lcm::force_plate_t msg;
       ForcePlateSample s;
       ok = safeDecode(e.data, e.data_length, msg) && fromLcm(msg, side, s, &why);
-      if (ok) tick = s.tick, place(s.tick, [&](Pending& p) { if (!p.plate[side]) p.plate[side] = s; });
+      if (ok) tick = s.tick, place(estimator::kTickPlateRight + side, s.tick, [&](Held& h) { h.plate[side] = s; });
     } else if (channel == channels::kState && !truth) {
       ++needed_events;
       exoid_lcm::robot_state_t msg;
       RobotStateSample s;
       ok = safeDecode(e.data, e.data_length, msg) && fromLcm(msg, model.joint_names, s, &why);
-      if (ok) tick = s.tick, place(s.tick, [&](Pending& p) { if (!p.state) p.state = s; });
+      if (ok) tick = s.tick, place(estimator::kTickState, s.tick, [&](Held& h) { h.state = s; });
     } else if (channel == channels::kTruth && truth) {
       ++needed_events;
       exoid_lcm::ground_truth_t msg;
       GroundTruthSample s;
       ok = safeDecode(e.data, e.data_length, msg) && fromLcm(msg, model.joint_names, s, &why);
-      if (ok) tick = s.tick, place(s.tick, [&](Pending& p) { if (!p.truth) p.truth = s; });
+      if (ok) tick = s.tick, place(estimator::kTickTruth, s.tick, [&](Held& h) { h.truth = s; });
     }
     last_tick = std::max(last_tick, tick);
     if (!ok) {

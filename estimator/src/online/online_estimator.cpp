@@ -1,4 +1,5 @@
 #include "exoid/estimator/online/online_estimator.hpp"
+#include "exoid/sample_checks.hpp"
 
 #include <algorithm>
 #include <Eigen/QR>
@@ -12,7 +13,6 @@
 #include "exoid/model/inertial.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/signal/filters.hpp"
-#include "exoid/tick_order.hpp"
 
 namespace exoid::estimator {
 
@@ -35,9 +35,8 @@ bool parseForgetting(const std::string& name, Forgetting& f) {
 }
 
 namespace {
-enum Channel { kStateChannel = 0, kRightPlate = 1, kLeftPlate = 2 };
+enum Channel { kStateChannel = kTickState, kRightPlate = kTickPlateRight, kLeftPlate = kTickPlateLeft };
 
-bool finite3(const Eigen::Vector3d& v) { return v.allFinite(); }
 }  // namespace
 
 OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
@@ -203,8 +202,10 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   mllt_ = Eigen::LLT<Eigen::MatrixXd>(mx);
   rss_carry_ = Eigen::VectorXd::Zero(nv);
 
-  slot_state_.q = slot_state_.tau = Eigen::VectorXd::Zero(model.njoints);
-  slot_state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
+  for (RobotStateSample& s : slot_state_) {
+    s.q = s.tau = Eigen::VectorXd::Zero(model.njoints);
+    s.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
+  }
   {
     // The gyro's window counts only where the gyro gives the base's rate (otherwise its weights are never used).
     const bool gyro = !opt_.base_rate_from_legs;
@@ -223,75 +224,70 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
 
 long OnlineEstimator::rejected(InputStatus why) const { return rejected_[static_cast<int>(why)]; }
 
-InputStatus OnlineEstimator::admit(int channel, long tick, bool finite, bool sizes_ok) {
+InputStatus OnlineEstimator::admit(int channel, long tick, SampleFault values, bool sizes_ok, int* slot) {
   InputStatus s = InputStatus::Accepted;
-  // The gate's order rule (tick_order.hpp, as MessageGate's); besides it, ticks are >= 0 here and a message
-  // older than the tick being assembled is out of order (the assembly holds one tick).
-  const TickOrder order = tickOrder(last_tick_[channel] >= 0, last_tick_[channel], tick);
+  // Sizes, then the tick assembly's order (a tick < 0, before the one being assembled, or already given on
+  // this channel), then the values; a rejected message leaves the assembly untouched.
+  const TickPlacement order = assembly_.check(channel, tick);
   if (!sizes_ok) s = InputStatus::Malformed;
-  else if (order == TickOrder::Duplicate) s = InputStatus::Duplicate;
-  else if (tick < 0 || order == TickOrder::Older || tick < slot_tick_)
-    s = InputStatus::OutOfOrder;
-  else if (!finite) s = InputStatus::NonFinite;
+  else if (order == TickPlacement::Duplicate) s = InputStatus::Duplicate;
+  else if (order != TickPlacement::Accepted) s = InputStatus::OutOfOrder;  // window 0 with 2 slots: no Overflow
+  else if (values == SampleFault::NonFinite) s = InputStatus::NonFinite;
+  else if (values == SampleFault::Malformed) s = InputStatus::Malformed;
   if (s != InputStatus::Accepted) {
     ++rejected_[static_cast<int>(s)];
     return s;
   }
-  last_tick_[channel] = tick;
-  if (tick > slot_tick_) openSlot(tick);
-  got_[channel] = true;
+  assembly_.place(channel, tick, slot);
   return s;
 }
 
-void OnlineEstimator::openSlot(long tick) {
-  if (slot_tick_ >= 0 && (got_[0] || got_[1] || got_[2]) && !(got_[0] && got_[1] && got_[2])) ++incomplete_;
-  slot_tick_ = tick;
-  got_[0] = got_[1] = got_[2] = false;
+void OnlineEstimator::processReleased() {
+  ReleasedTick r;
+  while (assembly_.release(r))
+    if (r.complete) assemble(r.slot, static_cast<long>(r.tick));
 }
 
 InputStatus OnlineEstimator::addState(const RobotStateSample& s) {
   if (!ok()) return InputStatus::Malformed;
-  const int nj = model_.njoints;
-  const bool sizes = s.q.size() == nj && s.tau.size() == nj && s.has_tau.size() == nj;
-  const bool finite = sizes && s.q.allFinite() && s.tau.allFinite() && s.imu_orientation.coeffs().allFinite() &&
-                      finite3(s.imu_gyro) && finite3(s.imu_accel) && s.imu_orientation.norm() > 0.5;
-  const InputStatus st = admit(kStateChannel, s.tick, finite, sizes);
+  // The gate's rules (sample_checks.hpp), as the LCM adapters apply them.
+  const bool sizes = stateSizesOk(s, model_.njoints);
+  int slot = -1;
+  const InputStatus st = admit(kStateChannel, s.tick, sizes ? checkStateValues(s) : SampleFault::None, sizes, &slot);
   if (st != InputStatus::Accepted) return st;
-  slot_state_.tick = s.tick;
-  slot_state_.utime = s.utime;
-  slot_state_.q = s.q;
-  slot_state_.tau = s.tau;
-  slot_state_.has_tau = s.has_tau;
-  slot_state_.imu_orientation = s.imu_orientation;
-  slot_state_.imu_gyro = s.imu_gyro;
-  slot_state_.imu_accel = s.imu_accel;
-  tryProcess();
+  RobotStateSample& held = slot_state_[slot];  // sizes as preallocated: no allocation
+  held.tick = s.tick;
+  held.utime = s.utime;
+  held.q = s.q;
+  held.tau = s.tau;
+  held.has_tau = s.has_tau;
+  held.imu_orientation = s.imu_orientation;
+  held.imu_gyro = s.imu_gyro;
+  held.imu_accel = s.imu_accel;
+  processReleased();
   return st;
 }
 
 InputStatus OnlineEstimator::addPlate(const ForcePlateSample& p) {
   if (!ok()) return InputStatus::Malformed;
-  const bool sizes = p.plate == 0 || p.plate == 1;
-  const bool finite = finite3(p.force) && finite3(p.moment) && finite3(p.plate_position) &&
-                      p.plate_orientation.coeffs().allFinite() && p.plate_orientation.norm() > 0.5;
-  const InputStatus st = admit(sizes ? kRightPlate + p.plate : kRightPlate, p.tick, finite, sizes);
+  const bool sizes = plateIndexOk(p);
+  int slot = -1;
+  const InputStatus st = admit(sizes ? kRightPlate + p.plate : kRightPlate, p.tick, checkPlateValues(p), sizes, &slot);
   if (st != InputStatus::Accepted) return st;
-  slot_plate_[p.plate] = p;
-  tryProcess();
+  slot_plate_[slot][p.plate] = p;
+  processReleased();
   return st;
 }
 
-void OnlineEstimator::tryProcess() {
-  if (!(got_[0] && got_[1] && got_[2])) return;
-  got_[0] = got_[1] = got_[2] = false;  // processed: a late duplicate is rejected by the channel's tick
+void OnlineEstimator::assemble(int held, long tick) {
   // Raw values of this tick into the ring (the oldest slot is overwritten).
   const int n = static_cast<int>(raw_.size());
   const int slot = (raw_head_ + raw_count_) % n;
   Raw& r = raw_[raw_count_ < n ? slot : raw_head_];
   if (raw_count_ == n) raw_head_ = (raw_head_ + 1) % n;
   else ++raw_count_;
-  const RobotStateSample& s = slot_state_;
-  r.tick = slot_tick_;
+  const RobotStateSample& s = slot_state_[held];
+  r.tick = tick;
   r.q = s.q;
   for (int j = 0; j < model_.njoints; ++j) r.tau[j] = s.has_tau[j] ? s.tau[j] : 0.0;
   r.orientation = s.imu_orientation.normalized();
@@ -300,8 +296,8 @@ void OnlineEstimator::tryProcess() {
   r.acceleration = s.imu_accel + r.orientation.conjugate() * model_.gravity;
   for (int i = 0; i < 2; ++i) {
     r.contact[i].body = feet_[i];
-    footWrenchFromPlate(slot_plate_[i], r.contact[i].force, r.contact[i].moment_world_origin);
-    r.plate_position[i] = slot_plate_[i].plate_position;
+    footWrenchFromPlate(slot_plate_[held][i], r.contact[i].force, r.contact[i].moment_world_origin);
+    r.plate_position[i] = slot_plate_[held][i].plate_position;
   }
   if (opt_.base_rate_from_legs) {
     fk_state_.q = r.q;  // base frame: the base at identity, no motion
@@ -699,7 +695,7 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
   extra.insert(extra.end(), r_.data(), r_.data() + r_.size());
   extra.insert(extra.end(), rss_carry_.data(), rss_carry_.data() + rss_carry_.size());
   for (long v : rejected_) extra.push_back(double(v));
-  extra.push_back(double(incomplete_));
+  extra.push_back(double(assembly_.counts().incomplete));
   extra.insert(extra.end(), rls_model_.row_weight.data(), rls_model_.row_weight.data() + rls_model_.nv);
   const std::vector<double> sig = effectSignature();
   extra.insert(extra.end(), sig.begin(), sig.end());
@@ -776,13 +772,12 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   std::copy(extra.begin() + i, extra.begin() + i + nv, rss_carry_.data());
   i += nv;
   for (long& v : rejected_) v = long(extra[i++]);
-  incomplete_ = long(extra[i++]);
+  TickAssemblyCounts counts;
+  counts.incomplete = long(extra[i++]);
   for (int c = 0; c < nv; ++c) rls_model_.row_weight[c] = extra[i++];
   rls_ = std::move(restored);
   // The channels resume after the checkpoint's last tick; the differencing history and the filter restart.
-  for (long& t : last_tick_) t = rls_.has_tick ? rls_.last_tick + 1 : -1;
-  slot_tick_ = rls_.has_tick ? rls_.last_tick + 1 : -1;
-  got_[0] = got_[1] = got_[2] = false;
+  assembly_.restart(rls_.has_tick ? rls_.last_tick + 1 : -1, counts);
   raw_count_ = 0;
   raw_head_ = 0;
   filter_.reset();

@@ -71,6 +71,7 @@ class Check {
   }
 
   bool finite(const double* v, size_t n, const char* field) {
+    if (allFiniteValues(v, n)) return true;  // the gate's rule (sample_checks.hpp); below: which one
     for (size_t i = 0; i < n; ++i) {
       if (!std::isfinite(v[i])) {
         if (n == 1) return fail(RejectReason::NonFinite, "%s is %f", field, v[i]);
@@ -91,8 +92,8 @@ class Check {
   // w x y z, must be finite and unit within kQuatNormTolerance.
   bool unitQuaternion(const double q[4], const char* field) {
     if (!finite(q, 4, field)) return false;
-    const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    if (std::abs(norm - 1.0) <= kQuatNormTolerance) return true;
+    double norm = 0.0;
+    if (exoid::unitQuaternion(q[0], q[1], q[2], q[3], &norm)) return true;
     return fail(RejectReason::Malformed, "%s has norm %.9g, must be 1 within %g", field, norm, kQuatNormTolerance);
   }
 
@@ -172,11 +173,9 @@ bool fromLcm(const exoid_lcm::robot_state_t& msg, const std::vector<std::string>
   if (!c.finite(msg.q, "q") || !c.finite(msg.tau, "tau") || !c.finite(msg.imu_gyro, 3, "imu_gyro") ||
       !c.finite(msg.imu_accel, 3, "imu_accel"))
     return false;
-  for (size_t i = 0; i < n; ++i) {
-    if (!msg.has_tau[i] && msg.tau[i] != 0.0)
-      return c.fail(RejectReason::Malformed, "tau[%zu] is %g but has_tau[%zu] is false (must be 0)", i,
-                    msg.tau[i], i);
-  }
+  size_t i = 0;
+  if (!unmeasuredTorquesZero(msg.tau.data(), msg.has_tau, n, &i))
+    return c.fail(RejectReason::Malformed, "tau[%zu] is %g but has_tau[%zu] is false (must be 0)", i, msg.tau[i], i);
   if (!c.unitQuaternion(msg.imu_orientation, "imu_orientation")) return false;
 
   out.utime = msg.utime;

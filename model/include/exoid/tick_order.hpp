@@ -1,7 +1,7 @@
 #pragma once
 // The gate's order rule, written once: where a message's tick stands against the last tick its channel
-// accepted. MessageGate (lcmtypes/adapters: the LCM receivers) and OnlineEstimator::admit (the estimator's
-// in-process input) both decide Duplicate / OutOfOrder with it. Real-time safe: no allocation, no exception.
+// accepted. MessageGate (lcmtypes/adapters: the LCM receivers) and the tick assembly (tick_assembly.hpp:
+// streamRunLog, alignByTick, OnlineEstimator::admit) both decide a channel's Duplicate with it. Real-time safe: no allocation, no exception.
 #include <cstdint>
 
 namespace exoid {

@@ -47,8 +47,11 @@ bool buildRunTable(const Model& model, const intake::RunLog& log, const ExportOp
   // Sensors: encoders, IMU, joint torque sensors, plates. Ticks missing a plate message are skipped.
   if (log.states.empty()) return fail("the log has no robot state (EXO_STATE) messages");
   if (opt.filter_hz < 0.0) return fail("--filter must be positive");
-  const std::vector<estimator::AlignedTick> ticks =
-      estimator::alignByTick(log.states, log.plates[0], log.plates[1], log.truth, {true, true, false}, &table.skipped_ticks);
+  estimator::TickAssemblyCounts counts;
+  const std::vector<estimator::AlignedTick> ticks = estimator::alignByTick(
+      log.states, log.plates[0], log.plates[1], log.truth, {true, true, false}, &table.skipped_ticks, &counts);
+  table.repeated_messages = counts.duplicates;
+  table.out_of_order_messages = counts.out_of_order;
   std::vector<const RobotStateSample*> st;
   std::vector<const ForcePlateSample*> pr, pl;
   for (const estimator::AlignedTick& a : ticks) {

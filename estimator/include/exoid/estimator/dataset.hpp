@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "exoid/estimator/measurement.hpp"
+#include "exoid/estimator/tick_assembly.hpp"
 #include "exoid/model/model.hpp"
 #include "exoid/samples.hpp"
 
@@ -38,14 +39,17 @@ struct TickNeeds {
   bool state = true, plates = true, truth = false;
 };
 
-/// Aligns channels by tick: one entry per message of the driving channel (the states if needs.state, else
-/// the truth), in log order, with the first message of that tick on each other channel. Ticks missing a
-/// needed channel are skipped and counted.
+/// Aligns channels by tick with the one tick assembly (tick_assembly.hpp, window kLogLagWindow): one entry
+/// per tick that has every needed channel, in tick order, with the first message of that tick on each channel
+/// (nullptr where a channel not needed is absent). The channels are offered merged by tick, each in its own
+/// order. A repeated message of a tick (e.g. the state twice) is dropped, keeping the first, and counted in
+/// counts->duplicates. *skipped: ticks of the driving channel (the states if needs.state, else the truth)
+/// missing another needed channel.
 std::vector<AlignedTick> alignByTick(const std::vector<RobotStateSample>& states,
                                      const std::vector<ForcePlateSample>& plates_right,
                                      const std::vector<ForcePlateSample>& plates_left,
                                      const std::vector<GroundTruthSample>& truth, const TickNeeds& needs,
-                                     long* skipped);
+                                     long* skipped, TickAssemblyCounts* counts = nullptr);
 
 /// One aligned measurement, the input of the dataset pipeline. Sizes [njoints]; v, a empty when not
 /// measured (then derived by differentiation); has_* say which base fields are measured.

@@ -27,7 +27,9 @@
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/estimator/online/recursive_ls.hpp"
 #include "exoid/estimator/online/row_filter.hpp"
+#include "exoid/estimator/tick_assembly.hpp"
 #include "exoid/model/model.hpp"
+#include "exoid/sample_checks.hpp"
 #include "exoid/samples.hpp"
 #include "exoid/status_samples.hpp"
 
@@ -104,8 +106,10 @@ class OnlineEstimator {
   bool ok() const { return error_.empty(); }
   const std::string& error() const { return error_; }
 
-  /// One message of a tick (any order within the tick). Rejected (counted, state untouched): non-finite
-  /// values, a tick equal to (duplicate) or before (out of order) the channel's last accepted one, wrong sizes.
+  /// One message of a tick (any order within the tick). Rejected (counted, state untouched): wrong sizes, a
+  /// tick equal to (duplicate) or before (out of order) the channel's last accepted one, then the gate's value
+  /// rules (sample_checks.hpp, as fromLcm's): non-finite values; a non-unit quaternion or a torque where
+  /// has_tau is false (malformed).
   /// A tick is processed once its state and both plates are in; a tick left incomplete by a newer one is
   /// dropped (it shows up as missing). Allocation-free.
   InputStatus addState(const RobotStateSample& state);
@@ -170,7 +174,7 @@ class OnlineEstimator {
   const State& lastState() const { return state_; }
   const Eigen::MatrixXd& lastK() const { return Kf_; }
   const Eigen::VectorXd& lastY() const { return yf_; }
-  long incompleteTicks() const { return incomplete_; }
+  long incompleteTicks() const { return assembly_.counts().incomplete; }
   long changesDetected() const { return changes_; }      ///< residual-triggered discounts so far
   long lastChangeTick() const { return last_change_tick_; }  ///< tick of the last one (-1: none)
   double largestChangeStatistic() const { return z_max_; }   ///< largest max_c |mean_c| / rms_c while armed
@@ -186,9 +190,9 @@ class OnlineEstimator {
     Eigen::Vector3d plate_position[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     Eigen::Matrix3d foot_rotation[2] = {Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity()};  ///< R_bf(q)
   };
-  InputStatus admit(int channel, long tick, bool finite, bool sizes_ok);
-  void openSlot(long tick);
-  void tryProcess();
+  InputStatus admit(int channel, long tick, SampleFault values, bool sizes_ok, int* slot);
+  void processReleased();  // every tick the assembly releases: complete ones are processed
+  void assemble(int held, long tick);  // a complete tick's messages -> the ring
   void process();
   void fold();  // Selective: forgetting step and new block
   std::vector<double> effectSignature() const;  // the sidecar as the checkpoint records it
@@ -243,19 +247,18 @@ class OnlineEstimator {
   long block_samples_ = 0;
   long publications_ = 0;
 
-  // Tick assembly.
-  long slot_tick_ = -1;
-  bool got_[3] = {false, false, false};  ///< state, right plate, left plate
-  long last_tick_[3] = {-1, -1, -1};
-  RobotStateSample slot_state_;
-  ForcePlateSample slot_plate_[2];
+  // Tick assembly (tick_assembly.hpp) with window 0: a newer tick closes the older one as incomplete, so two
+  // slots (the tick being assembled and a newer one arriving) hold every message.
+  static constexpr int kSlots = 2;
+  TickAssembly assembly_{(1u << kTickState) | (1u << kTickPlateRight) | (1u << kTickPlateLeft), 0, kSlots};
+  RobotStateSample slot_state_[kSlots];
+  ForcePlateSample slot_plate_[kSlots][2];
   std::vector<Raw> raw_;        ///< [2L + 1] ring of the last ticks (L: the larger half window in use)
   Eigen::Matrix<double, 3, Eigen::Dynamic> sg_, sg_gyro_;  ///< [3 x 2L + 1] fit weights (value, slope per tick,
                                                            ///< curvature), zero outside each one's own window;
                                                            ///< sg_gyro_ only with base_rate_from_legs off
   int raw_count_ = 0, raw_head_ = 0;
   long rejected_[5] = {0, 0, 0, 0, 0};
-  long incomplete_ = 0;
 
   // Per-sample workspace.
   Data kin_, fk_;               ///< the sample's kinematics and regressor; the newest tick's feet (base rate)

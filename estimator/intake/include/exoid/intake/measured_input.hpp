@@ -33,8 +33,9 @@ struct InputStats {
 
 using SampleSink = std::function<bool(const estimator::MeasuredSample&, std::string* error)>;
 
-/// Streams a run log in tick order. A tick missing a needed channel is skipped and counted; a message for a
-/// tick older than one already passed on is counted as out of order. A damaged log (damaged stretches, a
+/// Streams a run log in tick order, assembled by the one TickAssembly (window kLogLagWindow). A tick missing a
+/// needed channel is skipped and counted; a repeat of a tick's message (the first kept) and a message for a
+/// tick already passed on are counted. A damaged log (damaged stretches, a
 /// cut-off tail, needed events the adapters reject) is refused (false, stats.refused_damaged, *error names the
 /// file and gives damageReport(): count, first bad byte, where the readable part ends) unless allow_partial:
 /// then its readable part is used and the damage is in stats. feet: the model's right and left foot bodies.

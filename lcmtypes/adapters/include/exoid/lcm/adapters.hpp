@@ -11,6 +11,7 @@
 // toLcm(sample, <names...>, msg):
 //   fills every field. Reusing `msg` across calls reuses its vectors/strings (no allocation once sized).
 //   Throws std::invalid_argument (one line) if the sample's sizes disagree with the names: a setup bug.
+#include <exoid/sample_checks.hpp>
 #include <exoid/samples.hpp>
 #include <exoid/status_samples.hpp>
 #include <exoid_lcm/controller_status_t.hpp>
@@ -37,8 +38,8 @@ inline constexpr int kNumRejectReasons = 4;
 /// "duplicate", "out_of_order", "non_finite", "malformed".
 const char* toString(RejectReason reason);
 
-/// Largest accepted | |q| - 1 | of a quaternion in a message.
-inline constexpr double kQuatNormTolerance = 1e-6;
+/// Largest accepted | |q| - 1 | of a quaternion in a message: the gate's one threshold (sample_checks.hpp).
+inline constexpr double kQuatNormTolerance = kUnitQuaternionTolerance;
 
 // --- robot_state_t <-> RobotStateSample --------------------------------------------------------------
 /// Also rejects tau != 0 where has_tau is false.

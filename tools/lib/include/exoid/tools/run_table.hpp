@@ -20,6 +20,8 @@ struct RunTable {
   std::vector<std::string> header;
   std::vector<std::vector<double>> rows;
   long skipped_ticks = 0;    ///< ticks with a missing message on a needed channel
+  long repeated_messages = 0;     ///< a tick's message again on its channel (the first kept; tick_assembly.hpp)
+  long out_of_order_messages = 0;  ///< messages for a tick already passed
 };
 
 /// Builds the table. Fails with *error if the log has no usable tick or the options are invalid.
