@@ -40,10 +40,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                                        log.estimates.size());
   EXOID_FUZZ_CHECK(events == taken + log.rejected + log.unknown_channel, "every event is accounted for once");
   EXOID_FUZZ_CHECK(log.rejected == 0 || !log.first_rejection.empty(), "the first rejection is named");
-  EXOID_FUZZ_CHECK(log.file_bytes == static_cast<int64_t>(size), "the file size is reported");
-  EXOID_FUZZ_CHECK(log.readable_end > 0 && log.readable_end <= log.file_bytes, "the readable part is in the file");
-  EXOID_FUZZ_CHECK(log.corrupt_bytes >= 0 && log.corrupt_bytes <= log.file_bytes, "damaged bytes are in the file");
-  EXOID_FUZZ_CHECK((log.corrupt_events > 0) == (log.first_corrupt_offset >= 0), "the first damage is located");
+  EXOID_FUZZ_CHECK(log.damage.file_bytes == static_cast<int64_t>(size), "the file size is reported");
+  EXOID_FUZZ_CHECK(log.damage.readable_end > 0 && log.damage.readable_end <= log.damage.file_bytes, "the readable part is in the file");
+  EXOID_FUZZ_CHECK(log.damage.corrupt_bytes >= 0 && log.damage.corrupt_bytes <= log.damage.file_bytes, "damaged bytes are in the file");
+  EXOID_FUZZ_CHECK((log.damage.corrupt_events > 0) == (log.damage.first_corrupt_offset >= 0), "the first damage is located");
   if (log.intact())
     EXOID_FUZZ_CHECK(log.damageReport().empty(), "an intact log has no damage report");
   else

@@ -176,7 +176,12 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
   };
   std::vector<Sample> samples;
   std::vector<double> seg_dt(series.size(), 0.0);
-  for (size_t s = 0; s < series.size(); ++s) {
+  // Segments in the order of their names, not as given: the folds are contiguous over the training samples and the
+  // trees subsample rows by index, so the same files in another order would otherwise give other figures.
+  std::vector<size_t> by_name(series.size());
+  for (size_t s = 0; s < series.size(); ++s) by_name[s] = s;
+  std::stable_sort(by_name.begin(), by_name.end(), [&](size_t a, size_t b) { return series[a].segment < series[b].segment; });
+  for (const size_t s : by_name) {
     const ResidualSeries& rs = series[s];
     const long n = rs.t.size();
     if (n < 3) continue;

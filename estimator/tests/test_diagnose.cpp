@@ -16,19 +16,12 @@
 #include "exoid/model/inertial.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
+#include "kuka_model.hpp"
 
 namespace exoid::estimator {
 namespace {
 
-const Model& kuka() {
-  static Model model = [] {
-    Model m;
-    std::string err;
-    EXPECT_TRUE(buildModelFromUrdfFile(std::string(EXOID_DATA_DIR) + "/kuka_lwr4/kuka_lwr4.urdf", false, m, &err)) << err;
-    return m;
-  }();
-  return model;
-}
+using test::kuka;
 
 // A smooth excitation: per joint a sum of three sines (0.1-0.6 Hz), |v| up to about 1 rad/s.
 struct Trajectory {

@@ -15,19 +15,12 @@
 #include "exoid/estimator/sparse_regression.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
+#include "kuka_model.hpp"
 
 namespace exoid::estimator {
 namespace {
 
-const Model& kuka() {
-  static Model model = [] {
-    Model m;
-    std::string err;
-    EXPECT_TRUE(buildModelFromUrdfFile(std::string(EXOID_DATA_DIR) + "/kuka_lwr4/kuka_lwr4.urdf", false, m, &err)) << err;
-    return m;
-  }();
-  return model;
-}
+using test::kuka;
 
 // One run at 200 Hz: per joint a sum of three sines (0.1-0.6 Hz); the residual is white noise (sigma_white) plus an
 // Ornstein-Uhlenbeck noise of correlation time 1 s (sigma_smooth), independent of the state, plus `effect`.

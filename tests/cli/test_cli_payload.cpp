@@ -139,7 +139,10 @@ TEST(PayloadCli, KukaSyntheticPayloadIsNamedByDiagnoseAndReidentifiedByOnlyLinks
   // Every other link held at the declared values.
   for (int o = 0; o < arm.nbodies; ++o)
     if (o != b) {
-      EXPECT_NEAR(id["estimate"][arm.body_names[o] + ".m"].get<double>(), decl.phi[decl.bodyParamIndex(o)], 1e-8);  // held up to the SVD's rounding
+      // Held up to the solver's rounding: the consistent solve (WLS-RC-PC) works on the whole parameter vector;
+      // measured 4.6e-8 kg of 2.7 kg since the unknown-prior columns take the data's scale (rank rule).
+      const double m_decl = decl.phi[decl.bodyParamIndex(o)];
+      EXPECT_NEAR(id["estimate"][arm.body_names[o] + ".m"].get<double>(), m_decl, 1e-6 * std::max(1.0, m_decl));
     }
 }
 

@@ -431,7 +431,11 @@ TEST(OnlineEstimator, SixtySecondsStandingStillKeepTheUncertaintyBounded) {
       ++tick;
       s.tick = tick;
       s.utime = 1000 * tick;
-      for (int j = 0; j < model.njoints; ++j) s.q[j] = s0.q[j] + 2e-5 * n(rng), s.tau[j] = s0.tau[j] + 0.05 * n(rng);
+      for (int j = 0; j < model.njoints; ++j) {
+        s.q[j] = s0.q[j] + 2e-5 * n(rng);
+        const double e = 0.05 * n(rng);  // drawn for every joint (the same noise sequence as before the gate refused it)
+        if (s.has_tau[j]) s.tau[j] = s0.tau[j] + e;  // a joint without a sensor reads 0 (the one gate: sample_checks.hpp)
+      }
       s.imu_gyro = s0.imu_gyro + 1e-3 * Eigen::Vector3d(n(rng), n(rng), n(rng));
       s.imu_accel = s0.imu_accel + 1e-2 * Eigen::Vector3d(n(rng), n(rng), n(rng));
       for (int i = 0; i < 2; ++i) {

@@ -246,12 +246,12 @@ TEST_F(DamagedLogTest, FlippedBitsInEventHeadersLoseOnlyThoseEvents) {
   EXPECT_EQ(run.states.size(), static_cast<size_t>(w.ticks - 1));
   EXPECT_EQ(run.plates[0].size(), static_cast<size_t>(w.ticks - 1));
   EXPECT_EQ(run.plates[1].size(), static_cast<size_t>(w.ticks));
-  EXPECT_EQ(run.corrupt_events, 2);
+  EXPECT_EQ(run.damage.corrupt_events, 2);
   // Exactly the two damaged events' bytes were skipped.
-  EXPECT_EQ(run.corrupt_bytes, (w.offsets[state_40 + 1] - w.offsets[state_40]) + (w.offsets[plate_70 + 1] - w.offsets[plate_70]));
-  EXPECT_EQ(run.first_corrupt_offset, w.offsets[state_40]);
-  EXPECT_FALSE(run.truncated);
-  EXPECT_EQ(run.readable_end, w.size);
+  EXPECT_EQ(run.damage.corrupt_bytes, (w.offsets[state_40 + 1] - w.offsets[state_40]) + (w.offsets[plate_70 + 1] - w.offsets[plate_70]));
+  EXPECT_EQ(run.damage.first_corrupt_offset, w.offsets[state_40]);
+  EXPECT_FALSE(run.damage.truncated);
+  EXPECT_EQ(run.damage.readable_end, w.size);
   EXPECT_EQ(run.last_tick, w.ticks - 1);
   EXPECT_FALSE(run.intact());
   const std::string report = run.damageReport();
@@ -270,10 +270,10 @@ TEST_F(DamagedLogTest, ACutOffTailIsReportedWithWhereTheReadablePartEnds) {
   intake::RunLog run;
   std::string err;
   ASSERT_TRUE(intake::readRunLog(w.path, model_.joint_names, run, &err)) << err;
-  EXPECT_TRUE(run.truncated);
-  EXPECT_EQ(run.corrupt_events, 0);
-  EXPECT_EQ(run.readable_end, last);
-  EXPECT_EQ(run.file_bytes, last + 30);
+  EXPECT_TRUE(run.damage.truncated);
+  EXPECT_EQ(run.damage.corrupt_events, 0);
+  EXPECT_EQ(run.damage.readable_end, last);
+  EXPECT_EQ(run.damage.file_bytes, last + 30);
   EXPECT_EQ(run.states.size(), 50u);
   EXPECT_EQ(run.plates[1].size(), 49u);
   EXPECT_EQ(run.last_tick, 49);
@@ -285,15 +285,15 @@ TEST_F(DamagedLogTest, ACutOffTailIsReportedWithWhereTheReadablePartEnds) {
   // Cut inside the sync word of the last event: still a cut-off tail, not damage.
   std::filesystem::resize_file(w.path, static_cast<uintmax_t>(last + 2));
   ASSERT_TRUE(intake::readRunLog(w.path, model_.joint_names, run, &err)) << err;
-  EXPECT_TRUE(run.truncated);
-  EXPECT_EQ(run.corrupt_events, 0);
-  EXPECT_EQ(run.readable_end, last);
+  EXPECT_TRUE(run.damage.truncated);
+  EXPECT_EQ(run.damage.corrupt_events, 0);
+  EXPECT_EQ(run.damage.readable_end, last);
   // An intact log is intact.
   WrittenLog ok = writeLog("ok.lcmlog", 5);
   ASSERT_TRUE(intake::readRunLog(ok.path, model_.joint_names, run, &err)) << err;
   EXPECT_TRUE(run.intact());
   EXPECT_EQ(run.damageReport(), "");
-  EXPECT_EQ(run.readable_end, ok.size);
+  EXPECT_EQ(run.damage.readable_end, ok.size);
 }
 
 TEST_F(DamagedLogTest, ExportRefusesADamagedLogUnlessAllowPartial) {

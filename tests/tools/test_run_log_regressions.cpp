@@ -44,7 +44,7 @@ TEST(RunLogRegressions, DataLengthOfIntMaxIsDamageNotACrash) {
   ASSERT_TRUE(intake::readRunLog(path, {}, log, &err)) << err;
   EXPECT_EQ(log.unknown_channel, 1);
   EXPECT_FALSE(log.intact());
-  EXPECT_EQ(log.readable_end, 28 + 5 + 3);  // header, channel, data of the good event
+  EXPECT_EQ(log.damage.readable_end, 28 + 5 + 3);  // header, channel, data of the good event
   EXPECT_EQ(log.damageReport().find('\n'), std::string::npos);
 
   // The whole CLI: an error exit naming the damage, not a signal.

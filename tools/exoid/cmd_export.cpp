@@ -85,7 +85,7 @@ int cmdExport(int argc, char** argv) {
                table.rows.size(), out_path.c_str(), table.skipped_ticks, table.repeated_messages,
                table.out_of_order_messages,
                log.rejected, log.first_rejection.empty() ? "" : ", first: ", log.first_rejection.c_str(),
-               log.corrupt_events, log.truncated ? "; cut off at the end" : "");
+               log.damage.corrupt_events, log.damage.truncated ? "; cut off at the end" : "");
   return 0;
 }
 

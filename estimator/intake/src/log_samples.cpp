@@ -10,11 +10,6 @@
 namespace exoid::intake {
 
 namespace {
-void skip(InputStats& st, const std::string& reason, const std::string& where) {
-  ++st.skipped;
-  ++st.why[reason];
-  if (st.first_skip.empty()) st.first_skip = where + ": " + reason;
-}
 
 // The payloads of the ticks the assembly holds, by slot.
 struct Held {
@@ -51,7 +46,7 @@ bool streamRunLog(const std::string& path, const Model& model, LogPipeline pipel
     while (!sink_failed && assembly.release(r, all)) {
       const std::string where = "tick " + std::to_string(r.tick);
       if (!r.complete) {
-        skip(stats, "tick missing a needed message", where);
+        stats.skip("tick missing a needed message", where);
         continue;
       }
       const Held& h = held[static_cast<size_t>(r.slot)];
@@ -68,8 +63,8 @@ bool streamRunLog(const std::string& path, const Model& model, LogPipeline pipel
     const TickPlacement p = assembly.place(channel, tick, &slot);
     if (p == TickPlacement::Accepted) store(held[static_cast<size_t>(slot)]);
     else if (p == TickPlacement::Duplicate)
-      skip(stats, "repeated message (the tick's first one kept)", "tick " + std::to_string(tick));
-    else skip(stats, "message for a tick already passed (out of order)", "tick " + std::to_string(tick));
+      stats.skip("repeated message (the tick's first one kept)", "tick " + std::to_string(tick));
+    else stats.skip("message for a tick already passed (out of order)", "tick " + std::to_string(tick));
   };
   int64_t last_tick = -1;
   const LogEventSink read = [&](const LogEvent& e) {
@@ -104,7 +99,7 @@ bool streamRunLog(const std::string& path, const Model& model, LogPipeline pipel
       ++stats.rejected_events;
       const std::string where = channel + " event " + std::to_string(events) + " at byte " + std::to_string(e.offset);
       if (first_rejection.empty()) first_rejection = printable(where + ": " + why);
-      skip(stats, "log event rejected", printable(where + " (" + why + ")"));
+      stats.skip("log event rejected", printable(where + " (" + why + ")"));
     }
     drain(false);
     return !sink_failed;

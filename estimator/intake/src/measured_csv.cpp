@@ -12,11 +12,6 @@
 namespace exoid::intake {
 
 namespace {
-void skip(InputStats& st, const std::string& reason, const std::string& where) {
-  ++st.skipped;
-  ++st.why[reason];
-  if (st.first_skip.empty()) st.first_skip = where + ": " + reason;
-}
 
 // Strict number: the whole cell, finite (common/strict_number.hpp).
 bool parseCell(const std::string& cell, double& v) { return common::parseDouble(cell, v); }
@@ -142,7 +137,7 @@ bool streamMeasuredCsv(const std::string& path, const Model& model, const int fe
   auto bad = [&](long line, const std::string& reason, const std::string& detail) {
     const std::string where = "line " + std::to_string(line) + ", " + detail;
     if (!skip_bad_rows) return failed = at(line) + ": " + detail + " (--skip-bad-rows drops such rows)", false;
-    skip(stats, reason, where);
+    stats.skip(reason, where);
     return true;
   };
   // The order rule: a time after the last accepted row's by at most kTimeJump typical steps (the median of the

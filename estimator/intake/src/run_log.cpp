@@ -53,20 +53,12 @@ void dispatch(const LogEvent& e, const std::vector<std::string>& joints, RunLog&
 }  // namespace
 
 std::string RunLog::damageReport() const {
-  LogDamage d;
-  d.corrupt_events = corrupt_events, d.corrupt_bytes = corrupt_bytes, d.first_corrupt_offset = first_corrupt_offset;
-  d.truncated = truncated, d.readable_end = readable_end, d.file_bytes = file_bytes;
-  return intake::damageReport(d, rejected, first_rejection, last_tick);
+  return intake::damageReport(damage, rejected, first_rejection, last_tick);
 }
 
 bool readRunLog(const std::string& path, const std::vector<std::string>& joints, RunLog& log, std::string* error) {
   log = RunLog();
-  LogDamage d;
-  const bool ok = readLogEvents(path, [&](const LogEvent& e) { return dispatch(e, joints, log), true; }, d, error);
-  log.corrupt_events = d.corrupt_events, log.corrupt_bytes = d.corrupt_bytes;
-  log.first_corrupt_offset = d.first_corrupt_offset, log.truncated = d.truncated;
-  log.readable_end = d.readable_end, log.file_bytes = d.file_bytes;
-  return ok;
+  return readLogEvents(path, [&](const LogEvent& e) { return dispatch(e, joints, log), true; }, log.damage, error);
 }
 
 }  // namespace exoid::intake

@@ -206,7 +206,7 @@ ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& 
   const int64_t n = s.ticks_simulated;
   s.missing_ticks = missingIn(log.truth, n) + missingIn(log.states, n) + missingIn(log.plates[0], n) + missingIn(log.plates[1], n);
   s.log_rejected = log.rejected;
-  s.log_corrupt_events = log.corrupt_events;
+  s.log_corrupt_events = log.damage.corrupt_events;
   s.log_damage = log.damageReport();
   if (!f.log_readable) {
     s.failures.push_back("the log could not be read: " + f.log_error);

@@ -29,6 +29,13 @@ struct InputStats {
   LogDamage damage;                 ///< LCM only: damage to the log's framing
   std::string damage_report;        ///< LCM only: damageReport() of the log, "" when intact
   bool refused_damaged = false;     ///< the read failed because the log is damaged (not allowed partial)
+
+  /// Counts one skipped row/tick/event under `reason`; the first one skipped is remembered with `where`.
+  void skip(const std::string& reason, const std::string& where) {
+    ++skipped;
+    ++why[reason];
+    if (first_skip.empty()) first_skip = where + ": " + reason;
+  }
 };
 
 using SampleSink = std::function<bool(const estimator::MeasuredSample&, std::string* error)>;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "exoid/intake/log_events.hpp"
 #include "exoid/model/model.hpp"
 #include "exoid/samples.hpp"
 #include "exoid/status_samples.hpp"
@@ -24,17 +25,11 @@ struct RunLog {
   long rejected = 0;                           ///< events that failed decoding or validation
   long unknown_channel = 0;
   std::string first_rejection;                 ///< reason of the first rejected event, if any
-  // Damage to the file itself (event framing; docs/data-formats.md):
-  long corrupt_events = 0;        ///< damaged stretches skipped (each held at least one event)
-  long corrupt_bytes = 0;         ///< bytes in them
-  int64_t first_corrupt_offset = -1;  ///< byte offset of the first one
-  bool truncated = false;         ///< the file ends inside an event (cut off while being written)
-  int64_t readable_end = 0;       ///< byte offset where the last complete valid event ends
-  int64_t file_bytes = 0;
+  LogDamage damage;                            ///< damage to the file itself (event framing; docs/data-formats.md)
   int64_t last_tick = -1;         ///< largest tick decoded on any exoid channel (the readable part's end)
 
   /// True when nothing was damaged, cut off or rejected.
-  bool intact() const { return corrupt_events == 0 && !truncated && rejected == 0; }
+  bool intact() const { return damage.intact() && rejected == 0; }
   /// One line on what is damaged and where the readable part ends ("" when intact()).
   std::string damageReport() const;
 };
