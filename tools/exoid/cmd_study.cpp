@@ -100,7 +100,8 @@ int cmdStudy(int argc, char** argv) {
   app.add_option("--validation", o.validation, "LCM log of the ideal validation run (ideal.yaml, another seed)");
   app.add_option("--test", o.test, "LCM log of a held-out test run (another seed), scored as well");
   app.add_flag("--allow-partial", o.allow_partial, "a damaged log (damaged stretches, a cut-off tail, rejected events) is "
-               "refused; with this flag its readable part is used and the damage reported on stderr");
+               "refused; with this flag its readable part is used and the damage reported on stderr and at the top of "
+               "table_c1.md and table2.md");
   app.add_option("--out", o.out_dir, "output directory")->required();
   app.add_option("--priors", o.priors, "random priors per range (default 20)")->check(CLI::Range(1, 1000));
   app.add_option("--seed", o.seed, "seed of the priors and the encoder noise (default 1)");

@@ -74,13 +74,14 @@ struct ScoredSample {
   double t = 0.0;
 };
 
-bool metricsFromRun(const Model& model, const std::string& path, int stride, bool allow_partial,
+bool metricsFromRun(const Model& model, const std::string& path, int stride, bool allow_partial, std::string* damage,
                     estimator::MetricAccumulator& acc, std::string* error, std::vector<ScoredSample>* keep = nullptr) {
   intake::RunLog log;
   std::string err;
   if (!intake::readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
   if (!log.intact() && !allow_partial)
     return fail(error, path + ": damaged log: " + log.damageReport() + " (--allow-partial reads the readable part)");
+  *damage = log.damageReport();  // "" when intact
   if (log.truth.empty()) return fail(error, path + ": no EXO_TRUTH samples (needed for validation)");
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
   if (feet[0] < 0 || feet[1] < 0) return fail(error, "model has no right_foot / left_foot body");
@@ -107,7 +108,7 @@ bool metricsFromRun(const Model& model, const std::string& path, int stride, boo
 /// and gyro, the ideal (simulator) accelerations as the desired ones, the torque sensors of the previous tick
 /// for the ground reaction forces and of this tick as the measurement. Every stride-th tick is scored.
 bool realisticFromRun(const Model& model, const std::string& path, int stride, double cutoff_hz, bool allow_partial,
-                      estimator::MetricAccumulator& acc, std::string* error) {
+                      estimator::MetricAccumulator& acc, std::string* error) {  // damage: reported by metricsFromRun
   intake::RunLog log;
   std::string err;
   if (!intake::readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
@@ -233,12 +234,22 @@ bool runStudy(const StudyOptions& o, std::string* error) {
   say("reading the validation run " + o.validation);
   estimator::MetricAccumulator vm(model, model.phi, actuated);
   std::vector<ScoredSample> vsamples;
-  if (!metricsFromRun(model, o.validation, o.stride, o.allow_partial, vm, error, &vsamples)) return false;
+  // Logs read in part (--allow-partial): path -> damage report, said now and written into both tables' reports.
+  std::map<std::string, std::string> partial;
+  auto notePartial = [&](const std::string& path, const std::string& report) {
+    if (report.empty() || partial.count(path)) return;
+    partial[path] = report;
+    say(path + ": damaged log, its readable part used: " + report);
+  };
+  std::string damage;
+  if (!metricsFromRun(model, o.validation, o.stride, o.allow_partial, &damage, vm, error, &vsamples)) return false;
+  notePartial(o.validation, damage);
   std::unique_ptr<estimator::MetricAccumulator> tm;
   if (!o.test.empty()) {
     say("reading the test run " + o.test);
     tm = std::make_unique<estimator::MetricAccumulator>(model, model.phi, actuated);
-    if (!metricsFromRun(model, o.test, o.stride, o.allow_partial, *tm, error)) return false;
+    if (!metricsFromRun(model, o.test, o.stride, o.allow_partial, &damage, *tm, error)) return false;
+    notePartial(o.test, damage);
     if (!realisticFromRun(model, o.test, o.stride, o.realistic_cutoff_hz, o.allow_partial, *tm, error)) return false;
   }
   SourceOptions vo;
@@ -249,7 +260,7 @@ bool runStudy(const StudyOptions& o, std::string* error) {
   estimator::LsqAccumulator vacc(model, base, va);
   InputStats vst;
   if (!accumulateFile(o.validation, model, vo, vacc, vst, &err)) return fail(error, err);
-  if (!vst.damage_report.empty()) say(o.validation + ": damaged log, its readable part used: " + vst.damage_report);
+  notePartial(o.validation, vst.damage_report);
   vacc.flush();
   const estimator::LsqFactor vfac = estimator::toStandard(vacc.mergedBase(), base.base_map);
   say("validation: " + std::to_string(vst.samples) + " samples (" + std::to_string(vm.samples()) +
@@ -291,7 +302,7 @@ bool runStudy(const StudyOptions& o, std::string* error) {
     InputStats st;
     const auto tr = clock();
     if (!readSamples(o.train, model, so, samples[pipe], st, &err)) return fail(error, err);
-    if (!st.damage_report.empty()) say(o.train + ": damaged log, its readable part used: " + st.damage_report);
+    notePartial(o.train, st.damage_report);
     seconds["reading the training run"] += since(tr);
   }
   // One job per (pipeline, cutoff), independent of the others: run by o.threads workers, merged in order.
@@ -496,11 +507,13 @@ bool runStudy(const StudyOptions& o, std::string* error) {
     a.consistent_priors += r.inconsistent == 0 ? 1 : 0;
     a.realistic += r.has_test ? r.test.realistic_torque_rmse : NAN;
   }
+  std::string partialNote;  // the logs read in part, first in each report
+  for (const auto& pr : partial) partialNote += "Read in part (--allow-partial): `" + pr.first + "`: " + pr.second + "\n\n";
   {
     std::ofstream f(o.out_dir + "/table_c1.csv"), md(o.out_dir + "/table_c1.md");
     f << "pipeline,range,method,cutoff_hz,gen_force_rmse,torque_rmse,com_rmse_mm,momentum_rmse,"
          "estimation_error_pct,singular_values,all_links_consistent_pct,test_realistic_torque_rmse\n";
-    md << "# Table C.1 analogue: means over " << o.priors << " priors (validation run)\n\n"
+    md << "# Table C.1 analogue: means over " << o.priors << " priors (validation run)\n\n" << partialNote
        << "| pipeline | prior | method | cutoff (Hz) | gen. force RMSE | torque RMSE (N m) | CoM RMSE (mm) | "
           "CoM mom. RMSE | est. error (%) | sing. values | consistent (%) | realistic torque RMSE, test (N m) |\n"
           "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -526,7 +539,7 @@ bool runStudy(const StudyOptions& o, std::string* error) {
     std::ofstream f(o.out_dir + "/table2.csv"), md(o.out_dir + "/table2.md");
     f << "pipeline,range,method,metric,value,best_cutoff_hz,thesis\n";
     md << "# Table II analogue: best mean over the cutoffs per metric (" << o.priors
-       << " priors each), thesis value in brackets\n\n";
+       << " priors each), thesis value in brackets\n\n" << partialNote;
     const char* labels[] = {"Gen. force RMSE (N & N m)", "Torque RMSE (N m)", "CoM position RMSE (mm)",
                             "CoM momentum RMSE (N s & N m s)", "Avg. estimation error (%)", "Avg. singular values (#)"};
     for (const std::string& p : o.pipelines)
