@@ -2,6 +2,7 @@
 
 #include <exoid/lcm/channels.hpp>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 
@@ -11,6 +12,7 @@ namespace {
 // Datagrams handled per poll() on the raw socket (~0.1 s of a lockstep run's traffic): the caller's loop still
 // turns (checkpoints, the stop signal) when the sim outpaces the estimator; the kernel buffer keeps the rest.
 constexpr long kMaxDatagramsPerPoll = 4096;
+constexpr int kPollSliceMs = 50;  // longest single wait inside run() (keeps signals responsive)
 }  // namespace
 
 EstimatorNode::EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimator& estimator,
@@ -133,6 +135,23 @@ int EstimatorNode::poll(int timeout_ms, std::string* error) {
           opt_.checkpoint_every_s)
     writeCheckpoint(nullptr);
   return n;
+}
+
+EstimatorNode::Outcome EstimatorNode::run(int64_t idle_timeout_ms, const volatile std::sig_atomic_t* stop) {
+  std::string err;
+  while (!*stop) {
+    const auto idle =
+        std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - last_state_).count();
+    if (idle_timeout_ms > 0 && idle >= idle_timeout_ms) {
+      std::fprintf(stderr, "exo_estimator: no %s for %lld ms, exiting\n", channels::kState, static_cast<long long>(idle));
+      return Outcome::IdleTimeout;
+    }
+    if (poll(kPollSliceMs, &err) < 0) {
+      std::fprintf(stderr, "exo_estimator: LCM: %s\n", err.c_str());
+      return Outcome::LcmError;
+    }
+  }
+  return Outcome::Stopped;
 }
 
 }  // namespace exoid::estimator

@@ -6,6 +6,8 @@
 // (never inside the per-sample path), every checkpoint_every_s of wall time and on demand.
 #include <future>
 #include <chrono>
+#include <csignal>
+#include <cstdint>
 #include <exoid/lcm/adapters.hpp>
 #include <exoid/lcm/lcm_endpoint.hpp>
 #include <exoid/lcm/message_gate.hpp>
@@ -50,6 +52,11 @@ class EstimatorNode {
   /// failure, *error set) — a checkpoint that cannot be written is reported in *checkpoint_error and counted.
   int poll(int timeout_ms, std::string* error);
   bool writeCheckpoint(std::string* error);
+  /// Why run() returned.
+  enum class Outcome { Stopped, IdleTimeout, LcmError };
+  /// poll() in slices of 50 ms until *stop is set, or no state arrived for idle_timeout_ms (> 0; reported on
+  /// stderr), or an LCM failure (reported on stderr).
+  Outcome run(int64_t idle_timeout_ms, const volatile std::sig_atomic_t* stop);
 
   long publications() const { return publications_; }
   long publishErrors() const { return publish_errors_; }

@@ -1,0 +1,124 @@
+#include "controller_node.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <exoid/lcm/channels.hpp>
+
+namespace exoid::controller {
+namespace {
+constexpr int kPollSliceMs = 50;  // longest single wait inside the loop (keeps signals responsive)
+constexpr int kMaxReportedRejections = 5;
+}  // namespace
+
+ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceController& ctrl,
+                               const ControllerConfig& config, bool use_estimate)
+    : lcm_(lcm),
+      ctrl_(ctrl),
+      config_(config),
+      joint_names_(model.joint_names),
+      param_names_(model.paramNames()),
+      coord_names_(model.coordinateNames()),
+      gate_({channels::kState, channels::kEstimate, channels::kPlateRight, channels::kPlateLeft}) {
+  ch_state_ = gate_.channelIndex(channels::kState);
+  ch_estimate_ = gate_.channelIndex(channels::kEstimate);
+  ch_plate_[0] = gate_.channelIndex(channels::kPlateRight);
+  ch_plate_[1] = gate_.channelIndex(channels::kPlateLeft);
+  state_.q = Eigen::VectorXd::Zero(model.njoints);
+  state_.tau = Eigen::VectorXd::Zero(model.njoints);
+  state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
+  bad_state_ = state_;
+  bad_state_.q.setConstant(std::nan(""));  // a sample the controller rejects: it answers with its fallback
+  estimate_.params = Eigen::VectorXd::Zero(model.nparams());
+  estimate_.param_stddev = Eigen::VectorXd::Zero(model.nparams());
+  estimate_.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  ctrl_.prepare(command_);
+  // Pre-size the outgoing messages once (toLcm reuses their vectors afterwards).
+  toLcm(command_, joint_names_, command_msg_);
+  toLcm(static_cast<const ControllerStatusSample&>(status_), status_msg_);
+  lcm_.reserve(static_cast<size_t>(std::max(command_msg_.getEncodedSize(), status_msg_.getEncodedSize())) + 1024);
+  lcm_.subscribeRaw(channels::kState, [this](const char*, const void* data, int size, int64_t) { onState(data, size); });
+  if (config_.disturbance.enabled && config_.disturbance.force_plates) {
+    // The plates of tick k arrive after the state of tick k: the observer pairs them with the wrench it planned
+    // for that tick, so they are used one tick later.
+    for (int i = 0; i < 2; ++i) {
+      const char* channel = i == 0 ? channels::kPlateRight : channels::kPlateLeft;
+      lcm_.subscribeRaw(channel, [this, i](const char*, const void* data, int size, int64_t) {
+        if (gate_.admitEncoded(ch_plate_[i], data, size, plate_msg_, plate_, nullptr, i)) ctrl_.setForcePlate(plate_);
+      });
+    }
+  }
+  if (use_estimate) {
+    lcm_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
+      // Every decoded estimate goes to the controller, which refuses (and counts) an unusable one.
+      if (gate_.admitEncoded(ch_estimate_, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
+                             coord_names_))
+        ctrl_.setEstimate(estimate_);
+    });
+  }
+}
+
+void ControllerNode::answer(const RobotStateSample& s) {
+  ctrl_.tick(s, command_, status_);
+  ++stats_.ticks;
+  stats_.tick_sum += status_.tick_us;
+  stats_.tick_max = std::max(stats_.tick_max, status_.tick_us);
+  toLcm(command_, joint_names_, command_msg_);
+  toLcm(static_cast<const ControllerStatusSample&>(status_), status_msg_);
+  if (!lcm_.publish(channels::kCommand, command_msg_)) ++stats_.publish_errors;
+  if (!lcm_.publish(channels::kControllerStatus, status_msg_)) ++stats_.publish_errors;
+  if (status_.trajectory_ready && !status_.trajectory_done && status_.mode == CommandMode::Torque) {
+    const double e = (status_.com_ref - status_.com).norm();
+    stats_.se_com += e * e;
+    stats_.max_com_err = std::max(stats_.max_com_err, e);
+    ++stats_.com_samples;
+  }
+  if (status_.trajectory_ready && status_.trajectory_time >= ctrl_.trajectoryDuration() + config_.trajectory.final_hold)
+    done_ = true;
+  if (status_.trajectory_failed) done_ = true;
+}
+
+void ControllerNode::onState(const void* data, int size) {
+  last_state_ = std::chrono::steady_clock::now();
+  std::string* why = reported_ < kMaxReportedRejections ? &err_ : nullptr;
+  if (gate_.admitEncoded(ch_state_, data, size, state_msg_, state_, why, joint_names_)) {
+    answer(state_);
+    return;
+  }
+  if (why) {
+    std::fprintf(stderr, "exo_controller: rejected %s: %s\n", channels::kState, err_.c_str());
+    ++reported_;
+  }
+  // A decodable state with a new tick that failed the checks gets the fallback answer; duplicates and
+  // out-of-order states do not (the command for their tick was already sent).
+  int64_t last = 0;
+  const bool has_last = gate_.lastTick(ch_state_, &last);
+  if (size > 0 && state_msg_.tick > (has_last ? last : -1) && state_msg_.tick >= 0) {
+    bad_state_.tick = state_msg_.tick;
+    bad_state_.utime = state_msg_.utime;
+    answer(bad_state_);
+    ++stats_.answered_bad;
+  } else {
+    ++stats_.unanswered;
+  }
+}
+
+ControllerNode::Outcome ControllerNode::run(int64_t idle_timeout_ms, const volatile std::sig_atomic_t* stop) {
+  while (!done_) {
+    if (*stop) return Outcome::Interrupted;
+    const auto idle =
+        std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - last_state_).count();
+    if (idle >= idle_timeout_ms) {
+      std::fprintf(stderr, "exo_controller: no %s for %lld ms, exiting\n", channels::kState, static_cast<long long>(idle));
+      return Outcome::IdleTimeout;
+    }
+    const int wait = static_cast<int>(std::min<long long>(kPollSliceMs, idle_timeout_ms - idle));
+    if (lcm_.handleTimeout(std::max(wait, 1), &err_) < 0) {
+      std::fprintf(stderr, "exo_controller: LCM: %s\n", err_.c_str());
+      return Outcome::LcmError;
+    }
+  }
+  return Outcome::Done;
+}
+
+}  // namespace exoid::controller
