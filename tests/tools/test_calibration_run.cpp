@@ -106,8 +106,8 @@ TEST(CalibrationRun, HeldBaseRowsOfTheLogHoldTheUrdfEquations) {
   EXPECT_LT(res.base_drift_m, 1e-4);
   EXPECT_LT(res.tracking_rms_rad, 0.01);
   EXPECT_EQ(res.mujoco_warnings, 0);
-  for (const tools::LogPipeline pipe : {tools::LogPipeline::Truth, tools::LogPipeline::Sensors}) {
-    const bool truth = pipe == tools::LogPipeline::Truth;
+  for (const intake::LogPipeline pipe : {intake::LogPipeline::Truth, intake::LogPipeline::Sensors}) {
+    const bool truth = pipe == intake::LogPipeline::Truth;
     tools::SourceOptions so;
     so.pipeline = pipe;
     so.held_base = true;
@@ -116,7 +116,7 @@ TEST(CalibrationRun, HeldBaseRowsOfTheLogHoldTheUrdfEquations) {
       so.dataset.filter = estimator::FilterMode::Parallel;
       so.dataset.trim_edges = true;
     }
-    tools::InputStats stats;
+    intake::InputStats stats;
     double worst = 0.0, scale = 0.0, unmeasured = 0.0;
     long rows = 0;
     ASSERT_TRUE(tools::streamFileRows(
@@ -143,8 +143,8 @@ TEST(CalibrationRun, HeldBaseRowsOfTheLogHoldTheUrdfEquations) {
   }
   // Without the held-base flag the same log breaks the equations (the harness's wrench is in the base rows).
   tools::SourceOptions plain;
-  plain.pipeline = tools::LogPipeline::Truth;
-  tools::InputStats stats;
+  plain.pipeline = intake::LogPipeline::Truth;
+  intake::InputStats stats;
   double base_err = 0.0;
   ASSERT_TRUE(tools::streamFileRows(
       opt.log_path, model, plain,

@@ -34,7 +34,7 @@ std::unique_ptr<estimator::LsqAccumulator> accumulate(const tools::SyntheticArm&
   ao.folds = folds;
   ao.chunk = static_cast<int>(std::lround(2.0 * rate));  // identify's --chunk-seconds 2
   auto acc = std::make_unique<estimator::LsqAccumulator>(arm.model, computeBaseParameters(arm.model), ao);
-  tools::InputStats st;
+  intake::InputStats st;
   EXPECT_TRUE(tools::accumulateFile(path, arm.model, tools::SourceOptions{}, *acc, st, &err)) << err;
   acc->flush();
   return acc;

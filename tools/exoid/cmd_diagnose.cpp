@@ -260,7 +260,7 @@ int cmdDiagnose(int argc, char** argv) {
   Model model;
   if (!buildModelFromUrdfFile(model_path, floating, model, &err, gravity)) return fail(err);
   tools::SourceOptions so;
-  so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
+  so.pipeline = pipeline == "truth" ? intake::LogPipeline::Truth : intake::LogPipeline::Sensors;
   so.dataset.cutoff_hz = cutoff >= 0.0 ? cutoff : floating ? 5.0 : 0.0;
   so.dataset.filter = filter_mode == "parallel" ? est::FilterMode::Parallel : est::FilterMode::Inputs;
   so.dataset.trim_edges = true;  // the filter's start-up transient is no residual of the model
@@ -281,7 +281,7 @@ int cmdDiagnose(int argc, char** argv) {
     return fail("--calibration and --validate-calibration need --floating-base (an exoskeleton held in a harness)");
   tools::SourceOptions so_held = so;
   so_held.held_base = true;
-  std::vector<tools::InputStats> stats(train_files.size() + calib_files.size() + val_files.size() + val_calib_files.size());
+  std::vector<intake::InputStats> stats(train_files.size() + calib_files.size() + val_files.size() + val_calib_files.size());
   std::set<std::string> names;  // segment names name the residual_<name>.csv files: unique
   auto makeSegment = [&](const std::string& path, size_t k, bool held) {
     est::Segment s;
@@ -292,11 +292,11 @@ int cmdDiagnose(int argc, char** argv) {
     names.insert(s.name);
     s.held_base = held;
     s.stream = [&, path, k, held](const est::DiagnosisRowSink& sink, std::string* e) {
-      stats[k] = tools::InputStats{};
+      stats[k] = intake::InputStats{};
       return tools::streamFileRows(path, model, held ? so_held : so, sink, stats[k], e);
     };
     s.stream_state = [&, path, k, held](const est::DiagnosisStateSink& sink, std::string* e) {
-      stats[k] = tools::InputStats{};
+      stats[k] = intake::InputStats{};
       return tools::streamFileStateRows(path, model, held ? so_held : so, sink, stats[k], e);
     };
     return s;
@@ -313,7 +313,7 @@ int cmdDiagnose(int argc, char** argv) {
 
   est::DiagnosisResult res;
   if (!est::diagnose(model, train, validate, opt, res, &err)) {
-    for (const tools::InputStats& st : stats)
+    for (const intake::InputStats& st : stats)
       if (st.refused_damaged) return fail(err), 3;
     return fail(err);
   }
@@ -324,7 +324,7 @@ int cmdDiagnose(int argc, char** argv) {
   nlohmann::json js_inputs = nlohmann::json::array();
   std::ostringstream md_inputs;
   for (size_t k = 0; k < all_files.size(); ++k) {
-    const tools::InputStats& st = stats[k];
+    const intake::InputStats& st = stats[k];
     nlohmann::json why = nlohmann::json::object();
     for (const auto& [reason, n] : st.why) why[reason] = n;
     js_inputs.push_back({{"file", all_files[k]}, {"samples", st.samples}, {"skipped", st.skipped}, {"skipped_by_reason", why}});

@@ -1,3 +1,5 @@
+// exoid export: a logged run as one CSV row per tick. Thin: options -> intake::readRunLog, tools::buildRunTable ->
+// the CSV.
 #include <cstdio>
 
 #include "commands.hpp"
@@ -10,20 +12,54 @@
 namespace exoid::cli {
 
 namespace {
+constexpr char kDescription[] =
+    "Turns a logged run into one CSV row per control tick (1 kHz). Every channel is aligned by tick; a tick\n"
+    "missing a needed message is skipped and counted (reported on stderr), never interpolated. A damaged log\n"
+    "(bytes that are not a valid event, events that do not decode, a cut-off last event) is read past the\n"
+    "damage; how many events were damaged and where the readable part ends are reported on stderr, and the\n"
+    "export fails unless --allow-partial is given.";
+
+constexpr char kFooter[] =
+    "columns (docs/data-formats.md):\n"
+    "  t                              seconds (tick * 1e-3)\n"
+    "  q_<joint>                      joint encoders (rad)\n"
+    "  v_<joint>, a_<joint>           joint velocity, acceleration: exact with --truth; with --filter HZ\n"
+    "                                 from the encoders by zero-phase 2nd-order Butterworth + differences\n"
+    "                                 (thesis III-E); left out otherwise (measured accelerations do not exist)\n"
+    "  base_qw, base_qx, base_qy, base_qz  orientation world <- base (IMU; exact with --truth)\n"
+    "  base_wx..wz                    angular velocity, base coordinates (gyro; exact with --truth)\n"
+    "  base_vx..vz                    velocity of the base origin, base coordinates (--truth only)\n"
+    "  base_dwx..dwz                  angular acceleration, base coordinates (--truth, or --filter)\n"
+    "  base_ax..az                    classical acceleration of the base origin, base coordinates, gravity\n"
+    "                                 excluded (accelerometer + R^T g; exact with --truth)\n"
+    "  base_px..pz                    base origin in the world (--truth only: not measured by the robot)\n"
+    "  tau_<joint>                    actuated joints: torque sensors (applied torque with --truth), N m\n"
+    "  fp_<right|left>_fx,fy,fz       force ON the foot, world coordinates, N (minus the plate's reading)\n"
+    "  fp_<right|left>_nx,ny,nz       its moment about the world origin, world coordinates, N m\n\n"
+    "exit codes: 0 success (with --allow-partial also from a damaged log), 2 bad input (unreadable log, no\n"
+    "            usable tick, bad option), 3 the log is damaged (nothing written; see --allow-partial).";
+
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid export: error: %s\n", msg.c_str());
   return 2;
 }
+
+/// The table as CSV (header row, %.17g cells), written atomically.
+bool writeTable(const tools::RunTable& table, const std::string& path, std::string* err) {
+  tools::AtomicCsvWriter out;
+  if (!out.open(path, err)) return false;
+  for (size_t i = 0; i < table.header.size(); ++i) std::fprintf(out.file(), i ? ",%s" : "%s", table.header[i].c_str());
+  std::fputc('\n', out.file());
+  for (const auto& row : table.rows) {
+    for (size_t i = 0; i < row.size(); ++i) std::fprintf(out.file(), i ? ",%.17g" : "%.17g", row[i]);
+    std::fputc('\n', out.file());
+  }
+  return out.commit(err);
+}
 }  // namespace
 
 int cmdExport(int argc, char** argv) {
-  CLI::App app{
-      "Turns a logged run into one CSV row per control tick (1 kHz). Every channel is aligned by tick; a tick\n"
-      "missing a needed message is skipped and counted (reported on stderr), never interpolated. A damaged log\n"
-      "(bytes that are not a valid event, events that do not decode, a cut-off last event) is read past the\n"
-      "damage; how many events were damaged and where the readable part ends are reported on stderr, and the\n"
-      "export fails unless --allow-partial is given.",
-      "exoid export"};
+  CLI::App app{kDescription, "exoid export"};
   common::configureCli(app);
   std::string log_path, out_path, model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";
   tools::ExportOptions opt;
@@ -39,25 +75,7 @@ int cmdExport(int argc, char** argv) {
   app.add_option("--model", model_path, "robot model naming the joints")->type_name("URDF");
   bool allow_partial = false;
   app.add_flag("--allow-partial", allow_partial, "export what is readable from a damaged log (the damage is still reported)");
-  app.footer(
-      "columns (docs/data-formats.md):\n"
-      "  t                              seconds (tick * 1e-3)\n"
-      "  q_<joint>                      joint encoders (rad)\n"
-      "  v_<joint>, a_<joint>           joint velocity, acceleration: exact with --truth; with --filter HZ\n"
-      "                                 from the encoders by zero-phase 2nd-order Butterworth + differences\n"
-      "                                 (thesis III-E); left out otherwise (measured accelerations do not exist)\n"
-      "  base_qw, base_qx, base_qy, base_qz  orientation world <- base (IMU; exact with --truth)\n"
-      "  base_wx..wz                    angular velocity, base coordinates (gyro; exact with --truth)\n"
-      "  base_vx..vz                    velocity of the base origin, base coordinates (--truth only)\n"
-      "  base_dwx..dwz                  angular acceleration, base coordinates (--truth, or --filter)\n"
-      "  base_ax..az                    classical acceleration of the base origin, base coordinates, gravity\n"
-      "                                 excluded (accelerometer + R^T g; exact with --truth)\n"
-      "  base_px..pz                    base origin in the world (--truth only: not measured by the robot)\n"
-      "  tau_<joint>                    actuated joints: torque sensors (applied torque with --truth), N m\n"
-      "  fp_<right|left>_fx,fy,fz       force ON the foot, world coordinates, N (minus the plate's reading)\n"
-      "  fp_<right|left>_nx,ny,nz       its moment about the world origin, world coordinates, N m\n\n"
-      "exit codes: 0 success (with --allow-partial also from a damaged log), 2 bad input (unreadable log, no\n"
-      "            usable tick, bad option), 3 the log is damaged (nothing written; see --allow-partial).");
+  app.footer(kFooter);
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;
   Model model;
@@ -71,15 +89,7 @@ int cmdExport(int argc, char** argv) {
   }
   tools::RunTable table;
   if (!tools::buildRunTable(model, log, opt, table, &err)) return fail(log_path + ": " + err);
-  tools::AtomicCsvWriter out;
-  if (!out.open(out_path, &err)) return fail(err);
-  for (size_t i = 0; i < table.header.size(); ++i) std::fprintf(out.file(), i ? ",%s" : "%s", table.header[i].c_str());
-  std::fputc('\n', out.file());
-  for (const auto& row : table.rows) {
-    for (size_t i = 0; i < row.size(); ++i) std::fprintf(out.file(), i ? ",%.17g" : "%.17g", row[i]);
-    std::fputc('\n', out.file());
-  }
-  if (!out.commit(&err)) return fail(err);
+  if (!writeTable(table, out_path, &err)) return fail(err);
   std::fprintf(stderr, "exoid export: %zu ticks -> %s (%ld ticks skipped for a missing message; %ld repeated and "
                "%ld out-of-order messages dropped; %ld log events rejected%s%s; %ld damaged stretches%s)\n",
                table.rows.size(), out_path.c_str(), table.skipped_ticks, table.repeated_messages,

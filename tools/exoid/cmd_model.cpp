@@ -63,6 +63,50 @@ int cmdModelPerturb(int argc, char** argv) {
   return 0;
 }
 
+/// One line per moving link: parent, joint, axis, mass, CoM.
+void printBodies(const Model& model) {
+  std::printf(" #  %-22s %-22s %-16s %-22s %9s  %s\n", "link", "parent", "joint", "axis (link frame)", "mass [kg]",
+              "CoM in link frame [m]");
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int j = model.jointOfBody(b);
+    const Vector10d phi = model.phi.segment<10>(model.bodyParamIndex(b));
+    const Eigen::Vector3d c = phi[0] > 0 ? Eigen::Vector3d(phi.segment<3>(1) / phi[0]) : Eigen::Vector3d::Zero();
+    char axis[64];
+    if (j >= 0)
+      std::snprintf(axis, sizeof axis, "(%.3f, %.3f, %.3f)", model.joint_axis[b].x(), model.joint_axis[b].y(),
+                    model.joint_axis[b].z());
+    else
+      std::snprintf(axis, sizeof axis, "free (6 dof)");
+    std::printf("%2d  %-22s %-22s %-16s %-22s %9.4f  (%.4f, %.4f, %.4f)\n", b, model.body_names[b].c_str(),
+                model.parent[b] < 0 ? (model.floating_base ? "(world, free joint)" : "(fixed root)")
+                                    : model.body_names[model.parent[b]].c_str(),
+                j >= 0 ? model.joint_names[j].c_str() : "-", axis, phi[0], c.x(), c.y(), c.z());
+  }
+}
+
+/// The total mass and the CoM in the standing pose (q = 0), also relative to the soles' midpoint when the model
+/// has soles.
+void printStandingCom(const Model& model) {
+  DynamicsData dyn(model);
+  const State standing = State::zero(model);
+  forwardKinematics(model, dyn.kin, standing);
+  centroidal(model, dyn);
+  std::printf("\nTotal mass: %.4f kg\n", model.totalMass());
+  std::printf("Centre of mass in the standing pose (q = 0), %s frame: (%.4f, %.4f, %.4f) m\n",
+              model.floating_base ? "base" : "root", dyn.com.x(), dyn.com.y(), dyn.com.z());
+  const int rs = model.frameIndex("right_sole"), ls = model.frameIndex("left_sole");
+  if (rs >= 0 && ls >= 0) {
+    auto at = [&](int f) {
+      const Model::Frame& fr = model.frames[f];
+      return Eigen::Vector3d(dyn.kin.p[fr.body] + dyn.kin.R[fr.body] * fr.position);
+    };
+    const Eigen::Vector3d mid = 0.5 * (at(rs) + at(ls));
+    const Eigen::Vector3d rel = dyn.com - mid;
+    std::printf("  relative to the midpoint between the soles: (%.4f, %.4f, %.4f) m (height %.3f m)\n", rel.x(),
+                rel.y(), rel.z(), rel.z());
+  }
+}
+
 }  // namespace
 
 int cmdModel(int argc, char** argv) {
@@ -95,41 +139,8 @@ int cmdModel(int argc, char** argv) {
               "(10 per link + 2 friction per joint)\n\n",
               model.name.c_str(), path.c_str(), model.floating_base ? "floating" : "fixed",
               model.nbodies, model.njoints, model.nv, model.nparams());
-  std::printf(" #  %-22s %-22s %-16s %-22s %9s  %s\n", "link", "parent", "joint", "axis (link frame)", "mass [kg]",
-              "CoM in link frame [m]");
-  for (int b = 0; b < model.nbodies; ++b) {
-    const int j = model.jointOfBody(b);
-    const Vector10d phi = model.phi.segment<10>(model.bodyParamIndex(b));
-    const Eigen::Vector3d c = phi[0] > 0 ? Eigen::Vector3d(phi.segment<3>(1) / phi[0]) : Eigen::Vector3d::Zero();
-    char axis[64];
-    if (j >= 0)
-      std::snprintf(axis, sizeof axis, "(%.3f, %.3f, %.3f)", model.joint_axis[b].x(), model.joint_axis[b].y(),
-                    model.joint_axis[b].z());
-    else
-      std::snprintf(axis, sizeof axis, "free (6 dof)");
-    std::printf("%2d  %-22s %-22s %-16s %-22s %9.4f  (%.4f, %.4f, %.4f)\n", b, model.body_names[b].c_str(),
-                model.parent[b] < 0 ? (model.floating_base ? "(world, free joint)" : "(fixed root)")
-                                    : model.body_names[model.parent[b]].c_str(),
-                j >= 0 ? model.joint_names[j].c_str() : "-", axis, phi[0], c.x(), c.y(), c.z());
-  }
-  DynamicsData dyn(model);
-  const State standing = State::zero(model);
-  forwardKinematics(model, dyn.kin, standing);
-  centroidal(model, dyn);
-  std::printf("\nTotal mass: %.4f kg\n", model.totalMass());
-  std::printf("Centre of mass in the standing pose (q = 0), %s frame: (%.4f, %.4f, %.4f) m\n",
-              model.floating_base ? "base" : "root", dyn.com.x(), dyn.com.y(), dyn.com.z());
-  const int rs = model.frameIndex("right_sole"), ls = model.frameIndex("left_sole");
-  if (rs >= 0 && ls >= 0) {
-    auto at = [&](int f) {
-      const Model::Frame& fr = model.frames[f];
-      return Eigen::Vector3d(dyn.kin.p[fr.body] + dyn.kin.R[fr.body] * fr.position);
-    };
-    const Eigen::Vector3d mid = 0.5 * (at(rs) + at(ls));
-    const Eigen::Vector3d rel = dyn.com - mid;
-    std::printf("  relative to the midpoint between the soles: (%.4f, %.4f, %.4f) m (height %.3f m)\n", rel.x(),
-                rel.y(), rel.z(), rel.z());
-  }
+  printBodies(model);
+  printStandingCom(model);
   const BaseParameters base = computeBaseParameters(model);
   int friction = 2 * model.njoints;
   std::printf("Structural base parameters: %d of %d (%d inertial + %d friction); exoid base-params lists them\n",

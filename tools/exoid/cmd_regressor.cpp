@@ -14,6 +14,31 @@ int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid regressor: error: %s\n", msg.c_str());
   return 2;
 }
+
+/// W for every sample: one CSV row per sample and generalized coordinate (atomically).
+bool writeRegressor(const Model& model, const tools::CsvTable& table, const tools::StateColumns& columns,
+                    const std::string& states_path, const std::string& out_path, std::string* err) {
+  const std::vector<std::string> row_names = model.coordinateNames();
+  tools::AtomicCsvWriter out;
+  if (!out.open(out_path, err)) return false;
+  FILE* f = out.file();
+  std::fputs("sample,row", f);
+  for (const std::string& n : model.paramNames()) std::fprintf(f, ",%s", n.c_str());
+  std::fputc('\n', f);
+  Data data(model);
+  State state = State::zero(model);
+  for (size_t i = 0; i < table.rows.size(); ++i) {
+    if (!columns.read(table.rows[i], state, err))
+      return *err = states_path + ": sample " + std::to_string(i) + ": " + *err, false;
+    computeJointTorqueRegressor(model, data, state);
+    for (int r = 0; r < model.nv; ++r) {
+      std::fprintf(f, "%zu,%s", i, row_names[r].c_str());
+      for (int c = 0; c < data.K.cols(); ++c) std::fprintf(f, ",%.17g", data.K(r, c));
+      std::fputc('\n', f);
+    }
+  }
+  return out.commit(err);
+}
 }  // namespace
 
 int cmdRegressor(int argc, char** argv) {
@@ -67,27 +92,7 @@ int cmdRegressor(int argc, char** argv) {
   tools::StateColumns columns;
   if (!columns.bind(model, table, &err)) return fail(states_path + ": " + err);
 
-  const std::vector<std::string> row_names = model.coordinateNames();
-
-  tools::AtomicCsvWriter out;
-  if (!out.open(out_path, &err)) return fail(err);
-  FILE* f = out.file();
-  std::fputs("sample,row", f);
-  for (const std::string& n : model.paramNames()) std::fprintf(f, ",%s", n.c_str());
-  std::fputc('\n', f);
-  Data data(model);
-  State state = State::zero(model);
-  for (size_t i = 0; i < table.rows.size(); ++i) {
-    if (!columns.read(table.rows[i], state, &err))
-      return fail(states_path + ": sample " + std::to_string(i) + ": " + err);
-    computeJointTorqueRegressor(model, data, state);
-    for (int r = 0; r < model.nv; ++r) {
-      std::fprintf(f, "%zu,%s", i, row_names[r].c_str());
-      for (int c = 0; c < data.K.cols(); ++c) std::fprintf(f, ",%.17g", data.K(r, c));
-      std::fputc('\n', f);
-    }
-  }
-  if (!out.commit(&err)) return fail(err);
+  if (!writeRegressor(model, table, columns, states_path, out_path, &err)) return fail(err);
   std::fprintf(stderr, "exoid regressor: %zu samples x %d rows x %d parameters -> %s\n", table.rows.size(), model.nv,
                model.nparams(), out_path.c_str());
   return 0;

@@ -81,21 +81,19 @@ bool parseList(const std::string& s, std::vector<T>& out) {
   }
   return !out.empty();
 }
-}  // namespace
-
-int cmdStudy(int argc, char** argv) {
-  CLI::App app(kDescription, "exoid study");
-  tools::StudyOptions o;
-  o.model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";
-  o.thesis_table = std::string(EXOID_DATA_DIR) + "/thesis/table2.csv";
+/// The study's options as given: the lists still text, --runs and its moves.
+struct StudyArgs {
   std::string cutoffs = "0,10,15,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
-  app.add_option("--model", o.model_path, "URDF (default config/exo.urdf, floating base)");
-  std::string runs;
+  std::string runs, sensors_filter = "inputs", orientation = "fused";
   int moves = 0;
-  app.add_option("--runs", runs, "directory of the study's runs: train (nominal.yaml, seed 11), validation (ideal.yaml, "
+};
+
+void addStudyOptions(CLI::App& app, tools::StudyOptions& o, StudyArgs& a) {
+  app.add_option("--model", o.model_path, "URDF (default config/exo.urdf, floating base)");
+  app.add_option("--runs", a.runs, "directory of the study's runs: train (nominal.yaml, seed 11), validation (ideal.yaml, "
                  "seed 12), test (nominal.yaml, seed 13); each recorded by exoid experiment when DIR/<run>/run.lcmlog "
                  "is missing, reused otherwise (instead of --train/--validation/--test)");
-  app.add_option("--moves", moves, "--runs: CoM moves per recorded run (0: the controller's default)")->check(CLI::Range(0, 1000));
+  app.add_option("--moves", a.moves, "--runs: CoM moves per recorded run (0: the controller's default)")->check(CLI::Range(0, 1000));
   app.add_option("--train", o.train, "LCM log of the training run (noise: nominal.yaml)");
   app.add_option("--validation", o.validation, "LCM log of the ideal validation run (ideal.yaml, another seed)");
   app.add_option("--test", o.test, "LCM log of a held-out test run (another seed), scored as well");
@@ -105,15 +103,13 @@ int cmdStudy(int argc, char** argv) {
   app.add_option("--out", o.out_dir, "output directory")->required();
   app.add_option("--priors", o.priors, "random priors per range (default 20)")->check(CLI::Range(1, 1000));
   app.add_option("--seed", o.seed, "seed of the priors and the encoder noise (default 1)");
-  app.add_option("--cutoffs", cutoffs, "filter cutoffs in Hz, 0 = none (default 0,10,15,30,50,70,100: the thesis's none/30/50/70/100 plus 10 and 15)");
-  app.add_option("--pipelines", pipelines, "thesis and/or sensors (default both)");
-  app.add_option("--ranges", ranges, "prior ranges: 12.5%, 25% (relative) and abs0.125 (absolute), default all three");
-  std::string sensors_filter = "inputs";
-  app.add_option("--sensors-filter", sensors_filter, "sensors pipeline: 'inputs' (filter q and the gyro, differentiate; "
+  app.add_option("--cutoffs", a.cutoffs, "filter cutoffs in Hz, 0 = none (default 0,10,15,30,50,70,100: the thesis's none/30/50/70/100 plus 10 and 15)");
+  app.add_option("--pipelines", a.pipelines, "thesis and/or sensors (default both)");
+  app.add_option("--ranges", a.ranges, "prior ranges: 12.5%, 25% (relative) and abs0.125 (absolute), default all three");
+  app.add_option("--sensors-filter", a.sensors_filter, "sensors pipeline: 'inputs' (filter q and the gyro, differentiate; "
                  "default) or 'parallel' (the same zero-phase filter on every column of W and on y)")
       ->check(CLI::IsMember({"inputs", "parallel"}));
-  std::string orientation = "fused";
-  app.add_option("--base-orientation", orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with "
+  app.add_option("--base-orientation", a.orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with "
                  "the feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) "
                  "or the 'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
   app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, "
@@ -128,6 +124,42 @@ int cmdStudy(int argc, char** argv) {
                  "causal velocity filter (Hz) of the realistic torque prediction on the test run (default 50)")
       ->check(CLI::Range(1.0, 499.0));
   app.add_option("--thesis-table", o.thesis_table, "the thesis's Table II as CSV (default data/thesis/table2.csv)");
+}
+
+/// The runs' source (--runs or the three logs), the filter and orientation choices and the lists into o; false
+/// with a one-line *error.
+bool resolveStudyOptions(const StudyArgs& a, tools::StudyOptions& o, std::string* error) {
+  if (a.runs.empty() && (o.train.empty() || o.validation.empty()))
+    return *error = "give --runs DIR, or --train and --validation (recorded runs)", false;
+  if (!a.runs.empty() && (!o.train.empty() || !o.validation.empty() || !o.test.empty()))
+    return *error = "--runs records/reuses its own runs: do not combine it with --train, --validation or --test", false;
+  o.parallel_filter = a.sensors_filter == "parallel";
+  o.orientation_from_legs = a.orientation == "fused";
+  if (!parseList(a.cutoffs, o.cutoffs)) return *error = "--cutoffs must be a comma-separated list of numbers", false;
+  for (double c : o.cutoffs)
+    if (!(c >= 0.0) || c >= 500.0) return *error = "--cutoffs: " + std::to_string(c) + " is not in [0, 500) Hz", false;
+  std::vector<std::string> p, r;
+  if (!parseList(a.pipelines, p)) return *error = "--pipelines must be a comma-separated list", false;
+  o.pipelines = p;
+  if (!parseList(a.ranges, r)) return *error = "--ranges must be a comma-separated list", false;
+  o.ranges.clear();
+  for (const std::string& s : r) {
+    if (s == "12.5%") o.ranges.push_back({s, 0.125, false});
+    else if (s == "25%") o.ranges.push_back({s, 0.25, false});
+    else if (s == "abs0.125") o.ranges.push_back({s, 0.125, true});
+    else return *error = "--ranges: unknown range '" + s + "' (12.5%, 25%, abs0.125)", false;
+  }
+  return true;
+}
+}  // namespace
+
+int cmdStudy(int argc, char** argv) {
+  CLI::App app(kDescription, "exoid study");
+  tools::StudyOptions o;
+  o.model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";
+  o.thesis_table = std::string(EXOID_DATA_DIR) + "/thesis/table2.csv";
+  StudyArgs a;
+  addStudyOptions(app, o, a);
   try {
     app.parse(argc - 1, argv + 1);
   } catch (const CLI::CallForHelp&) {
@@ -136,32 +168,13 @@ int cmdStudy(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return fail(e.what());
   }
-  if (runs.empty() && (o.train.empty() || o.validation.empty()))
-    return fail("give --runs DIR, or --train and --validation (recorded runs)");
-  if (!runs.empty() && (!o.train.empty() || !o.validation.empty() || !o.test.empty()))
-    return fail("--runs records/reuses its own runs: do not combine it with --train, --validation or --test");
-  o.parallel_filter = sensors_filter == "parallel";
-  o.orientation_from_legs = orientation == "fused";
-  if (!parseList(cutoffs, o.cutoffs)) return fail("--cutoffs must be a comma-separated list of numbers");
-  for (double c : o.cutoffs)
-    if (!(c >= 0.0) || c >= 500.0) return fail("--cutoffs: " + std::to_string(c) + " is not in [0, 500) Hz");
-  std::vector<std::string> p, r;
-  if (!parseList(pipelines, p)) return fail("--pipelines must be a comma-separated list");
-  o.pipelines = p;
-  if (!parseList(ranges, r)) return fail("--ranges must be a comma-separated list");
-  o.ranges.clear();
-  for (const std::string& s : r) {
-    if (s == "12.5%") o.ranges.push_back({s, 0.125, false});
-    else if (s == "25%") o.ranges.push_back({s, 0.25, false});
-    else if (s == "abs0.125") o.ranges.push_back({s, 0.125, true});
-    else return fail("--ranges: unknown range '" + s + "' (12.5%, 25%, abs0.125)");
-  }
-  o.progress = [](const std::string& line) { std::fprintf(stderr, "exoid study: %s\n", line.c_str()); };
   std::string err;
-  if (!runs.empty()) {
-    if (!ensureRun(runs, "train", "nominal.yaml", 11, moves, o.train, &err) ||
-        !ensureRun(runs, "validation", "ideal.yaml", 12, moves, o.validation, &err) ||
-        !ensureRun(runs, "test", "nominal.yaml", 13, moves, o.test, &err))
+  if (!resolveStudyOptions(a, o, &err)) return fail(err);
+  o.progress = [](const std::string& line) { std::fprintf(stderr, "exoid study: %s\n", line.c_str()); };
+  if (!a.runs.empty()) {
+    if (!ensureRun(a.runs, "train", "nominal.yaml", 11, a.moves, o.train, &err) ||
+        !ensureRun(a.runs, "validation", "ideal.yaml", 12, a.moves, o.validation, &err) ||
+        !ensureRun(a.runs, "test", "nominal.yaml", 13, a.moves, o.test, &err))
       return fail(err);
   }
   if (!tools::runStudy(o, &err)) return fail(err);

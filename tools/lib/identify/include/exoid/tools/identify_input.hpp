@@ -2,7 +2,7 @@
 // One data file (an LCM log of `exoid experiment` or a CSV of measured data) through the dataset pipeline into
 // regressor rows, for `exoid identify`, `diagnose` and `study`. The file is read by the intake layer
 // (exoid/intake/measured_input.hpp): damaged input is refused naming the file and where, unless the options
-// allow skipping (skip_bad_rows, allow_partial), and what was skipped is counted in InputStats.
+// allow skipping (skip_bad_rows, allow_partial), and what was skipped is counted in intake::InputStats.
 #include <functional>
 #include <map>
 #include <string>
@@ -16,14 +16,9 @@
 
 namespace exoid::tools {
 
-// The readers are the intake layer's (estimator/intake): one home for recorded data.
-using intake::InputStats;
-using intake::LogPipeline;
-using intake::SampleSink;
-
 /// Options for turning one data file into rows of the accumulator.
 struct SourceOptions {
-  LogPipeline pipeline = LogPipeline::Sensors;  ///< LCM logs only
+  intake::LogPipeline pipeline = intake::LogPipeline::Sensors;  ///< LCM logs only
   estimator::DatasetOptions dataset;
   bool skip_bad_rows = false;                   ///< CSV only
   const estimator::EffectSet* effects = nullptr;  ///< a diagnose sidecar applied as known corrections (no delay)
@@ -32,7 +27,7 @@ struct SourceOptions {
   /// that are not measured (estimator::heldBaseRowMeasured: the base's, the pinned unactuated joints') handed on
   /// as zero rows, K and y both, which carry no information into a least-squares fit. Floating base only.
   bool held_base = false;
-  /// LCM logs: use the readable part of a damaged log (damage reported in InputStats) instead of refusing it.
+  /// LCM logs: use the readable part of a damaged log (damage reported in intake::InputStats) instead of refusing it.
   bool allow_partial = false;
   /// Parameters held at known values (`exoid diagnose --declared-model`, `exoid identify --only-links`): every row's y
   /// becomes y - K held_phi [Model::nparams()], so what is fitted to it is what those parameters leave. Not owned.
@@ -43,9 +38,9 @@ struct SourceOptions {
 /// differentiation), read once; accumulateSamples then turns them into (K, y) under any dataset options (e.g.
 /// one filter cutoff after another, `exoid study`) without reading the file again.
 bool readSamples(const std::string& path, const Model& model, const SourceOptions& options,
-                 std::vector<estimator::MeasuredSample>& out, InputStats& stats, std::string* error);
+                 std::vector<estimator::MeasuredSample>& out, intake::InputStats& stats, std::string* error);
 bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
-                       const SourceOptions& options, estimator::LsqAccumulator& acc, InputStats& stats,
+                       const SourceOptions& options, estimator::LsqAccumulator& acc, intake::InputStats& stats,
                        std::string* error);
 
 /// True if the path names a CSV (by its extension), false for anything else (read as an LCM log).
@@ -54,20 +49,20 @@ bool isCsvPath(const std::string& path);
 /// Streams one file (LCM log or CSV) through the dataset pipeline (filtering, K and y), one sample at a time,
 /// to a sink (accumulateFile below, `exoid diagnose`). Feet and footholds as for accumulateFile.
 bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
-                    const estimator::RowSink& sink, InputStats& stats, std::string* error);
+                    const estimator::RowSink& sink, intake::InputStats& stats, std::string* error);
 
 /// The same, with the joint torque sensors' part of each y (estimator::DatasetBuilder::sensorTorque()) as the
 /// sink's fourth argument: y minus it is what the plates contribute (zero for a fixed base).
 using TorqueRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
                                          const Eigen::VectorXd& tau_sensor)>;
 bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
-                    const TorqueRowSink& sink, InputStats& stats, std::string* error);
+                    const TorqueRowSink& sink, intake::InputStats& stats, std::string* error);
 /// The TorqueRowSink rows with the joint positions q [njoints] they were computed from
 /// (DatasetBuilder::jointPosition()): the residual-predictability stage of `exoid diagnose` needs the state.
 using StateRowSink = std::function<void(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y,
                                         const Eigen::VectorXd& tau_sensor, const Eigen::VectorXd& q)>;
 bool streamFileStateRows(const std::string& path, const Model& model, const SourceOptions& options,
-                         const StateRowSink& sink, InputStats& stats, std::string* error);
+                         const StateRowSink& sink, intake::InputStats& stats, std::string* error);
 
 /// Streams one file (LCM log or CSV) through the dataset pipeline (filtering, K and y) into the accumulator.
 /// Floating base: the feet are the model's right_foot / left_foot bodies; without a measured base position
@@ -75,6 +70,6 @@ bool streamFileStateRows(const std::string& path, const Model& model, const Sour
 /// its plate's top, as placed in the lab). Rows the accumulator rejects (non-finite) are counted in
 /// stats.why["non-finite regressor row"].
 bool accumulateFile(const std::string& path, const Model& model, const SourceOptions& options,
-                    estimator::LsqAccumulator& acc, InputStats& stats, std::string* error);
+                    estimator::LsqAccumulator& acc, intake::InputStats& stats, std::string* error);
 
 }  // namespace exoid::tools

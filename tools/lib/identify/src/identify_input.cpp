@@ -36,7 +36,7 @@ bool datasetSetup(const Model& model, const SourceOptions& options, int feet[2],
 }
 
 bool readFile(const std::string& path, const Model& model, const SourceOptions& options, const int feet[2],
-              const SampleSink& sink, InputStats& stats, std::string* error) {
+              const intake::SampleSink& sink, intake::InputStats& stats, std::string* error) {
   return isCsvPath(path) ? intake::streamMeasuredCsv(path, model, feet, options.skip_bad_rows, sink, stats, error)
                          : intake::streamRunLog(path, model, options.pipeline, feet, options.allow_partial, sink, stats, error);
 }
@@ -62,7 +62,7 @@ using BuilderRowSink = std::function<void(const estimator::DatasetBuilder& build
 
 // Streams a file's rows through the dataset builder and, when the source has a sidecar, its corrections.
 bool streamRows(const std::string& path, const Model& model, const SourceOptions& options, const BuilderRowSink& rows,
-                InputStats& stats, std::string* error) {
+                intake::InputStats& stats, std::string* error) {
   int feet[2];
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
@@ -95,7 +95,7 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
                                                            : direct);
   self = &builder;
   estimator::MeasuredSample held;
-  const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) {
+  const intake::SampleSink sink = [&](const estimator::MeasuredSample& s, std::string* err) {
     if (!options.held_base) return builder.add(s, err);
     held = s;
     heldBase(held);
@@ -113,7 +113,7 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
 }  // namespace
 
 bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
-                    const estimator::RowSink& rows, InputStats& stats, std::string* error) {
+                    const estimator::RowSink& rows, intake::InputStats& stats, std::string* error) {
   return streamRows(
       path, model, options,
       [&](const estimator::DatasetBuilder&, double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows(t, K, y); },
@@ -121,7 +121,7 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
 }
 
 bool streamFileRows(const std::string& path, const Model& model, const SourceOptions& options,
-                    const TorqueRowSink& rows, InputStats& stats, std::string* error) {
+                    const TorqueRowSink& rows, intake::InputStats& stats, std::string* error) {
   if (options.effects) {  // the corrector delays rows by one sample: the builder's torque would be the next one's
     if (error) *error = "streamFileRows: sensor torques and sidecar corrections together are not supported";
     return false;
@@ -135,7 +135,7 @@ bool streamFileRows(const std::string& path, const Model& model, const SourceOpt
 }
 
 bool streamFileStateRows(const std::string& path, const Model& model, const SourceOptions& options,
-                         const StateRowSink& rows, InputStats& stats, std::string* error) {
+                         const StateRowSink& rows, intake::InputStats& stats, std::string* error) {
   if (options.effects) {
     if (error) *error = "streamFileStateRows: sensor torques and sidecar corrections together are not supported";
     return false;
@@ -149,7 +149,7 @@ bool streamFileStateRows(const std::string& path, const Model& model, const Sour
 }
 
 bool readSamples(const std::string& path, const Model& model, const SourceOptions& options,
-                 std::vector<estimator::MeasuredSample>& out, InputStats& stats, std::string* error) {
+                 std::vector<estimator::MeasuredSample>& out, intake::InputStats& stats, std::string* error) {
   if (options.held_base) {  // the study's path: held-base runs go through streamFileRows
     if (error) *error = "readSamples: held-base runs are not supported here";
     return false;
@@ -158,12 +158,12 @@ bool readSamples(const std::string& path, const Model& model, const SourceOption
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
   out.clear();
-  const SampleSink sink = [&](const estimator::MeasuredSample& s, std::string*) { return out.push_back(s), true; };
+  const intake::SampleSink sink = [&](const estimator::MeasuredSample& s, std::string*) { return out.push_back(s), true; };
   return readFile(path, model, options, feet, sink, stats, error);
 }
 
 bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
-                       const SourceOptions& options, estimator::LsqAccumulator& acc, InputStats& stats,
+                       const SourceOptions& options, estimator::LsqAccumulator& acc, intake::InputStats& stats,
                        std::string* error) {
   if (options.effects || options.held_base || options.held_phi) {  // the study's path; these go through streamFileRows
     if (error) *error = "accumulateSamples: sidecar corrections and held-base runs are not supported here";
@@ -186,7 +186,7 @@ bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, co
 }
 
 bool accumulateFile(const std::string& path, const Model& model, const SourceOptions& options,
-                    estimator::LsqAccumulator& acc, InputStats& stats, std::string* error) {
+                    estimator::LsqAccumulator& acc, intake::InputStats& stats, std::string* error) {
   long nonfinite = 0;
   if (!streamFileRows(path, model, options, accumulatorSink(acc, nonfinite), stats, error)) return false;
   if (nonfinite > 0) {

@@ -51,6 +51,115 @@ double jointRmse(const Model& model, const estimator::LsqAccumulator& acc, const
   const int joints = model.nv - (model.floating_base ? 6 : 0);
   return rows > 0 ? std::sqrt(sum / (static_cast<double>(rows) * joints)) : 0.0;
 }
+
+/// The logged run's ticks and what the batch and the online side share.
+struct Comparison {
+  const Model& model;
+  const std::vector<estimator::AlignedTick>& ticks;
+  const BaseParameters& base;
+  const Eigen::VectorXd& prior;
+  int publish_every;
+  int feet[2];
+  estimator::DatasetOptions dopt;
+  Eigen::VectorXd prior_sigma;  ///< the online estimator's prior stddev of the base parameters (the last replay's)
+};
+
+/// Batch: exoid identify's sensors pipeline (inputs filtered at 30 Hz), ticks [from, to) into acc; the rows
+/// added (-1: the pipeline refused a sample). With `effects`, the rows go through EffectCorrector first (the
+/// effects at their values subtracted from y, gains divided out), so the accumulated residual is that of the
+/// rigid part plus the effects.
+long accumulateTicks(const Comparison& cmp, size_t from, size_t to, estimator::LsqAccumulator& acc,
+                     const estimator::EffectSet* effects = nullptr) {
+  using namespace estimator;
+  const Model& model = cmp.model;
+  long rows = 0;
+  const RowSink add = [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows += acc.add(K, y) ? 1 : 0; };
+  std::unique_ptr<EffectCorrector> corrector;
+  if (effects) corrector = std::make_unique<EffectCorrector>(model, *effects, add);
+  const DatasetBuilder* self = nullptr;
+  DatasetBuilder builder(model, cmp.dopt, [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+    if (corrector) corrector->add(t, K, y, &self->sensorTorque());
+    else add(t, K, y);
+  });
+  self = &builder;
+  MeasuredSample s;
+  std::string err;
+  for (size_t i = from; i < to; ++i) {
+    const ForcePlateSample* plates[2] = {cmp.ticks[i].plate[0], cmp.ticks[i].plate[1]};
+    measuredFromSensors(model, *cmp.ticks[i].state, plates, cmp.feet, s);
+    if (!builder.add(s, &err)) return -1L;
+  }
+  if (!builder.finish(&err)) return -1L;
+  if (corrector) corrector->finish();
+  acc.flush();
+  return rows;
+}
+
+/// The online side: the OnlineEstimator over ticks [0, to), publishing like exo_estimator (the WLS-R weights
+/// follow its solves); *x: its final base estimate (effect columns after it). False: options refused.
+bool replayOnline(Comparison& cmp, size_t to, Eigen::VectorXd& x, const estimator::OnlineEstimatorOptions& opts) {
+  estimator::OnlineEstimator est(cmp.model, cmp.base, cmp.prior, opts);
+  if (!est.ok()) return false;
+  cmp.prior_sigma = est.priorBaseStddev();
+  EstimatorOutputSample out;
+  est.prepare(out);
+  for (size_t i = 0; i < to; ++i) {
+    est.addState(*cmp.ticks[i].state);
+    est.addPlate(*cmp.ticks[i].plate[0]);
+    est.addPlate(*cmp.ticks[i].plate[1]);
+    if (est.samplesSincePublication() >= cmp.publish_every) est.publish(out);
+  }
+  est.publish(out);
+  x = out.base_params;
+  return true;
+}
+
+/// With a diagnose sidecar: the online held-out RMSE with the effect columns' online values applied to the
+/// held-out rows, and without the sidecar (rigid). False with c.error.
+bool heldoutWithEffects(Comparison& cmp, size_t split, const estimator::LsqAccumulator& held, long held_rows,
+                        const Eigen::VectorXd& x_online_train, const estimator::OnlineEstimatorOptions& options,
+                        OnlineVsBatch& c) {
+  using namespace estimator;
+  const int m = cmp.base.rank;
+  EffectSet fitted = options.effects;
+  int e = 0;
+  for (Effect& ef : fitted.effects) {
+    if (isMeasurementEffect(ef.kind)) continue;
+    ef.value = x_online_train[m + e++];
+    c.effect_names.push_back(cmp.model.joint_names[ef.joint] + " " + effectKindName(ef.kind));
+    c.effect_values.push_back(ef.value);
+  }
+  AccumulatorOptions one;
+  one.folds = 1;
+  LsqAccumulator held_fx(cmp.model, cmp.base, one);
+  const long fx_rows = accumulateTicks(cmp, split, cmp.ticks.size(), held_fx, &fitted);
+  if (fx_rows <= 0) return c.error = "the dataset pipeline refused the logged samples", false;
+  c.heldout_rmse_online = jointRmse(cmp.model, held_fx, x_online_train.head(m), fx_rows);
+  OnlineEstimatorOptions rigid = options;
+  rigid.effects = EffectSet{};
+  Eigen::VectorXd x_rigid;
+  if (!replayOnline(cmp, split, x_rigid, rigid)) return c.error = "online estimator options refused", false;
+  c.heldout_rmse_online_rigid = jointRmse(cmp.model, held, x_rigid, held_rows);
+  return true;
+}
+
+/// The live exo_estimator's final estimate (its --final CSV) against the batch and the replay, in base parameters.
+void compareLive(const Comparison& cmp, const std::string& live_csv, const Eigen::VectorXd& x_batch,
+                 const Eigen::VectorXd& x_replay, OnlineVsBatch& c) {
+  Eigen::VectorXd phi_live;
+  std::string err;
+  if (!live_csv.empty() && readLiveEstimate(live_csv, cmp.model, phi_live, &err)) {
+    c.live_read = true;
+    const Eigen::VectorXd x_live = cmp.base.base_map * phi_live;
+    const double n = std::sqrt(cmp.base.rank);
+    c.param_diff_live_batch = (x_live - x_batch).norm() / x_batch.norm();
+    c.param_diff_live_replay = (x_live - x_replay).norm() / x_replay.norm();
+    c.param_diff_live_batch_sigma = (x_live - x_batch).cwiseQuotient(cmp.prior_sigma).norm() / n;
+    c.param_diff_live_replay_sigma = (x_live - x_replay).cwiseQuotient(cmp.prior_sigma).norm() / n;
+  } else if (!live_csv.empty()) {
+    c.error = err;
+  }
+}
 }  // namespace
 
 OnlineVsBatch compareOnlineBatch(const Model& model, const intake::RunLog& log, const Eigen::VectorXd& prior,
@@ -69,121 +178,37 @@ OnlineVsBatch compareOnlineBatch(const Model& model, const intake::RunLog& log, 
   }
   const size_t split = static_cast<size_t>(train_fraction * static_cast<double>(ticks.size()));
   c.split_tick = ticks[split].state->tick;
-  const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
-  // Batch: exoid identify's sensors pipeline (inputs filtered at 30 Hz), over [from, to) into acc.
-  DatasetOptions dopt;
-  dopt.cutoff_hz = 30.0;
-  dopt.filter = FilterMode::Inputs;
-  dopt.footholds = defaultFootholds(model);
-  // With `effects`, the rows go through EffectCorrector first (the effects at their values subtracted from y,
-  // gains divided out), so the accumulated residual is that of the rigid part plus the effects.
-  auto accumulate = [&](size_t from, size_t to, LsqAccumulator& acc, const EffectSet* effects = nullptr) {
-    long rows = 0;
-    const RowSink add = [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { rows += acc.add(K, y) ? 1 : 0; };
-    std::unique_ptr<EffectCorrector> corrector;
-    if (effects) corrector = std::make_unique<EffectCorrector>(model, *effects, add);
-    const DatasetBuilder* self = nullptr;
-    DatasetBuilder builder(model, dopt, [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
-      if (corrector) corrector->add(t, K, y, &self->sensorTorque());
-      else add(t, K, y);
-    });
-    self = &builder;
-    MeasuredSample s;
-    std::string err;
-    for (size_t i = from; i < to; ++i) {
-      const ForcePlateSample* plates[2] = {ticks[i].plate[0], ticks[i].plate[1]};
-      measuredFromSensors(model, *ticks[i].state, plates, feet, s);
-      if (!builder.add(s, &err)) return -1L;
-    }
-    if (!builder.finish(&err)) return -1L;
-    if (corrector) corrector->finish();
-    acc.flush();
-    return rows;
-  };
-  Eigen::VectorXd prior_sigma;
-  auto replay = [&](size_t to, Eigen::VectorXd& x, const OnlineEstimatorOptions& opts) {
-    OnlineEstimator est(model, base, prior, opts);
-    if (!est.ok()) return false;
-    prior_sigma = est.priorBaseStddev();
-    EstimatorOutputSample out;
-    est.prepare(out);
-    for (size_t i = 0; i < to; ++i) {  // publishing like exo_estimator (the WLS-R weights follow its solves)
-      est.addState(*ticks[i].state);
-      est.addPlate(*ticks[i].plate[0]);
-      est.addPlate(*ticks[i].plate[1]);
-      if (est.samplesSincePublication() >= publish_every) est.publish(out);
-    }
-    est.publish(out);
-    x = out.base_params;
-    return true;
-  };
+  Comparison cmp{model, ticks, base, prior, publish_every, {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")}, {}, {}};
+  cmp.dopt.cutoff_hz = 30.0;
+  cmp.dopt.filter = FilterMode::Inputs;
+  cmp.dopt.footholds = defaultFootholds(model);
   LsqAccumulator train(model, base), whole(model, base);
   AccumulatorOptions one;
   one.folds = 1;
   LsqAccumulator held(model, base, one);
-  const long held_rows = accumulate(split, ticks.size(), held);
-  if (accumulate(0, split, train) < 0 || held_rows <= 0 || accumulate(0, ticks.size(), whole) < 0) {
-    c.error = "the dataset pipeline refused the logged samples";
-    return c;
-  }
+  const long held_rows = accumulateTicks(cmp, split, ticks.size(), held);
+  if (accumulateTicks(cmp, 0, split, train) < 0 || held_rows <= 0 || accumulateTicks(cmp, 0, ticks.size(), whole) < 0)
+    return c.error = "the dataset pipeline refused the logged samples", c;
   IdentifyResult batch_train, batch_whole;
   std::string err;
   if (!identify(train, model, prior, IdentifyOptions{}, nullptr, batch_train, &err) ||
-      !identify(whole, model, prior, IdentifyOptions{}, nullptr, batch_whole, &err)) {
-    c.error = "batch WLS-RC: " + err;
-    return c;
-  }
+      !identify(whole, model, prior, IdentifyOptions{}, nullptr, batch_whole, &err))
+    return c.error = "batch WLS-RC: " + err, c;
   c.batch_rank = batch_train.rank;
   Eigen::VectorXd x_online_train, x_replay;
-  if (!replay(split, x_online_train, options) || !replay(ticks.size(), x_replay, options)) {
-    c.error = "online estimator options refused";
-    return c;
-  }
+  if (!replayOnline(cmp, split, x_online_train, options) || !replayOnline(cmp, ticks.size(), x_replay, options))
+    return c.error = "online estimator options refused", c;
   const int m = base.rank;
   x_replay.conservativeResize(m);  // the effect columns (if any) come after the base parameters
-  prior_sigma.conservativeResize(m);
-  c.param_diff_replay_batch_sigma = (x_replay - batch_whole.phi_base).cwiseQuotient(prior_sigma).norm() / std::sqrt(base.rank);
-  if (options.effects.effects.empty()) {
+  cmp.prior_sigma.conservativeResize(m);
+  c.param_diff_replay_batch_sigma = (x_replay - batch_whole.phi_base).cwiseQuotient(cmp.prior_sigma).norm() / std::sqrt(base.rank);
+  if (options.effects.effects.empty())
     c.heldout_rmse_online = jointRmse(model, held, x_online_train, held_rows);
-  } else {
-    // The sidecar with the online values of its effect columns; held-out rows corrected by them.
-    EffectSet fitted = options.effects;
-    int e = 0;
-    for (Effect& ef : fitted.effects) {
-      if (isMeasurementEffect(ef.kind)) continue;
-      ef.value = x_online_train[m + e++];
-      c.effect_names.push_back(model.joint_names[ef.joint] + " " + effectKindName(ef.kind));
-      c.effect_values.push_back(ef.value);
-    }
-    LsqAccumulator held_fx(model, base, one);
-    const long fx_rows = accumulate(split, ticks.size(), held_fx, &fitted);
-    if (fx_rows <= 0) {
-      c.error = "the dataset pipeline refused the logged samples";
-      return c;
-    }
-    c.heldout_rmse_online = jointRmse(model, held_fx, x_online_train.head(m), fx_rows);
-    OnlineEstimatorOptions rigid = options;
-    rigid.effects = EffectSet{};
-    Eigen::VectorXd x_rigid;
-    if (!replay(split, x_rigid, rigid)) {
-      c.error = "online estimator options refused";
-      return c;
-    }
-    c.heldout_rmse_online_rigid = jointRmse(model, held, x_rigid, held_rows);
-  }
+  else if (!heldoutWithEffects(cmp, split, held, held_rows, x_online_train, options, c))
+    return c;
   c.heldout_rmse_batch = jointRmse(model, held, batch_train.phi_base, held_rows);
   c.heldout_rmse_prior = jointRmse(model, held, base.base_map * prior, held_rows);
-  Eigen::VectorXd phi_live;
-  if (!live_csv.empty() && readLiveEstimate(live_csv, model, phi_live, &err)) {
-    c.live_read = true;
-    const Eigen::VectorXd x_live = base.base_map * phi_live;
-    c.param_diff_live_batch = (x_live - batch_whole.phi_base).norm() / batch_whole.phi_base.norm();
-    c.param_diff_live_replay = (x_live - x_replay).norm() / x_replay.norm();
-    c.param_diff_live_batch_sigma = (x_live - batch_whole.phi_base).cwiseQuotient(prior_sigma).norm() / std::sqrt(base.rank);
-    c.param_diff_live_replay_sigma = (x_live - x_replay).cwiseQuotient(prior_sigma).norm() / std::sqrt(base.rank);
-  } else if (!live_csv.empty()) {
-    c.error = err;
-  }
+  compareLive(cmp, live_csv, batch_whole.phi_base, x_replay, c);
   c.computed = true;
   return c;
 }

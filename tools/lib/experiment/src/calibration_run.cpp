@@ -43,6 +43,51 @@ struct LogWriter {
     if (lcm_eventlog_write_event(log, &e) != 0) failed = true;
     ++events;
   }
+  /// One tick's five channels, in the format of `exoid experiment`.
+  void writeTick(const sim::SimModel& sm, const sim::SimData& sd, const JointCommandSample& cmd) {
+    const int64_t utime = sd.state.utime;
+    toLcm(sd.state, sm.joint_names, state_msg);
+    write(channels::kState, state_msg, utime);
+    toLcm(sd.plates[0], plate_msg);
+    write(channels::kPlateRight, plate_msg, utime);
+    toLcm(sd.plates[1], plate_msg);
+    write(channels::kPlateLeft, plate_msg, utime);
+    toLcm(sd.truth, sm.joint_names, truth_msg);
+    write(channels::kTruth, truth_msg, utime);
+    toLcm(cmd, sm.joint_names, command_msg);
+    write(channels::kCommand, command_msg, utime);
+  }
+  exoid_lcm::robot_state_t state_msg;
+  exoid_lcm::force_plate_t plate_msg;
+  exoid_lcm::ground_truth_t truth_msg;
+  exoid_lcm::joint_command_t command_msg;
+};
+
+/// The run's figures, tick by tick: joint range, tracking error of the driven joints against the reference this
+/// tick's command tracked, base drift and tilt from tick 0, the largest plate force.
+struct Figures {
+  CalibrationRunResult& res;
+  double sse = 0.0;
+  long nse = 0;
+  Eigen::Vector3d p0 = Eigen::Vector3d::Zero();  ///< the pelvis at tick 0 (the truth's pose, recorded before the step)
+  Eigen::Quaterniond R0 = Eigen::Quaterniond::Identity();
+  void add(int64_t k, const sim::SimData& sd, const controller::LegSwingTrajectory& traj,
+           const controller::LegSwingData& swing) {
+    const Eigen::VectorXd& q = sd.truth.q;
+    for (int j = 0; j < q.size(); ++j) {
+      res.q_min[j] = std::min(res.q_min[j], q[j]);
+      res.q_max[j] = std::max(res.q_max[j], q[j]);
+      if (!traj.driven[static_cast<size_t>(j)]) continue;
+      const double e = swing.qd[j] - q[j];
+      sse += e * e, ++nse;
+      res.tracking_max_rad = std::max(res.tracking_max_rad, std::abs(e));
+    }
+    if (k == 0) p0 = sd.truth.base_position, R0 = sd.truth.base_orientation;
+    res.base_drift_m = std::max(res.base_drift_m, (sd.truth.base_position - p0).norm());
+    res.base_tilt_rad =
+        std::max(res.base_tilt_rad, Eigen::AngleAxisd(R0.conjugate() * sd.truth.base_orientation).angle());
+    for (const ForcePlateSample& pl : sd.plates) res.plate_force_max_n = std::max(res.plate_force_max_n, pl.force.norm());
+  }
 };
 }  // namespace
 
@@ -69,23 +114,15 @@ bool runCalibration(const Model& model, const sim::Scenario& scenario_in, const 
   LogWriter w;
   w.log = lcm_eventlog_create(o.log_path.c_str(), "w");
   if (!w.log) return fail("cannot write '" + o.log_path + "'");
-  exoid_lcm::robot_state_t state_msg;
-  exoid_lcm::force_plate_t plate_msg;
-  exoid_lcm::ground_truth_t truth_msg;
-  exoid_lcm::joint_command_t command_msg;
-
   JointCommandSample cmd = sim::simZeroCommand(sm);
   cmd.tau_ff = Eigen::VectorXd::Zero(nj);
   Eigen::VectorXd q = q0, v = Eigen::VectorXd::Zero(nj);  // the drives' state: the last tick's (one tick late)
-  Eigen::Vector3d p0 = Eigen::Vector3d::Zero();  // the pelvis at tick 0 (the truth's pose, recorded before the step)
-  Eigen::Quaterniond R0 = Eigen::Quaterniond::Identity();
   const double dt = sm.m->opt.timestep;
   const int64_t ticks = static_cast<int64_t>(std::llround(o.duration_s / dt));
   res = CalibrationRunResult{};
   res.q_min = Eigen::VectorXd::Constant(nj, INFINITY);
   res.q_max = Eigen::VectorXd::Constant(nj, -INFINITY);
-  double sse = 0.0;
-  long nse = 0;
+  Figures fig{res};
   for (int64_t k = 0; k < ticks; ++k) {
     const double t = static_cast<double>(k) * dt;
     controller::legSwingTorque(model, traj, swing, t, q, v, cmd.tau);
@@ -95,34 +132,12 @@ bool runCalibration(const Model& model, const sim::Scenario& scenario_in, const 
     sim::simStep(sm, sd, cmd);
     q = sd.truth.q;
     v = sd.truth.v;
-    for (int j = 0; j < nj; ++j) {
-      res.q_min[j] = std::min(res.q_min[j], q[j]);
-      res.q_max[j] = std::max(res.q_max[j], q[j]);
-      if (!traj.driven[static_cast<size_t>(j)]) continue;
-      const double e = swing.qd[j] - q[j];  // the reference this tick's command tracked
-      sse += e * e, ++nse;
-      res.tracking_max_rad = std::max(res.tracking_max_rad, std::abs(e));
-    }
-    if (k == 0) p0 = sd.truth.base_position, R0 = sd.truth.base_orientation;
-    res.base_drift_m = std::max(res.base_drift_m, (sd.truth.base_position - p0).norm());
-    res.base_tilt_rad =
-        std::max(res.base_tilt_rad, Eigen::AngleAxisd(R0.conjugate() * sd.truth.base_orientation).angle());
-    for (const ForcePlateSample& pl : sd.plates) res.plate_force_max_n = std::max(res.plate_force_max_n, pl.force.norm());
-    const int64_t utime = sd.state.utime;
-    toLcm(sd.state, sm.joint_names, state_msg);
-    w.write(channels::kState, state_msg, utime);
-    toLcm(sd.plates[0], plate_msg);
-    w.write(channels::kPlateRight, plate_msg, utime);
-    toLcm(sd.plates[1], plate_msg);
-    w.write(channels::kPlateLeft, plate_msg, utime);
-    toLcm(sd.truth, sm.joint_names, truth_msg);
-    w.write(channels::kTruth, truth_msg, utime);
-    toLcm(cmd, sm.joint_names, command_msg);
-    w.write(channels::kCommand, command_msg, utime);
+    fig.add(k, sd, traj, swing);
+    w.writeTick(sm, sd, cmd);
     if (w.failed) return fail("writing '" + o.log_path + "' failed");
   }
   res.ticks = ticks;
-  res.tracking_rms_rad = nse > 0 ? std::sqrt(sse / static_cast<double>(nse)) : 0.0;
+  res.tracking_rms_rad = fig.nse > 0 ? std::sqrt(fig.sse / static_cast<double>(fig.nse)) : 0.0;
   res.mujoco_warnings = static_cast<long>(sd.stats.mujoco_warnings);
   res.clamped_commands = static_cast<long>(sd.stats.clamped_commands);
   res.events = w.events;
