@@ -39,11 +39,11 @@ void BM_DiagnoseLog(benchmark::State& state) {
     estimator::Segment seg;
     seg.name = "run";
     seg.stream = [&](const estimator::DiagnosisRowSink& sink, std::string* e) {
-      tools::InputStats st;
+      intake::InputStats st;
       return tools::streamFileRows(log, model, so, sink, st, e);
     };
     seg.stream_state = [&](const estimator::DiagnosisStateSink& sink, std::string* e) {  // q for the last stage
-      tools::InputStats st;
+      intake::InputStats st;
       return tools::streamFileStateRows(log, model, so, sink, st, e);
     };
     estimator::DiagnosisResult res;

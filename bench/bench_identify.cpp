@@ -59,7 +59,7 @@ void BM_IdentifyLog(benchmark::State& state) {
     tools::SourceOptions so;  // sensors pipeline, no filter, base orientation fused (exoid identify's default)
     so.dataset.orientation_from_legs = true;
     for (int i = 0; i < state.range(0); ++i) {
-      tools::InputStats st;
+      intake::InputStats st;
       std::string err;
       if (!tools::accumulateFile(log, model, so, acc, st, &err)) {
         state.SkipWithError(err.c_str());

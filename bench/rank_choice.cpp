@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
   if (!buildModelFromUrdfFile(model_path, !fixed, model, &err)) return std::fprintf(stderr, "%s\n", err.c_str()), 2;
   const BaseParameters base = computeBaseParameters(model);
   tools::SourceOptions so;
-  so.pipeline = pipeline == "truth" ? tools::LogPipeline::Truth : tools::LogPipeline::Sensors;
+  so.pipeline = pipeline == "truth" ? intake::LogPipeline::Truth : intake::LogPipeline::Sensors;
   so.dataset.cutoff_hz = cutoff;
   so.dataset.encoder_noise = noise;
   so.dataset.filter = mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
@@ -60,17 +60,17 @@ int main(int argc, char** argv) {
   ao.chunk = 2000;
   estimator::LsqAccumulator acc(model, base, ao);
   for (const auto& f : train) {
-    tools::InputStats st;
+    intake::InputStats st;
     if (!tools::accumulateFile(f, model, so, acc, st, &err)) return std::fprintf(stderr, "%s\n", err.c_str()), 2;
   }
   acc.flush();
   tools::SourceOptions vo;
-  vo.pipeline = tools::LogPipeline::Truth;
+  vo.pipeline = intake::LogPipeline::Truth;
   estimator::AccumulatorOptions va = ao;
   va.folds = 1;
   estimator::LsqAccumulator vacc(model, base, va);
   for (const auto& f : validate) {
-    tools::InputStats st;
+    intake::InputStats st;
     if (!tools::accumulateFile(f, model, vo, vacc, st, &err)) return std::fprintf(stderr, "%s\n", err.c_str()), 2;
   }
   vacc.flush();

@@ -43,7 +43,7 @@ bool load(const DataSet& ds, const std::vector<std::string>& files, const tools:
   ao.chunk = static_cast<int>(std::lround(2.0 * ds.rate));  // identify's --chunk-seconds 2
   acc = std::make_unique<estimator::LsqAccumulator>(ds.model, base, ao);
   for (const std::string& f : files) {
-    tools::InputStats st;
+    intake::InputStats st;
     if (!tools::accumulateFile(f, ds.model, so, *acc, st, err)) return false;
   }
   acc->flush();
@@ -179,10 +179,10 @@ int main(int argc, char** argv) {
       return std::fprintf(stderr, "%s\n", err.c_str()), 2;
     e.train = exo_train, e.validate = exo_validate;
     e.rate = 1000.0;
-    e.train_options.pipeline = tools::LogPipeline::Sensors;
+    e.train_options.pipeline = intake::LogPipeline::Sensors;
     e.train_options.dataset.cutoff_hz = 30.0;
     e.train_options.dataset.orientation_from_legs = true;
-    e.validate_options.pipeline = tools::LogPipeline::Truth;
+    e.validate_options.pipeline = intake::LogPipeline::Truth;
     evaluate(e, rules);
   }
   return 0;
