@@ -2,6 +2,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/process_main.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/model/urdf.hpp"
 
@@ -11,10 +12,7 @@ namespace {
 // The stacked regressor (samples * nv rows x p columns of doubles) must fit comfortably in memory.
 constexpr double kMaxStackedBytes = 2.0 * (1 << 30);
 
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "exoid base-params: error: %s\n", msg.c_str());
-  return common::kExitBadInput;
-}
+int fail(const std::string& msg) { return common::badInput("exoid base-params", msg); }
 }  // namespace
 
 int cmdBaseParams(int argc, char** argv) {

@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/process_main.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/sim/config.hpp"
 #include "exoid/tools/calibration_run.hpp"
@@ -15,10 +16,7 @@
 namespace exoid::cli {
 
 namespace {
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "exoid calibrate: error: %s\n", msg.c_str());
-  return 2;
-}
+int fail(const std::string& msg) { return common::badInput("exoid calibrate", msg); }
 
 constexpr char kDescription[] =
     "A calibration run of the simulated exoskeleton: its pelvis held still in a harness (raised by the scenario's\n"

@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/process_main.hpp"
 #include "exoid/common/strict_number.hpp"
 #include "exoid/controller/run_options.hpp"
 #include "exoid/tools/experiment_run.hpp"
@@ -48,12 +49,9 @@ constexpr char kFooter[] =
     "            3 the robot fell (the run ended at the fall; the summary says when and during which move)\n"
     "            4 interrupted by SIGINT or SIGTERM (processes stopped, summary of the partial run written)";
 
-constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2, kExitFell = 3, kExitInterrupted = 4;
+constexpr int kExitOk = 0, kExitFailed = 1, kExitFell = 3, kExitInterrupted = 4;  // 2: bad input (fail)
 
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "exoid experiment: error: %s\n", msg.c_str());
-  return kExitBadInput;
-}
+int fail(const std::string& msg) { return common::badInput("exoid experiment", msg); }
 
 /// build/lib/libexoid_controller_plugin.so next to this binary's build/bin.
 std::string pluginPath() {

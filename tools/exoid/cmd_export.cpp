@@ -4,6 +4,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/process_main.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
 #include "exoid/intake/run_log.hpp"
@@ -39,10 +40,7 @@ constexpr char kFooter[] =
     "exit codes: 0 success (with --allow-partial also from a damaged log), 2 bad input (unreadable log, no\n"
     "            usable tick, bad option), 3 the log is damaged (nothing written; see --allow-partial).";
 
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "exoid export: error: %s\n", msg.c_str());
-  return 2;
-}
+int fail(const std::string& msg) { return common::badInput("exoid export", msg); }
 
 /// The table as CSV (header row, %.17g cells), written atomically.
 bool writeTable(const tools::RunTable& table, const std::string& path, std::string* err) {

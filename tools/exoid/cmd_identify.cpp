@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/process_main.hpp"
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/identify_run.hpp"
@@ -27,10 +28,7 @@ constexpr char kDescription[] =
     "            3 the log is damaged (damaged stretches, a cut-off tail, rejected events; nothing written; see\n"
     "            --allow-partial).";
 
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "exoid identify: error: %s\n", msg.c_str());
-  return 2;
-}
+int fail(const std::string& msg) { return common::badInput("exoid identify", msg); }
 
 /// The data, the model and the dataset pipeline.
 void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {

@@ -2,6 +2,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/process_main.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
@@ -10,10 +11,7 @@
 namespace exoid::cli {
 
 namespace {
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "exoid regressor: error: %s\n", msg.c_str());
-  return 2;
-}
+int fail(const std::string& msg) { return common::badInput("exoid regressor", msg); }
 
 /// W for every sample: one CSV row per sample and generalized coordinate (atomically).
 bool writeRegressor(const Model& model, const tools::CsvTable& table, const tools::StateColumns& columns,

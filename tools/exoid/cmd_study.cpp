@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
+#include "exoid/common/process_main.hpp"
 #include "exoid/tools/process.hpp"
 #include "exoid/tools/study.hpp"
 
@@ -33,10 +34,7 @@ constexpr char kDescription[] =
     "link_error.csv into --out; scripts/plot_study.py DIR draws the figures.\n\n"
     "exit codes: 0 success, 2 bad input (one-line message on stderr).";
 
-int fail(const std::string& msg) {
-  std::fprintf(stderr, "exoid study: error: %s\n", msg.c_str());
-  return 2;
-}
+int fail(const std::string& msg) { return common::badInput("exoid study", msg); }
 
 std::string selfPath() { return exoid::common::selfExecutablePath("exoid"); }
 

@@ -1,8 +1,9 @@
 #pragma once
-// The preamble every process main shares (exo_sim, exo_controller, exo_estimator, `exoid experiment`): the
-// default path of a configuration file, a bad input reported as one line "PROG: error: ..." with exit code 2,
-// and SIGINT/SIGTERM turned into a stop request the main loop polls (the process then ends its run cleanly,
-// writes what it owes and exits with its own code) instead of killing the process.
+// The preamble every process main shares (exo_sim, exo_controller, exo_estimator, `exoid experiment`; the exoid
+// commands report bad input through badInput too): the default path of a configuration file, a bad input reported
+// as one line "PROG: error: ..." with exit code 2, and SIGINT/SIGTERM turned into a stop request the main loop
+// polls (the process then ends its run cleanly, writes what it owes and exits with its own code) instead of
+// killing the process.
 #include <csignal>
 #include <string>
 
