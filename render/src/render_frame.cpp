@@ -110,7 +110,8 @@ void setPose(const RenderModel& model, mjData* d, const FrameState& f) {
 }
 }  // namespace
 
-void renderFrame(const RenderModel& model, RenderData& data, const FrameState& frame, const ViewCamera& camera) {
+void drawFrame(const RenderModel& model, RenderData& data, const FrameState& frame, const ViewCamera& camera,
+               int width, int height) {
   const mjModel* m = model.sim.m;
   setPose(model, data.d, frame);
   mjvCamera cam;
@@ -122,9 +123,14 @@ void renderFrame(const RenderModel& model, RenderData& data, const FrameState& f
   addLinksAndPayloads(model, data.d, frame.tick, data.scene);
   addComMarkers(frame, data.scene);
   addWrenchArrows(frame, data.scene);
-  const mjrRect viewport = {0, 0, model.width, model.height};
+  const mjrRect viewport = {0, 0, width, height};
   mjr_render(viewport, &data.scene, &data.context);
   drawLegend(data, frame);
+}
+
+void renderFrame(const RenderModel& model, RenderData& data, const FrameState& frame, const ViewCamera& camera) {
+  drawFrame(model, data, frame, camera, model.width, model.height);
+  const mjrRect viewport = {0, 0, model.width, model.height};
   mjr_readPixels(data.rgb.data(), nullptr, viewport, &data.context);
   const size_t row = static_cast<size_t>(model.width) * 3;
   for (int r = 0; r < model.height / 2; ++r)  // OpenGL's bottom-up rows -> top-down

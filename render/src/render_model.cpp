@@ -69,8 +69,8 @@ RenderData::~RenderData() {
   mjv_freeScene(&scene);
 }
 
-bool makeRenderData(const RenderModel& model, RenderData& data, std::string* err) {
-  if (!data.gl.create(err)) return false;
+bool makeRenderData(const RenderModel& model, RenderData& data, std::string* err, bool window) {
+  if (!window && !data.gl.create(err)) return false;
   const mjModel* m = model.sim.m;
   data.d = mj_makeData(m);
   if (!data.d) {
@@ -80,7 +80,11 @@ bool makeRenderData(const RenderModel& model, RenderData& data, std::string* err
   mjv_makeScene(m, &data.scene, 1000);
   mjr_makeContext(m, &data.context, mjFONTSCALE_150);
   data.made = true;
-  mjr_setBuffer(mjFB_OFFSCREEN, &data.context);
+  mjr_setBuffer(window ? mjFB_WINDOW : mjFB_OFFSCREEN, &data.context);
+  if (window) {
+    data.scene.flags[mjRND_SHADOW] = 0;
+    return true;
+  }
   if (data.context.currentBuffer != mjFB_OFFSCREEN || data.context.offWidth < model.width ||
       data.context.offHeight < model.height) {
     if (err) *err = "MuJoCo's offscreen buffer is not available at the requested size";

@@ -63,6 +63,8 @@ bool renderRun(const RenderModel& model, RenderData& data, const std::vector<Fra
   if (o.keyframes) {
     if (!writeKeyframeStrip(model, data, frames, o.views.front(), o.out_dir + "/keyframes.png", err)) return false;
     stats.images += 3;
+    const size_t picks[3] = {0, largestComExcursion(frames), frames.size() - 1};
+    for (int i = 0; i < 3; ++i) stats.keyframe_t[i] = frames[picks[i]].t;
   }
   stats.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   stats.run_s = frames.back().t - frames.front().t + 1.0 / o.fps;

@@ -16,6 +16,7 @@
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/sim/config.hpp"
+#include "exoid/render/live_view.hpp"
 #include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
 
@@ -104,6 +105,9 @@ int main(int argc, char** argv) {
                  "ticks, ...; `exoid experiment` reads it)")
       ->type_name("FILE");
   app.add_flag("--quiet", opt.quiet, "no progress line (the summary line is always printed)");
+  bool view = false;
+  app.add_flag("--view", view, "a live window drawing the run as `exoid render` does (docs/render.md), where a display\n"
+               "exists (without one: one line says so and the run goes on); real time with --mode realtime");
   app.add_option("--rt-priority", rt_priority,
                  "realtime: lock memory (mlockall) and run the loop under SCHED_FIFO priority N\n"
                  "(needs root or CAP_SYS_NICE, else a warning and normal scheduling)")
@@ -226,6 +230,11 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(scenario.seed),
                 opt.mode == SimMode::Lockstep ? "lockstep" : "realtime", opt.duration_s, endpoint->url().c_str());
     std::fflush(stdout);
+  }
+  std::unique_ptr<render::LiveView> live;  // its own thread and subscription: the loop never waits for it
+  if (view) {
+    render::LiveViewOptions lv{model_path, config + "/exo.urdf", endpoint->url(), scenario};
+    if (!(live = render::LiveView::start(lv, &err))) std::fprintf(stderr, "exo_sim: --view: %s\n", err.c_str());
   }
   RunSummary summary;
   const bool ok = runSim(model, data, *endpoint, opt, &summary, &err, &g_stop);

@@ -116,6 +116,9 @@ int cmdRender(int argc, char** argv) {
   std::printf("exoid render: %ld frames x %zu views (%.2f s of the run, %.3g fps) -> %s in %.1f s: %.1f images/s, %.2fx real time\n",
               stats.frames, opt.views.size(), stats.run_s, times.fps, out_dir.c_str(), stats.wall_s, stats.imagesPerSecond(),
               stats.realtimeFactor());
+  if (opt.keyframes)
+    std::printf("exoid render: keyframes %s/keyframes.png at t = %.2f (start), %.2f (largest CoM excursion), %.2f s (end)\n",
+                out_dir.c_str(), stats.keyframe_t[0], stats.keyframe_t[1], stats.keyframe_t[2]);
   return 0;
 }
 

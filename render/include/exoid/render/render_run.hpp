@@ -24,6 +24,7 @@ struct RenderRunStats {
   long images = 0;      ///< frames x views (+ 3 for the keyframes)
   double wall_s = 0.0;  ///< rendering and encoding
   double run_s = 0.0;   ///< the window's length in the run
+  double keyframe_t[3] = {0, 0, 0};  ///< s: the keyframes' times (start, largest CoM excursion, end)
   /// Images per wall-clock second, and the run's seconds per wall-clock second (>= 1: faster than real time).
   double imagesPerSecond() const { return wall_s > 0 ? static_cast<double>(images) / wall_s : 0.0; }
   double realtimeFactor() const { return wall_s > 0 ? run_s / wall_s : 0.0; }

@@ -83,10 +83,17 @@ struct RenderData {
   RenderData& operator=(const RenderData&) = delete;
 };
 
-/// Creates the headless GL context and MuJoCo's render context for `model`. False with *err (no EGL, ...).
-bool makeRenderData(const RenderModel& model, RenderData& data, std::string* err);
+/// Creates MuJoCo's render context for `model`: offscreen, in a headless EGL context made here; or, with
+/// `window` true, drawing into the window whose GL context the caller has made current (the live view).
+/// False with *err (no EGL, ...).
+bool makeRenderData(const RenderModel& model, RenderData& data, std::string* err, bool window = false);
 
-/// Draws `frame` seen from `camera` into data.rgb (with the legend and the time, top left).
+/// Draws `frame` seen from `camera` into the current buffer (with the legend and the time, top left), in a
+/// viewport of width x height pixels.
+void drawFrame(const RenderModel& model, RenderData& data, const FrameState& frame, const ViewCamera& camera,
+               int width, int height);
+
+/// drawFrame offscreen at the model's size, then the pixels into data.rgb.
 void renderFrame(const RenderModel& model, RenderData& data, const FrameState& frame, const ViewCamera& camera);
 
 }  // namespace exoid::render
