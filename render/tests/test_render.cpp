@@ -237,5 +237,19 @@ TEST_F(Render, DamagedLogIsRefusedUnlessAllowPartialAndFramesFollowTheRun) {
   EXPECT_TRUE(std::filesystem::exists(dir.file("all/keyframes.png")));
 }
 
+TEST(RenderCli, HelpDocumentsTheDamageRuleAndBadOptionsAreOneLine) {
+  const test::TempDir dir("render_help");
+  auto r = test::runCommand(test::exoidBinary() + " render --help", dir.path);
+  EXPECT_EQ(r.exit_code, 0);
+  for (const char* needle : {"--allow-partial", "3 the log is damaged", "--views", "--from", "--to", "--fps", "--scenario"})
+    EXPECT_NE(r.out.find(needle), std::string::npos) << needle;
+  r = test::runCommand(test::exoidBinary() + " render --log x --out y --width 641", dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_EQ(r.err, "exoid render: error: --width and --height must be even (H.264's yuv420p)\n");
+  r = test::runCommand(test::exoidBinary() + " render --log x --out y --views front,top", dir.path);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("unknown view 'top'"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace exoid

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "exoid/render/live_view.hpp"
 #include "exoid/common/cli.hpp"
 #include "exoid/common/strict_number.hpp"
 #include "exoid/controller/balance_controller.hpp"
@@ -234,6 +235,8 @@ int cmdExperiment(int argc, char** argv) {
   app.add_flag("--realtime", realtime,
                "run the sim at wall-clock 1 kHz instead of lockstep (exo_sim --rt-priority 50:\n"
                "SCHED_FIFO and locked memory where allowed)");
+  bool view = false;
+  app.add_flag("--view", view, "exo_sim --view: a live window of the run where a display exists (docs/render.md)");
   app.add_flag("--no-pin", no_pin,
                "do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
                "controller share the first allowed CPU; the logger is never pinned)");
@@ -441,6 +444,10 @@ int cmdExperiment(int argc, char** argv) {
                                      "--controller-config", controller_config, "--controller-seed", std::to_string(seed),
                                      "--controller-moves", std::to_string(moves)});
   if (use_plugin && !estimate_feedback) sim_args.push_back("--no-estimate");  // the loop need not receive at all
+  if (view) {
+    sim_args.push_back("--view");
+    if (const std::string no = render::liveViewUnavailable(); !no.empty()) std::fprintf(stderr, "exoid experiment: --view: %s\n", no.c_str());
+  }
   sim.pid = tools::spawn(sim_args, sim_log, &err, loop_cpu);
   if (sim.pid < 0) {
     if (ctrl.running) tools::stop(ctrl.pid, SIGTERM, 2000);
