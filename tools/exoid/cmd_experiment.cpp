@@ -16,7 +16,6 @@
 #include <thread>
 
 #include "commands.hpp"
-#include "exoid/render/live_view.hpp"
 #include "exoid/common/cli.hpp"
 #include "exoid/common/strict_number.hpp"
 #include "exoid/controller/balance_controller.hpp"
@@ -444,10 +443,7 @@ int cmdExperiment(int argc, char** argv) {
                                      "--controller-config", controller_config, "--controller-seed", std::to_string(seed),
                                      "--controller-moves", std::to_string(moves)});
   if (use_plugin && !estimate_feedback) sim_args.push_back("--no-estimate");  // the loop need not receive at all
-  if (view) {
-    sim_args.push_back("--view");
-    if (const std::string no = render::liveViewUnavailable(); !no.empty()) std::fprintf(stderr, "exoid experiment: --view: %s\n", no.c_str());
-  }
+  if (view) sim_args.push_back("--view");  // without a display exo_sim says so in one line (shown with its output)
   sim.pid = tools::spawn(sim_args, sim_log, &err, loop_cpu);
   if (sim.pid < 0) {
     if (ctrl.running) tools::stop(ctrl.pid, SIGTERM, 2000);

@@ -113,9 +113,10 @@ int cmdRender(int argc, char** argv) {
   if (!render::loadRenderModel(mjcf, model, scenario, width, height, rmodel, &err) ||
       !render::makeRenderData(rmodel, rdata, &err) || !render::renderRun(rmodel, rdata, frames, opt, stats, progressBar(quiet), &err))
     return fail(err);
-  std::printf("exoid render: %ld frames x %zu views (%.2f s of the run, %.3g fps) -> %s in %.1f s: %.1f images/s, %.2fx real time\n",
-              stats.frames, opt.views.size(), stats.run_s, times.fps, out_dir.c_str(), stats.wall_s, stats.imagesPerSecond(),
-              stats.realtimeFactor());
+  if (stats.frames > 0)
+    std::printf("exoid render: %ld frames x %zu views (%.2f s of the run, %.3g fps) -> %s in %.1f s: %.1f images/s, %.2fx real time\n",
+                stats.frames, opt.views.size(), stats.run_s, times.fps, out_dir.c_str(), stats.wall_s, stats.imagesPerSecond(),
+                stats.realtimeFactor());
   if (opt.keyframes)
     std::printf("exoid render: keyframes %s/keyframes.png at t = %.2f (start), %.2f (largest CoM excursion), %.2f s (end)\n",
                 out_dir.c_str(), stats.keyframe_t[0], stats.keyframe_t[1], stats.keyframe_t[2]);
