@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/model/dynamics.hpp"
@@ -61,8 +62,10 @@ bool sampleRunFrames(const Model& model, const intake::RunLog& log, const FrameT
   const double last = 1e-3 * static_cast<double>(truth.back().tick);
   const double from = std::max(times.from_s, first), to = times.to_s < 0 ? last : std::min(times.to_s, last);
   if (!(from <= to) || !(times.fps > 0)) {
-    if (err) *err = "the window --from/--to holds no frame of the run (its truth covers " + std::to_string(first) +
-                    " to " + std::to_string(last) + " s)";
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "the window --from/--to holds no frame of the run (its truth covers %.3f to %.3f s)",
+                  first, last);
+    if (err) *err = buf;
     return false;
   }
   DynamicsData dyn(model);
