@@ -188,6 +188,66 @@ TEST_F(Render, MarkersAndArrowsAreAtTheirProjectedPositions) {
   EXPECT_EQ(colouredPixels(rmodel_, rdata_.rgb, at(Eigen::Vector3d(0.25, 0.11, 0.2)), render::kColourWrench), 0);
 }
 
+// What a frame shows: the last sample of each channel at or before its tick; the estimate's CoM (its parameters
+// through exoid's centroidal) against MuJoCo's subtree CoM of the same pose (the URDF's inertials are the MJCF's);
+// the plate reading turned into the force on the foot at the CoP.
+TEST_F(Render, FramesShowTheLastSampleOfEachChannelAndTheEstimateCom) {
+  intake::RunLog log;
+  const render::FrameState bent = pose(true);
+  for (int64_t k = 0; k < 1000; k += 2) {  // truth on even ticks only
+    GroundTruthSample g;
+    g.tick = k;
+    g.base_position = bent.base_position, g.base_orientation = bent.base_orientation;
+    g.q = bent.q * (static_cast<double>(k) / 1000.0);
+    g.v = g.a = g.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
+    g.com = Eigen::Vector3d(0, 0, static_cast<double>(k));  // the tick, to see which sample a frame took
+    log.truth.push_back(g);
+  }
+  for (int64_t k = 0; k < 1000; k += 10) {
+    ControllerStatusSample c;
+    c.tick = k, c.com_ref = Eigen::Vector3d(1, 0, static_cast<double>(k));
+    log.status.push_back(c);
+    ForcePlateSample p;
+    p.tick = k, p.plate = 0;
+    p.force = Eigen::Vector3d(10, 0, -300);  // on the plate, plate frame (= world here)
+    p.cop = Eigen::Vector3d(0.02, 0.01, 0.0), p.plate_position = Eigen::Vector3d(0.03, -0.11, -0.025);
+    log.plates[0].push_back(p);
+  }
+  EstimatorOutputSample e;
+  e.tick = 500, e.valid = true, e.params = model_.phi;
+  log.estimates.push_back(e);
+  std::vector<render::FrameState> frames;
+  std::string err;
+  ASSERT_TRUE(render::sampleRunFrames(model_, log, render::FrameTimes{30.0, 0.1, 0.9}, frames, &err)) << err;
+  ASSERT_EQ(frames.size(), 25u);  // 0.1 s, 0.1333 s, ..., 0.9 s
+  mjData* d = mj_makeData(rmodel_.sim.m);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const render::FrameState& f = frames[i];
+    const int64_t tick = std::llround((0.1 + static_cast<double>(i) / 30.0) * 1000.0);
+    EXPECT_EQ(f.tick, tick - tick % 2) << i;
+    EXPECT_EQ(f.com_true.z(), static_cast<double>(tick - tick % 2)) << i;
+    EXPECT_TRUE(f.has_status);
+    EXPECT_EQ(f.com_ref.z(), static_cast<double>(tick - tick % 10)) << i;
+    ASSERT_TRUE(f.loaded[0] && !f.loaded[1]) << i;
+    EXPECT_TRUE(f.force[0].isApprox(Eigen::Vector3d(-10, 0, 300), 1e-12));
+    EXPECT_TRUE(f.cop[0].isApprox(Eigen::Vector3d(0.05, -0.10, -0.025), 1e-12));
+    EXPECT_EQ(f.has_estimate, f.tick >= 500) << i;
+    if (!f.has_estimate) continue;
+    for (int j = 0; j < rmodel_.sim.m->nq; ++j) d->qpos[j] = rmodel_.sim.qpos_init[static_cast<size_t>(j)];
+    const int b = rmodel_.sim.base_qpos;
+    for (int k = 0; k < 3; ++k) d->qpos[b + k] = f.base_position[k];
+    d->qpos[b + 3] = f.base_orientation.w(), d->qpos[b + 4] = f.base_orientation.x();
+    d->qpos[b + 5] = f.base_orientation.y(), d->qpos[b + 6] = f.base_orientation.z();
+    for (int j = 0; j < model_.njoints; ++j) d->qpos[rmodel_.joint_qpos[static_cast<size_t>(j)]] = f.q[j];
+    mj_kinematics(rmodel_.sim.m, d);
+    mj_comPos(rmodel_.sim.m, d);
+    const Eigen::Vector3d mujoco_com(d->subtree_com + 3 * rmodel_.sim.base_body);
+    EXPECT_LT((f.com_estimate - mujoco_com).norm(), 1e-9) << i << ": " << f.com_estimate.transpose() << " vs "
+                                                           << mujoco_com.transpose();
+  }
+  mj_deleteData(d);
+}
+
 // 600 ticks of truth at the standing pose, written with the LCM types.
 std::string writeTruthLog(const Model& model, const std::string& path) {
   lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
