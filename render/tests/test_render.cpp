@@ -5,7 +5,9 @@
 //  - each CoM marker and the plate-force arrow at its projected position, in its colour; a marker with nothing
 //    behind it in the log is not drawn;
 //  - a damaged log is refused (exit 3, nothing written) unless --allow-partial; an intact one gives one PNG
-//    per 1 / fps of the run.
+//    per 1 / fps of the run;
+//  - what a frame shows: the last sample of each channel at or before its tick, the estimate's CoM against MuJoCo;
+//  - exo_sim --view without a display: one line, and the run goes on.
 #include <gtest/gtest.h>
 #include <lcm/eventlog.h>
 
@@ -309,6 +311,16 @@ TEST(RenderCli, HelpDocumentsTheDamageRuleAndBadOptionsAreOneLine) {
   r = test::runCommand(test::exoidBinary() + " render --log x --out y --views front,top", dir.path);
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("unknown view 'top'"), std::string::npos) << r.err;
+}
+
+TEST(RenderCli, LiveViewWithoutADisplayIsOneLineAndTheRunGoesOn) {
+  const test::TempDir dir("render_view");
+  const auto r = test::runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY ") + EXO_SIM_BIN +
+                                      " --view --duration 0.01 --lcm-url memq:// --start-timeout-s 0.01 --quiet",
+                                  dir.path);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "exo_sim: --view: no display (DISPLAY is not set): running without the live view\n");
+  EXPECT_NE(r.out.find("completed, ticks 10 of 10"), std::string::npos) << r.out;
 }
 
 }  // namespace
