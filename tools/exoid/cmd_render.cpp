@@ -26,6 +26,8 @@ bool parseViews(const std::string& list, std::vector<render::ViewCamera>& views,
   while (std::getline(ss, name, ',')) {
     render::ViewCamera v;
     if (!render::viewCamera(name, v)) return *err = "--views: unknown view '" + name + "' (front, side, back, iso)", false;
+    for (const render::ViewCamera& w : views)
+      if (w.name == name) return *err = "--views: '" + name + "' named twice (each view writes its own files)", false;
     views.push_back(v);
   }
   if (views.empty()) return *err = "--views: no view named", false;
