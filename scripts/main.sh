@@ -38,6 +38,11 @@ echo "== 3. Closed-loop experiment: 20 CoM moves (config/scenarios/nominal.yaml)
 "$bin/exoid" experiment --scenario "$here/config/scenarios/nominal.yaml" --out "$out/nominal"
 
 echo
+echo "== 3a. Pictures of that run (exoid render, docs/render.md) ========================="
+"$bin/exoid" render --log "$out/nominal/run.lcmlog" --out "$out/nominal/render" --views front,side --keyframes --quiet
+echo "(video: $out/nominal/render/front.mp4, side.mp4; keyframes: $out/nominal/render/keyframes.png)"
+
+echo
 echo "== 3b. Online estimator (exo_estimator, live) vs batch WLS-RC on that run (docs/estimator.md) =="
 tail -n 1 "$out/nominal/estimator.log"
 py3=python3
@@ -95,4 +100,13 @@ done
   --train "$out/undeclared_seed1/run.lcmlog" --calibration "$out/undeclared_calibration1/run.lcmlog" \
   --validate "$out/undeclared_seed2/run.lcmlog" --validate-calibration "$out/undeclared_calibration2/run.lcmlog" \
   --python "$py" --out "$out/diagnose_undeclared"
+# The runs it used, as keyframe strips (start, largest CoM excursion, end), linked from its report.
+{
+  echo; echo "## The runs (keyframes: start, largest CoM excursion, end; exoid render)"
+  for s in 1 2; do
+    "$bin/exoid" render --log "$out/undeclared_seed$s/run.lcmlog" --scenario "$scen" --out "$out/undeclared_seed$s/render" \
+      --format none --keyframes --quiet >/dev/null
+    echo; echo "undeclared_seed$s: ![](../undeclared_seed$s/render/keyframes.png)"
+  done
+} >> "$out/diagnose_undeclared/report.md"
 echo "(report: $out/diagnose_undeclared/report.md)"

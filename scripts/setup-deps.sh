@@ -19,6 +19,7 @@ DEB_PACKAGES=(
   python3-matplotlib
   libxgboost-dev
   clang libclang-rt-14-dev llvm-14
+  libegl-dev libegl-mesa0 libgl1-mesa-dri ffmpeg libglfw3-dev
 )
 PROXSUITE_VERSION=0.8.0
 

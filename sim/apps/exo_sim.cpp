@@ -16,6 +16,7 @@
 #include "exoid/common/process_main.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/lcm_endpoint.hpp"
+#include "exoid/render/live_view.hpp"
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/runner.hpp"
 #include "exoid/sim/sim.hpp"
@@ -78,7 +79,7 @@ struct Args {
   exoid::sim::PluginOptions plugin;
   double plugin_budget_us = -1.0;  // < 0: the mode's default
   int rate_hz = 1000, rt_priority = 0;
-  bool no_estimate = false;
+  bool no_estimate = false, view = false;
   Args() {
     plugin.model_path = config + "/exo.urdf";
     plugin.config_path = config + "/controller.yaml";
@@ -125,6 +126,8 @@ void addSimOptions(CLI::App& app, Args& a) {
                  "ticks, ...; `exoid experiment` reads it)")
       ->type_name("FILE");
   app.add_flag("--quiet", a.opt.quiet, "no progress line (the summary line is always printed)");
+  app.add_flag("--view", a.view, "a live window drawing the run as `exoid render` does (docs/render.md), where a display\n"
+               "exists (without one: one line says so and the run goes on); real time with --mode realtime");
   app.add_option("--rt-priority", a.rt_priority,
                  "realtime: lock memory (mlockall) and run the loop under SCHED_FIFO priority N\n"
                  "(needs root or CAP_SYS_NICE, else a warning and normal scheduling)")
@@ -284,6 +287,11 @@ int main(int argc, char** argv) {
   }
   if (a.rt_priority > 0) lockMemoryAndPriority(a.rt_priority);
   if (!a.opt.quiet) printStart(a, scenario, noise, plugin.get(), *endpoint);
+  std::unique_ptr<render::LiveView> live;  // its own thread and subscription: the loop never waits for it
+  if (a.view) {
+    render::LiveViewOptions lv{a.model_path, a.config + "/exo.urdf", endpoint->url(), scenario};
+    if (!(live = render::LiveView::start(lv, &err))) std::fprintf(stderr, "exo_sim: --view: %s\n", err.c_str());
+  }
   RunSummary summary;
   const bool ok = runSim(model, data, *endpoint, a.opt, &summary, &err, stop);
   return report(a, ok, summary, plugin.get(), err);

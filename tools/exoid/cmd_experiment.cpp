@@ -94,6 +94,7 @@ void addSupervisionOptions(CLI::App& app, tools::ExperimentOptions& o) {
   app.add_flag("--realtime", o.realtime,
                "run the sim at wall-clock 1 kHz instead of lockstep (exo_sim --rt-priority 50:\n"
                "SCHED_FIFO and locked memory where allowed)");
+  app.add_flag("--view", o.view, "exo_sim --view: a live window of the run where a display exists (docs/render.md)");
   app.add_flag("--no-pin", o.no_pin,
                "do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
                "controller share the first allowed CPU; the logger is never pinned)");

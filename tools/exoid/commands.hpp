@@ -10,4 +10,5 @@ int cmdIdentify(int argc, char** argv);
 int cmdStudy(int argc, char** argv);
 int cmdDiagnose(int argc, char** argv);
 int cmdCalibrate(int argc, char** argv);
+int cmdRender(int argc, char** argv);
 }  // namespace exoid::cli

@@ -21,6 +21,7 @@ const Command kCommands[] = {
     {"study", exoid::cli::cmdStudy, "the thesis's comparison protocol (Tables II and C.1) on training, validation and test runs"},
     {"calibrate", exoid::cli::cmdCalibrate, "calibration run: the pelvis held in a harness, the legs swinging (for diagnose --calibration)"},
     {"diagnose", exoid::cli::cmdDiagnose, "find what the rigid-body model leaves out (friction, offsets, gain, delay, ...) from the residual"},
+    {"render", exoid::cli::cmdRender, "a logged run as pictures: MuJoCo's renderer, headless, to MP4/GIF/PNG with the CoMs and plate forces"},
 };
 
 void usage(FILE* out) {

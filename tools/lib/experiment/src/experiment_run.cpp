@@ -147,6 +147,7 @@ bool startSim(Run& run, std::string* error) {
                              "--controller-config", o.controller_config, "--controller-seed", std::to_string(o.seed),
                              "--controller-moves", std::to_string(o.moves)});
   if (run.plan.use_plugin && !o.estimate_feedback) args.push_back("--no-estimate");  // the loop need not receive at all
+  if (o.view) args.push_back("--view");  // without a display exo_sim says so in one line (shown with its output)
   run.sim.pid = spawn(args, run.sim_log, error, run.loop_cpu);
   if (run.sim.pid < 0) {
     if (run.ctrl.running) stop(run.ctrl.pid, SIGTERM, 2000);

@@ -32,6 +32,7 @@ struct ExperimentOptions {
   int64_t seed = 1, moves = 0, max_missing = 10;  ///< moves 0: the controller configuration's
   double watchdog_factor = 3.0, watchdog_margin_s = 60.0;
   bool realtime = false, no_pin = false, no_estimator = false, estimate_feedback = false;
+  bool view = false;  ///< exo_sim --view: a live window where a display exists (docs/render.md)
 };
 
 /// A fault to inject (testing): `action` to `process` at `at_s` seconds simulated.
