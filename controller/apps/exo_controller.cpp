@@ -165,7 +165,7 @@ int main(int argc, char** argv) {
   EstimatorOutputSample estimate;
   estimate.params = Eigen::VectorXd::Zero(model.nparams());
   estimate.param_stddev = Eigen::VectorXd::Zero(model.nparams());
-  estimate.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  estimate.tau_correction = Eigen::VectorXd::Zero(model.nv);
   ForcePlateSample plate;
   exoid_lcm::force_plate_t plate_msg;
   exoid_lcm::robot_state_t state_msg;
