@@ -408,7 +408,7 @@ int cmdExperiment(int argc, char** argv) {
   // The estimator with its defaults (the summary replays the same OnlineEstimatorOptions), free on any CPU: the
   // lockstep loop never waits for it. Its checkpoint every 0.5 s of wall time (~1 s simulated at lockstep speed).
   const std::string est_ckpt = (out / "estimator.ckpt").string(), est_final = (out / "online_estimate.csv").string();
-  // The estimator's prior and tau_ff reference is the controller's model (the correction is to that model).
+  // The estimator's prior and tau_correction reference is the controller's model (the correction is to that model).
   std::vector<std::string> est_args = {bin + "/exo_estimator", "--model", controller_model, "--lcm-url", url,
                                        "--checkpoint", est_ckpt, "--checkpoint-every-s", "0.5",
                                        "--final", est_final};
