@@ -192,7 +192,7 @@ void BM_EstimatorPublish(benchmark::State& state) {
     state.ResumeTiming();
     est.publish(out);
   }
-  benchmark::DoNotOptimize(out.tau_ff.data());
+  benchmark::DoNotOptimize(out.tau_correction.data());
 }
 BENCHMARK(BM_EstimatorPublish)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 

@@ -5,7 +5,7 @@
 // evaluation tool: it reads the ground truth, the estimator never does.
 //
 // usage: exoid_com_budget LOG TRUE_URDF CUTOFF_HZ ORDER HALF_WINDOW SPEC...
-//   LOG        run log (EXO_TRUTH included); the prior and tau_ff model is config/exo.urdf
+//   LOG        run log (EXO_TRUTH included); the prior and tau_correction model is config/exo.urdf
 //   TRUE_URDF  the simulated robot (config/exo.urdf plus the scenario's payloads)
 //   CUTOFF_HZ ORDER HALF_WINDOW  the row filter and the state fit (OnlineEstimatorOptions: cutoff_hz, filter_order,
 //              derivative_half_window; 1 = central differences;

@@ -31,7 +31,7 @@ ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceCont
   bad_state_.q.setConstant(std::nan(""));  // a sample the controller rejects: it answers with its fallback
   estimate_.params = Eigen::VectorXd::Zero(model.nparams());
   estimate_.param_stddev = Eigen::VectorXd::Zero(model.nparams());
-  estimate_.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  estimate_.tau_correction = Eigen::VectorXd::Zero(model.nv);
   ctrl_.prepare(command_);
   // Pre-size the outgoing messages once (toLcm reuses their vectors afterwards).
   toLcm(command_, joint_names_, command_msg_);

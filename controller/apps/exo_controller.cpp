@@ -36,7 +36,7 @@ constexpr char kFooter[] =
     "                                                                  rad/s, m/s^2; IMU quaternion w x y z)\n"
     "              EXO_ESTIMATE           exoid_lcm.estimator_output_t optional: while fresh (estimate.\n"
     "                                                                  max_age_ticks), valid and consistent,\n"
-    "                                                                  tau_ff [nv; N, N m] enters the QP's\n"
+    "                                                                  tau_correction [nv; N, N m] enters the QP's\n"
     "                                                                  dynamics and params give the CoM\n"
     "                                                                  (blended in/out, estimate.blend_time)\n"
     "              EXO_PLATE_RIGHT/LEFT   exoid_lcm.force_plate_t      force plates (N, N m ON the plate, plate\n"

@@ -141,8 +141,8 @@ bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
     return false;
   };
   if (!cfg_.estimate.enabled) return refuse(EstimateRejection::Disabled);
-  if (e.params.size() != model_.nparams() || e.tau_ff.size() != model_.nv) return refuse(EstimateRejection::WrongSize);
-  if (!e.params.allFinite() || !e.tau_ff.allFinite()) return refuse(EstimateRejection::NonFinite);
+  if (e.params.size() != model_.nparams() || e.tau_correction.size() != model_.nv) return refuse(EstimateRejection::WrongSize);
+  if (!e.params.allFinite() || !e.tau_correction.allFinite()) return refuse(EstimateRejection::NonFinite);
   if (!e.valid) return refuse(EstimateRejection::NotValid);
   if (!e.consistent) return refuse(EstimateRejection::Inconsistent);
   double mass = 0.0;
@@ -158,7 +158,7 @@ bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
   if (!(std::abs(mass - model_mass) <= cfg_.estimate.max_relative_mass_change * model_mass))
     return refuse(EstimateRejection::Mass);
   phi_hat_ = e.params;
-  ff_input_ = e.tau_ff.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
+  ff_input_ = e.tau_correction.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
   estimate_tick_ = e.tick;
   has_estimate_ = true;
   ++estimate_use_.accepted;

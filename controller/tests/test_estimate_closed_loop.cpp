@@ -1,7 +1,7 @@
 // The online estimate closing the loop, in-process against the simulator library (no estimator process: the
 // estimate is made here, the way an exact estimator would publish it): an undeclared payload scenario's TRUE
 // parameters (the URDF's plus the payloads, model/inertial.hpp) as a constant valid estimate at 100 Hz, with
-// tau_ff = K(q, v, 0)(phi_true - phi_model) at the controller's own state estimate. Issue 8's controller-side
+// tau_correction = K(q, v, 0)(phi_true - phi_model) at the controller's own state estimate. Issue 8's controller-side
 // target: the true CoM tracks the reference at least 2x better than without the estimate, the controller's
 // CoM tracking is no worse, nothing falls or slips.
 //
@@ -66,7 +66,7 @@ Runs runBoth(const Model& model, const Model& robot, const ControllerConfig& cfg
   EstimatorOutputSample est;
   est.valid = est.consistent = true;
   est.params = phi;
-  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction = Eigen::VectorXd::Zero(model.nv);
   DynamicsData with_phi(model), with_model(model);
   ControllerStatus last;
   r.with = testing::runScenarioClosedLoop(
@@ -81,7 +81,7 @@ Runs runBoth(const Model& model, const Model& robot, const ControllerConfig& cfg
         est.params = phi;
         rnea(model, phi, with_phi, s);
         rnea(model, model.phi, with_model, s);
-        est.tau_ff = with_phi.tau - with_model.tau;
+        est.tau_correction = with_phi.tau - with_model.tau;
         est.tick = k - 1;
         ctrl.setEstimate(est);
       });
@@ -143,7 +143,7 @@ TEST(EstimateClosedLoop, EstimatorKilledMidRunIsWithdrawnInTimeAndTheRobotKeepsB
   EstimatorOutputSample est;
   est.valid = est.consistent = true;
   est.params = phi;
-  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction = Eigen::VectorXd::Zero(model.nv);
   DynamicsData with_phi(model), with_model(model);
   const long kill = 4000, restart = 7000;  // ticks: dead from 4 s to 7 s
   long last_sent = -1, first_drop = -1, first_zero = -1, back_to_one = -1;
@@ -161,7 +161,7 @@ TEST(EstimateClosedLoop, EstimatorKilledMidRunIsWithdrawnInTimeAndTheRobotKeepsB
         const State& s = ctrl.observer().state();
         rnea(model, phi, with_phi, s);
         rnea(model, model.phi, with_model, s);
-        est.tau_ff = with_phi.tau - with_model.tau;
+        est.tau_correction = with_phi.tau - with_model.tau;
         est.tick = k - 1;
         ctrl.setEstimate(est);
         if (k <= kill) last_sent = est.tick;

@@ -214,7 +214,7 @@ EstimatorOutputSample modelEstimate(const Model& model, int64_t tick) {
   e.tick = tick;
   e.valid = e.consistent = true;
   e.params = model.phi;
-  e.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  e.tau_correction = Eigen::VectorXd::Zero(model.nv);
   return e;
 }
 
@@ -230,7 +230,7 @@ TEST_F(FallbackTest, EstimateFeedforwardIsAppliedReportedAndAgesOut) {
   const Eigen::VectorXd tau0 = cmd_.tau;
   const int knee = model_.jointIndex("left_knee");
   EstimatorOutputSample e = modelEstimate(model_, k);
-  e.tau_ff[model_.jointRow(knee)] = 2.5;
+  e.tau_correction[model_.jointRow(knee)] = 2.5;
   ASSERT_TRUE(ctrl_->setEstimate(e));
   tick(k++);
   EXPECT_NEAR(cmd_.tau_ff[knee], 2.5, 1e-12);
@@ -258,7 +258,7 @@ TEST_F(FallbackTest, UnusableEstimatesAreRefusedByReasonAndWithdrawTheCurrentOne
   e.params.resize(3);
   EXPECT_FALSE(ctrl_->setEstimate(e));
   e = good;
-  e.tau_ff[7] = std::nan("");
+  e.tau_correction[7] = std::nan("");
   EXPECT_FALSE(ctrl_->setEstimate(e));
   e = good;
   e.valid = false;

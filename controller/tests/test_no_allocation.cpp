@@ -116,7 +116,7 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
   est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) +=
       paramsFromInertial(1.0, Eigen::Vector3d(0.02, 0.05, 0.0), Eigen::Matrix3d::Identity(),
                          0.001 * Eigen::Matrix3d::Identity());
-  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction = Eigen::VectorXd::Zero(model.nv);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   // Force plates for the disturbance observer: the wrench the controller planned last tick, as a plate at the
   // world origin reads it (this loop's MuJoCo has no plates), stamped with the tick its command is applied at.
@@ -140,8 +140,8 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
     if (k == gap_at) tick_id += cfg.fallback.max_missed_ticks + 3, state.tick = tick_id;  // stale gap
     failable->fail = k >= qp_fail_at && k < qp_fail_at + 3;
     sim.apply(pending);
-    est.tau_ff.setConstant(0.01 * static_cast<double>(k % 7));
-    est.tau_ff[0] = k % 1500 == 700 ? nan : 0.0;
+    est.tau_correction.setConstant(0.01 * static_cast<double>(k % 7));
+    est.tau_correction[0] = k % 1500 == 700 ? nan : 0.0;
     est.tick = tick_id;
     {
       NoAllocationScope scope;

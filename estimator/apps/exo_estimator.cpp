@@ -31,7 +31,7 @@ constexpr char kDescription[] =
     "updated with every 1 kHz sample by recursive weighted least squares (information form, started from the\n"
     "prior), from the sensors only (encoders, joint torque sensors, IMU, force plates), published with their\n"
     "uncertainty, a physical-consistency verdict, an excitation indicator, residual statistics and the\n"
-    "generalized-force correction tau_ff for the controller. Documentation: docs/estimator.md.";
+    "generalized-force correction tau_correction for the controller. Documentation: docs/estimator.md.";
 
 constexpr char kFooter[] =
     "channels:\n"
@@ -41,7 +41,7 @@ constexpr char kFooter[] =
     "  publishes   EXO_ESTIMATE          exoid_lcm.estimator_output_t valid, consistent, counters by reason,\n"
     "                                                                 excitation, parameters and base\n"
     "                                                                 parameters with one-sigma stddev,\n"
-    "                                                                 tau_ff [nv] and residual RMS [nv]\n"
+    "                                                                 tau_correction [nv], residual RMS [nv]\n"
     "Never reads EXO_TRUTH. Undecodable, non-finite, duplicate and out-of-order messages are rejected and\n"
     "counted; a tick missing a message is skipped (counted as missing).\n"
     "\n"
@@ -73,7 +73,7 @@ void addModelOptions(CLI::App& app, Args& a) {
   namespace common = exoid::common;
   using exoid::Biquad;
   app.add_option("--model", a.model_path,
-                 "URDF of the robot: the controller's model (tau_ff = K (phi_hat - phi_model))")->type_name("PATH");
+                 "URDF of the robot: the controller's model (tau_correction = K (phi_hat - phi_model))")->type_name("PATH");
   app.add_option("--prior", a.prior_path, "URDF whose inertials are the prior (default: --model)")->type_name("PATH");
   app.add_option("--prior-uncertainty", a.prior_relative,
                  "one-sigma relative uncertainty of every prior parameter (zero priors: their kind's scale)")
@@ -154,7 +154,7 @@ void addEstimatorOptions(CLI::App& app, Args& a) {
                  "sidecar effects.yaml of `exoid diagnose` (docs/diagnose.md): each viscous, coulomb,\n"
                  "stribeck, offset or armature effect becomes an extra estimated parameter (prior 0, one-sigma\n"
                  "--effect-prior-factor x its value) whose column is the diagnosis's signal at the sample's\n"
-                 "state; a torque-sensor gain corrects that sensor's torque; tau_ff adds the friction and\n"
+                 "state; a torque-sensor gain corrects that sensor's torque; tau_correction adds the friction and\n"
                  "offset effects at their estimates (not armature); a time delay is refused (exit 2)")
       ->type_name("FILE");
   app.add_option("--effect-prior-factor", a.effect_prior_factor,

@@ -129,7 +129,7 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
   EXPECT_EQ(refused, 0);
   for (size_t i = 0; i < received.size(); ++i) {
     EXPECT_EQ(received[i].params, expected_all[i].params) << i;
-    EXPECT_EQ(received[i].tau_ff, expected_all[i].tau_ff) << i;
+    EXPECT_EQ(received[i].tau_correction, expected_all[i].tau_correction) << i;
     EXPECT_EQ(received[i].tick, expected_all[i].tick);
     EXPECT_EQ(received[i].utime, 1000 * received[i].tick);
   }

@@ -68,7 +68,7 @@ TEST(OnlineNoAllocation, UpdateSolveAndPredictAllocateNothing) {
 }
 
 // The whole loop of exo_estimator: tick assembly, state reconstruction, regressor, filter, update, rejected
-// inputs, and publication (solve, covariance, standard parameters, consistency, tau_ff) with selective
+// inputs, and publication (solve, covariance, standard parameters, consistency, tau_correction) with selective
 // forgetting's block step, which runs inside the counted loop too.
 TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
   Model model;
@@ -76,7 +76,7 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
   ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) << err;
   const BaseParameters base = computeBaseParameters(model);
   // With and without a diagnose sidecar (exo_estimator --effects): extra columns of every dynamics kind, filtered
-  // and folded with K, in tau_ff, and a gain correcting y.
+  // and folded with K, in tau_correction, and a gain correcting y.
   EffectSet sidecar;
   const int knee = model.jointIndex("right_knee"), hip = model.jointIndex("left_hip_fe"), ankle = model.jointIndex("left_ankle_pd");
   ASSERT_TRUE(knee >= 0 && hip >= 0 && ankle >= 0);
@@ -132,7 +132,7 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     EXPECT_EQ(out.rejected_duplicate, 600);
     EXPECT_EQ(out.rejected_nonfinite, (warm + 599) / 97 - (warm - 1) / 97);  // the multiples of 97 among the ticks
     EXPECT_EQ(est.reconciles(), 1);
-    EXPECT_TRUE(out.params.allFinite() && out.tau_ff.allFinite());
+    EXPECT_TRUE(out.params.allFinite() && out.tau_correction.allFinite());
     EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 : 0));
   }
 }

@@ -25,9 +25,34 @@ bool allFinite(const double* v, int n) {
   return true;
 }
 
-template <class V>
-void copyTo(const double* from, V& to) {
-  for (Eigen::Index i = 0; i < to.size(); ++i) to[i] = from[i];
+// The ABI checks of a plugin's function table: "" when it fits this host, else what is wrong (one line).
+std::string apiMismatch(const exoid_controller_plugin_api* a) {
+  if (!a) return std::string(EXOID_CONTROLLER_PLUGIN_ENTRY) + "() returned NULL";
+  if (a->abi_version != EXOID_CONTROLLER_PLUGIN_ABI_VERSION)
+    return "ABI version " + std::to_string(a->abi_version) + ", this exo_sim needs " +
+           std::to_string(EXOID_CONTROLLER_PLUGIN_ABI_VERSION) + " (rebuild the plugin against controller_plugin.h)";
+  if (a->state_size != sizeof(exoid_plugin_state) || a->command_size != sizeof(exoid_plugin_command) ||
+      a->status_size != sizeof(exoid_plugin_status) || a->force_plate_size != sizeof(exoid_plugin_force_plate) ||
+      a->estimate_size != sizeof(exoid_plugin_estimate))
+    return "struct sizes (state " + std::to_string(a->state_size) + ", command " + std::to_string(a->command_size) +
+           ", status " + std::to_string(a->status_size) + ", force plate " + std::to_string(a->force_plate_size) +
+           ", estimate " + std::to_string(a->estimate_size) + ") differ from this exo_sim's (" +
+           std::to_string(sizeof(exoid_plugin_state)) + ", " + std::to_string(sizeof(exoid_plugin_command)) + ", " +
+           std::to_string(sizeof(exoid_plugin_status)) + ", " + std::to_string(sizeof(exoid_plugin_force_plate)) +
+           ", " + std::to_string(sizeof(exoid_plugin_estimate)) + "): built against another controller_plugin.h";
+  if (!a->create || !a->reset || !a->tick || !a->status || !a->destroy)
+    return "the function table lacks create, reset, tick, status or destroy";
+  return "";
+}
+
+// A status the runner may publish: every field in the range readers accept (fromLcm(controller_status_t)).
+bool statusInRange(const exoid_plugin_status& st) {
+  return st.qp_status >= 0 && st.qp_status <= 3 && st.qp_iterations >= 0 && st.move_index >= -1 &&
+         st.moves_done >= 0 && st.fallbacks >= 0 && st.rejected_inputs >= 0 && st.stale_inputs >= 0 &&
+         std::isfinite(st.qp_solve_us) && st.qp_solve_us >= 0.0 && std::isfinite(st.tick_us) && st.tick_us >= 0.0 &&
+         allFinite(st.com_ref, 3) && allFinite(st.com, 3) && allFinite(st.com_vel_ref, 3) &&
+         allFinite(st.com_vel, 3) && allFinite(st.momentum_rate_ref, 6) && allFinite(st.momentum, 6) &&
+         allFinite(st.wrench_right, 6) && allFinite(st.wrench_left, 6);
 }
 
 }  // namespace
@@ -35,9 +60,8 @@ void copyTo(const double* from, V& to) {
 std::unique_ptr<ControllerPlugin> ControllerPlugin::load(const PluginOptions& o,
                                                          const std::vector<std::string>& joint_names,
                                                          double period_s, std::string* err) {
-  const std::string where = "--controller-plugin " + o.path + ": ";
   auto fail = [&](const std::string& what) {
-    if (err) *err = where + what;
+    if (err) *err = "--controller-plugin " + o.path + ": " + what;
     return nullptr;
   };
   if (o.divisor < 1) return fail("controller rate divisor must be >= 1, got " + std::to_string(o.divisor));
@@ -47,56 +71,53 @@ std::unique_ptr<ControllerPlugin> ControllerPlugin::load(const PluginOptions& o,
   std::unique_ptr<ControllerPlugin> p(new ControllerPlugin);
   p->opt_ = o;
   p->nj_ = static_cast<int>(joint_names.size());
-  // A path without a slash would be searched in the library path: make it relative to the working directory.
-  const std::string path = o.path.find('/') == std::string::npos ? "./" + o.path : o.path;
-  dlerror();
-  p->lib_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!p->lib_) {
-    const char* e = dlerror();
-    return fail(std::string("cannot load: ") + (e ? e : "dlopen failed"));
-  }
-  auto entry = reinterpret_cast<exoid_controller_plugin_entry_fn>(dlsym(p->lib_, EXOID_CONTROLLER_PLUGIN_ENTRY));
-  if (!entry) return fail(std::string("not a controller plugin: no symbol '") + EXOID_CONTROLLER_PLUGIN_ENTRY + "'");
-  p->api_ = entry();
-  const exoid_controller_plugin_api* a = p->api_;
-  if (!a) return fail(std::string(EXOID_CONTROLLER_PLUGIN_ENTRY) + "() returned NULL");
-  if (a->abi_version != EXOID_CONTROLLER_PLUGIN_ABI_VERSION)
-    return fail("ABI version " + std::to_string(a->abi_version) + ", this exo_sim needs " +
-                std::to_string(EXOID_CONTROLLER_PLUGIN_ABI_VERSION) + " (rebuild the plugin against controller_plugin.h)");
-  if (a->state_size != sizeof(exoid_plugin_state) || a->command_size != sizeof(exoid_plugin_command) ||
-      a->status_size != sizeof(exoid_plugin_status) || a->force_plate_size != sizeof(exoid_plugin_force_plate) ||
-      a->estimate_size != sizeof(exoid_plugin_estimate))
-    return fail("struct sizes (state " + std::to_string(a->state_size) + ", command " +
-                std::to_string(a->command_size) + ", status " + std::to_string(a->status_size) + ", force plate " +
-                std::to_string(a->force_plate_size) + ", estimate " + std::to_string(a->estimate_size) +
-                ") differ from this exo_sim's (" + std::to_string(sizeof(exoid_plugin_state)) + ", " +
-                std::to_string(sizeof(exoid_plugin_command)) + ", " + std::to_string(sizeof(exoid_plugin_status)) +
-                ", " + std::to_string(sizeof(exoid_plugin_force_plate)) + ", " +
-                std::to_string(sizeof(exoid_plugin_estimate)) + "): built against another controller_plugin.h");
-  if (!a->create || !a->reset || !a->tick || !a->status || !a->destroy)
-    return fail("the function table lacks create, reset, tick, status or destroy");
-
-  std::vector<const char*> names;
-  for (const std::string& n : joint_names) names.push_back(n.c_str());
-  exoid_plugin_config c{};
-  c.abi_version = EXOID_CONTROLLER_PLUGIN_ABI_VERSION;
-  c.num_joints = p->nj_;
-  c.joint_names = names.data();
-  c.model_path = o.model_path.c_str();
-  c.config_path = o.config_path.c_str();
-  c.seed = o.seed;
-  c.moves = o.moves;
-  c.tick_divisor = o.divisor;
-  c.physics_period_s = period_s;
-  char error[1024] = "";
-  p->self_ = a->create(&c, error, sizeof error);
-  if (!p->self_) return fail(std::string("create failed: ") + (error[0] ? error : "no reason given"));
-
+  std::string what;
+  if (!p->open(&what) || !p->create(joint_names, period_s, &what)) return fail(what);
   p->command_.tau = Eigen::VectorXd::Zero(p->nj_);
   p->command_.tau_ff = Eigen::VectorXd::Zero(p->nj_);
   p->last_good_ = p->command_;
   if (!p->reset(err)) return nullptr;
   return p;
+}
+
+bool ControllerPlugin::open(std::string* what) {
+  // A path without a slash would be searched in the library path: make it relative to the working directory.
+  const std::string path = opt_.path.find('/') == std::string::npos ? "./" + opt_.path : opt_.path;
+  dlerror();
+  lib_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!lib_) {
+    const char* e = dlerror();
+    *what = std::string("cannot load: ") + (e ? e : "dlopen failed");
+    return false;
+  }
+  auto entry = reinterpret_cast<exoid_controller_plugin_entry_fn>(dlsym(lib_, EXOID_CONTROLLER_PLUGIN_ENTRY));
+  if (!entry) {
+    *what = std::string("not a controller plugin: no symbol '") + EXOID_CONTROLLER_PLUGIN_ENTRY + "'";
+    return false;
+  }
+  api_ = entry();
+  *what = apiMismatch(api_);
+  if (!what->empty()) api_ = nullptr;  // not this host's table: never called (nor its destroy)
+  return what->empty();
+}
+
+bool ControllerPlugin::create(const std::vector<std::string>& joint_names, double period_s, std::string* what) {
+  std::vector<const char*> names;
+  for (const std::string& n : joint_names) names.push_back(n.c_str());
+  exoid_plugin_config c{};
+  c.abi_version = EXOID_CONTROLLER_PLUGIN_ABI_VERSION;
+  c.num_joints = nj_;
+  c.joint_names = names.data();
+  c.model_path = opt_.model_path.c_str();
+  c.config_path = opt_.config_path.c_str();
+  c.seed = opt_.seed;
+  c.moves = opt_.moves;
+  c.tick_divisor = opt_.divisor;
+  c.physics_period_s = period_s;
+  char error[1024] = "";
+  self_ = api_->create(&c, error, sizeof error);
+  if (!self_) *what = std::string("create failed: ") + (error[0] ? error : "no reason given");
+  return self_ != nullptr;
 }
 
 ControllerPlugin::~ControllerPlugin() {
@@ -146,21 +167,21 @@ bool ControllerPlugin::step(const RobotStateSample& s) {
     command_.tick = k + 1;
     return false;
   }
-  in_.utime = s.utime;
-  in_.tick = k;
-  in_.num_joints = nj_;
-  for (int j = 0; j < nj_; ++j) {
-    in_.q[j] = s.q[j];
-    in_.tau[j] = s.tau[j];
-    in_.has_tau[j] = s.has_tau[j] ? 1 : 0;
+  if (tickPlugin(s)) {
+    acceptCommand();
+  } else {
+    fallback(k);
+    command_.utime = s.utime;
   }
-  in_.imu_orientation[0] = s.imu_orientation.w();
-  in_.imu_orientation[1] = s.imu_orientation.x();
-  in_.imu_orientation[2] = s.imu_orientation.y();
-  in_.imu_orientation[3] = s.imu_orientation.z();
-  for (int i = 0; i < 3; ++i) {
-    in_.imu_gyro[i] = s.imu_gyro[i];
-    in_.imu_accel[i] = s.imu_accel[i];
+  readStatus(s.utime, k);
+  return true;
+}
+
+bool ControllerPlugin::tickPlugin(const RobotStateSample& s) {
+  const int64_t k = s.tick;
+  if (!plugin_abi::toPlugin(s, in_) || in_.num_joints != nj_) {  // a host bug (the sim sizes its samples)
+    ++stats_.failed;
+    return false;
   }
   out_.num_joints = nj_;
   out_.tick = out_.source_tick = -1;  // the plugin must stamp them
@@ -174,7 +195,6 @@ bool ControllerPlugin::step(const RobotStateSample& s) {
   const bool overrun = opt_.budget_us > 0.0 && us > opt_.budget_us;
   if (overrun) ++stats_.overruns;
 
-  bool good = false;
   if (rc != EXOID_PLUGIN_OK) {
     ++stats_.failed;
   } else if (out_.num_joints != nj_ || out_.tick != k + 1 || out_.source_tick != k || out_.mode < 0 ||
@@ -182,62 +202,34 @@ bool ControllerPlugin::step(const RobotStateSample& s) {
     ++stats_.bad_output;
   } else if (!allFinite(out_.tau, nj_) || !allFinite(out_.tau_ff, nj_)) {
     ++stats_.non_finite;
-  } else if (!overrun) {
-    good = true;
-  }
-  if (good) {
-    ++stats_.good;
-    bad_streak_ = 0;
-    command_.utime = out_.utime;
-    command_.tick = out_.tick;
-    command_.source_tick = out_.source_tick;
-    command_.mode = static_cast<CommandMode>(out_.mode);
-    copyTo(out_.tau, command_.tau);
-    copyTo(out_.tau_ff, command_.tau_ff);
-    if (command_.mode == CommandMode::Torque) {
-      last_good_ = command_;  // same sizes: no allocation
-      has_good_ = true;
-    }
   } else {
-    fallback(k);
-    command_.utime = s.utime;
+    return !overrun;
   }
+  return false;
+}
 
-  // Status: published only when every field is in range (readers reject the rest).
-  status_valid_ = api_->status(self_, &st_) == EXOID_PLUGIN_OK;
-  status_valid_ = status_valid_ && st_.qp_status >= 0 && st_.qp_status <= 3 && st_.qp_iterations >= 0 &&
-                  st_.move_index >= -1 && st_.moves_done >= 0 && st_.fallbacks >= 0 && st_.rejected_inputs >= 0 &&
-                  st_.stale_inputs >= 0 && std::isfinite(st_.qp_solve_us) && st_.qp_solve_us >= 0.0 &&
-                  std::isfinite(st_.tick_us) && st_.tick_us >= 0.0 && allFinite(st_.com_ref, 3) &&
-                  allFinite(st_.com, 3) && allFinite(st_.com_vel_ref, 3) && allFinite(st_.com_vel, 3) &&
-                  allFinite(st_.momentum_rate_ref, 6) && allFinite(st_.momentum, 6) &&
-                  allFinite(st_.wrench_right, 6) && allFinite(st_.wrench_left, 6);
+void ControllerPlugin::acceptCommand() {
+  ++stats_.good;
+  bad_streak_ = 0;
+  plugin_abi::fromPlugin(out_, command_);  // sizes checked in tickPlugin
+  if (command_.mode == CommandMode::Torque) {
+    last_good_ = command_;  // same sizes: no allocation
+    has_good_ = true;
+  }
+}
+
+void ControllerPlugin::readStatus(int64_t utime, int64_t k) {
+  // Published only when every field is in range (readers reject the rest).
+  status_valid_ = api_->status(self_, &st_) == EXOID_PLUGIN_OK && statusInRange(st_);
   if (!status_valid_) {
     ++stats_.bad_status;
-    return true;
+    return;
   }
-  ControllerStatusSample& o = status_;
-  o.utime = s.utime;
-  o.tick = k;
-  o.qp_status = static_cast<QpStatus>(st_.qp_status);
-  o.qp_iterations = st_.qp_iterations;
-  o.qp_solve_us = st_.qp_solve_us;
-  o.tick_us = st_.tick_us;
-  o.move_index = st_.move_index;
-  o.moves_done = st_.moves_done;
-  copyTo(st_.com_ref, o.com_ref);
-  copyTo(st_.com, o.com);
-  copyTo(st_.com_vel_ref, o.com_vel_ref);
-  copyTo(st_.com_vel, o.com_vel);
-  copyTo(st_.momentum_rate_ref, o.momentum_rate_ref);
-  copyTo(st_.momentum, o.momentum);
-  copyTo(st_.wrench_right, o.wrench_right);
-  copyTo(st_.wrench_left, o.wrench_left);
-  o.fallbacks = st_.fallbacks + static_cast<int32_t>(stats_.fallbackTicks());
-  o.rejected_inputs = st_.rejected_inputs;
-  o.stale_inputs = st_.stale_inputs;
+  plugin_abi::fromPlugin(st_, status_);
+  status_.utime = utime;
+  status_.tick = k;
+  status_.fallbacks = st_.fallbacks + static_cast<int32_t>(stats_.fallbackTicks());
   finished_ = st_.finished != 0;
-  return true;
 }
 
 bool ControllerPlugin::setEstimate(const EstimatorOutputSample& estimate) {

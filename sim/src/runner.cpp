@@ -47,109 +47,208 @@ int serviceUntil(LcmEndpoint& ep, int64_t deadline_ns, Done done, const volatile
   return 1;
 }
 
+// runSim's loop: the set-up state (allocated once, in the constructor) and the per-tick stages (no allocation).
+class SimLoop {
+ public:
+  SimLoop(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& opt, std::string* err,
+          const volatile std::sig_atomic_t* stop)
+      : sm_(sm), sd_(sd), ep_(ep), opt_(opt), err_(err), stop_(stop), gate_({channels::kCommand}),
+        incoming_(simZeroCommand(sm)) {
+    arbiterInit(arb_, sm, opt.hold_ticks);
+    why_.reserve(1024);  // rejection reasons fit without reallocating
+    // With an in-loop controller plugin the loop itself publishes EXO_COMMAND: it must not read it back.
+    static_assert(kNumFeet == EXOID_PLUGIN_NUM_PLATES, "the plugin gets the plates in SimData.plates order");
+    if (opt.plugin) plugin_link_ = std::make_unique<PluginLink>(*opt.plugin, ep, sm.joint_names);
+    if (!opt.plugin)
+      subscription_ = ep.subscribeRaw(channels::kCommand, [this](const char*, const void* bytes, int size, int64_t) {
+        onCommand(bytes, size);
+      });
+    summary.ticks_planned = std::llround(opt.duration_s * 1000.0);
+    // Consecutive missing commands (only once a controller has answered: no controller at all is open loop).
+    give_up_ = opt.max_missing_commands <= 0 ? 0
+               : opt.mode == SimMode::Lockstep
+                   ? opt.max_missing_commands
+                   : int64_t{opt.max_missing_commands} * std::max(1, opt.command_timeout_ms);
+    t0_ = monoNs();
+  }
+
+  RunSummary summary;
+
+  /// Command intake before tick k: lockstep waits for the command of tick k (with the start handshake),
+  /// otherwise whatever LCM has. False on an LCM failure.
+  bool receive(int64_t k) {
+    if (opt_.mode == SimMode::Lockstep && !opt_.plugin) return k < 1 || arbiterHasFresh(arb_, k) || awaitCommand(k);
+    // (a plugin loop that listens to nothing never touches LCM's receive side: no receive thread)
+    return !((!plugin_link_ || plugin_link_->listening()) && ep_.handleAvailable(1000, err_) < 0);
+  }
+
+  /// True when the controller, once heard, missed give_up consecutive commands up to tick k.
+  bool controllerLost(int64_t k) {
+    if (k >= 1 && arb_.received > 0) {
+      missing_ = arbiterHasFresh(arb_, k) ? 0 : missing_ + 1;
+      if (give_up_ > 0 && missing_ >= give_up_) return true;
+    }
+    if (arbiterHasFresh(arb_, k)) summary.last_fresh_tick = k;
+    return false;
+  }
+
+  /// Tick k: simStep on the arbiter's command, the fall check, publishing, the plugin after the step. False on
+  /// an LCM failure; *fell_now: the robot fell at this tick.
+  bool step(int64_t k, bool* fell_now) {
+    simStep(sm_, sd_, arbiterSelect(arb_, k));
+    *fell_now = !summary.fell && simFell(sm_, sd_);
+    if (*fell_now) {
+      summary.fell = true;
+      summary.fall_tick = k;
+    }
+    return publishAll() && !(plugin_link_ && !plugin_link_->afterStep(sd_.state, sd_.plates.data(), arb_, err_));
+  }
+
+  /// One progress line per simulated second (unless quiet).
+  void progress(int64_t k) const {
+    if (opt_.quiet || (k + 1) % 1000 != 0) return;
+    const double wall = (monoNs() - t0_) * 1e-9;
+    std::fprintf(opt_.log,
+                 "exo_sim: t %.1f s  tick %" PRId64 "  rtf %.2f  base z %.3f m  rejected %" PRIu64
+                 "  fallback %" PRId64 "%s\n",
+                 (k + 1) * 1e-3, k, wall > 0 ? (k + 1) * 1e-3 / wall : 0.0, sd_.truth.base_position.z(),
+                 gate_.rejectedTotal(), arb_.fallbackTicks(), summary.fell ? "  FELL" : "");
+    std::fflush(opt_.log);
+  }
+
+  /// Realtime: 1 kHz wall clock, serving LCM until the next tick's slot starts. False on an LCM failure.
+  bool pace(int64_t k) {
+    const int64_t next = t0_ + (k + 1) * 1000000;
+    if (monoNs() > next) {
+      ++summary.overruns;
+    } else if (plugin_link_ && !plugin_link_->listening()) {  // nothing to receive: sleep to the deadline
+      const timespec ts{static_cast<time_t>(next / 1000000000), static_cast<long>(next % 1000000000)};
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+    } else if (serviceUntil(ep_, next, [] { return false; }, stop_, err_) < 0) {
+      return false;
+    }
+    return true;
+  }
+
+  /// After the loop: unsubscribes (the handler refers to this object), ends the plugin link, fills the counts
+  /// and the outcome of summary.
+  void finish(bool ok) {
+    if (subscription_ > 0) ep_.unsubscribe(subscription_);
+    plugin_link_.reset();
+    RunSummary& s = summary;
+    s.wall_time_s = (monoNs() - t0_) * 1e-9;
+    s.sim_time_s = s.ticks * 1e-3;
+    s.realtime_factor = s.wall_time_s > 0 ? s.sim_time_s / s.wall_time_s : 0.0;
+    s.accepted = gate_.accepted(0);
+    s.rejected = gate_.rejected(0);
+    for (int i = 0; i < kNumRejectReasons && i < 4; ++i)
+      s.rejected_by_reason[i] = gate_.rejected(0, static_cast<RejectReason>(i));
+    s.fresh_ticks = arb_.fresh_ticks;
+    s.held_ticks = arb_.held_ticks;
+    s.zero_ticks = arb_.zero_ticks;
+    s.refused = sd_.stats.rejected_commands;
+    s.clamped = sd_.stats.clamped_commands;
+    s.mujoco_warnings = sd_.stats.mujoco_warnings;
+    s.missing_commands = missing_;
+    if (stop_ && *stop_) s.interrupted = true;
+    if (!ok) {
+      s.outcome = RunOutcome::LcmFailure;
+    } else if (s.interrupted && s.outcome == RunOutcome::Completed && s.ticks < s.ticks_planned) {
+      s.outcome = RunOutcome::Interrupted;
+    } else if (s.outcome == RunOutcome::Completed && s.fell) {
+      s.outcome = RunOutcome::Fell;  // stop_on_fall off: it still did not complete its run standing
+    }
+  }
+
+ private:
+  void onCommand(const void* bytes, int size) {
+    if (gate_.admitEncoded(0, bytes, size, scratch_, incoming_, &why_, sm_.joint_names)) {
+      arbiterOffer(arb_, incoming_);
+    } else if (reasons_logged_ < 5) {  // the first few reasons help debugging a controller; then only counts
+      ++reasons_logged_;
+      std::fprintf(stderr, "exo_sim: rejected command: %s\n", why_.c_str());
+    }
+  }
+
+  bool publishAll() {
+    toLcm(sd_.state, sm_.joint_names, state_msg_);
+    bool ok = ep_.publish(channels::kState, state_msg_, err_);
+    const char* plate_channel[kNumFeet] = {channels::kPlateRight, channels::kPlateLeft};
+    for (int i = 0; i < kNumFeet; ++i) {
+      toLcm(sd_.plates[static_cast<size_t>(i)], plate_msg_[i]);
+      ok = ok && ep_.publish(plate_channel[i], plate_msg_[i], err_);
+    }
+    toLcm(sd_.truth, sm_.joint_names, truth_msg_);
+    return ok && ep_.publish(channels::kTruth, truth_msg_, err_);
+  }
+
+  // Lockstep, the command of tick k >= 1 not there yet: the start handshake (tick 0 re-sent every 100 ms until
+  // a controller answers or start_timeout_s), the wait of command_timeout_ms once one has answered, or open
+  // loop without waiting when none ever did. False on an LCM failure.
+  bool awaitCommand(int64_t k) {
+    auto fresh = [&] { return arbiterHasFresh(arb_, k); };
+    int r = 0;
+    if (arb_.received == 0 && k == 1 && opt_.start_timeout_s > 0.0) {
+      const int64_t start_deadline = monoNs() + static_cast<int64_t>(opt_.start_timeout_s * 1e9);
+      bool ok = true;
+      while (ok && (r = serviceUntil(ep_, std::min(start_deadline, monoNs() + 100000000), fresh, stop_, err_)) == 0 &&
+             monoNs() < start_deadline && !(stop_ && *stop_))
+        ok = publishAll();
+      if (!ok) return false;
+      if (!arbiterHasFresh(arb_, k)) ++summary.timeouts;
+    } else if (arb_.received > 0) {
+      r = serviceUntil(ep_, monoNs() + int64_t{opt_.command_timeout_ms} * 1000000, fresh, stop_, err_);
+      if (!arbiterHasFresh(arb_, k)) ++summary.timeouts;
+    } else {
+      r = ep_.handleAvailable(1000, err_) < 0 ? -1 : 0;
+    }
+    return r >= 0;
+  }
+
+  const SimModel& sm_;
+  SimData& sd_;
+  LcmEndpoint& ep_;
+  const RunOptions& opt_;
+  std::string* err_;
+  const volatile std::sig_atomic_t* stop_;
+  CommandArbiter arb_;
+  MessageGate gate_;
+  JointCommandSample incoming_;
+  exoid_lcm::joint_command_t scratch_;
+  std::string why_;
+  int reasons_logged_ = 0;
+  std::unique_ptr<PluginLink> plugin_link_;
+  int subscription_ = 0;
+  exoid_lcm::robot_state_t state_msg_;
+  exoid_lcm::force_plate_t plate_msg_[kNumFeet];
+  exoid_lcm::ground_truth_t truth_msg_;
+  int64_t t0_ = 0;
+  int64_t missing_ = 0;
+  int64_t give_up_ = 0;
+};
+
 }  // namespace
 
 bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& opt, RunSummary* out,
             std::string* err, const volatile std::sig_atomic_t* stop) {
-  // --- setup (allocates) ---
-  CommandArbiter arb;
-  arbiterInit(arb, sm, opt.hold_ticks);
-  MessageGate gate({channels::kCommand});
-  JointCommandSample incoming = simZeroCommand(sm);
-  exoid_lcm::joint_command_t scratch;
-  std::string why;
-  why.reserve(1024);  // rejection reasons fit without reallocating
-  int reasons_logged = 0;
-  // With an in-loop controller plugin the loop itself publishes EXO_COMMAND: it must not read it back.
-  std::unique_ptr<PluginLink> plugin_link;
-  static_assert(kNumFeet == EXOID_PLUGIN_NUM_PLATES, "the plugin gets the plates in SimData.plates order");
-  if (opt.plugin) plugin_link = std::make_unique<PluginLink>(*opt.plugin, ep, sm.joint_names);
-  const int subscription = opt.plugin ? 0 : ep.subscribeRaw(channels::kCommand, [&](const char*, const void* bytes, int size, int64_t) {
-    if (gate.admitEncoded(0, bytes, size, scratch, incoming, &why, sm.joint_names)) {
-      arbiterOffer(arb, incoming);
-    } else if (reasons_logged < 5) {  // the first few reasons help debugging a controller; then only counts
-      ++reasons_logged;
-      std::fprintf(stderr, "exo_sim: rejected command: %s\n", why.c_str());
-    }
-  });
-  exoid_lcm::robot_state_t state_msg;
-  exoid_lcm::force_plate_t plate_msg[kNumFeet];
-  exoid_lcm::ground_truth_t truth_msg;
-  const char* plate_channel[kNumFeet] = {channels::kPlateRight, channels::kPlateLeft};
-  auto publishAll = [&]() -> bool {
-    toLcm(sd.state, sm.joint_names, state_msg);
-    bool ok = ep.publish(channels::kState, state_msg, err);
-    for (int i = 0; i < kNumFeet; ++i) {
-      toLcm(sd.plates[static_cast<size_t>(i)], plate_msg[i]);
-      ok = ok && ep.publish(plate_channel[i], plate_msg[i], err);
-    }
-    toLcm(sd.truth, sm.joint_names, truth_msg);
-    return ok && ep.publish(channels::kTruth, truth_msg, err);
-  };
-
-  RunSummary s;
-  const int64_t ticks = std::llround(opt.duration_s * 1000.0);
-  s.ticks_planned = ticks;
-  const int64_t t0 = monoNs();
-  int64_t start_deadline = 0;
+  SimLoop loop(sm, sd, ep, opt, err, stop);  // setup (allocates)
+  RunSummary& s = loop.summary;
   bool ok = true;
-  // Consecutive missing commands (only once a controller has answered: no controller at all is open loop).
-  int64_t missing = 0;
-  const int64_t give_up = opt.max_missing_commands <= 0 ? 0
-                          : opt.mode == SimMode::Lockstep
-                              ? opt.max_missing_commands
-                              : int64_t{opt.max_missing_commands} * std::max(1, opt.command_timeout_ms);
-
-  // --- loop (no allocation) ---
-  for (int64_t k = 0; k < ticks && ok; ++k) {
+  for (int64_t k = 0; k < s.ticks_planned && ok; ++k) {  // no allocation
     if (stop && *stop) {
       s.interrupted = true;
       break;
     }
-    int r = 0;
-    if (opt.mode == SimMode::Lockstep && !opt.plugin) {
-      if (k >= 1 && !arbiterHasFresh(arb, k)) {
-        auto fresh = [&] { return arbiterHasFresh(arb, k); };
-        if (arb.received == 0 && k == 1 && opt.start_timeout_s > 0.0) {
-          // Handshake: a controller that subscribed after tick 0 went out gets it again every 100 ms.
-          start_deadline = monoNs() + static_cast<int64_t>(opt.start_timeout_s * 1e9);
-          while (ok && (r = serviceUntil(ep, std::min(start_deadline, monoNs() + 100000000), fresh, stop, err)) == 0 &&
-                 monoNs() < start_deadline && !(stop && *stop))
-            ok = publishAll();
-          if (!ok) break;
-          if (!arbiterHasFresh(arb, k)) ++s.timeouts;
-        } else if (arb.received > 0) {
-          r = serviceUntil(ep, monoNs() + int64_t{opt.command_timeout_ms} * 1000000, fresh, stop, err);
-          if (!arbiterHasFresh(arb, k)) ++s.timeouts;
-        } else {
-          // Never heard from a controller (start timeout over): run open loop without waiting.
-          r = ep.handleAvailable(1000, err) < 0 ? -1 : 0;
-        }
-        if (r < 0) {
-          ok = false;
-          break;
-        }
-      }
-    } else if ((!plugin_link || plugin_link->listening()) && ep.handleAvailable(1000, err) < 0) {
-      ok = false;  // (a plugin loop that listens to nothing never touches LCM's receive side: no receive thread)
+    if (!loop.receive(k)) {
+      ok = false;
       break;
     }
-    if (k >= 1 && arb.received > 0) {
-      missing = arbiterHasFresh(arb, k) ? 0 : missing + 1;
-      if (give_up > 0 && missing >= give_up) {
-        s.outcome = RunOutcome::ControllerLost;
-        break;
-      }
+    if (loop.controllerLost(k)) {
+      s.outcome = RunOutcome::ControllerLost;
+      break;
     }
-    if (arbiterHasFresh(arb, k)) s.last_fresh_tick = k;
-
-    simStep(sm, sd, arbiterSelect(arb, k));
-    const bool fell_now = !s.fell && simFell(sm, sd);
-    if (fell_now) {
-      s.fell = true;
-      s.fall_tick = k;
-    }
-    if (!publishAll() || (plugin_link && !plugin_link->afterStep(sd.state, sd.plates.data(), arb, err))) {
+    bool fell_now = false;
+    if (!loop.step(k, &fell_now)) {
       ok = false;
       break;
     }
@@ -162,54 +261,10 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       s.plugin_finished = true;  // its task is over: the run is complete (outcome stays Completed)
       break;
     }
-
-    if (!opt.quiet && (k + 1) % 1000 == 0) {
-      const double wall = (monoNs() - t0) * 1e-9;
-      std::fprintf(opt.log,
-                   "exo_sim: t %.1f s  tick %" PRId64 "  rtf %.2f  base z %.3f m  rejected %" PRIu64
-                   "  fallback %" PRId64 "%s\n",
-                   (k + 1) * 1e-3, k, wall > 0 ? (k + 1) * 1e-3 / wall : 0.0, sd.truth.base_position.z(),
-                   gate.rejectedTotal(), arb.fallbackTicks(), s.fell ? "  FELL" : "");
-      std::fflush(opt.log);
-    }
-    if (opt.mode == SimMode::Realtime) {
-      // 1 kHz wall clock: keep serving LCM until the next tick's slot starts.
-      const int64_t next = t0 + (k + 1) * 1000000;
-      if (monoNs() > next) {
-        ++s.overruns;
-      } else if (plugin_link && !plugin_link->listening()) {  // nothing to receive: sleep to the deadline
-        const timespec ts{static_cast<time_t>(next / 1000000000), static_cast<long>(next % 1000000000)};
-        clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-      } else if (serviceUntil(ep, next, [] { return false; }, stop, err) < 0) {
-        ok = false;
-      }
-    }
+    loop.progress(k);
+    if (opt.mode == SimMode::Realtime) ok = loop.pace(k);
   }
-
-  if (subscription > 0) ep.unsubscribe(subscription);  // the handler refers to this frame's locals
-  plugin_link.reset();
-  s.wall_time_s = (monoNs() - t0) * 1e-9;
-  s.sim_time_s = s.ticks * 1e-3;
-  s.realtime_factor = s.wall_time_s > 0 ? s.sim_time_s / s.wall_time_s : 0.0;
-  s.accepted = gate.accepted(0);
-  s.rejected = gate.rejected(0);
-  for (int i = 0; i < kNumRejectReasons && i < 4; ++i)
-    s.rejected_by_reason[i] = gate.rejected(0, static_cast<RejectReason>(i));
-  s.fresh_ticks = arb.fresh_ticks;
-  s.held_ticks = arb.held_ticks;
-  s.zero_ticks = arb.zero_ticks;
-  s.refused = sd.stats.rejected_commands;
-  s.clamped = sd.stats.clamped_commands;
-  s.mujoco_warnings = sd.stats.mujoco_warnings;
-  s.missing_commands = missing;
-  if (stop && *stop) s.interrupted = true;
-  if (!ok) {
-    s.outcome = RunOutcome::LcmFailure;
-  } else if (s.interrupted && s.outcome == RunOutcome::Completed && s.ticks < ticks) {
-    s.outcome = RunOutcome::Interrupted;
-  } else if (s.outcome == RunOutcome::Completed && s.fell) {
-    s.outcome = RunOutcome::Fell;  // stop_on_fall off: it still did not complete its run standing
-  }
+  loop.finish(ok);
   if (out) *out = s;
   return ok;
 }

@@ -103,32 +103,31 @@ Eigen::Vector3d gaussian3(SimData& sd, const Eigen::Vector3d& sigma) {
   return v;
 }
 
-}  // namespace
+// ---- simLoad's stages: each checks what it reads and returns false with a one-line *err -----------------
 
-bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scenario& scenario, SimModel& out,
-             std::string* err, const SimOptions& options) {
-  SimModel sm;
-  sm.mjcf_path = mjcf_path;
-  sm.options = options;
-  sm.scenario = scenario;
-  sm.noise = noise;
-  const std::string& f = mjcf_path;
-
-  if (!checkMjcfNumbers(mjcf_path, err)) return false;
+// The MJCF parsed (its numbers checked first: MuJoCo 2.2 accepts "nan" and "inf"), at 1 ms a step.
+bool loadMjcf(SimModel& sm, std::string* err) {
+  const std::string& f = sm.mjcf_path;
+  if (!checkMjcfNumbers(f, err)) return false;
   char mjerr[1000] = "";
-  sm.m = mj_loadXML(mjcf_path.c_str(), nullptr, mjerr, sizeof(mjerr));
+  sm.m = mj_loadXML(f.c_str(), nullptr, mjerr, sizeof(mjerr));
   if (!sm.m) {
     std::string e(mjerr);
     std::replace(e.begin(), e.end(), '\n', ' ');  // MuJoCo's messages span lines; ours are one line
     return fail(err, f + ": MuJoCo cannot load the model: " + e);
   }
-  mjModel* m = sm.m;
   // One control tick is one MuJoCo step of 1 ms (utime = tick * 1000).
-  if (std::abs(m->opt.timestep - 0.001) > 1e-12)
+  if (std::abs(sm.m->opt.timestep - 0.001) > 1e-12)
     return fail(err, f + ": <option timestep>: must be 0.001 (one 1 kHz control tick per step), found " +
-                         std::to_string(m->opt.timestep));
+                         std::to_string(sm.m->opt.timestep));
+  return true;
+}
 
-  // Joints: exactly one free joint (the base, on a child of the world), every other joint a hinge.
+// Joints: exactly one free joint (the base, on a child of the world), every other joint a hinge (named); the
+// per-joint arrays sized [nj].
+bool findJoints(SimModel& sm, std::string* err) {
+  const mjModel* m = sm.m;
+  const std::string& f = sm.mjcf_path;
   for (int j = 0; j < m->njnt; ++j) {
     const char* name = mj_id2name(m, mjOBJ_JOINT, j);
     const std::string jn = name ? name : "#" + std::to_string(j);
@@ -157,8 +156,14 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
   sm.torque_sensor_adr.assign(nj, -1);
   sm.torque_gain.assign(nj, 1.0);
   sm.torque_offset.assign(nj, 0.0);
+  return true;
+}
 
-  // Actuators: direct-drive motors on hinge joints (torque = gear * ctrl), at most one per joint.
+// Actuators: direct-drive motors on hinge joints (torque = gear * ctrl), at most one per joint, each with
+// its torque sensor when the MJCF has one (<actuatorfrc>).
+bool findActuators(SimModel& sm, std::string* err) {
+  const mjModel* m = sm.m;
+  const std::string& f = sm.mjcf_path;
   for (int a = 0; a < m->nu; ++a) {
     const char* name = mj_id2name(m, mjOBJ_ACTUATOR, a);
     const std::string an = name ? name : "#" + std::to_string(a);
@@ -176,10 +181,16 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
     const int s = findSensor(m, mjSENS_ACTUATORFRC, mjOBJ_ACTUATOR, a);
     if (s >= 0) sm.torque_sensor_adr[j] = m->sensor_adr[s];
   }
+  return true;
+}
 
-  // IMU: orientation, gyro and accelerometer at one site.
-  sm.imu_site = mj_name2id(m, mjOBJ_SITE, options.names.imu_site.c_str());
-  if (sm.imu_site < 0) return fail(err, f + ": <site name=\"" + options.names.imu_site + "\">: missing (IMU)");
+// IMU: orientation, gyro and accelerometer at one site.
+bool findImu(SimModel& sm, std::string* err) {
+  const mjModel* m = sm.m;
+  const std::string& f = sm.mjcf_path;
+  const std::string& site = sm.options.names.imu_site;
+  sm.imu_site = mj_name2id(m, mjOBJ_SITE, site.c_str());
+  if (sm.imu_site < 0) return fail(err, f + ": <site name=\"" + site + "\">: missing (IMU)");
   struct Need {
     int type;
     const char* what;
@@ -189,17 +200,21 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
                         Need{mjSENS_GYRO, "gyro", &sm.imu_gyro_adr},
                         Need{mjSENS_ACCELEROMETER, "accelerometer", &sm.imu_accel_adr}}) {
     const int s = findSensor(m, n.type, mjOBJ_SITE, sm.imu_site);
-    if (s < 0)
-      return fail(err, f + ": <sensor>: missing <" + n.what + "> at site '" + options.names.imu_site + "'");
+    if (s < 0) return fail(err, f + ": <sensor>: missing <" + n.what + "> at site '" + site + "'");
     *n.adr = m->sensor_adr[s];
   }
+  return true;
+}
 
-  // Feet and plates.
+// Feet (sole geoms) and force plates: a site on a static plate body with <force> and <torque> sensors.
+bool findFeetAndPlates(SimModel& sm, std::string* err) {
+  const mjModel* m = sm.m;
+  const std::string& f = sm.mjcf_path;
   for (int i = 0; i < kNumFeet; ++i) {
-    const std::string& g = options.names.foot_geom[static_cast<size_t>(i)];
+    const std::string& g = sm.options.names.foot_geom[static_cast<size_t>(i)];
     sm.foot_geom[i] = mj_name2id(m, mjOBJ_GEOM, g.c_str());
     if (sm.foot_geom[i] < 0) return fail(err, f + ": <geom name=\"" + g + "\">: missing (sole)");
-    const std::string& ps = options.names.plate_site[static_cast<size_t>(i)];
+    const std::string& ps = sm.options.names.plate_site[static_cast<size_t>(i)];
     sm.plate_site[i] = mj_name2id(m, mjOBJ_SITE, ps.c_str());
     if (sm.plate_site[i] < 0) return fail(err, f + ": <site name=\"" + ps + "\">: missing (force plate)");
     const int pb = m->site_bodyid[sm.plate_site[i]];
@@ -211,11 +226,13 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
     sm.plate_force_adr[i] = m->sensor_adr[sf];
     sm.plate_torque_adr[i] = m->sensor_adr[st];
   }
+  return true;
+}
 
-  // Scenario effects (MuJoCo model and sensor model only: the URDF does not see them).
-  const Effects& e = scenario.effects;
-  const std::string src = scenario.source.empty() ? std::string("scenario") : scenario.source;
-  sm.scenario.source = src;
+// effects.joint_damping / joint_frictionloss / armature: the MJCF's per-dof values overridden by joint.
+bool applyDofEffects(SimModel& sm, const Effects& e, std::string* err) {
+  mjModel* m = sm.m;
+  const size_t nj = static_cast<size_t>(sm.nj);
   std::vector<double> v(nj, 0.0);
   struct DofEffect {
     const std::vector<JointValue>* values;
@@ -230,6 +247,13 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
     if (!resolveJointValues(sm, *de.values, de.key, &v, err)) return false;
     for (size_t j = 0; j < nj; ++j) de.field[sm.dof_adr[j]] = v[j];
   }
+  return true;
+}
+
+// effects.payload: rigid masses added to robot links now, or at attach_at_s (timed_payloads, applied by the loop).
+bool applyPayloads(SimModel& sm, const Effects& e, std::string* err) {
+  mjModel* m = sm.m;
+  const std::string& src = sm.scenario.source;
   for (size_t i = 0; i < e.payloads.size(); ++i) {
     const Payload& p = e.payloads[i];
     const std::string key = e.payloads.size() > 1 ? "effects.payload[" + std::to_string(i) + "]" : "effects.payload";
@@ -242,57 +266,75 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
     else
       addPayload(m, b, p);
   }
-  if (!e.torque_sensor.empty()) {
-    // Offsets and gains share the "all first, then named joints" rule.
-    std::vector<JointValue> off, gain;
-    for (const TorqueSensorError& t : e.torque_sensor) {
-      off.push_back({t.joint, t.offset});
-      gain.push_back({t.joint, t.gain});
-    }
-    std::vector<double> o(nj, 0.0), g(nj, 1.0);
-    if (!resolveJointValues(sm, off, "effects.torque_sensor", &o, err) ||
-        !resolveJointValues(sm, gain, "effects.torque_sensor", &g, err))
-      return false;
-    for (const TorqueSensorError& t : e.torque_sensor) {
-      if (t.joint == "all") continue;
-      const size_t j = static_cast<size_t>(
-          std::find(sm.joint_names.begin(), sm.joint_names.end(), t.joint) - sm.joint_names.begin());
-      if (sm.torque_sensor_adr[j] < 0)
-        return fail(err, src + ": effects.torque_sensor." + t.joint + ": joint has no torque sensor");
-    }
-    for (size_t j = 0; j < nj; ++j) {
-      if (sm.torque_sensor_adr[j] < 0) continue;  // "all" covers the sensed joints only
-      sm.torque_offset[j] = o[j];
-      sm.torque_gain[j] = g[j];
-    }
-  }
+  return true;
+}
 
-  if (scenario.harness.enabled) {  // a heavy, held pelvis (kHarnessMass); isotropic inertia keeps body_iquat valid
-    sm.harness_mass = kHarnessMass;
-    m->body_mass[sm.base_body] += kHarnessMass;
-    for (int i = 0; i < 3; ++i) m->body_inertia[3 * sm.base_body + i] += kHarnessMass;
-    for (size_t j = 0; j < nj; ++j)
-      if (sm.actuator[j] < 0) {
-        m->jnt_stiffness[sm.joint_id[j]] = kHarnessPinStiffness;
-        m->dof_damping[sm.dof_adr[j]] += kHarnessPinDamping;
-      }
+// effects.torque_sensor: offset and gain per sensed joint (offsets and gains share the "all first, then named
+// joints" rule; a named joint must have a sensor).
+bool applyTorqueSensorErrors(SimModel& sm, const Effects& e, std::string* err) {
+  if (e.torque_sensor.empty()) return true;
+  const size_t nj = static_cast<size_t>(sm.nj);
+  std::vector<JointValue> off, gain;
+  for (const TorqueSensorError& t : e.torque_sensor) {
+    off.push_back({t.joint, t.offset});
+    gain.push_back({t.joint, t.gain});
   }
+  std::vector<double> o(nj, 0.0), g(nj, 1.0);
+  if (!resolveJointValues(sm, off, "effects.torque_sensor", &o, err) ||
+      !resolveJointValues(sm, gain, "effects.torque_sensor", &g, err))
+    return false;
+  for (const TorqueSensorError& t : e.torque_sensor) {
+    if (t.joint == "all") continue;
+    const size_t j = static_cast<size_t>(
+        std::find(sm.joint_names.begin(), sm.joint_names.end(), t.joint) - sm.joint_names.begin());
+    if (sm.torque_sensor_adr[j] < 0)
+      return fail(err, sm.scenario.source + ": effects.torque_sensor." + t.joint + ": joint has no torque sensor");
+  }
+  for (size_t j = 0; j < nj; ++j) {
+    if (sm.torque_sensor_adr[j] < 0) continue;  // "all" covers the sensed joints only
+    sm.torque_offset[j] = o[j];
+    sm.torque_gain[j] = g[j];
+  }
+  return true;
+}
 
-  // Initial configuration.
+// The harness: a heavy, held pelvis (kHarnessMass; isotropic inertia keeps body_iquat valid), the passive
+// joints pinned by a spring.
+void applyHarness(SimModel& sm) {
+  mjModel* m = sm.m;
+  sm.harness_mass = kHarnessMass;
+  m->body_mass[sm.base_body] += kHarnessMass;
+  for (int i = 0; i < 3; ++i) m->body_inertia[3 * sm.base_body + i] += kHarnessMass;
+  for (size_t j = 0; j < static_cast<size_t>(sm.nj); ++j)
+    if (sm.actuator[j] < 0) {
+      m->jnt_stiffness[sm.joint_id[j]] = kHarnessPinStiffness;
+      m->dof_damping[sm.dof_adr[j]] += kHarnessPinDamping;
+    }
+}
+
+// qpos_init: the MJCF's qpos0, the base raised by the scenario's offset (and the harness lift), named joints set.
+bool setInitialConfiguration(SimModel& sm, const Scenario& scenario, std::string* err) {
+  const mjModel* m = sm.m;
   sm.qpos_init.assign(m->qpos0, m->qpos0 + m->nq);
   sm.qpos_init[static_cast<size_t>(sm.base_qpos) + 2] +=
       scenario.initial.base_height_offset + (scenario.harness.enabled ? scenario.harness.lift : 0.0);
   for (const JointValue& jv : scenario.initial.joints) {
     const auto it = std::find(sm.joint_names.begin(), sm.joint_names.end(), jv.joint);
     if (it == sm.joint_names.end())
-      return fail(err, src + ": initial_state.joints." + jv.joint + ": unknown joint '" + jv.joint + "'");
+      return fail(err, sm.scenario.source + ": initial_state.joints." + jv.joint + ": unknown joint '" + jv.joint +
+                           "'");
     sm.qpos_init[static_cast<size_t>(sm.qpos_adr[static_cast<size_t>(it - sm.joint_names.begin())])] = jv.value;
   }
+  return true;
+}
 
-  // Derived constants (subtree masses, invweight0...) after the effects, then the plate tare: the raw
-  // reading with nothing on the plates (contacts disabled), as a lab plate is zeroed before a trial.
+// Derived constants (subtree masses, invweight0...) after the effects, the body inertials before any timed
+// payload, then the plate tare: the raw reading with nothing on the plates (contacts disabled), as a lab plate
+// is zeroed before a trial.
+bool setConstantsAndTare(SimModel& sm, std::string* err) {
+  mjModel* m = sm.m;
   mjData* d = mj_makeData(m);
-  if (!d) return fail(err, f + ": MuJoCo cannot allocate mjData");
+  if (!d) return fail(err, sm.mjcf_path + ": MuJoCo cannot allocate mjData");
   mj_setConst(m, d);
   if (!sm.timed_payloads.empty()) {
     const auto save = [](const mjtNum* a, int n) { return std::vector<double>(a, a + n); };
@@ -312,7 +354,28 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
     sm.plate_tare_torque[i] = Eigen::Vector3d(d->sensordata + sm.plate_torque_adr[i]);
   }
   mj_deleteData(d);
+  return true;
+}
 
+}  // namespace
+
+bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scenario& scenario, SimModel& out,
+             std::string* err, const SimOptions& options) {
+  SimModel sm;
+  sm.mjcf_path = mjcf_path;
+  sm.options = options;
+  sm.scenario = scenario;
+  sm.noise = noise;
+  if (!loadMjcf(sm, err) || !findJoints(sm, err) || !findActuators(sm, err) || !findImu(sm, err) ||
+      !findFeetAndPlates(sm, err))
+    return false;
+  // Scenario effects (MuJoCo model and sensor model only: the URDF does not see them).
+  sm.scenario.source = scenario.source.empty() ? std::string("scenario") : scenario.source;
+  if (!applyDofEffects(sm, scenario.effects, err) || !applyPayloads(sm, scenario.effects, err) ||
+      !applyTorqueSensorErrors(sm, scenario.effects, err))
+    return false;
+  if (scenario.harness.enabled) applyHarness(sm);
+  if (!setInitialConfiguration(sm, scenario, err) || !setConstantsAndTare(sm, err)) return false;
   out = std::move(sm);
   return true;
 }

@@ -220,7 +220,7 @@ TEST(OnlineEffects, SidecarInTheEstimatorNodeCompensatesUndeclaredDryFriction) {
   EXPECT_LT(c.knee_with, 0.6 * c.knee_without);
   EXPECT_LT(c.knee_with, 1.25 * batch_knee);
 
-  // tau_ff = the rigid correction K(q, 0, 0)(phi_hat - phi_model) plus the effect's filtered column times its value;
+  // tau_correction = the rigid correction K(q, 0, 0)(phi_hat - phi_model) plus the effect's filtered column times its value;
   // the rigid part recomputed here from the configuration of the published tick (a publication made now, so that
   // its tick is the last sample's).
   EstimatorOutputSample out;
@@ -242,7 +242,7 @@ TEST(OnlineEffects, SidecarInTheEstimatorNodeCompensatesUndeclaredDryFriction) {
     const int row = model.jointRow(j);
     double ff = row == r ? column * out.base_params[m] : 0.0;
     for (int k = 0; k < m; ++k) ff += data.K(row, s.base.independent[k]) * dx[k];
-    EXPECT_NEAR(out.tau_ff[row], ff, 1e-9 * (1.0 + std::fabs(ff))) << model.joint_names[j];
+    EXPECT_NEAR(out.tau_correction[row], ff, 1e-9 * (1.0 + std::fabs(ff))) << model.joint_names[j];
   }
 }
 

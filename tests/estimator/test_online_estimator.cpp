@@ -498,7 +498,7 @@ TEST(OnlineEstimator, BadInputsAreRejectedCountedAndLeaveTheEstimateUntouched) {
   clean.publish(a);
   dirty.publish(b);
   EXPECT_EQ(a.params, b.params);
-  EXPECT_EQ(a.tau_ff, b.tau_ff);
+  EXPECT_EQ(a.tau_correction, b.tau_correction);
   EXPECT_EQ(b.rejected_nonfinite, 2);
   EXPECT_EQ(b.rejected_duplicate, 1);
   EXPECT_EQ(b.rejected_out_of_order, 2);
@@ -611,11 +611,11 @@ TEST(OnlineEstimator, ConsistentParametersReproduceTheBaseEstimateAsWellAsTheTru
   const Eigen::VectorXd dt = f.base.base_map * model.phi - est.baseEstimate();
   const double truth = std::sqrt(dt.dot(A * dt) / rss);
   const Eigen::VectorXd mean_phi = out.params;
-  // tau_ff relative to the model, which here is the simulated robot: the right value is 0 (measured 0.02 N m RMS
+  // tau_correction relative to the model, which here is the simulated robot: the right value is 0 (measured 0.02 N m RMS
   // over the joints; docs/estimator.md compares it with the live process's).
-  std::printf("tau_ff joints RMS %.3f N m (right value 0)\n",
-              std::sqrt(out.tau_ff.tail(model.njoints).squaredNorm() / model.njoints));
-  EXPECT_LT(std::sqrt(out.tau_ff.tail(model.njoints).squaredNorm() / model.njoints), 0.1);
+  std::printf("tau_correction joints RMS %.3f N m (right value 0)\n",
+              std::sqrt(out.tau_correction.tail(model.njoints).squaredNorm() / model.njoints));
+  EXPECT_LT(std::sqrt(out.tau_correction.tail(model.njoints).squaredNorm() / model.njoints), 0.1);
   for (int i = 0; i < 20; ++i) est.reconcile(out);
   const Eigen::VectorXd d = f.base.base_map * out.params - est.baseEstimate();
   {  // For the record (docs/estimator.md): the CoM, base frame, at the last training posture.

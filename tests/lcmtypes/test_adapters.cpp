@@ -382,7 +382,7 @@ TEST(EstimatorOutputAdapter, RoundTrip) {
   std::string why;
   ASSERT_TRUE(fromLcm(wire, paramNames(), test::kNumBase, coordNames(), out, &why)) << why;
   EXPECT_TRUE(test::same(out, in));
-  EXPECT_EQ(out.tau_ff.size(), 16);
+  EXPECT_EQ(out.tau_correction.size(), 16);
   EXPECT_EQ(out.base_params.size(), 3);
 }
 
@@ -415,8 +415,8 @@ TEST(EstimatorOutputAdapter, Rejections) {
   msg.base_params[1] = kInf;
   expectRejected(msg, RejectReason::NonFinite, "base_params[1] is inf", before, pn, nb, cn);
   msg = good;
-  msg.tau_ff[9] = kInf;
-  expectRejected(msg, RejectReason::NonFinite, "tau_ff[9] is inf", before, pn, nb, cn);
+  msg.tau_correction[9] = kInf;
+  expectRejected(msg, RejectReason::NonFinite, "tau_correction[9] is inf", before, pn, nb, cn);
   msg = good;
   msg.excitation = 1.5;
   expectRejected(msg, RejectReason::Malformed, "excitation 1.5 outside [0, 1]", before, pn, nb, cn);

@@ -167,10 +167,10 @@ inline EstimatorOutputSample makeEstimate() {
     s.base_params[i] = value(15, i);
     s.base_stddev[i] = 0.002 * (i + 1);
   }
-  s.tau_ff.resize(nc);
+  s.tau_correction.resize(nc);
   s.residual_rms.resize(nc);
   for (int i = 0; i < nc; ++i) {
-    s.tau_ff[i] = value(14, i);
+    s.tau_correction[i] = value(14, i);
     s.residual_rms[i] = 0.01 * (i + 1);
   }
   return s;
@@ -224,7 +224,7 @@ inline bool same(const EstimatorOutputSample& a, const EstimatorOutputSample& b)
          a.rejected_duplicate == b.rejected_duplicate && a.samples_missing == b.samples_missing &&
          a.excitation == b.excitation && a.effective_samples == b.effective_samples && sameMat(a.params, b.params) &&
          sameMat(a.param_stddev, b.param_stddev) && sameMat(a.base_params, b.base_params) &&
-         sameMat(a.base_stddev, b.base_stddev) && sameMat(a.tau_ff, b.tau_ff) && sameMat(a.residual_rms, b.residual_rms);
+         sameMat(a.base_stddev, b.base_stddev) && sameMat(a.tau_correction, b.tau_correction) && sameMat(a.residual_rms, b.residual_rms);
 }
 
 /// Encodes with LCM's own encoder and decodes into a fresh message.

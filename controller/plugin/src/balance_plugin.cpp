@@ -1,5 +1,5 @@
 // libexoid_controller_plugin.so: the centroidal balance controller (BalanceController, docs/controller.md)
-// behind the controller plugin C ABI (controller/plugin/include/exoid/controller_plugin.h, docs/plugin.md).
+// behind the controller plugin C ABI (interfaces/include/exoid/controller_plugin.h, docs/plugin.md).
 // Wraps the controller through its public API only; the conversions copy doubles, so the plugin computes
 // bit-for-bit what exo_controller computes from the same states.
 #include <cstdio>
@@ -27,7 +27,7 @@ struct BalancePlugin {
   exoid::RobotStateSample state;       // [nj] sized at create
   exoid::JointCommandSample command;   // [nj]
   ControllerStatus status;
-  exoid::EstimatorOutputSample estimate;  // params [nparams], tau_ff [nv], sized at create
+  exoid::EstimatorOutputSample estimate;  // params [nparams], tau_correction [nv], sized at create
   exoid::ForcePlateSample plate;
   double finished_after_s = 0.0;       // trajectory time at which the task is over (moves + final hold)
 };
@@ -92,7 +92,7 @@ void* create(const exoid_plugin_config* c, char* error, size_t error_size) {
     p->state.tau = Eigen::VectorXd::Zero(nj);
     p->state.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(nj, false);
     p->estimate.params = Eigen::VectorXd::Zero(p->model.nparams());
-    p->estimate.tau_ff = Eigen::VectorXd::Zero(p->model.nv);
+    p->estimate.tau_correction = Eigen::VectorXd::Zero(p->model.nv);
     if (!build(*p, &err)) return writeError(error, error_size, config_path + ": " + err), nullptr;
     return p.release();
   } catch (const std::exception& e) {
@@ -117,62 +117,19 @@ int reset(void* self) {
 int tick(void* self, const exoid_plugin_state* in, exoid_plugin_command* out) noexcept {
   auto& p = *static_cast<BalancePlugin*>(self);
   const int nj = p.model.njoints;
-  if (!in || !out || in->num_joints != nj) return EXOID_PLUGIN_ERROR;
-  exoid::RobotStateSample& s = p.state;
-  s.utime = in->utime;
-  s.tick = in->tick;
-  for (int j = 0; j < nj; ++j) {
-    s.q[j] = in->q[j];
-    s.tau[j] = in->tau[j];
-    s.has_tau[j] = in->has_tau[j] != 0;
-  }
-  s.imu_orientation = Eigen::Quaterniond(in->imu_orientation[0], in->imu_orientation[1], in->imu_orientation[2],
-                                         in->imu_orientation[3]);
-  s.imu_gyro = Eigen::Vector3d(in->imu_gyro[0], in->imu_gyro[1], in->imu_gyro[2]);
-  s.imu_accel = Eigen::Vector3d(in->imu_accel[0], in->imu_accel[1], in->imu_accel[2]);
-  p.ctrl->tick(s, p.command, p.status);
-  const exoid::JointCommandSample& c = p.command;
-  out->utime = c.utime;
-  out->tick = c.tick;
-  out->source_tick = c.source_tick;
-  out->mode = static_cast<int32_t>(c.mode);
-  out->num_joints = nj;
-  for (int j = 0; j < nj; ++j) {
-    out->tau[j] = c.tau[j];
-    out->tau_ff[j] = c.tau_ff[j];
-  }
+  if (!in || !out || in->num_joints != nj || !exoid::plugin_abi::fromPlugin(*in, p.state)) return EXOID_PLUGIN_ERROR;
+  p.ctrl->tick(p.state, p.command, p.status);
+  if (!exoid::plugin_abi::toPlugin(p.command, *out)) return EXOID_PLUGIN_ERROR;
   if (p.status.trajectory_ready && p.finished_after_s == 0.0)
     p.finished_after_s = p.ctrl->trajectoryDuration() + p.cfg.trajectory.final_hold;
   return EXOID_PLUGIN_OK;
-}
-
-void copy(const Eigen::Ref<const Eigen::VectorXd>& v, double* out) {
-  for (Eigen::Index i = 0; i < v.size(); ++i) out[i] = v[i];
 }
 
 int status(const void* self, exoid_plugin_status* out) noexcept {
   const auto& p = *static_cast<const BalancePlugin*>(self);
   if (!out) return EXOID_PLUGIN_ERROR;
   const ControllerStatus& s = p.status;
-  out->utime = s.utime;
-  out->tick = s.tick;
-  out->qp_status = static_cast<int32_t>(s.qp_status);
-  out->qp_iterations = s.qp_iterations;
-  out->qp_solve_us = s.qp_solve_us;
-  out->tick_us = s.tick_us;
-  out->move_index = s.move_index;
-  out->moves_done = s.moves_done;
-  copy(s.com_ref, out->com_ref);
-  copy(s.com, out->com);
-  copy(s.com_vel_ref, out->com_vel_ref);
-  copy(s.com_vel, out->com_vel);
-  copy(s.momentum_rate_ref, out->momentum_rate_ref);
-  copy(s.momentum, out->momentum);
-  copy(s.wrench_right, out->wrench_right);
-  copy(s.wrench_left, out->wrench_left);
-  out->fallbacks = s.fallbacks;
-  out->rejected_inputs = s.rejected_inputs;
-  out->stale_inputs = s.stale_inputs;
+  exoid::plugin_abi::toPlugin(s, *out);
   // exo_controller's exit condition (the trajectory failing to generate also ends the task).
   out->finished = s.trajectory_failed || (s.trajectory_ready && p.finished_after_s > 0.0 &&
                                           s.trajectory_time >= p.finished_after_s);

@@ -155,7 +155,7 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) += paramsFromInertial(
       2.0, Eigen::Vector3d(-0.1, 0.03, 0.3), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
   est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
-  est.tau_ff = Eigen::VectorXd::LinSpaced(model.nv, -0.3, 0.4);
+  est.tau_correction = Eigen::VectorXd::LinSpaced(model.nv, -0.3, 0.4);
   est.residual_rms = Eigen::VectorXd::Zero(model.nv);
   exoid_lcm::estimator_output_t est_msg;
   const std::vector<std::string> param_names = model.paramNames(), coord_names = model.coordinateNames();
@@ -275,8 +275,8 @@ TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenU
   est.params = model.phi;
   est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) += paramsFromInertial(
       2.0, Eigen::Vector3d(0.0, 0.05, 0.1), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
-  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
-  est.tau_ff[model.jointRow(2)] = 1.5;  // N m on an actuated joint
+  est.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction[model.jointRow(2)] = 1.5;  // N m on an actuated joint
   long differ = 0, with_ff = 0;
   double max_ff = 0.0;
   closedLoop(exo, *plugin, 500, [&](int k, const RobotStateSample& s) {
@@ -287,7 +287,7 @@ TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenU
       EXPECT_FALSE(plugin->setEstimate(bad));  // refused by the controller
       EXPECT_FALSE(ref.setEstimate(bad));
       bad = est;
-      bad.tau_ff.resize(3);
+      bad.tau_correction.resize(3);
       EXPECT_FALSE(plugin->setEstimate(bad));  // wrong size: refused at the boundary
       EXPECT_TRUE(plugin->setEstimate(est));
       EXPECT_TRUE(ref.setEstimate(est));
@@ -467,13 +467,13 @@ TEST(PluginInTheLoop, PublishesCommandAndStatusAndTakesTheEstimate) {
   est.valid = est.consistent = true;
   est.params = model.phi;
   est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
-  est.tau_ff = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction = Eigen::VectorXd::Zero(model.nv);
   est.residual_rms = Eigen::VectorXd::Zero(model.nv);
   exoid_lcm::estimator_output_t est_msg;
   ep.subscribe<exoid_lcm::robot_state_t>(channels::kState, [&](const char*, const exoid_lcm::robot_state_t& s) {
     if (s.tick != 300 && s.tick != 301) return;
     est.tick = s.tick;
-    est.tau_ff[model.jointRow(2)] = s.tick == 300 ? 0.5 : NAN;  // the second one is rejected by the gate
+    est.tau_correction[model.jointRow(2)] = s.tick == 300 ? 0.5 : NAN;  // the second one is rejected by the gate
     toLcm(est, model.paramNames(), model.coordinateNames(), est_msg);
     ep.publish(channels::kEstimate, est_msg);
   });

@@ -149,7 +149,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
       if (isMeasurementEffect(e.kind)) continue;
       rows.push_back(model.jointRow(e.joint));
       effect_sigma.push_back(opt_.effect_prior_factor * std::fabs(e.value) + 1e-6);
-      // Armature multiplies the acceleration, which tau_ff leaves out of the rigid part too (below).
+      // Armature multiplies the acceleration, which tau_correction leaves out of the rigid part too (below).
       ff_effect_.push_back(e.kind == EffectKind::Armature ? 0 : 1);
     }
     if (!addExtraColumns(rls_model_, rows, Eigen::Map<const Eigen::VectorXd>(effect_sigma.data(), effect_sigma.size()),
@@ -482,7 +482,7 @@ void OnlineEstimator::prepare(EstimatorOutputSample& out) const {
   out.param_stddev = Eigen::VectorXd::Zero(p);
   out.base_params = Eigen::VectorXd::Zero(m);
   out.base_stddev = Eigen::VectorXd::Zero(m);
-  out.tau_ff = Eigen::VectorXd::Zero(nv);
+  out.tau_correction = Eigen::VectorXd::Zero(nv);
   out.residual_rms = Eigen::VectorXd::Zero(nv);
 }
 
@@ -545,14 +545,14 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
     consistent = links_ok_ && misfit(out.residual_rms, out.effective_samples);
   }
   out.consistent = consistent;
-  // tau_ff = K(q, 0, 0)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed configuration
+  // tau_correction = K(q, 0, 0)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed configuration
   // (gravity terms only): the estimator does not know the controller's desired acceleration, and the measured
   // one (encoders differenced twice) is the noisiest signal it has.
   if (has_state_) {
     ff_state_ = state_;
     // Velocity terms left out too: at the protocol's slow moves they are small, and the Coulomb friction column
     // sign(v) at the twice-noisy differenced velocity near standstill flips at random, which put ~0.8 N m of
-    // noise into every joint's tau_ff (measured: 4x the controller's joint-torque prediction error).
+    // noise into every joint's tau_correction (measured: 4x the controller's joint-torque prediction error).
     ff_state_.v.setZero();
     ff_state_.base_omega.setZero();
     ff_state_.base_velocity.setZero();
@@ -567,7 +567,7 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
         if (j >= m_base_) break;  // active sets are sorted: the effect columns come last
         sum += kin_.K(c, rls_model_.independent[j]) * dx_[j];
       }
-      out.tau_ff[c] = sum;
+      out.tau_correction[c] = sum;
     }
     // The sidecar's effects, which the controller's model lacks entirely: each column as the estimator last
     // filtered it (F(E), the sample of `tick`: the smoothed velocity's friction, the offset) times its estimate.
@@ -576,10 +576,10 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
     for (int e = 0; e < ne_; ++e) {
       if (!ff_effect_[e]) continue;
       const int r = effect_row_[e];
-      out.tau_ff[r] += Kf_(r, p + e) * rls_.x[m_base_ + e];
+      out.tau_correction[r] += Kf_(r, p + e) * rls_.x[m_base_ + e];
     }
   } else {
-    out.tau_ff.setZero();
+    out.tau_correction.setZero();
   }
   out.tick = row_tick_ >= 0 ? row_tick_ : 0;
   out.samples_used = rls_.accepted;
@@ -590,7 +590,7 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
   out.rejected_duplicate = static_cast<int32_t>(rejected_[static_cast<int>(InputStatus::Duplicate)]);
   out.samples_rejected = out.rejected_nonfinite + out.rejected_out_of_order + out.rejected_duplicate;
   out.samples_missing = rls_.missing;
-  const bool finite = solved && out.params.allFinite() && out.param_stddev.allFinite() && out.tau_ff.allFinite() &&
+  const bool finite = solved && out.params.allFinite() && out.param_stddev.allFinite() && out.tau_correction.allFinite() &&
                       out.residual_rms.allFinite() && out.base_stddev.allFinite();
   valid_rest_ = finite && rls_.accepted > 0 && out.excitation >= opt_.min_excitation;
   out.valid = valid_rest_ && consistent;

@@ -20,7 +20,7 @@ void CausalRowFilter::filter(const RecursiveLsModel& model, const Eigen::Ref<con
   // (Re)started at rest on zero, not on the first sample: the virtual past K = 0, y = 0 satisfies every
   // equation, while resting on the first sample would hold its raw noise (accelerations differenced twice) for
   // the filter's whole memory. With sample loss every gap restarts the filter, and that held noise in K biased
-  // the live estimate (hip tau_ff ~1.2 N m for a true 0, docs/estimator.md).
+  // the live estimate (hip tau_correction ~1.2 N m for a true 0, docs/estimator.md).
   if (!started_) filter_.reset(zero_), started_ = true;
   filter_.filter(buffer_, buffer_);
   i = 0;

@@ -156,7 +156,57 @@ void copyQuat(const Eigen::Quaterniond& q, double (&dst)[4]) {
 }
 int32_t count32(size_t n) { return static_cast<int32_t>(n); }
 
+void copyFlags(const std::vector<int8_t>& src, Eigen::Matrix<bool, Eigen::Dynamic, 1>& dst) {
+  if (dst.size() != static_cast<Eigen::Index>(src.size())) dst.resize(static_cast<Eigen::Index>(src.size()));
+  for (size_t i = 0; i < src.size(); ++i) dst[static_cast<Eigen::Index>(i)] = src[i] != 0;
+}
+void copyFlags(const Eigen::Matrix<bool, Eigen::Dynamic, 1>& src, std::vector<int8_t>& dst) {
+  if (dst.size() != static_cast<size_t>(src.size())) dst.resize(static_cast<size_t>(src.size()));
+  for (Eigen::Index i = 0; i < src.size(); ++i) dst[static_cast<size_t>(i)] = src[i] ? 1 : 0;
+}
+
 }  // namespace
+
+// The copies, expanded from the schema (exoid/interfaces/schema.h): one statement per row, the LCM field of
+// the same name (FEET3: name_right, name_left). PLATE (plate_name), the counts and the name lists are the
+// hand-written parts of each converter below; ABI_I32 rows are not in the LCM types.
+#define EXOID_FROM_LCM(KIND, name, init, abi) EXOID_FROM_LCM_##KIND(name)
+#define EXOID_FROM_LCM_I64(name) out.name = msg.name;
+#define EXOID_FROM_LCM_I32(name) out.name = msg.name;
+#define EXOID_FROM_LCM_F64(name) out.name = msg.name;
+#define EXOID_FROM_LCM_BOOL(name) out.name = msg.name != 0;
+#define EXOID_FROM_LCM_MODE(name) out.name = static_cast<CommandMode>(msg.name);
+#define EXOID_FROM_LCM_QP(name) out.name = static_cast<QpStatus>(msg.name);
+#define EXOID_FROM_LCM_PLATE(name)
+#define EXOID_FROM_LCM_V3(name) out.name = vec3(msg.name);
+#define EXOID_FROM_LCM_V6(name) out.name = vec6(msg.name);
+#define EXOID_FROM_LCM_QUAT(name) out.name = normalisedQuat(msg.name);
+#define EXOID_FROM_LCM_JOINTS(name) copyVector(msg.name, out.name);
+#define EXOID_FROM_LCM_JFLAGS(name) copyFlags(msg.name, out.name);
+#define EXOID_FROM_LCM_VECX(name) copyVector(msg.name, out.name);
+#define EXOID_FROM_LCM_FEET3(name)          \
+  out.name[0] = vec3(msg.name##_right); \
+  out.name[1] = vec3(msg.name##_left);
+#define EXOID_FROM_LCM_ABI_I32(name)
+
+#define EXOID_TO_LCM(KIND, name, init, abi) EXOID_TO_LCM_##KIND(name)
+#define EXOID_TO_LCM_I64(name) msg.name = s.name;
+#define EXOID_TO_LCM_I32(name) msg.name = s.name;
+#define EXOID_TO_LCM_F64(name) msg.name = s.name;
+#define EXOID_TO_LCM_BOOL(name) msg.name = s.name ? 1 : 0;
+#define EXOID_TO_LCM_MODE(name) msg.name = static_cast<int8_t>(s.name);
+#define EXOID_TO_LCM_QP(name) msg.name = static_cast<int8_t>(s.name);
+#define EXOID_TO_LCM_PLATE(name)
+#define EXOID_TO_LCM_V3(name) copyFixed<3>(s.name, msg.name);
+#define EXOID_TO_LCM_V6(name) copyFixed<6>(s.name, msg.name);
+#define EXOID_TO_LCM_QUAT(name) copyQuat(s.name, msg.name);
+#define EXOID_TO_LCM_JOINTS(name) copyVector(s.name, msg.name);
+#define EXOID_TO_LCM_JFLAGS(name) copyFlags(s.name, msg.name);
+#define EXOID_TO_LCM_VECX(name) copyVector(s.name, msg.name);
+#define EXOID_TO_LCM_FEET3(name)                     \
+  copyFixed<3>(s.name[0], msg.name##_right); \
+  copyFixed<3>(s.name[1], msg.name##_left);
+#define EXOID_TO_LCM_ABI_I32(name)
 
 // ======================================= robot_state_t ================================================
 bool fromLcm(const exoid_lcm::robot_state_t& msg, const std::vector<std::string>& expected_joint_names,
@@ -178,15 +228,7 @@ bool fromLcm(const exoid_lcm::robot_state_t& msg, const std::vector<std::string>
     return c.fail(RejectReason::Malformed, "tau[%zu] is %g but has_tau[%zu] is false (must be 0)", i, msg.tau[i], i);
   if (!c.unitQuaternion(msg.imu_orientation, "imu_orientation")) return false;
 
-  out.utime = msg.utime;
-  out.tick = msg.tick;
-  copyVector(msg.q, out.q);
-  copyVector(msg.tau, out.tau);
-  if (out.has_tau.size() != static_cast<Eigen::Index>(n)) out.has_tau.resize(static_cast<Eigen::Index>(n));
-  for (size_t i = 0; i < n; ++i) out.has_tau[static_cast<Eigen::Index>(i)] = msg.has_tau[i] != 0;
-  out.imu_orientation = normalisedQuat(msg.imu_orientation);
-  out.imu_gyro = vec3(msg.imu_gyro);
-  out.imu_accel = vec3(msg.imu_accel);
+  EXOID_SCHEMA_ROBOT_STATE(EXOID_FROM_LCM)
   return true;
 }
 
@@ -195,17 +237,9 @@ void toLcm(const RobotStateSample& s, const std::vector<std::string>& joint_name
   requireSize(s.q.size(), n, "RobotStateSample.q");
   requireSize(s.tau.size(), n, "RobotStateSample.tau");
   requireSize(s.has_tau.size(), n, "RobotStateSample.has_tau");
-  msg.utime = s.utime;
-  msg.tick = s.tick;
   msg.num_joints = count32(n);
   copyNames(joint_names, msg.joint_names);
-  copyVector(s.q, msg.q);
-  copyVector(s.tau, msg.tau);
-  if (msg.has_tau.size() != n) msg.has_tau.resize(n);
-  for (size_t i = 0; i < n; ++i) msg.has_tau[i] = s.has_tau[static_cast<Eigen::Index>(i)] ? 1 : 0;
-  copyQuat(s.imu_orientation, msg.imu_orientation);
-  copyFixed<3>(s.imu_gyro, msg.imu_gyro);
-  copyFixed<3>(s.imu_accel, msg.imu_accel);
+  EXOID_SCHEMA_ROBOT_STATE(EXOID_TO_LCM)
 }
 
 // ======================================= force_plate_t ================================================
@@ -225,14 +259,8 @@ bool fromLcm(const exoid_lcm::force_plate_t& msg, int expected_plate, ForcePlate
     return false;
   if (!c.unitQuaternion(msg.plate_orientation, "plate_orientation")) return false;
 
-  out.utime = msg.utime;
-  out.tick = msg.tick;
   out.plate = plate;
-  out.force = vec3(msg.force);
-  out.moment = vec3(msg.moment);
-  out.cop = vec3(msg.cop);
-  out.plate_position = vec3(msg.plate_position);
-  out.plate_orientation = normalisedQuat(msg.plate_orientation);
+  EXOID_SCHEMA_FORCE_PLATE(EXOID_FROM_LCM)
   return true;
 }
 
@@ -241,14 +269,8 @@ void toLcm(const ForcePlateSample& s, exoid_lcm::force_plate_t& msg) {
   if (!name)
     throw std::invalid_argument("toLcm: ForcePlateSample.plate is " + std::to_string(s.plate) +
                                 ", must be 0 (right) or 1 (left)");
-  msg.utime = s.utime;
-  msg.tick = s.tick;
   msg.plate_name = name;
-  copyFixed<3>(s.force, msg.force);
-  copyFixed<3>(s.moment, msg.moment);
-  copyFixed<3>(s.cop, msg.cop);
-  copyFixed<3>(s.plate_position, msg.plate_position);
-  copyQuat(s.plate_orientation, msg.plate_orientation);
+  EXOID_SCHEMA_FORCE_PLATE(EXOID_TO_LCM)
 }
 
 // ======================================= joint_command_t ==============================================
@@ -270,12 +292,7 @@ bool fromLcm(const exoid_lcm::joint_command_t& msg, const std::vector<std::strin
   if (!c.names(msg.joint_names, expected_joint_names, "joint_names")) return false;
   if (!c.finite(msg.tau, "tau") || !c.finite(msg.tau_ff, "tau_ff")) return false;
 
-  out.utime = msg.utime;
-  out.tick = msg.tick;
-  out.source_tick = msg.source_tick;
-  out.mode = static_cast<CommandMode>(msg.mode);
-  copyVector(msg.tau, out.tau);
-  copyVector(msg.tau_ff, out.tau_ff);
+  EXOID_SCHEMA_JOINT_COMMAND(EXOID_FROM_LCM)
   return true;
 }
 
@@ -283,14 +300,9 @@ void toLcm(const JointCommandSample& s, const std::vector<std::string>& joint_na
   const size_t n = joint_names.size();
   requireSize(s.tau.size(), n, "JointCommandSample.tau");
   requireSize(s.tau_ff.size(), n, "JointCommandSample.tau_ff");
-  msg.utime = s.utime;
-  msg.tick = s.tick;
-  msg.source_tick = s.source_tick;
-  msg.mode = static_cast<int8_t>(s.mode);
   msg.num_joints = count32(n);
   copyNames(joint_names, msg.joint_names);
-  copyVector(s.tau, msg.tau);
-  copyVector(s.tau_ff, msg.tau_ff);
+  EXOID_SCHEMA_JOINT_COMMAND(EXOID_TO_LCM)
 }
 
 // ======================================= ground_truth_t ===============================================
@@ -316,23 +328,7 @@ bool fromLcm(const exoid_lcm::ground_truth_t& msg, const std::vector<std::string
     return false;
   if (!c.unitQuaternion(msg.base_orientation, "base_orientation")) return false;
 
-  out.utime = msg.utime;
-  out.tick = msg.tick;
-  out.base_position = vec3(msg.base_position);
-  out.base_orientation = normalisedQuat(msg.base_orientation);
-  out.base_omega = vec3(msg.base_omega);
-  out.base_velocity = vec3(msg.base_velocity);
-  out.base_domega = vec3(msg.base_domega);
-  out.base_acceleration = vec3(msg.base_acceleration);
-  copyVector(msg.q, out.q);
-  copyVector(msg.v, out.v);
-  copyVector(msg.a, out.a);
-  copyVector(msg.tau_applied, out.tau_applied);
-  out.foot_force[0] = vec3(msg.foot_force_right);
-  out.foot_moment[0] = vec3(msg.foot_moment_right);
-  out.foot_force[1] = vec3(msg.foot_force_left);
-  out.foot_moment[1] = vec3(msg.foot_moment_left);
-  out.com = vec3(msg.com);
+  EXOID_SCHEMA_GROUND_TRUTH(EXOID_FROM_LCM)
   return true;
 }
 
@@ -342,25 +338,9 @@ void toLcm(const GroundTruthSample& s, const std::vector<std::string>& joint_nam
   requireSize(s.v.size(), n, "GroundTruthSample.v");
   requireSize(s.a.size(), n, "GroundTruthSample.a");
   requireSize(s.tau_applied.size(), n, "GroundTruthSample.tau_applied");
-  msg.utime = s.utime;
-  msg.tick = s.tick;
-  copyFixed<3>(s.base_position, msg.base_position);
-  copyQuat(s.base_orientation, msg.base_orientation);
-  copyFixed<3>(s.base_omega, msg.base_omega);
-  copyFixed<3>(s.base_velocity, msg.base_velocity);
-  copyFixed<3>(s.base_domega, msg.base_domega);
-  copyFixed<3>(s.base_acceleration, msg.base_acceleration);
   msg.num_joints = count32(n);
   copyNames(joint_names, msg.joint_names);
-  copyVector(s.q, msg.q);
-  copyVector(s.v, msg.v);
-  copyVector(s.a, msg.a);
-  copyVector(s.tau_applied, msg.tau_applied);
-  copyFixed<3>(s.foot_force[0], msg.foot_force_right);
-  copyFixed<3>(s.foot_moment[0], msg.foot_moment_right);
-  copyFixed<3>(s.foot_force[1], msg.foot_force_left);
-  copyFixed<3>(s.foot_moment[1], msg.foot_moment_left);
-  copyFixed<3>(s.com, msg.com);
+  EXOID_SCHEMA_GROUND_TRUTH(EXOID_TO_LCM)
 }
 
 // ======================================= controller_status_t ==========================================
@@ -381,48 +361,12 @@ bool fromLcm(const exoid_lcm::controller_status_t& msg, ControllerStatusSample& 
     return false;
   if (!c.nonNegative(&msg.qp_solve_us, 1, "qp_solve_us") || !c.nonNegative(&msg.tick_us, 1, "tick_us")) return false;
 
-  out.utime = msg.utime;
-  out.tick = msg.tick;
-  out.qp_status = static_cast<QpStatus>(msg.qp_status);
-  out.qp_iterations = msg.qp_iterations;
-  out.qp_solve_us = msg.qp_solve_us;
-  out.tick_us = msg.tick_us;
-  out.move_index = msg.move_index;
-  out.moves_done = msg.moves_done;
-  out.com_ref = vec3(msg.com_ref);
-  out.com = vec3(msg.com);
-  out.com_vel_ref = vec3(msg.com_vel_ref);
-  out.com_vel = vec3(msg.com_vel);
-  out.momentum_rate_ref = vec6(msg.momentum_rate_ref);
-  out.momentum = vec6(msg.momentum);
-  out.wrench_right = vec6(msg.wrench_right);
-  out.wrench_left = vec6(msg.wrench_left);
-  out.fallbacks = msg.fallbacks;
-  out.rejected_inputs = msg.rejected_inputs;
-  out.stale_inputs = msg.stale_inputs;
+  EXOID_SCHEMA_CONTROLLER_STATUS(EXOID_FROM_LCM)
   return true;
 }
 
 void toLcm(const ControllerStatusSample& s, exoid_lcm::controller_status_t& msg) {
-  msg.utime = s.utime;
-  msg.tick = s.tick;
-  msg.qp_status = static_cast<int8_t>(s.qp_status);
-  msg.qp_iterations = s.qp_iterations;
-  msg.qp_solve_us = s.qp_solve_us;
-  msg.tick_us = s.tick_us;
-  msg.move_index = s.move_index;
-  msg.moves_done = s.moves_done;
-  copyFixed<3>(s.com_ref, msg.com_ref);
-  copyFixed<3>(s.com, msg.com);
-  copyFixed<3>(s.com_vel_ref, msg.com_vel_ref);
-  copyFixed<3>(s.com_vel, msg.com_vel);
-  copyFixed<6>(s.momentum_rate_ref, msg.momentum_rate_ref);
-  copyFixed<6>(s.momentum, msg.momentum);
-  copyFixed<6>(s.wrench_right, msg.wrench_right);
-  copyFixed<6>(s.wrench_left, msg.wrench_left);
-  msg.fallbacks = s.fallbacks;
-  msg.rejected_inputs = s.rejected_inputs;
-  msg.stale_inputs = s.stale_inputs;
+  EXOID_SCHEMA_CONTROLLER_STATUS(EXOID_TO_LCM)
 }
 
 // ======================================= estimator_output_t ===========================================
@@ -456,7 +400,7 @@ bool fromLcm(const exoid_lcm::estimator_output_t& msg, const std::vector<std::st
       !c.length(msg.base_params.size(), msg.num_base, "base_params") ||
       !c.length(msg.base_stddev.size(), msg.num_base, "base_stddev") ||
       !c.length(msg.coord_names.size(), msg.num_coords, "coord_names") ||
-      !c.length(msg.tau_ff.size(), msg.num_coords, "tau_ff") ||
+      !c.length(msg.tau_correction.size(), msg.num_coords, "tau_correction") ||
       !c.length(msg.residual_rms.size(), msg.num_coords, "residual_rms"))
     return false;
   if (!c.names(msg.param_names, expected_param_names, "param_names") ||
@@ -464,31 +408,14 @@ bool fromLcm(const exoid_lcm::estimator_output_t& msg, const std::vector<std::st
     return false;
   if (!c.finite(msg.params, "params") || !c.finite(msg.param_stddev, "param_stddev") ||
       !c.finite(msg.base_params, "base_params") || !c.finite(msg.base_stddev, "base_stddev") ||
-      !c.finite(msg.tau_ff, "tau_ff") || !c.finite(msg.residual_rms, "residual_rms"))
+      !c.finite(msg.tau_correction, "tau_correction") || !c.finite(msg.residual_rms, "residual_rms"))
     return false;
   if (!c.nonNegative(msg.param_stddev.data(), msg.param_stddev.size(), "param_stddev") ||
       !c.nonNegative(msg.base_stddev.data(), msg.base_stddev.size(), "base_stddev") ||
       !c.nonNegative(msg.residual_rms.data(), msg.residual_rms.size(), "residual_rms"))
     return false;
 
-  out.utime = msg.utime;
-  out.tick = msg.tick;
-  out.valid = msg.valid != 0;
-  out.consistent = msg.consistent != 0;
-  out.samples_used = msg.samples_used;
-  out.samples_rejected = msg.samples_rejected;
-  out.rejected_nonfinite = msg.rejected_nonfinite;
-  out.rejected_out_of_order = msg.rejected_out_of_order;
-  out.rejected_duplicate = msg.rejected_duplicate;
-  out.samples_missing = msg.samples_missing;
-  out.excitation = msg.excitation;
-  out.effective_samples = msg.effective_samples;
-  copyVector(msg.params, out.params);
-  copyVector(msg.param_stddev, out.param_stddev);
-  copyVector(msg.base_params, out.base_params);
-  copyVector(msg.base_stddev, out.base_stddev);
-  copyVector(msg.tau_ff, out.tau_ff);
-  copyVector(msg.residual_rms, out.residual_rms);
+  EXOID_SCHEMA_ESTIMATOR_OUTPUT(EXOID_FROM_LCM)
   return true;
 }
 
@@ -497,31 +424,14 @@ void toLcm(const EstimatorOutputSample& s, const std::vector<std::string>& param
   requireSize(s.params.size(), param_names.size(), "EstimatorOutputSample.params");
   requireSize(s.param_stddev.size(), param_names.size(), "EstimatorOutputSample.param_stddev");
   requireSize(s.base_stddev.size(), static_cast<size_t>(s.base_params.size()), "EstimatorOutputSample.base_stddev");
-  requireSize(s.tau_ff.size(), coord_names.size(), "EstimatorOutputSample.tau_ff");
+  requireSize(s.tau_correction.size(), coord_names.size(), "EstimatorOutputSample.tau_correction");
   requireSize(s.residual_rms.size(), coord_names.size(), "EstimatorOutputSample.residual_rms");
-  msg.utime = s.utime;
-  msg.tick = s.tick;
-  msg.valid = s.valid ? 1 : 0;
-  msg.consistent = s.consistent ? 1 : 0;
-  msg.samples_used = s.samples_used;
-  msg.samples_rejected = s.samples_rejected;
-  msg.rejected_nonfinite = s.rejected_nonfinite;
-  msg.rejected_out_of_order = s.rejected_out_of_order;
-  msg.rejected_duplicate = s.rejected_duplicate;
-  msg.samples_missing = s.samples_missing;
-  msg.excitation = s.excitation;
-  msg.effective_samples = s.effective_samples;
   msg.num_params = count32(param_names.size());
   copyNames(param_names, msg.param_names);
-  copyVector(s.params, msg.params);
-  copyVector(s.param_stddev, msg.param_stddev);
   msg.num_base = count32(static_cast<size_t>(s.base_params.size()));
-  copyVector(s.base_params, msg.base_params);
-  copyVector(s.base_stddev, msg.base_stddev);
   msg.num_coords = count32(coord_names.size());
   copyNames(coord_names, msg.coord_names);
-  copyVector(s.tau_ff, msg.tau_ff);
-  copyVector(s.residual_rms, msg.residual_rms);
+  EXOID_SCHEMA_ESTIMATOR_OUTPUT(EXOID_TO_LCM)
 }
 
 }  // namespace exoid

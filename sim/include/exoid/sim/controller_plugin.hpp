@@ -1,5 +1,5 @@
 #pragma once
-// The host side of the controller plugin ABI (controller/plugin/include/exoid/controller_plugin.h,
+// The host side of the controller plugin ABI (interfaces/include/exoid/controller_plugin.h,
 // docs/plugin.md): loads a plugin library (dlopen), checks its ABI, creates an instance, and runs it as a
 // stage of the simulation loop. No LCM here (the runner publishes what this produces).
 //
@@ -87,7 +87,16 @@ class ControllerPlugin {
 
  private:
   ControllerPlugin() = default;
+  /// load's stages: dlopen and the ABI checks of the function table; create with the host's configuration.
+  /// False and *what (one line) on failure.
+  bool open(std::string* what);
+  bool create(const std::vector<std::string>& joint_names, double period_s, std::string* what);
+  /// step's stages: the plugin's tick on state k, timed and judged (true: its command may be applied; each
+  /// refusal counted by reason); applying it; the host's counted fallback; reading the plugin's status.
+  bool tickPlugin(const RobotStateSample& state);
+  void acceptCommand();
   void fallback(int64_t k);
+  void readStatus(int64_t utime, int64_t k);
 
   PluginOptions opt_;
   void* lib_ = nullptr;

@@ -115,7 +115,7 @@ bool startListeners(Run& run, std::string* error) {
   }
   // The estimator with its defaults (the summary replays the same OnlineEstimatorOptions), free on any CPU: the
   // lockstep loop never waits for it. Its checkpoint every 0.5 s of wall time (~1 s simulated at lockstep speed).
-  // The estimator's prior and tau_ff reference is the controller's model (the correction is to that model).
+  // The estimator's prior and tau_correction reference is the controller's model (the correction is to that model).
   run.est_args = {run.bin + "/exo_estimator", "--model", o.controller_model, "--lcm-url", run.url,
                   "--checkpoint", (run.out / "estimator.ckpt").string(), "--checkpoint-every-s", "0.5",
                   "--final", (run.out / "online_estimate.csv").string()};

@@ -13,7 +13,7 @@
 //   3. the same causal Butterworth on the structural entries of K and on y (CausalRowFilter: the filter is
 //      linear and time-invariant, so its lag and attenuation cancel in F(K) phi = F(y));
 //   4. the recursive WLS update (recursive_ls.hpp).
-// At publication: solve, uncertainty, standard parameters, consistency, excitation, residuals, tau_ff.
+// At publication: solve, uncertainty, standard parameters, consistency, excitation, residuals, tau_correction.
 //
 // Real time: everything is sized by the constructor / prepare(); addState, addPlate and publish allocate
 // nothing and throw nothing. Checkpoints do file I/O: call them off the per-sample path.
@@ -100,7 +100,7 @@ enum class InputStatus { Accepted, NonFinite, OutOfOrder, Duplicate, Malformed }
 
 class OnlineEstimator {
  public:
-  /// prior_phi [p]: the prior (and the model the tau_ff correction is relative to: model.phi).
+  /// prior_phi [p]: the prior (and the model the tau_correction is relative to: model.phi).
   OnlineEstimator(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
                   const OnlineEstimatorOptions& options);
   bool ok() const { return error_.empty(); }
@@ -117,7 +117,7 @@ class OnlineEstimator {
 
   /// Samples folded in since the last publish().
   long samplesSincePublication() const { return since_publication_; }
-  /// Sizes `out` (params, stddevs, tau_ff, residuals); call once before publish.
+  /// Sizes `out` (params, stddevs, tau_correction, residuals); call once before publish.
   void prepare(EstimatorOutputSample& out) const;
   /// Solves and fills `out` (see docs/estimator.md for each field). utime is left to the caller.
   /// Allocation-free once `out` is prepared.
@@ -209,7 +209,7 @@ class OnlineEstimator {
   RecursiveLsData rls_;
   int m_base_ = 0, ne_ = 0;     ///< base parameters; extra (effect) columns after them
   bool effects_ = false;        ///< a sidecar is applied (columns and/or gains)
-  std::vector<unsigned char> ff_effect_;  ///< [ne] the column enters tau_ff (all but armature)
+  std::vector<unsigned char> ff_effect_;  ///< [ne] the column enters tau_correction (all but armature)
   std::vector<int> effect_row_;           ///< [ne] the coordinate (joint row) column e touches
   Eigen::MatrixXd Kx_;          ///< [nv x (p + ne)] [K | E] of the sample (only with effect columns)
   Eigen::VectorXd tau_sensor_;  ///< [nv] the torque sensors' part of y (gain correction)
@@ -217,7 +217,7 @@ class OnlineEstimator {
   Eigen::VectorXd phi_;         ///< [p] standard parameters of the last publication
   bool adaptive_weights_ = false;  ///< WLS-R: g_c = 1 / sigma_c from the previous solve's residuals
   Eigen::VectorXd initial_weights_;  ///< [nv] the weights the estimator was built with (checkpoint structure)
-  Eigen::VectorXd x_model_;     ///< [m] B phi_model: tau_ff = K_B (x - x_model)
+  Eigen::VectorXd x_model_;     ///< [m] B phi_model: tau_correction = K_B (x - x_model)
   Eigen::VectorXd phi_prior_;   ///< [p]
   Eigen::MatrixXd G_;           ///< [p x m] phi = phi_prior + G (x - x0), G = Sigma Bt Lambda0
   Eigen::VectorXd phi_var0_;    ///< [p] diag(Sigma - G B Sigma): what no base parameter can tell

@@ -34,6 +34,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "exoid/interfaces/schema.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -57,79 +59,32 @@ enum { EXOID_PLUGIN_OK = 0, EXOID_PLUGIN_ERROR = 1 };
 
 /* Sensors of one physics tick (exoid_lcm.robot_state_t). */
 typedef struct exoid_plugin_state {
-  int64_t utime;                                /* sample time, microseconds (simulated in lockstep) */
-  int64_t tick;                                 /* physics tick k */
-  int32_t num_joints;                           /* = config num_joints */
-  int32_t reserved;
-  double q[EXOID_PLUGIN_MAX_JOINTS];            /* joint encoders, rad */
-  double tau[EXOID_PLUGIN_MAX_JOINTS];          /* joint torque sensors, N m (0 where has_tau is 0) */
-  uint8_t has_tau[EXOID_PLUGIN_MAX_JOINTS];     /* 1: the joint has a torque sensor */
-  double imu_orientation[4];                    /* world <- IMU unit quaternion, Hamilton, w x y z */
-  double imu_gyro[3];                           /* angular velocity, IMU frame, rad/s */
-  double imu_accel[3];                          /* specific force (a - g), IMU frame, m/s^2 */
+  EXOID_SCHEMA_ROBOT_STATE(EXOID_ABI_MEMBER)  /* the rows of exoid/interfaces/schema.h */
 } exoid_plugin_state;
 
 /* One force plate's load cell at one physics tick (exoid_lcm.force_plate_t). */
 typedef struct exoid_plugin_force_plate {
-  int64_t utime;                                /* sample time, microseconds */
-  int64_t tick;                                 /* physics tick k */
-  int32_t plate;                                /* 0 right, 1 left (= its index in the call's array) */
-  int32_t reserved;
-  double force[3];                              /* force ON the plate, plate frame, N */
-  double moment[3];                             /* moment ON the plate about the sensor origin, plate frame, N m */
-  double cop[3];                                /* centre of pressure on the top surface, plate frame, m */
-  double plate_position[3];                     /* sensor origin, world, m */
-  double plate_orientation[4];                  /* world <- plate unit quaternion, Hamilton, w x y z */
+  EXOID_SCHEMA_FORCE_PLATE(EXOID_ABI_MEMBER)  /* the rows of exoid/interfaces/schema.h */
 } exoid_plugin_force_plate;
 
 /* The online estimator's output (exoid_lcm.estimator_output_t, channel EXO_ESTIMATE), as far as a controller
  * uses it. Arrays are owned by the host and live only during the call (copy what you keep). Orders are the
  * model's (the URDF given to create as model_path; the host checks EXO_ESTIMATE's parameter and coordinate
  * names against it): params = [10 per body (m, m c, inertia about the body origin xx xy xz yy yz zz), 2 per
- * joint (viscous, Coulomb)], tau_ff rows = [6 base (angular; linear, base coordinates); the joints]. */
+ * joint (viscous, Coulomb)], tau_correction rows = [6 base (angular; linear, base coordinates); the joints]. */
 typedef struct exoid_plugin_estimate {
-  int64_t utime;                                /* estimate time, microseconds */
-  int64_t tick;                                 /* last physics tick folded into it (tau_ff evaluated there) */
-  int32_t valid;                                /* 1: finite, physically consistent, excited (the estimator's verdict) */
-  int32_t consistent;                           /* 1: every body's pseudo-inertia positive definite */
-  int32_t num_params;                           /* entries of params */
-  int32_t num_coords;                           /* entries of tau_ff (nv = 6 + joints) */
-  const double* params;                         /* [num_params] estimated standard parameters */
-  const double* tau_ff;                         /* [num_coords] generalized-force correction K (phi_hat - phi_model), N / N m */
-  double excitation;                            /* excited fraction of the information, [0, 1] */
+  EXOID_SCHEMA_ESTIMATOR_OUTPUT(EXOID_ABI_MEMBER)  /* the rows of exoid/interfaces/schema.h */
 } exoid_plugin_estimate;
 
 /* Command for one tick (exoid_lcm.joint_command_t). The host pre-fills num_joints; tau must be finite. */
 typedef struct exoid_plugin_command {
-  int64_t utime;                                /* utime of the source state */
-  int64_t tick;                                 /* tick at which to apply it: source_tick + 1 */
-  int64_t source_tick;                          /* tick of the state it answers */
-  int32_t mode;                                 /* EXOID_MODE_* */
-  int32_t num_joints;
-  double tau[EXOID_PLUGIN_MAX_JOINTS];          /* total joint torque, N m (entries of passive joints ignored) */
-  double tau_ff[EXOID_PLUGIN_MAX_JOINTS];       /* feedforward part of tau (0 if none), N m */
+  EXOID_SCHEMA_JOINT_COMMAND(EXOID_ABI_MEMBER)  /* the rows of exoid/interfaces/schema.h */
 } exoid_plugin_command;
 
 /* Diagnostics after a tick (exoid_lcm.controller_status_t; fields a controller does not have stay 0, with
  * qp_status 3 "not run" and move_index -1). */
 typedef struct exoid_plugin_status {
-  int64_t utime;
-  int64_t tick;                                 /* tick of the last state */
-  int32_t qp_status;                            /* 0 solved, 1 max iterations, 2 infeasible, 3 not run */
-  int32_t qp_iterations;
-  double qp_solve_us;                           /* microseconds */
-  double tick_us;                               /* the controller's own tick time, microseconds */
-  int32_t move_index;                           /* current CoM move (0-based), -1 before the first */
-  int32_t moves_done;
-  double com_ref[3], com[3];                    /* CoM reference / estimate, world, m */
-  double com_vel_ref[3], com_vel[3];            /* world, m/s */
-  double momentum_rate_ref[6];                  /* [N; N m], world, about the CoM */
-  double momentum[6];                           /* [kg m/s; kg m^2/s], world, about the CoM */
-  double wrench_right[6], wrench_left[6];       /* contact wrenches [force; moment about the sole origin], world */
-  int32_t fallbacks;                            /* ticks on the controller's own fallback so far */
-  int32_t rejected_inputs;                      /* states it rejected so far */
-  int32_t stale_inputs;                         /* ticks without a fresh state so far */
-  int32_t finished;                             /* 1 once the controller's task is over (balance: moves + final hold) */
+  EXOID_SCHEMA_CONTROLLER_STATUS(EXOID_ABI_MEMBER)  /* the rows of exoid/interfaces/schema.h */
 } exoid_plugin_status;
 
 /* Given to create. Strings are owned by the host and valid only during create (copy what you keep). */
