@@ -22,7 +22,7 @@
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/dynamics.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "truth_run.hpp"
 
 int main(int argc, char** argv) {

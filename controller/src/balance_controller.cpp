@@ -195,7 +195,7 @@ void BalanceController::updateDynamics(const State& state) {
   if (!cfg_.estimate.use_com) return;
   double mass;
   Eigen::Vector3d com, com_velocity;
-  Vector6d momentum;
+  LinearAngular6d momentum;
   centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
   // The estimate's height is taken only when asked (use_com_height, the default; docs/controller.md).
   if (!cfg_.estimate.use_com_height) {
@@ -234,7 +234,7 @@ bool BalanceController::plateResidual() {
   if (planned_tick_[slot] != plate_tick_[0]) return false;
   wrench_residual_.setZero();
   for (size_t i = 0; i < 2; ++i) {
-    Vector6d f;  // measured, the formulation's convention: world, moment about the sole origin
+    LinearAngular6d f;  // measured, the formulation's convention: world, moment about the sole origin
     f.head<3>() = plate_force_[i];
     f.tail<3>() = plate_moment_[i] - dyn_.foot_position[i].cross(plate_force_[i]);
     f -= planned_wrench_[slot].segment<6>(6 * static_cast<Eigen::Index>(i));
@@ -290,106 +290,96 @@ void BalanceController::fallbackTorque(JointCommandSample& out) {
   ++damping_ticks_;
 }
 
-void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out, ControllerStatus& st) {
-  const auto t0 = std::chrono::steady_clock::now();
-  if (out.tau.size() != model_.njoints || out.tau_ff.size() != model_.njoints) prepare(out);  // misuse only
-  out.tick = in.tick + 1;
-  out.source_tick = in.tick;
-  out.utime = in.utime + static_cast<int64_t>(std::llround(cfg_.loop.period * 1e6));
-  st.utime = in.utime;
-  st.tick = in.tick;
+FallbackReason BalanceController::acceptState(const RobotStateSample& in, bool& fresh) {
+  fresh = false;
+  if (!ok_) return FallbackReason::InvalidInput;
+  if (!inputValid(in)) {
+    ++rejected_;
+    return FallbackReason::InvalidInput;
+  }
+  if (has_last_tick_ && in.tick <= last_tick_) {
+    ++rejected_;
+    return FallbackReason::OutOfOrder;
+  }
+  const int64_t gap = has_last_tick_ ? in.tick - last_tick_ : 1;
+  gap_ = gap;
+  if (gap > 1) stale_ += static_cast<int32_t>(gap - 1);
+  const bool was_latched = observer_->latched();
+  observer_->update(in, gap);
+  has_last_tick_ = true;
+  last_tick_ = in.tick;
+  fresh = true;
+  const FallbackReason reason = gap - 1 > cfg_.fallback.max_missed_ticks ? FallbackReason::Stale : FallbackReason::None;
+  advanceEstimateBlend(in.tick);
+  if (observer_->latched() && !was_latched) startTrajectory(in.tick);
+  return reason;
+}
 
-  FallbackReason reason = FallbackReason::None;
-  bool fresh = false;  // the estimator took this sample
-  if (!ok_) {
-    reason = FallbackReason::InvalidInput;
-  } else if (!inputValid(in)) {
-    reason = FallbackReason::InvalidInput;
-    ++rejected_;
-  } else if (has_last_tick_ && in.tick <= last_tick_) {
-    reason = FallbackReason::OutOfOrder;
-    ++rejected_;
+void BalanceController::updateReference(int64_t tick, ControllerStatus& st) {
+  if (observer_->latched()) {
+    const double t = static_cast<double>(tick - trajectory_start_tick_) * cfg_.loop.period;
+    trajectory_.sample(t, ref_);
+    if (!trajectory_.ready()) ref_.position = trajectory_.start();
+    ref_.position.z() += vertical_shift_;
+    ref_.velocity.z() += vertical_shift_rate_;
+    st.trajectory_time = t;
   } else {
-    const int64_t gap = has_last_tick_ ? in.tick - last_tick_ : 1;
-    gap_ = gap;
-    if (gap > 1) stale_ += static_cast<int32_t>(gap - 1);
-    const bool was_latched = observer_->latched();
-    observer_->update(in, gap);
-    has_last_tick_ = true;
-    last_tick_ = in.tick;
-    fresh = true;
-    if (gap - 1 > cfg_.fallback.max_missed_ticks) reason = FallbackReason::Stale;
-    advanceEstimateBlend(in.tick);
-    if (observer_->latched() && !was_latched) startTrajectory(in.tick);
+    ref_ = CoMReference{};
+    ref_.position = dyn_.com;
+    contact_right_.setReference(observer_->solePosition(0), observer_->soleRotation(0));
+    contact_left_.setReference(observer_->solePosition(1), observer_->soleRotation(1));
+    posture_.setReference(observer_->initialPosture());
   }
+}
 
-  st.qp_status = QpStatus::NotRun;
-  st.qp_iterations = 0;
-  st.qp_solve_us = 0.0;
-  if (fresh) {
-    // Dynamics with the estimate blended in: tau_ff (estimator) in h + tau_ff, the controller's CoM.
-    updateDynamics(observer_->state());
-    // Reference: the trajectory once the feet are latched (its height moved with the estimate's vertical CoM
-    // offset); before that, hold the current CoM.
-    if (observer_->latched()) {
-      const double t = static_cast<double>(in.tick - trajectory_start_tick_) * cfg_.loop.period;
-      trajectory_.sample(t, ref_);
-      if (!trajectory_.ready()) ref_.position = trajectory_.start();
-      ref_.position.z() += vertical_shift_;
-      ref_.velocity.z() += vertical_shift_rate_;
-      st.trajectory_time = t;
-    } else {
-      ref_ = CoMReference{};
-      ref_.position = dyn_.com;
-      contact_right_.setReference(observer_->solePosition(0), observer_->soleRotation(0));
-      contact_left_.setReference(observer_->solePosition(1), observer_->soleRotation(1));
-      posture_.setReference(observer_->initialPosture());
-    }
-    // The disturbance observer's estimate of what the model (and the estimate) still misses is added.
-    const bool use_ff = cfg_.estimate.use_feedforward && estimate_use_.weight > 0.0;
-    if (cfg_.disturbance.enabled) {
-      const bool plates = cfg_.disturbance.force_plates && plateResidual();
-      disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_, plates ? &wrench_residual_ : nullptr);
-      dyn_.tau_ff += disturbance_.estimate();
-    }
-
-    const bool qp_ok = runQp();
-    st.qp_status = result_.status;
-    st.qp_iterations = result_.iterations;
-    st.qp_solve_us = result_.solve_us;
-    if (!qp_ok) {
-      ++qp_failures_;
-      if (reason == FallbackReason::None) reason = FallbackReason::QpFailed;
-    } else {
-      formulation_.generalizedForce(dyn_, result_.x, tau_gen_);
-      for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j)
-        tau_cmd_[j] = joint_actuated_[j] ? clampAbs(tau_gen_[6 + j], joint_limit_[j]) : 0.0;
-      if (!tau_cmd_.allFinite() && reason == FallbackReason::None) reason = FallbackReason::NonFiniteTorque;
-      // command.tau_ff reports the estimator's feedforward only (not the disturbance observer's estimate).
-      for (Eigen::Index j = 0; j < tau_ff_joint_.size(); ++j)
-        tau_ff_joint_[j] = joint_actuated_[j] && use_ff ? estimate_use_.weight * ff_input_[6 + j] : 0.0;
-    }
-    // Status: estimate, reference, momentum and the QP's wrenches.
-    st.com_ref = ref_.position;
-    st.com_vel_ref = ref_.velocity;
-    st.com = dyn_.com;
-    st.com_vel = dyn_.com_velocity;
-    st.momentum_rate_ref = rate_desired_;
-    st.momentum = dyn_.momentum;
-    if (qp_ok) {
-      st.wrench_right = result_.x.segment<6>(model_.nv);
-      st.wrench_left = result_.x.segment<6>(model_.nv + 6);
-    }
-    st.move_index = ref_.move_index;
-    st.moves_done = ref_.moves_done;
-    st.trajectory_ready = trajectory_.ready();
-    st.trajectory_failed = observer_->latched() && !trajectory_.ready();
-    st.trajectory_done = ref_.done;
-    st.leg_disagreement = observer_->legDisagreement();
-    st.dropped_contact_directions = formulation_.droppedContactDirections();
+bool BalanceController::computeTorque(FallbackReason& reason, ControllerStatus& st) {
+  // The disturbance observer's estimate of what the model (and the estimate) still misses is added.
+  const bool use_ff = cfg_.estimate.use_feedforward && estimate_use_.weight > 0.0;
+  if (cfg_.disturbance.enabled) {
+    const bool plates = cfg_.disturbance.force_plates && plateResidual();
+    disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_, plates ? &wrench_residual_ : nullptr);
+    dyn_.tau_ff += disturbance_.estimate();
   }
+  const bool qp_ok = runQp();
+  st.qp_status = result_.status;
+  st.qp_iterations = result_.iterations;
+  st.qp_solve_us = result_.solve_us;
+  if (!qp_ok) {
+    ++qp_failures_;
+    if (reason == FallbackReason::None) reason = FallbackReason::QpFailed;
+    return false;
+  }
+  formulation_.generalizedForce(dyn_, result_.x, tau_gen_);
+  for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j)
+    tau_cmd_[j] = joint_actuated_[j] ? clampAbs(tau_gen_[6 + j], joint_limit_[j]) : 0.0;
+  if (!tau_cmd_.allFinite() && reason == FallbackReason::None) reason = FallbackReason::NonFiniteTorque;
+  // command.tau_ff reports the estimator's feedforward only (not the disturbance observer's estimate).
+  for (Eigen::Index j = 0; j < tau_ff_joint_.size(); ++j)
+    tau_ff_joint_[j] = joint_actuated_[j] && use_ff ? estimate_use_.weight * ff_input_[6 + j] : 0.0;
+  return true;
+}
 
-  // ---- mode selection: torque, or the fallback (hold the last safe command, then damping) ----
+void BalanceController::reportTaskState(bool qp_ok, ControllerStatus& st) const {
+  st.com_ref = ref_.position;
+  st.com_vel_ref = ref_.velocity;
+  st.com = dyn_.com;
+  st.com_vel = dyn_.com_velocity;
+  st.momentum_rate_ref = rate_desired_;
+  st.momentum = dyn_.momentum;
+  if (qp_ok) {
+    st.wrench_right = result_.x.segment<6>(model_.nv);
+    st.wrench_left = result_.x.segment<6>(model_.nv + 6);
+  }
+  st.move_index = ref_.move_index;
+  st.moves_done = ref_.moves_done;
+  st.trajectory_ready = trajectory_.ready();
+  st.trajectory_failed = observer_->latched() && !trajectory_.ready();
+  st.trajectory_done = ref_.done;
+  st.leg_disagreement = observer_->legDisagreement();
+  st.dropped_contact_directions = formulation_.droppedContactDirections();
+}
+
+void BalanceController::selectMode(FallbackReason& reason, JointCommandSample& out) {
   bool good = reason == FallbackReason::None;
   if (good && damping_latched_) {
     ++good_streak_;
@@ -408,17 +398,43 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
     has_last_safe_ = true;
     bad_streak_ = 0;
     damping_latched_ = false;
-  } else {
-    if (reason != FallbackReason::Recovering) {
-      ++bad_streak_;
-      good_streak_ = 0;
-    }
-    ++fallbacks_;
-    disturbance_.clearPlanned();
-    planned_tick_[static_cast<size_t>(out.tick % kPlanRing)] = -1;
-    fallbackTorque(out);
-    tau_ff_joint_.setZero();
+    return;
   }
+  if (reason != FallbackReason::Recovering) {
+    ++bad_streak_;
+    good_streak_ = 0;
+  }
+  ++fallbacks_;
+  disturbance_.clearPlanned();
+  planned_tick_[static_cast<size_t>(out.tick % kPlanRing)] = -1;
+  fallbackTorque(out);
+  tau_ff_joint_.setZero();
+}
+
+void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out, ControllerStatus& st) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (out.tau.size() != model_.njoints || out.tau_ff.size() != model_.njoints) prepare(out);  // misuse only
+  out.tick = in.tick + 1;
+  out.source_tick = in.tick;
+  out.utime = in.utime + static_cast<int64_t>(std::llround(cfg_.loop.period * 1e6));
+  st.utime = in.utime;
+  st.tick = in.tick;
+
+  bool fresh = false;  // the estimator took this sample
+  FallbackReason reason = acceptState(in, fresh);
+  st.qp_status = QpStatus::NotRun;
+  st.qp_iterations = 0;
+  st.qp_solve_us = 0.0;
+  if (fresh) {
+    // Dynamics with the estimate blended in: tau_ff (estimator) in h + tau_ff, the controller's CoM.
+    updateDynamics(observer_->state());
+    // Reference: the trajectory once the feet are latched (its height moved with the estimate's vertical CoM
+    // offset); before that, hold the current CoM.
+    updateReference(in.tick, st);
+    const bool qp_ok = computeTorque(reason, st);
+    reportTaskState(qp_ok, st);
+  }
+  selectMode(reason, out);
   // Last line of defence: finite, within limits, zero on unactuated joints.
   for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j) {
     const double v = std::isfinite(tau_cmd_[j]) ? tau_cmd_[j] : 0.0;

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "exoid/model/dynamics.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 
 namespace exoid::controller {
 
@@ -84,8 +84,13 @@ void BaseStateObserver::footKinematics() {
 void BaseStateObserver::update(const RobotStateSample& sample, int64_t ticks_since_last) {
   const bool first = samples_ == 0;
   const double dt = period_ * static_cast<double>(ticks_since_last < 1 ? 1 : ticks_since_last);
+  updateOrientation(sample, first, dt);
+  updateJoints(sample, first, dt);
+  updateBaseFromSoles();
+  ++samples_;
+}
 
-  // --- orientation and angular velocity (IMU frame -> base frame) ---
+void BaseStateObserver::updateOrientation(const RobotStateSample& sample, bool first, double dt) {
   const Eigen::Quaterniond q_imu_base(imu_.rotation);  // base <- imu
   const Eigen::Quaterniond q_meas = (sample.imu_orientation.normalized() * q_imu_base.conjugate()).normalized();
   const Eigen::Vector3d gyro_b = imu_.rotation * sample.imu_gyro;
@@ -116,8 +121,9 @@ void BaseStateObserver::update(const RobotStateSample& sample, int64_t ticks_sin
   R_ = quat_.toRotationMatrix();
   state_.base_orientation = quat_;
   state_.base_omega = gyro_base_;
+}
 
-  // --- joint positions and velocities ---
+void BaseStateObserver::updateJoints(const RobotStateSample& sample, bool first, double dt) {
   state_.q = sample.q;
   if (first) {
     q0_ = sample.q;
@@ -129,8 +135,9 @@ void BaseStateObserver::update(const RobotStateSample& sample, int64_t ticks_sin
     dq_filter_.filter(dq_raw_, state_.v);
   }
   q_prev_ = sample.q;
+}
 
-  // --- base position and linear velocity from the stationary soles ---
+void BaseStateObserver::updateBaseFromSoles() {
   footKinematics();
   Eigen::Vector3d vb = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < 2; ++i) {
@@ -162,7 +169,6 @@ void BaseStateObserver::update(const RobotStateSample& sample, int64_t ticks_sin
     state_.base_position = 0.5 * (p0 + p1);
     leg_disagreement_ = 0.5 * (p0 - p1).norm();
   }
-  ++samples_;
 }
 
 }  // namespace exoid::controller

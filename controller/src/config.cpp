@@ -162,6 +162,148 @@ bool failWith(std::string* error, const std::string& text) {
   return false;
 }
 
+/// The `loop` section: control period.
+void readLoopSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const auto s = r.section(root, "loop", {"period"});
+  r.number(s, "loop", "period", c.loop.period);
+}
+
+/// The `trajectory` section: the CoM move sequence.
+void readTrajectorySection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "trajectory";
+  const auto s = r.section(root, n,
+                           {"moves", "move_duration", "hold_duration", "initial_hold", "final_hold",
+                            "polygon_margin", "min_move_distance", "max_move_distance", "vertical_min",
+                            "vertical_max", "max_sampling_attempts"});
+  auto& t = c.trajectory;
+  r.integer(s, n, "moves", t.moves);
+  r.number(s, n, "move_duration", t.move_duration);
+  r.number(s, n, "hold_duration", t.hold_duration);
+  r.number(s, n, "initial_hold", t.initial_hold);
+  r.number(s, n, "final_hold", t.final_hold);
+  r.number(s, n, "polygon_margin", t.polygon_margin);
+  r.number(s, n, "min_move_distance", t.min_move_distance);
+  r.number(s, n, "max_move_distance", t.max_move_distance);
+  r.number(s, n, "vertical_min", t.vertical_min);
+  r.number(s, n, "vertical_max", t.vertical_max);
+  r.integer(s, n, "max_sampling_attempts", t.max_sampling_attempts);
+}
+
+/// The `observer` section: the base state observer.
+void readObserverSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "observer";
+  const auto s = r.section(root, n,
+                           {"joint_velocity_cutoff_hz", "gyro_cutoff_hz", "orientation_time_constant",
+                            "initial_base_xy", "ground_height", "latch_ticks"});
+  auto& e = c.observer;
+  r.number(s, n, "joint_velocity_cutoff_hz", e.joint_velocity_cutoff_hz);
+  r.number(s, n, "gyro_cutoff_hz", e.gyro_cutoff_hz);
+  r.number(s, n, "orientation_time_constant", e.orientation_time_constant);
+  r.vector<2>(s, n, "initial_base_xy", e.initial_base_xy);
+  r.number(s, n, "ground_height", e.ground_height);
+  r.integer(s, n, "latch_ticks", e.latch_ticks);
+}
+
+/// The `momentum` section: the momentum task.
+void readMomentumSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "momentum";
+  const auto s = r.section(root, n, {"kp_com", "kd_com", "kd_angular", "weight_linear", "weight_angular"});
+  auto& m = c.momentum;
+  r.vector<3>(s, n, "kp_com", m.kp_com);
+  r.vector<3>(s, n, "kd_com", m.kd_com);
+  r.vector<3>(s, n, "kd_angular", m.kd_angular);
+  r.vector<3>(s, n, "weight_linear", m.weight_linear);
+  r.vector<3>(s, n, "weight_angular", m.weight_angular);
+}
+
+/// The `posture` section: the posture regularization.
+void readPostureSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "posture";
+  const auto s = r.section(root, n, {"weight_joint", "weight_base", "kp", "kd"});
+  r.number(s, n, "weight_joint", c.posture.weight_joint);
+  r.number(s, n, "weight_base", c.posture.weight_base);
+  r.number(s, n, "kp", c.posture.kp);
+  r.number(s, n, "kd", c.posture.kd);
+}
+
+/// The `contact` section: the sole contacts.
+void readContactSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "contact";
+  const auto s = r.section(root, n,
+                           {"right_sole_frame", "left_sole_frame", "friction_coefficient", "sole_half_length",
+                            "sole_half_width", "cop_margin", "min_normal_force", "yaw_moment_coefficient", "kp",
+                            "kd", "force_weight", "range_tolerance"});
+  auto& k = c.contact;
+  r.text(s, n, "right_sole_frame", k.right_sole_frame);
+  r.text(s, n, "left_sole_frame", k.left_sole_frame);
+  r.number(s, n, "friction_coefficient", k.friction_coefficient);
+  r.number(s, n, "sole_half_length", k.sole_half_length);
+  r.number(s, n, "sole_half_width", k.sole_half_width);
+  r.number(s, n, "cop_margin", k.cop_margin);
+  r.number(s, n, "min_normal_force", k.min_normal_force);
+  r.number(s, n, "yaw_moment_coefficient", k.yaw_moment_coefficient);
+  r.number(s, n, "kp", k.kp);
+  r.number(s, n, "kd", k.kd);
+  r.number(s, n, "force_weight", k.force_weight);
+  r.number(s, n, "range_tolerance", k.range_tolerance);
+}
+
+/// The `torque` section: the joint torque limits.
+void readTorqueSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const auto s = r.section(root, "torque", {"limit_scale"});
+  r.number(s, "torque", "limit_scale", c.torque.limit_scale);
+}
+
+/// The `solver` section: the QP solver.
+void readSolverSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const auto s = r.section(root, "solver", {"eps_abs", "max_iterations"});
+  r.number(s, "solver", "eps_abs", c.solver.eps_abs);
+  r.integer(s, "solver", "max_iterations", c.solver.max_iterations);
+}
+
+/// The `fallback` section: the fallback (hold, then damping).
+void readFallbackSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "fallback";
+  const auto s = r.section(root, n,
+                           {"hold_ticks", "damping", "damping_torque_limit", "recovery_ticks", "max_missed_ticks",
+                            "max_quaternion_norm_error"});
+  auto& f = c.fallback;
+  r.integer(s, n, "hold_ticks", f.hold_ticks);
+  r.number(s, n, "damping", f.damping);
+  r.number(s, n, "damping_torque_limit", f.damping_torque_limit);
+  r.integer(s, n, "recovery_ticks", f.recovery_ticks);
+  r.integer(s, n, "max_missed_ticks", f.max_missed_ticks);
+  r.number(s, n, "max_quaternion_norm_error", f.max_quaternion_norm_error);
+}
+
+/// The `estimate` section: the online estimate's use.
+void readEstimateSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "estimate";
+  const auto s = r.section(root, n,
+                           {"enabled", "use_feedforward", "use_com", "use_com_height", "max_abs", "max_age_ticks", "blend_time",
+                            "max_relative_mass_change"});
+  r.boolean(s, n, "enabled", c.estimate.enabled);
+  r.boolean(s, n, "use_feedforward", c.estimate.use_feedforward);
+  r.boolean(s, n, "use_com", c.estimate.use_com);
+  r.boolean(s, n, "use_com_height", c.estimate.use_com_height);
+  r.number(s, n, "max_abs", c.estimate.max_abs);
+  r.integer(s, n, "max_age_ticks", c.estimate.max_age_ticks);
+  r.number(s, n, "blend_time", c.estimate.blend_time);
+  r.number(s, n, "max_relative_mass_change", c.estimate.max_relative_mass_change);
+}
+
+/// The `disturbance` section: the disturbance observer.
+void readDisturbanceSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "disturbance";
+  const auto s =
+      r.section(root, n, {"enabled", "time_constant", "max_abs", "force_plates", "max_plate_age_ticks"});
+  r.boolean(s, n, "enabled", c.disturbance.enabled);
+  r.number(s, n, "time_constant", c.disturbance.time_constant);
+  r.number(s, n, "max_abs", c.disturbance.max_abs);
+  r.boolean(s, n, "force_plates", c.disturbance.force_plates);
+  r.integer(s, n, "max_plate_age_ticks", c.disturbance.max_plate_age_ticks);
+}
+
 }  // namespace
 
 bool parseControllerConfig(const std::string& yaml, const std::string& source, ControllerConfig& c,
@@ -183,126 +325,17 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
   try {
     r.checkKeys(root, "", {"loop", "trajectory", "observer", "momentum", "posture", "contact", "torque", "solver",
                            "fallback", "estimate", "disturbance"});
-    {
-      const auto s = r.section(root, "loop", {"period"});
-      r.number(s, "loop", "period", c.loop.period);
-    }
-    {
-      const char* n = "trajectory";
-      const auto s = r.section(root, n,
-                               {"moves", "move_duration", "hold_duration", "initial_hold", "final_hold",
-                                "polygon_margin", "min_move_distance", "max_move_distance", "vertical_min",
-                                "vertical_max", "max_sampling_attempts"});
-      auto& t = c.trajectory;
-      r.integer(s, n, "moves", t.moves);
-      r.number(s, n, "move_duration", t.move_duration);
-      r.number(s, n, "hold_duration", t.hold_duration);
-      r.number(s, n, "initial_hold", t.initial_hold);
-      r.number(s, n, "final_hold", t.final_hold);
-      r.number(s, n, "polygon_margin", t.polygon_margin);
-      r.number(s, n, "min_move_distance", t.min_move_distance);
-      r.number(s, n, "max_move_distance", t.max_move_distance);
-      r.number(s, n, "vertical_min", t.vertical_min);
-      r.number(s, n, "vertical_max", t.vertical_max);
-      r.integer(s, n, "max_sampling_attempts", t.max_sampling_attempts);
-    }
-    {
-      const char* n = "observer";
-      const auto s = r.section(root, n,
-                               {"joint_velocity_cutoff_hz", "gyro_cutoff_hz", "orientation_time_constant",
-                                "initial_base_xy", "ground_height", "latch_ticks"});
-      auto& e = c.observer;
-      r.number(s, n, "joint_velocity_cutoff_hz", e.joint_velocity_cutoff_hz);
-      r.number(s, n, "gyro_cutoff_hz", e.gyro_cutoff_hz);
-      r.number(s, n, "orientation_time_constant", e.orientation_time_constant);
-      r.vector<2>(s, n, "initial_base_xy", e.initial_base_xy);
-      r.number(s, n, "ground_height", e.ground_height);
-      r.integer(s, n, "latch_ticks", e.latch_ticks);
-    }
-    {
-      const char* n = "momentum";
-      const auto s = r.section(root, n, {"kp_com", "kd_com", "kd_angular", "weight_linear", "weight_angular"});
-      auto& m = c.momentum;
-      r.vector<3>(s, n, "kp_com", m.kp_com);
-      r.vector<3>(s, n, "kd_com", m.kd_com);
-      r.vector<3>(s, n, "kd_angular", m.kd_angular);
-      r.vector<3>(s, n, "weight_linear", m.weight_linear);
-      r.vector<3>(s, n, "weight_angular", m.weight_angular);
-    }
-    {
-      const char* n = "posture";
-      const auto s = r.section(root, n, {"weight_joint", "weight_base", "kp", "kd"});
-      r.number(s, n, "weight_joint", c.posture.weight_joint);
-      r.number(s, n, "weight_base", c.posture.weight_base);
-      r.number(s, n, "kp", c.posture.kp);
-      r.number(s, n, "kd", c.posture.kd);
-    }
-    {
-      const char* n = "contact";
-      const auto s = r.section(root, n,
-                               {"right_sole_frame", "left_sole_frame", "friction_coefficient", "sole_half_length",
-                                "sole_half_width", "cop_margin", "min_normal_force", "yaw_moment_coefficient", "kp",
-                                "kd", "force_weight", "range_tolerance"});
-      auto& k = c.contact;
-      r.text(s, n, "right_sole_frame", k.right_sole_frame);
-      r.text(s, n, "left_sole_frame", k.left_sole_frame);
-      r.number(s, n, "friction_coefficient", k.friction_coefficient);
-      r.number(s, n, "sole_half_length", k.sole_half_length);
-      r.number(s, n, "sole_half_width", k.sole_half_width);
-      r.number(s, n, "cop_margin", k.cop_margin);
-      r.number(s, n, "min_normal_force", k.min_normal_force);
-      r.number(s, n, "yaw_moment_coefficient", k.yaw_moment_coefficient);
-      r.number(s, n, "kp", k.kp);
-      r.number(s, n, "kd", k.kd);
-      r.number(s, n, "force_weight", k.force_weight);
-      r.number(s, n, "range_tolerance", k.range_tolerance);
-    }
-    {
-      const auto s = r.section(root, "torque", {"limit_scale"});
-      r.number(s, "torque", "limit_scale", c.torque.limit_scale);
-    }
-    {
-      const auto s = r.section(root, "solver", {"eps_abs", "max_iterations"});
-      r.number(s, "solver", "eps_abs", c.solver.eps_abs);
-      r.integer(s, "solver", "max_iterations", c.solver.max_iterations);
-    }
-    {
-      const char* n = "fallback";
-      const auto s = r.section(root, n,
-                               {"hold_ticks", "damping", "damping_torque_limit", "recovery_ticks", "max_missed_ticks",
-                                "max_quaternion_norm_error"});
-      auto& f = c.fallback;
-      r.integer(s, n, "hold_ticks", f.hold_ticks);
-      r.number(s, n, "damping", f.damping);
-      r.number(s, n, "damping_torque_limit", f.damping_torque_limit);
-      r.integer(s, n, "recovery_ticks", f.recovery_ticks);
-      r.integer(s, n, "max_missed_ticks", f.max_missed_ticks);
-      r.number(s, n, "max_quaternion_norm_error", f.max_quaternion_norm_error);
-    }
-    {
-      const char* n = "estimate";
-      const auto s = r.section(root, n,
-                               {"enabled", "use_feedforward", "use_com", "use_com_height", "max_abs", "max_age_ticks", "blend_time",
-                                "max_relative_mass_change"});
-      r.boolean(s, n, "enabled", c.estimate.enabled);
-      r.boolean(s, n, "use_feedforward", c.estimate.use_feedforward);
-      r.boolean(s, n, "use_com", c.estimate.use_com);
-      r.boolean(s, n, "use_com_height", c.estimate.use_com_height);
-      r.number(s, n, "max_abs", c.estimate.max_abs);
-      r.integer(s, n, "max_age_ticks", c.estimate.max_age_ticks);
-      r.number(s, n, "blend_time", c.estimate.blend_time);
-      r.number(s, n, "max_relative_mass_change", c.estimate.max_relative_mass_change);
-    }
-    {
-      const char* n = "disturbance";
-      const auto s =
-          r.section(root, n, {"enabled", "time_constant", "max_abs", "force_plates", "max_plate_age_ticks"});
-      r.boolean(s, n, "enabled", c.disturbance.enabled);
-      r.number(s, n, "time_constant", c.disturbance.time_constant);
-      r.number(s, n, "max_abs", c.disturbance.max_abs);
-      r.boolean(s, n, "force_plates", c.disturbance.force_plates);
-      r.integer(s, n, "max_plate_age_ticks", c.disturbance.max_plate_age_ticks);
-    }
+    readLoopSection(r, root, c);
+    readTrajectorySection(r, root, c);
+    readObserverSection(r, root, c);
+    readMomentumSection(r, root, c);
+    readPostureSection(r, root, c);
+    readContactSection(r, root, c);
+    readTorqueSection(r, root, c);
+    readSolverSection(r, root, c);
+    readFallbackSection(r, root, c);
+    readEstimateSection(r, root, c);
+    readDisturbanceSection(r, root, c);
   } catch (const YAML::Exception& e) {
     return failWith(error, source + ": " + e.what());
   }

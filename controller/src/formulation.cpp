@@ -9,8 +9,8 @@ BalanceFormulation::BalanceFormulation(const Model& model, const ContactConfig& 
       gravity_(model.gravity),
       Jc_(Eigen::Matrix<double, 12, Eigen::Dynamic>::Zero(12, model.nv)),
       UJc_(Eigen::Matrix<double, 12, Eigen::Dynamic>::Zero(12, model.nv)) {
-  const int base = model.floating_base ? 6 : 0;
-  for (int r = 0; r < base; ++r) unactuated_.push_back(r);
+  const int free_joint_rows = model.floating_base ? 6 : 0;  // the floating base's six rows
+  for (int r = 0; r < free_joint_rows; ++r) unactuated_.push_back(r);
   std::vector<double> limits;
   for (int j = 0; j < model.njoints; ++j) {
     const double effort = model.effort_limit[j];
@@ -24,14 +24,20 @@ BalanceFormulation::BalanceFormulation(const Model& model, const ContactConfig& 
   tau_max_ = Eigen::Map<const Eigen::VectorXd>(limits.data(), static_cast<Eigen::Index>(limits.size()));
 }
 
-void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rate_desired, const Vector6d& w_mom,
+void BalanceFormulation::build(const RobotDynamicsData& dyn, const LinearAngular6d& rate_desired, const LinearAngular6d& w_mom,
                                const Eigen::VectorXd& dnu_desired, const Eigen::VectorXd& dnu_weights,
                                const ContactSixD& right, const ContactSixD& left, QpProblem& qp) {
-  const int nv = nv_;
-  const int nf = kContactVars;
-  const Eigen::MatrixXd& M = dyn.dyn.M;
+  buildCost(dyn, rate_desired, w_mom, dnu_desired, dnu_weights, qp);
+  const int nu_rows = buildUnactuatedDynamics(dyn, qp);
+  buildStationarySoles(dyn, right, left, nu_rows, qp);
+  buildContactWrenchLimits(right, left, qp);
+  buildTorqueLimits(dyn, qp);
+}
 
-  // ---- cost -------------------------------------------------------------------------------------------
+void BalanceFormulation::buildCost(const RobotDynamicsData& dyn, const LinearAngular6d& rate_desired, const LinearAngular6d& w_mom,
+                                   const Eigen::VectorXd& dnu_desired, const Eigen::VectorXd& dnu_weights,
+                                   QpProblem& qp) {
+  const int nv = nv_;
   qp.H.setZero();
   qp.H.topLeftCorner(nv, nv).diagonal() = dnu_weights;
   qp.g.head(nv) = -dnu_weights.cwiseProduct(dnu_desired);
@@ -40,7 +46,7 @@ void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rat
   // model's CoM, the correction's base rows [moment; force] (base coordinates, about the base origin) are an
   // external wrench -tau_ff on the robot (with an estimate: the payload's weight). The contact wrenches must
   // produce the desired rate against both (else the dynamics could absorb a CoM error into the correction).
-  Vector6d target = rate_desired;
+  LinearAngular6d target = rate_desired;
   const Eigen::Vector3d weight = dyn.model_mass * gravity_;
   target.head<3>() -= weight;
   target.tail<3>() -= (dyn.model_com - dyn.com).cross(weight);
@@ -53,8 +59,11 @@ void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rat
   qp.H.bottomRightCorner<12, 12>() = 0.5 * (Hff_ + Hff_.transpose());  // exactly symmetric
   qp.H.bottomRightCorner<12, 12>().diagonal().array() += force_weight_;
   qp.g.tail<12>().noalias() = -WAf.transpose() * target;
+}
 
-  // ---- equalities: unactuated dynamics ----------------------------------------------------------------
+int BalanceFormulation::buildUnactuatedDynamics(const RobotDynamicsData& dyn, QpProblem& qp) const {
+  const int nv = nv_;
+  const Eigen::MatrixXd& M = dyn.dyn.M;
   const int nu_rows = static_cast<int>(unactuated_.size());
   for (int k = 0; k < nu_rows; ++k) {
     const int r = unactuated_[static_cast<size_t>(k)];
@@ -63,8 +72,12 @@ void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rat
     qp.A.block<1, 6>(k, nv + 6) = -dyn.Jc[1].col(r).transpose();
     qp.b[k] = -(dyn.h[r] + dyn.tau_ff[r]);
   }
+  return nu_rows;
+}
 
-  // ---- equalities: stationary soles ------------------------------------------------------------------
+void BalanceFormulation::buildStationarySoles(const RobotDynamicsData& dyn, const ContactSixD& right,
+                                              const ContactSixD& left, int nu_rows, QpProblem& qp) {
+  const int nv = nv_;
   // Jc dnu = rhs, rotated into the eigenbasis U of Jc Jc^T (eigenvalue = sigma^2). A direction u_k with
   // sigma_k < range_tolerance is one the soles cannot move along relative to each other (neither leg has a
   // yaw joint, so the stacked 12 x 16 Jacobian has rank 11 when the legs are symmetric): its row
@@ -73,7 +86,7 @@ void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rat
   // neither the dynamics nor the torques see (Jc^T u_k = sigma_k v_k ~ 0).
   Jc_.topRows<6>() = dyn.Jc[0];
   Jc_.bottomRows<6>() = dyn.Jc[1];
-  Vector6d rhs_i;
+  LinearAngular6d rhs_i;
   right.motionRhs(dyn, rhs_i);
   rhs_.head<6>() = rhs_i;
   left.motionRhs(dyn, rhs_i);
@@ -98,8 +111,11 @@ void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rat
       qp.b[row] = Urhs_[k];
     }
   }
+}
 
-  // ---- inequalities: contact wrenches -----------------------------------------------------------------
+void BalanceFormulation::buildContactWrenchLimits(const ContactSixD& right, const ContactSixD& left, QpProblem& qp) {
+  const int nv = nv_;
+  const int nf = kContactVars;
   const ContactSixD* contacts[2] = {&right, &left};
   constexpr int ni = ContactSixD::kInequalities;
   for (int i = 0; i < 2; ++i) {
@@ -109,8 +125,12 @@ void BalanceFormulation::build(const RobotDynamicsData& dyn, const Vector6d& rat
     qp.l.segment<ni>(ni * i) = lf_;
     qp.u.segment<ni>(ni * i) = uf_;
   }
+}
 
-  // ---- inequalities: actuator torque limits -----------------------------------------------------------
+void BalanceFormulation::buildTorqueLimits(const RobotDynamicsData& dyn, QpProblem& qp) const {
+  const int nv = nv_;
+  const Eigen::MatrixXd& M = dyn.dyn.M;
+  constexpr int ni = ContactSixD::kInequalities;
   const int row0 = 2 * ni;
   for (size_t k = 0; k < actuated_.size(); ++k) {
     const int r = actuated_[k];

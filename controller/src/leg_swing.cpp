@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <random>
 
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 
 namespace exoid::controller {
 

@@ -1,5 +1,7 @@
 #include "exoid/controller/robot_dynamics.hpp"
 
+#include "exoid/model/kinematics.hpp"
+
 namespace exoid::controller {
 
 RobotDynamicsData::RobotDynamicsData(const Model& model)
@@ -7,13 +9,14 @@ RobotDynamicsData::RobotDynamicsData(const Model& model)
       h(Eigen::VectorXd::Zero(model.nv)),
       tau_ff(Eigen::VectorXd::Zero(model.nv)),
       nu(Eigen::VectorXd::Zero(model.nv)),
-      Jc{Matrix6Xd::Zero(6, model.nv), Matrix6Xd::Zero(6, model.nv)},
-      J_scratch(Matrix6Xd::Zero(6, model.nv)) {}
+      Jc{LinearAngular6Xd::Zero(6, model.nv), LinearAngular6Xd::Zero(6, model.nv)},
+      J_scratch(Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, model.nv)) {}
 
 namespace {
-// d.dyn's centroidal fields (base coordinates, momentum about the base origin) -> world, about the CoM.
+// d.dyn's centroidal fields (base coordinates, momentum [angular; linear] about the base origin) -> world,
+// [linear; angular about the CoM].
 void toWorld(const RobotDynamicsData& d, double& mass, Eigen::Vector3d& com, Eigen::Vector3d& com_velocity,
-             Vector6d& momentum) {
+             LinearAngular6d& momentum) {
   const Eigen::Vector3d P = d.dyn.momentum_origin.tail<3>();  // linear momentum, base coordinates
   const Eigen::Vector3d L_origin = d.dyn.momentum_origin.head<3>();
   mass = d.dyn.mass;
@@ -40,9 +43,10 @@ void computeRobotDynamics(const Model& model, const std::array<SoleFrame, 2>& so
   for (size_t i = 0; i < 2; ++i) {
     const SoleFrame& s = soles[i];
     computePointJacobian(model, d.dyn.kin, s.body, s.position, d.J_scratch);
+    // The model's [angular; linear] (base coordinates) -> the task space's [linear; angular] (world).
     d.Jc[i].topRows<3>().noalias() = R * d.J_scratch.bottomRows<3>();
     d.Jc[i].bottomRows<3>().noalias() = R * d.J_scratch.topRows<3>();
-    const Vector6d drift_b = pointAccelerationDrift(d.dyn.kin, s.body, s.position);
+    const Eigen::Matrix<double, 6, 1> drift_b = pointAccelerationDrift(d.dyn.kin, s.body, s.position);
     d.drift[i].head<3>() = R * drift_b.tail<3>();
     d.drift[i].tail<3>() = R * drift_b.head<3>();
     d.foot_velocity[i].noalias() = d.Jc[i] * d.nu;
@@ -58,10 +62,10 @@ void computeRobotDynamics(const Model& model, const std::array<SoleFrame, 2>& so
 }
 
 void centroidalWorld(const Model& model, const Eigen::VectorXd& phi, RobotDynamicsData& d, double& mass,
-                     Eigen::Vector3d& com, Eigen::Vector3d& com_velocity, Vector6d& momentum) {
+                     Eigen::Vector3d& com, Eigen::Vector3d& com_velocity, LinearAngular6d& momentum) {
   const double mass0 = d.dyn.mass;
   const Eigen::Vector3d com0 = d.dyn.com;
-  const Vector6d momentum0 = d.dyn.momentum_origin;
+  const Eigen::Matrix<double, 6, 1> momentum0 = d.dyn.momentum_origin;  // the model's [angular; linear]
   centroidal(model, phi, d.dyn);
   toWorld(d, mass, com, com_velocity, momentum);
   d.dyn.mass = mass0;

@@ -16,7 +16,7 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& x) {
 // ---------------------------------------------------------------------------------------------------------
 MomentumTask::MomentumTask(const MomentumTaskConfig& config) : cfg_(config) {}
 
-void MomentumTask::compute(const CoMReference& ref, const RobotDynamicsData& dyn, Vector6d& desired) const {
+void MomentumTask::compute(const CoMReference& ref, const RobotDynamicsData& dyn, LinearAngular6d& desired) const {
   desired.head<3>() = dyn.mass * (cfg_.kp_com.cwiseProduct(ref.position - dyn.com) +
                                   cfg_.kd_com.cwiseProduct(ref.velocity - dyn.com_velocity) + ref.acceleration);
   desired.tail<3>() = -cfg_.kd_angular.cwiseProduct(dyn.momentum.tail<3>());
@@ -31,8 +31,8 @@ void MomentumTask::wrenchMap(const RobotDynamicsData& dyn, Eigen::Matrix<double,
   }
 }
 
-Vector6d MomentumTask::weights() const {
-  Vector6d w;
+LinearAngular6d MomentumTask::weights() const {
+  LinearAngular6d w;
   w << cfg_.weight_linear, cfg_.weight_angular;
   return w;
 }
@@ -58,9 +58,9 @@ void ContactSixD::setReference(const Eigen::Vector3d& position, const Eigen::Mat
   R_ref_ = rotation;
 }
 
-void ContactSixD::motionRhs(const RobotDynamicsData& dyn, Vector6d& rhs) const {
+void ContactSixD::motionRhs(const RobotDynamicsData& dyn, LinearAngular6d& rhs) const {
   const size_t i = static_cast<size_t>(foot_);
-  Vector6d e;
+  LinearAngular6d e;
   e.head<3>() = dyn.foot_position[i] - p_ref_;
   const Eigen::AngleAxisd rot_err(dyn.foot_rotation[i] * R_ref_.transpose());  // world-frame rotation error
   e.tail<3>() = rot_err.angle() * rot_err.axis();

@@ -9,7 +9,7 @@
 
 #include "mujoco_exo.hpp"
 #include "exoid/controller/balance_controller.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 
 namespace exoid::controller {
 namespace {

@@ -11,7 +11,7 @@
 #include "exoid/controller/proxqp_solver.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/inertial.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 
 namespace exoid::controller {
 namespace {

@@ -57,7 +57,7 @@ class FormulationTest : public ::testing::Test {
   std::unique_ptr<QpSolver> solver_;
   QpProblem qp_;
   QpResult res_;
-  Vector6d rate_ = Vector6d::Zero();
+  LinearAngular6d rate_ = LinearAngular6d::Zero();
 };
 
 TEST_F(FormulationTest, SizesFollowTheModel) {
@@ -97,7 +97,7 @@ TEST_F(FormulationTest, StandingSolutionSatisfiesConstraintsAndCarriesTheWeight)
   EXPECT_NEAR(F.head<2>().norm(), 0.0, 1e-3 * weight);
   // Both feet loaded, each CoP inside its sole.
   for (int i = 0; i < 2; ++i) {
-    const Vector6d w = x.segment<6>(nv + 6 * i);
+    const LinearAngular6d w = x.segment<6>(nv + 6 * i);
     EXPECT_GE(w[2], cfg_.contact.min_normal_force - 1e-8);
     EXPECT_LE(std::abs(-w[4] / w[2]), cfg_.contact.sole_half_length - cfg_.contact.cop_margin + 1e-9);
     EXPECT_LE(std::abs(w[3] / w[2]), cfg_.contact.sole_half_width - cfg_.contact.cop_margin + 1e-9);

@@ -6,6 +6,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/signal/filters.hpp"
 
@@ -234,46 +235,61 @@ bool DatasetBuilder::finish(std::string* error) {
   return true;
 }
 
-bool DatasetBuilder::processBlock(bool last, std::string* error) {
-  const Model& model = model_;
-  const int n = static_cast<int>(buffer_.size()), nj = model.njoints, nv = model.nv, p = model.nparams();
-  const double dt = medianStep(buffer_);
-  const bool filter = opt_.cutoff_hz > 0.0;
-  const bool fuse = model.floating_base && opt_.orientation_from_legs && !opt_.footholds.empty() &&
-                    !buffer_.empty() && !buffer_.front().has_base_position;
+/// One window of buffer_ on its way to rows: the filters designed for its sample step, the joint and base
+/// signals (filtered and differentiated) and the fused base orientation.
+struct DatasetBuilder::BlockSignals {
+  int n = 0;           ///< samples in the window
+  double dt = 0.0;     ///< median step (s)
   Biquad lp, lp_orientation;
-  int want = 0;
-  if (filter) {
+  bool filter = false;    ///< a cutoff is set
+  bool parallel = false;  ///< FilterMode::Parallel: inputs only differenced, W and y filtered
+  bool fuse = false;      ///< base orientation from the legs and the IMU
+  double input_cutoff = 0.0;
+  Eigen::MatrixXd q, v, a;    ///< [n x nj]
+  Eigen::MatrixXd w, dw, acc; ///< [n x 3] base angular velocity, acceleration, classical linear acceleration
+  std::vector<Eigen::Quaterniond> legs;  ///< [n] fused base orientation (fuse), else empty
+  /// The zero-phase input filter where the inputs are filtered (not parallel), else x itself.
+  Eigen::MatrixXd inputs(const Eigen::MatrixXd& x) const { return filter && !parallel ? filtfilt(lp, x) : x; }
+};
+
+bool DatasetBuilder::designFilters(BlockSignals& b, int& want, std::string* error) {
+  const Model& model = model_;
+  b.n = static_cast<int>(buffer_.size());
+  b.dt = medianStep(buffer_);
+  const double dt = b.dt;
+  b.filter = opt_.cutoff_hz > 0.0;
+  b.fuse = model.floating_base && opt_.orientation_from_legs && !opt_.footholds.empty() && !buffer_.empty() &&
+           !buffer_.front().has_base_position;
+  want = 0;
+  if (b.filter) {
     if (!(dt > 0.0) || opt_.cutoff_hz >= 0.5 / dt) {
       if (error) *error = "the filter cutoff " + std::to_string(opt_.cutoff_hz) + " Hz is not below the Nyquist frequency " + std::to_string(0.5 / dt) + " Hz";
       return false;
     }
-    lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
-    want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(lp) + 8;
+    b.lp = Biquad::butterworthLowPass(opt_.cutoff_hz, 1.0 / dt);
+    want = (opt_.filter == FilterMode::Parallel ? 1 : 3) * filterMargin(b.lp) + 8;
     if (opt_.filter == FilterMode::Parallel) want += std::max(1, opt_.derivative_half_window);  // the fit's reach
-    if (opt_.trim_edges) edge_ = filterMargin(lp, 14.0);  // <= margin_, so the last edge_ are in the last block
+    if (opt_.trim_edges) edge_ = filterMargin(b.lp, 14.0);  // <= margin_, so the last edge_ are in the last block
   }
-  if (fuse) {
+  if (b.fuse) {
     if (!(dt > 0.0) || !(opt_.orientation_cutoff_hz > 0.0) || opt_.orientation_cutoff_hz >= 0.5 / dt) {
       if (error) *error = "the orientation fusion cutoff " + std::to_string(opt_.orientation_cutoff_hz) + " Hz is not in (0, Nyquist)";
       return false;
     }
-    lp_orientation = Biquad::butterworthLowPass(opt_.orientation_cutoff_hz, 1.0 / dt);
-    want += filterMargin(lp_orientation) + 8;
+    b.lp_orientation = Biquad::butterworthLowPass(opt_.orientation_cutoff_hz, 1.0 / dt);
+    want += filterMargin(b.lp_orientation) + 8;
   }
-  if (want > margin_ && emitted_ == 0 && !last) {
-    margin_ = want;  // wait for enough lookahead
-    if (n - head_ < opt_.block + margin_) return true;
-  }
-  const int emit_end = last ? n : std::min(n, head_ + opt_.block);
   // Parallel filtering: the regressor's inputs are only differenced (no filter), then W and y both pass the
   // one zero-phase filter, so that F(W) phi = F(y) holds wherever W phi = y does (the filter is linear).
-  const bool parallel = filter && opt_.filter == FilterMode::Parallel;
-  const double input_cutoff = parallel ? 0.0 : opt_.cutoff_hz;
-  const bool filter_inputs = filter && !parallel;
-  auto filt = [&](const Eigen::MatrixXd& x) { return filter_inputs ? filtfilt(lp, x) : x; };
-  // Joint signals.
-  Eigen::MatrixXd q(n, nj), v(n, nj), a(n, nj);
+  b.parallel = b.filter && opt_.filter == FilterMode::Parallel;
+  b.input_cutoff = b.parallel ? 0.0 : opt_.cutoff_hz;
+  return true;
+}
+
+void DatasetBuilder::jointSignals(BlockSignals& b) const {
+  const int n = b.n, nj = model_.njoints;
+  Eigen::MatrixXd &q = b.q, &v = b.v, &a = b.a;
+  q.resize(n, nj), v.resize(n, nj), a.resize(n, nj);
   bool measured_va = true;
   for (int i = 0; i < n; ++i) {
     q.row(i) = buffer_[i].q.transpose();
@@ -281,91 +297,101 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   }
   if (measured_va && !opt_.derive) {
     for (int i = 0; i < n; ++i) v.row(i) = buffer_[i].v.transpose(), a.row(i) = buffer_[i].a.transpose();
-    q = filt(q);
-    v = filt(v);
-    a = filt(a);
-  } else if (parallel && opt_.derivative_half_window > 1) {
-    savitzkyGolay(q, dt, opt_.derivative_half_window, nullptr, &v, &a);  // q itself: its noise is never squared
+    q = b.inputs(q);
+    v = b.inputs(v);
+    a = b.inputs(a);
+  } else if (b.parallel && opt_.derivative_half_window > 1) {
+    savitzkyGolay(q, b.dt, opt_.derivative_half_window, nullptr, &v, &a);  // q itself: its noise is never squared
   } else {
-    filterAndDifferentiate(q, dt, input_cutoff, &q, &v, &a);
+    filterAndDifferentiate(q, b.dt, b.input_cutoff, &q, &v, &a);
   }
-  // Base signals (floating base).
-  Eigen::MatrixXd w(n, 3), dw(n, 3), acc(n, 3);
-  if (model.floating_base) {
-    bool measured_dw = !opt_.derive;
-    for (int i = 0; i < n; ++i) {
-      w.row(i) = buffer_[i].base_omega.transpose();
-      dw.row(i) = buffer_[i].base_domega.transpose();
-      acc.row(i) = buffer_[i].base_acceleration.transpose();
-      measured_dw = measured_dw && buffer_[i].has_base_domega;
-    }
-    if (measured_dw) {
-      w = filt(w);
-      dw = filt(dw);
-    } else if (parallel && opt_.derivative_half_window > 1) {
-      savitzkyGolay(w, dt, opt_.derivative_half_window, &w, &dw, nullptr);  // in place: outputs written last
-    } else {
-      filterAndDifferentiate(w, dt, input_cutoff, &w, &dw, nullptr);
-    }
+}
+
+void DatasetBuilder::baseSignals(BlockSignals& b) const {
+  const int n = b.n;
+  Eigen::MatrixXd &w = b.w, &dw = b.dw, &acc = b.acc;
+  w.resize(n, 3), dw.resize(n, 3), acc.resize(n, 3);
+  if (!model_.floating_base) return;
+  bool measured_dw = !opt_.derive;
+  for (int i = 0; i < n; ++i) {
+    w.row(i) = buffer_[i].base_omega.transpose();
+    dw.row(i) = buffer_[i].base_domega.transpose();
+    acc.row(i) = buffer_[i].base_acceleration.transpose();
+    measured_dw = measured_dw && buffer_[i].has_base_domega;
   }
-  // Base orientation fused from the legs and the IMU (DatasetOptions::orientation_from_legs): R_bs(q) per
-  // sample and foot from the (filtered) encoders, R_ws once from the first 1000 samples, R_legs per sample, the
-  // IMU's low-passed correction on top; the accelerometer's gravity term re-based on it before filtering.
-  std::vector<Eigen::Quaterniond> legs;
-  if (fuse) {
-    const int nf = static_cast<int>(opt_.footholds.size());
-    Data fk(model);
-    State sf = State::zero(model);
-    std::vector<Eigen::Matrix3d> Rbs(static_cast<size_t>(n * nf));
-    for (int i = 0; i < n; ++i) {
-      sf.q = q.row(i).transpose();
-      forwardKinematics(model, fk, sf);
-      for (int f = 0; f < nf; ++f)
-        Rbs[i * nf + f] = fk.R[opt_.footholds[f].body] * opt_.footholds[f].rotation_in_body;
-    }
-    auto project = [](const Eigen::Matrix3d& M) {  // nearest rotation (chordal mean)
-      Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-      Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-      D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-      return Eigen::Matrix3d(svd.matrixU() * D * svd.matrixV().transpose());
-    };
-    if (sole_world_.empty()) {
-      // From the first kOrientationSamples samples (a fixed count, so that the block size does not matter;
-      // the first window holds at least the block plus the fusion filter's margin).
-      constexpr int kOrientationSamples = 1000;
-      sole_world_.assign(nf, Eigen::Matrix3d::Zero());
-      for (int i = 0; i < std::min(n, kOrientationSamples); ++i)
-        for (int f = 0; f < nf; ++f) sole_world_[f] += buffer_[i].base_orientation.toRotationMatrix() * Rbs[i * nf + f];
-      for (int f = 0; f < nf; ++f) sole_world_[f] = project(sole_world_[f]);
-    }
-    legs.resize(n);
-    Eigen::MatrixXd e(n, 3);  // log(R_legs^T R_IMU): the IMU's correction, low-passed below
-    for (int i = 0; i < n; ++i) {
-      Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-      for (int f = 0; f < nf; ++f) M += sole_world_[f] * Rbs[i * nf + f].transpose();
-      legs[i] = Eigen::Quaterniond(project(M));
-      const Eigen::AngleAxisd d(legs[i].conjugate() * buffer_[i].base_orientation);
-      e.row(i) = (d.angle() * d.axis()).transpose();
-    }
-    e = filtfilt(lp_orientation, e);
-    for (int i = 0; i < n; ++i) {
-      const double angle = e.row(i).norm();
-      if (angle > 0.0) legs[i] = (legs[i] * Eigen::Quaterniond(Eigen::AngleAxisd(angle, e.row(i).transpose() / angle))).normalized();
-      {
-        // accelerometer + R^T g with the IMU's R, re-based: + (R_legs^T - R_imu^T) g.
-        acc.row(i) += (legs[i].conjugate() * model.gravity - buffer_[i].base_orientation.conjugate() * model.gravity).transpose();
-      }
-    }
+  if (measured_dw) {
+    w = b.inputs(w);
+    dw = b.inputs(dw);
+  } else if (b.parallel && opt_.derivative_half_window > 1) {
+    savitzkyGolay(w, b.dt, opt_.derivative_half_window, &w, &dw, nullptr);  // in place: outputs written last
+  } else {
+    filterAndDifferentiate(w, b.dt, b.input_cutoff, &w, &dw, nullptr);
   }
-  if (model.floating_base) acc = filt(acc);
-  // trim_edges: the run's first edge_ samples and, in the last block, its last edge_ are not emitted.
-  auto keep = [&](int i) {
-    const bool drop = edge_ > 0 && (seen_ + i < edge_ || (last && i >= n - edge_));
-    if (drop) ++trimmed_;
-    return !drop;
+}
+
+void DatasetBuilder::fuseOrientation(BlockSignals& b) {
+  const Model& model = model_;
+  const int n = b.n;
+  const int nf = static_cast<int>(opt_.footholds.size());
+  Data fk(model);
+  State sf = State::zero(model);
+  std::vector<Eigen::Matrix3d> Rbs(static_cast<size_t>(n * nf));
+  for (int i = 0; i < n; ++i) {
+    sf.q = b.q.row(i).transpose();
+    forwardKinematics(model, fk, sf);
+    for (int f = 0; f < nf; ++f)
+      Rbs[i * nf + f] = fk.R[opt_.footholds[f].body] * opt_.footholds[f].rotation_in_body;
+  }
+  auto project = [](const Eigen::Matrix3d& M) {  // nearest rotation (chordal mean)
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+    return Eigen::Matrix3d(svd.matrixU() * D * svd.matrixV().transpose());
   };
-  // Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With parallel
-  // filtering every sample of the window is computed, then W and y filtered column by column.
+  if (sole_world_.empty()) {
+    // From the first kOrientationSamples samples (a fixed count, so that the block size does not matter;
+    // the first window holds at least the block plus the fusion filter's margin).
+    constexpr int kOrientationSamples = 1000;
+    sole_world_.assign(nf, Eigen::Matrix3d::Zero());
+    for (int i = 0; i < std::min(n, kOrientationSamples); ++i)
+      for (int f = 0; f < nf; ++f) sole_world_[f] += buffer_[i].base_orientation.toRotationMatrix() * Rbs[i * nf + f];
+    for (int f = 0; f < nf; ++f) sole_world_[f] = project(sole_world_[f]);
+  }
+  std::vector<Eigen::Quaterniond>& legs = b.legs;
+  legs.resize(n);
+  Eigen::MatrixXd e(n, 3);  // log(R_legs^T R_IMU): the IMU's correction, low-passed below
+  for (int i = 0; i < n; ++i) {
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+    for (int f = 0; f < nf; ++f) M += sole_world_[f] * Rbs[i * nf + f].transpose();
+    legs[i] = Eigen::Quaterniond(project(M));
+    const Eigen::AngleAxisd d(legs[i].conjugate() * buffer_[i].base_orientation);
+    e.row(i) = (d.angle() * d.axis()).transpose();
+  }
+  e = filtfilt(b.lp_orientation, e);
+  for (int i = 0; i < n; ++i) {
+    const double angle = e.row(i).norm();
+    if (angle > 0.0) legs[i] = (legs[i] * Eigen::Quaterniond(Eigen::AngleAxisd(angle, e.row(i).transpose() / angle))).normalized();
+    {
+      // accelerometer + R^T g with the IMU's R, re-based: + (R_legs^T - R_imu^T) g.
+      b.acc.row(i) += (legs[i].conjugate() * model.gravity - buffer_[i].base_orientation.conjugate() * model.gravity).transpose();
+    }
+  }
+}
+
+bool DatasetBuilder::keepSample(int i, int n, bool last) {
+  const bool drop = edge_ > 0 && (seen_ + i < edge_ || (last && i >= n - edge_));
+  if (drop) ++trimmed_;
+  return !drop;
+}
+
+void DatasetBuilder::setSensorTorque(const Eigen::VectorXd& tau) {
+  for (int j = 0; j < model_.njoints; ++j) sensor_torque_[model_.jointRow(j)] = tau[j];
+}
+
+void DatasetBuilder::regressWindow(const BlockSignals& b, bool last, int emit_end) {
+  const Model& model = model_;
+  const int n = b.n, nj = model.njoints, nv = model.nv, p = model.nparams();
+  const bool parallel = b.parallel;
   const int from = parallel ? 0 : head_, to = parallel ? n : emit_end;
   Data kin(model);
   State st = State::zero(model);
@@ -376,19 +402,16 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   if (parallel && (Kall.rows() != to - from || Kall.cols() != nv * p))
     Kall.resize(to - from, nv * p), Yall.resize(to - from, nv), Tall_.resize(to - from, nj);
   if (sensor_torque_.size() != nv) sensor_torque_ = Eigen::VectorXd::Zero(nv);
-  auto setSensorTorque = [&](const Eigen::VectorXd& tau) {
-    for (int j = 0; j < nj; ++j) sensor_torque_[model.jointRow(j)] = tau[j];
-  };
   for (int i = from; i < to; ++i) {
     const MeasuredSample& s = buffer_[i];
-    st.q = q.row(i).transpose();
-    st.v = v.row(i).transpose();
-    st.a = a.row(i).transpose();
+    st.q = b.q.row(i).transpose();
+    st.v = b.v.row(i).transpose();
+    st.a = b.a.row(i).transpose();
     if (model.floating_base) {
-      st.base_orientation = legs.empty() ? s.base_orientation : legs[i];
-      st.base_omega = w.row(i).transpose();
-      st.base_domega = dw.row(i).transpose();
-      st.base_acceleration = acc.row(i).transpose();
+      st.base_orientation = b.legs.empty() ? s.base_orientation : b.legs[i];
+      st.base_omega = b.w.row(i).transpose();
+      st.base_domega = b.dw.row(i).transpose();
+      st.base_acceleration = b.acc.row(i).transpose();
     }
     computeJointTorqueRegressor(model, kin, st);
     if (model.floating_base) {
@@ -404,29 +427,57 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
       for (int c = 0; c < nv; ++c) Kall.block(i - from, c * p, 1, p) = kin.K.row(c);
       Yall.row(i - from) = y.transpose();
       Tall_.row(i - from) = s.tau.transpose();
-    } else if (keep(i)) {
+    } else if (keepSample(i, n, last)) {
       setSensorTorque(s.tau);
-      joint_position_ = q.row(i).transpose();
+      joint_position_ = b.q.row(i).transpose();
       sink_(s.t, kin.K, y);
       ++emitted_;
     }
   }
-  if (parallel) {
-    // Column by column (bounded memory); structural zeros stay zero and are skipped.
-    for (int j = 0; j < Kall.cols(); ++j)
-      if (Kall.col(j).cwiseAbs().maxCoeff() > 0.0) Kall.col(j) = filtfilt(lp, Kall.col(j));
-    for (int j = 0; j < nv; ++j) Yall.col(j) = filtfilt(lp, Yall.col(j));
-    for (int j = 0; j < nj; ++j) Tall_.col(j) = filtfilt(lp, Tall_.col(j));
-    Eigen::MatrixXd K(nv, p);
-    for (int i = head_; i < emit_end; ++i) {
-      if (!keep(i)) continue;
-      for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);
-      setSensorTorque(Tall_.row(i).transpose());
-      joint_position_ = q.row(i).transpose();
-      sink_(buffer_[i].t, K, Yall.row(i).transpose());
-      ++emitted_;
-    }
+}
+
+void DatasetBuilder::emitFilteredWindow(const BlockSignals& b, bool last, int emit_end) {
+  const int nj = model_.njoints, nv = model_.nv, p = model_.nparams();
+  Eigen::MatrixXd& Kall = Kall_;
+  Eigen::MatrixXd& Yall = Yall_;
+  // Column by column (bounded memory); structural zeros stay zero and are skipped.
+  for (int j = 0; j < Kall.cols(); ++j)
+    if (Kall.col(j).cwiseAbs().maxCoeff() > 0.0) Kall.col(j) = filtfilt(b.lp, Kall.col(j));
+  for (int j = 0; j < nv; ++j) Yall.col(j) = filtfilt(b.lp, Yall.col(j));
+  for (int j = 0; j < nj; ++j) Tall_.col(j) = filtfilt(b.lp, Tall_.col(j));
+  Eigen::MatrixXd K(nv, p);
+  for (int i = head_; i < emit_end; ++i) {
+    if (!keepSample(i, b.n, last)) continue;
+    for (int c = 0; c < nv; ++c) K.row(c) = Kall.block(i, c * p, 1, p);
+    setSensorTorque(Tall_.row(i).transpose());
+    joint_position_ = b.q.row(i).transpose();
+    sink_(buffer_[i].t, K, Yall.row(i).transpose());
+    ++emitted_;
   }
+}
+
+bool DatasetBuilder::processBlock(bool last, std::string* error) {
+  BlockSignals b;
+  int want = 0;
+  if (!designFilters(b, want, error)) return false;
+  const int n = b.n;
+  if (want > margin_ && emitted_ == 0 && !last) {
+    margin_ = want;  // wait for enough lookahead
+    if (n - head_ < opt_.block + margin_) return true;
+  }
+  const int emit_end = last ? n : std::min(n, head_ + opt_.block);
+  jointSignals(b);
+  baseSignals(b);
+  // Base orientation fused from the legs and the IMU (DatasetOptions::orientation_from_legs): R_bs(q) per
+  // sample and foot from the (filtered) encoders, R_ws once from the first 1000 samples, R_legs per sample, the
+  // IMU's low-passed correction on top; the accelerometer's gravity term re-based on it before filtering.
+  if (b.fuse) fuseOrientation(b);
+  if (model_.floating_base) b.acc = b.inputs(b.acc);
+  // trim_edges (keepSample): the run's first edge_ samples and, in the last block, its last edge_ are not
+  // emitted. Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With
+  // parallel filtering every sample of the window is computed, then W and y filtered column by column.
+  regressWindow(b, last, emit_end);
+  if (b.parallel) emitFilteredWindow(b, last, emit_end);
   // Keep `margin_` samples of history before the next block.
   const int drop = std::max(0, emit_end - margin_);
   buffer_.erase(buffer_.begin(), buffer_.begin() + drop);

@@ -6,7 +6,7 @@ void generalizedForceFromMeasurements(const Model& model, const Data& kin, const
                                       const Eigen::VectorXd& tau_joints, const ExternalWrench* contacts,
                                       int ncontacts, Eigen::Ref<Eigen::VectorXd> y) {
   y.setZero();
-  const int base_rows = model.floating_base ? 6 : 0;
+  const int free_joint_rows = model.floating_base ? 6 : 0;
   y.tail(model.njoints) = tau_joints;
   Eigen::Matrix3d Rt = Eigen::Matrix3d::Identity();
   if (model.floating_base) Rt = state.base_orientation.toRotationMatrix().transpose();
@@ -23,7 +23,7 @@ void generalizedForceFromMeasurements(const Model& model, const Data& kin, const
     for (int a = w.body; a >= 0; a = model.parent[a]) {
       const int j = model.jointOfBody(a);
       if (j < 0) break;
-      y[base_rows + j] += kin.axis[a].dot(n) + kin.p[a].cross(kin.axis[a]).dot(f);
+      y[free_joint_rows + j] += kin.axis[a].dot(n) + kin.p[a].cross(kin.axis[a]).dot(f);
     }
   }
 }

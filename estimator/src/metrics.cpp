@@ -5,7 +5,7 @@
 #include <limits>
 
 #include "exoid/model/inertial.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 
 namespace exoid::estimator {
 

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "exoid/estimator/dataset.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/signal/filters.hpp"

@@ -1,7 +1,7 @@
 #include "exoid/model/dynamics.hpp"
 
 #include "exoid/model/inertial.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "spatial.hpp"
 
 namespace exoid {
@@ -90,32 +90,6 @@ void crba(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out, con
       out.M(ri, row) = out.M(row, ri) = Sa.dot(F);
     }
   }
-}
-
-void computePointJacobian(const Model& model, const Data& kin, int body, const Eigen::Vector3d& point_in_body,
-                          Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> J) {
-  J.setZero();
-  const Eigen::Vector3d P = kin.p[body] + kin.R[body] * point_in_body;
-  if (model.floating_base) {
-    J.block<3, 3>(0, 0).setIdentity();
-    J.block<3, 3>(3, 0) = -skew(P);
-    J.block<3, 3>(3, 3).setIdentity();
-  }
-  for (int a = body; a >= 0; a = model.parent[a]) {
-    const int i = model.jointOfBody(a);
-    if (i < 0) break;
-    const int col = model.jointRow(i);
-    J.block<3, 1>(0, col) = kin.axis[a];
-    J.block<3, 1>(3, col) = kin.axis[a].cross(P - kin.p[a]);
-  }
-}
-
-Eigen::Matrix<double, 6, 1> pointAccelerationDrift(const Data& kin, int body, const Eigen::Vector3d& point_in_body) {
-  const Eigen::Vector3d r = kin.R[body] * point_in_body;
-  const Eigen::Vector3d& w = kin.omega[body];
-  Vector6d out;
-  out << kin.alpha[body], kin.acc[body] + kin.alpha[body].cross(r) + w.cross(w.cross(r));
-  return out;
 }
 
 void centroidal(const Model& model, DynamicsData& out) { centroidal(model, model.phi, out); }

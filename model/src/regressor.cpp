@@ -1,59 +1,9 @@
 #include "exoid/model/regressor.hpp"
 
-#include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "spatial.hpp"
 
 namespace exoid {
-
-namespace {
-
-/// One forward pass. drift = true: accelerations and gravity set to zero (velocity-product terms only).
-void forwardPass(const Model& model, Data& d, const State& s, bool drift) {
-  const double ka = drift ? 0.0 : 1.0;
-  for (int b = 0; b < model.nbodies; ++b) {
-    const int parent = model.parent[b];
-    const int j = model.jointOfBody(b);
-    if (j < 0) {  // floating base: the reference frame itself
-      d.R[b].setIdentity();
-      d.p[b].setZero();
-      d.axis[b].setZero();
-      d.omega[b] = s.base_omega;
-      d.vel[b] = s.base_velocity;
-      d.alpha[b] = ka * s.base_domega;
-      d.acc[b] = ka * (s.base_acceleration - s.base_orientation.conjugate() * model.gravity);
-      continue;
-    }
-    const double q = s.q[j], v = s.v[j], a = ka * s.a[j];
-    const Eigen::Matrix3d joint_rotation =
-        Eigen::AngleAxisd(q, model.joint_axis[b]).toRotationMatrix();
-    if (parent < 0) {  // child of the fixed root: the root does not move, gravity is its acceleration
-      d.R[b].noalias() = model.tree_rotation[b] * joint_rotation;
-      d.p[b] = model.tree_position[b];
-      d.axis[b].noalias() = d.R[b] * model.joint_axis[b];
-      d.omega[b] = d.axis[b] * v;
-      d.vel[b].setZero();
-      d.alpha[b] = d.axis[b] * a;
-      d.acc[b] = -ka * model.gravity;
-      continue;
-    }
-    const Eigen::Matrix3d Rp = d.R[parent] * model.tree_rotation[b];
-    d.R[b].noalias() = Rp * joint_rotation;
-    const Eigen::Vector3d r = d.R[parent] * model.tree_position[b];  // parent origin -> body origin
-    d.p[b] = d.p[parent] + r;
-    d.axis[b].noalias() = Rp * model.joint_axis[b];
-    const Eigen::Vector3d& wp = d.omega[parent];
-    const Eigen::Vector3d w_rel = d.axis[b] * v;
-    d.omega[b] = wp + w_rel;
-    d.vel[b] = d.vel[parent] + wp.cross(r);
-    d.alpha[b] = d.alpha[parent] + d.axis[b] * a + wp.cross(w_rel);
-    d.acc[b] = d.acc[parent] + d.alpha[parent].cross(r) + wp.cross(wp.cross(r));
-  }
-}
-
-}  // namespace
-
-void forwardKinematics(const Model& model, Data& d, const State& s) { forwardPass(model, d, s, false); }
-void forwardKinematicsDrift(const Model& model, Data& d, const State& s) { forwardPass(model, d, s, true); }
 
 namespace {
 
@@ -85,7 +35,7 @@ void bodyRegressor(const Eigen::Matrix3d& R, const Eigen::Vector3d& p, const Eig
 
 void computeJointTorqueRegressor(const Model& model, Data& d, const State& s) {
   forwardKinematics(model, d, s);
-  const int base_rows = model.floating_base ? 6 : 0;
+  const int free_joint_rows = model.floating_base ? 6 : 0;
   for (int b = 0; b < model.nbodies; ++b) {
     Matrix6x10& Y = d.body_regressor[b];
     bodyRegressor(d.R[b], d.p[b], d.omega[b], d.alpha[b], d.acc[b], Y);
@@ -95,7 +45,7 @@ void computeJointTorqueRegressor(const Model& model, Data& d, const State& s) {
   // Joint rows: torque of joint j = S_j^T (wrench of every body in its subtree about the reference origin).
   for (int j = 0; j < model.njoints; ++j) {
     const int c = model.joint_body[j];
-    const int row = base_rows + j;
+    const int row = free_joint_rows + j;
     const Eigen::Vector3d& ax = d.axis[c];
     const Eigen::Vector3d pxa = d.p[c].cross(ax);
     for (int b : model.subtree[c]) {

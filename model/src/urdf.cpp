@@ -126,87 +126,113 @@ bool checkNumbers(const tinyxml2::XMLElement* robot, std::string* error) {
   return true;
 }
 
-}  // namespace
-
-bool buildModelFromUrdfFile(const std::string& path, bool floating_base, Model& model, std::string* error,
-                            double gravity_magnitude) {
-  std::ifstream in(path);
-  if (!in) return fail(error, "cannot read URDF file '" + path + "'");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string err;
-  if (!buildModelFromUrdfString(ss.str(), floating_base, model, &err, gravity_magnitude))
-    return fail(error, "URDF '" + path + "': " + err);
-  return true;
-}
-
-bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model& out, std::string* error,
-                              double gravity_magnitude) {
-  if (!std::isfinite(gravity_magnitude) || gravity_magnitude < 0.0)
-    return fail(error, "gravity must be finite and non-negative");
-  // Document order of the joints (urdfdom keeps them in a name-sorted map).
+/// Parses the XML, checks its numbers (checkNumbers) and records the document order of the joints (urdfdom
+/// keeps them in a name-sorted map): joint_order[name] = index in the document.
+bool checkXmlAndJointOrder(const std::string& xml, std::map<std::string, int>& joint_order, std::string* error) {
   tinyxml2::XMLDocument doc;
   if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS)
     return fail(error, std::string("malformed XML: ") + (doc.ErrorStr() ? doc.ErrorStr() : "parse error"));
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (!robot) return fail(error, "no <robot> element");
   if (!checkNumbers(robot, error)) return false;
-  std::map<std::string, int> joint_order;
   for (const tinyxml2::XMLElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
     const char* name = j->Attribute("name");
     if (name) joint_order.emplace(name, static_cast<int>(joint_order.size()));
   }
+  return true;
+}
 
-  CaptureHandler capture;
-  console_bridge::useOutputHandler(&capture);
-  urdf::ModelInterfaceSharedPtr urdf_model;
-  try {
-    urdf_model = urdf::parseURDF(xml);
-  } catch (const std::exception& e) {
-    capture.last_error = e.what();
+/// The tree as the walk discovers it: one body per moving joint (plus the floating base) in discovery order,
+/// each with its placement in the parent body, its lumped parameters and its joint's limits.
+struct WalkedTree {
+  Model m;  ///< name, gravity, body_names, parent, tree_rotation/position, joint_axis, joint_names, frames
+  std::vector<Vector10d> phis;  ///< [bodies] lumped parameters in the body frame
+  std::vector<double> lower, upper, effort;  ///< [joints] limits (infinite / 0 when the URDF gives none)
+};
+
+/// A link on the walk: the body it belongs to and its placement in that body (body <= -2: a placeholder for
+/// the body of joint -2 - body, resolved once the link's siblings are pushed).
+struct WalkItem {
+  urdf::LinkConstSharedPtr link;
+  int body;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d p;
+};
+
+/// Adds a link's inertial, moved into its body's frame (R, p), to the body's parameters.
+bool lumpInertial(const urdf::Link& link, const WalkItem& it, WalkedTree& tree, std::string* error) {
+  const urdf::Inertial& in = *link.inertial;
+  const double vals[] = {in.mass, in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz};
+  for (double v : vals)
+    if (!std::isfinite(v)) return fail(error, "link '" + link.name + "': non-finite inertial value");
+  if (!finite(in.origin)) return fail(error, "link '" + link.name + "': non-finite inertial origin");
+  if (in.mass < 0.0) return fail(error, "link '" + link.name + "': negative mass");
+  Eigen::Matrix3d Ic;
+  Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+  const Vector10d local = paramsFromInertial(in.mass, vector(in.origin.position), rotation(in.origin.rotation), Ic);
+  tree.phis[it.body] += transformParams(local, it.R, it.p);
+  return true;
+}
+
+/// One child joint of the link `it`: a fixed joint continues the parent's body, a revolute or continuous
+/// joint opens a new body (pushed with a placeholder index); any other type is refused.
+bool pushChildJoint(const urdf::ModelInterface& urdf_model, const urdf::Joint& joint, const WalkItem& it,
+                    std::vector<WalkItem>& stack, WalkedTree& tree, std::string* error) {
+  Model& m = tree.m;
+  urdf::LinkConstSharedPtr child = urdf_model.getLink(joint.child_link_name);
+  if (!child) return fail(error, "joint '" + joint.name + "': unknown child link");
+  if (!finite(joint.parent_to_joint_origin_transform))
+    return fail(error, "joint '" + joint.name + "': non-finite origin");
+  const Eigen::Matrix3d Rj = it.R * rotation(joint.parent_to_joint_origin_transform.rotation);
+  const Eigen::Vector3d pj = it.p + it.R * vector(joint.parent_to_joint_origin_transform.position);
+  if (joint.type == urdf::Joint::FIXED) {
+    stack.push_back({child, it.body, Rj, pj});
+  } else if (joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS) {
+    Eigen::Vector3d axis = vector(joint.axis);
+    if (!axis.allFinite() || axis.norm() < 1e-12)
+      return fail(error, "joint '" + joint.name + "': zero or non-finite axis");
+    // Placeholder index; bodies are renumbered in tree order below.
+    stack.push_back({child, -2 - static_cast<int>(m.joint_names.size()), Rj, pj});
+    m.joint_names.push_back(joint.name);
+    m.body_names.push_back(child->name);
+    m.parent.push_back(it.body);
+    m.tree_rotation.push_back(Rj);
+    m.tree_position.push_back(pj);
+    m.joint_axis.push_back(axis.normalized());
+    tree.phis.push_back(Vector10d::Zero());
+    const bool limited = joint.type == urdf::Joint::REVOLUTE && joint.limits;
+    tree.lower.push_back(limited ? joint.limits->lower : -std::numeric_limits<double>::infinity());
+    tree.upper.push_back(limited ? joint.limits->upper : std::numeric_limits<double>::infinity());
+    tree.effort.push_back(joint.limits ? joint.limits->effort : 0.0);
+  } else {
+    static const char* names[] = {"unknown", "revolute", "continuous", "prismatic", "floating", "planar", "fixed"};
+    const int t = static_cast<int>(joint.type);
+    return fail(error, "joint '" + joint.name + "': type " + (t >= 0 && t <= 6 ? names[t] : "?") +
+                           " is not supported (revolute, continuous and fixed are)");
   }
-  console_bridge::restorePreviousOutputHandler();
-  if (!urdf_model)
-    return fail(error, capture.last_error.empty() ? "urdfdom could not parse the robot" : capture.last_error);
-  // urdfdom accepts a kinematic loop detached from the root; its links then own each other (child_links are
-  // shared pointers) and would leak. Break those references whatever this function returns.
-  struct ReleaseLinks {
-    const urdf::ModelInterface& model;
-    ~ReleaseLinks() {
-      for (const auto& entry : model.links_) entry.second->child_links.clear();
-    }
-  } release_links{*urdf_model};
-  urdf::LinkConstSharedPtr root = urdf_model->getRoot();
-  if (!root) return fail(error, "no root link");
+  return true;
+}
 
-  Model m;
-  m.name = urdf_model->getName();
-  m.floating_base = floating_base;
-  m.gravity = Eigen::Vector3d(0.0, 0.0, -gravity_magnitude);
-  std::vector<Vector10d> phis;
-  std::vector<double> lower, upper, effort;
-
-  // Depth-first walk. For every link: the body it belongs to and its placement in that body.
-  struct Item {
-    urdf::LinkConstSharedPtr link;
-    int body;
-    Eigen::Matrix3d R;
-    Eigen::Vector3d p;
-  };
-  std::vector<Item> stack;
-  if (floating_base) {
+/// Depth-first walk from the root. For every link: a frame (its body and placement in it), its inertial lumped
+/// into its body; for every moving joint a body (fixed links are lumped into their parent).
+bool walkLinks(const urdf::ModelInterface& urdf_model, std::map<std::string, int>& joint_order, WalkedTree& tree,
+               std::string* error) {
+  Model& m = tree.m;
+  const urdf::LinkConstSharedPtr root = urdf_model.getRoot();
+  std::vector<WalkItem> stack;
+  if (m.floating_base) {
     m.body_names.push_back(root->name);
     m.parent.push_back(-1);
     m.tree_rotation.push_back(Eigen::Matrix3d::Identity());
     m.tree_position.push_back(Eigen::Vector3d::Zero());
     m.joint_axis.push_back(Eigen::Vector3d::Zero());
-    phis.push_back(Vector10d::Zero());
+    tree.phis.push_back(Vector10d::Zero());
     stack.push_back({root, 0, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()});
   } else {
     stack.push_back({root, -1, Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero()});
   }
   while (!stack.empty()) {
-    Item it = stack.back();
+    WalkItem it = stack.back();
     stack.pop_back();
     const urdf::Link& link = *it.link;
     Model::Frame frame;
@@ -215,90 +241,51 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
     frame.rotation = it.R;
     frame.position = it.p;
     m.frames.push_back(frame);
-    if (link.inertial && it.body >= 0) {
-      const urdf::Inertial& in = *link.inertial;
-      const double vals[] = {in.mass, in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz};
-      for (double v : vals)
-        if (!std::isfinite(v)) return fail(error, "link '" + link.name + "': non-finite inertial value");
-      if (!finite(in.origin)) return fail(error, "link '" + link.name + "': non-finite inertial origin");
-      if (in.mass < 0.0) return fail(error, "link '" + link.name + "': negative mass");
-      Eigen::Matrix3d Ic;
-      Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-      const Vector10d local = paramsFromInertial(in.mass, vector(in.origin.position), rotation(in.origin.rotation), Ic);
-      phis[it.body] += transformParams(local, it.R, it.p);
-    }
+    if (link.inertial && it.body >= 0 && !lumpInertial(link, it, tree, error)) return false;
     // Children in document order; pushed in reverse so that the first is visited first.
     std::vector<urdf::JointSharedPtr> joints(link.child_joints.begin(), link.child_joints.end());
     std::sort(joints.begin(), joints.end(), [&](const urdf::JointSharedPtr& a, const urdf::JointSharedPtr& b) {
       return joint_order[a->name] < joint_order[b->name];
     });
-    for (auto ji = joints.rbegin(); ji != joints.rend(); ++ji) {
-      const urdf::Joint& joint = **ji;
-      urdf::LinkConstSharedPtr child = urdf_model->getLink(joint.child_link_name);
-      if (!child) return fail(error, "joint '" + joint.name + "': unknown child link");
-      if (!finite(joint.parent_to_joint_origin_transform))
-        return fail(error, "joint '" + joint.name + "': non-finite origin");
-      const Eigen::Matrix3d Rj = it.R * rotation(joint.parent_to_joint_origin_transform.rotation);
-      const Eigen::Vector3d pj = it.p + it.R * vector(joint.parent_to_joint_origin_transform.position);
-      if (joint.type == urdf::Joint::FIXED) {
-        stack.push_back({child, it.body, Rj, pj});
-      } else if (joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS) {
-        Eigen::Vector3d axis = vector(joint.axis);
-        if (!axis.allFinite() || axis.norm() < 1e-12)
-          return fail(error, "joint '" + joint.name + "': zero or non-finite axis");
-        // Placeholder index; bodies are renumbered in tree order below.
-        stack.push_back({child, -2 - static_cast<int>(m.joint_names.size()), Rj, pj});
-        m.joint_names.push_back(joint.name);
-        m.body_names.push_back(child->name);
-        m.parent.push_back(it.body);
-        m.tree_rotation.push_back(Rj);
-        m.tree_position.push_back(pj);
-        m.joint_axis.push_back(axis.normalized());
-        phis.push_back(Vector10d::Zero());
-        const bool limited = joint.type == urdf::Joint::REVOLUTE && joint.limits;
-        lower.push_back(limited ? joint.limits->lower : -std::numeric_limits<double>::infinity());
-        upper.push_back(limited ? joint.limits->upper : std::numeric_limits<double>::infinity());
-        effort.push_back(joint.limits ? joint.limits->effort : 0.0);
-      } else {
-        static const char* names[] = {"unknown", "revolute", "continuous", "prismatic", "floating", "planar", "fixed"};
-        const int t = static_cast<int>(joint.type);
-        return fail(error, "joint '" + joint.name + "': type " + (t >= 0 && t <= 6 ? names[t] : "?") +
-                               " is not supported (revolute, continuous and fixed are)");
-      }
-    }
+    for (auto ji = joints.rbegin(); ji != joints.rend(); ++ji)
+      if (!pushChildJoint(urdf_model, **ji, it, stack, tree, error)) return false;
     // A revolute child's body index is its discovery index: resolve the placeholders just pushed.
-    for (Item& s : stack) {
+    for (WalkItem& s : stack) {
       if (s.body <= -2) {
         const int joint = -2 - s.body;
-        s.body = (floating_base ? 1 : 0) + joint;
+        s.body = (m.floating_base ? 1 : 0) + joint;
         // Its own frame is the body frame.
         s.R.setIdentity();
         s.p.setZero();
       }
     }
   }
-  // Every link must hang from the root: urdfdom does not refuse links on a loop that the walk never reaches.
-  if (m.frames.size() != urdf_model->links_.size()) {
-    for (const auto& entry : urdf_model->links_) {
-      bool reached = false;
-      for (const Model::Frame& f : m.frames) reached = reached || f.name == entry.first;
-      if (!reached)
-        return fail(error, "link '" + entry.first + "' is not connected to the root link '" + root->name +
-                               "' (a kinematic loop?)");
-    }
+  return true;
+}
+
+/// Every link must hang from the root: urdfdom does not refuse links on a loop that the walk never reaches.
+bool checkAllLinksReached(const urdf::ModelInterface& urdf_model, const Model& m, std::string* error) {
+  if (m.frames.size() == urdf_model.links_.size()) return true;
+  for (const auto& entry : urdf_model.links_) {
+    bool reached = false;
+    for (const Model::Frame& f : m.frames) reached = reached || f.name == entry.first;
+    if (!reached)
+      return fail(error, "link '" + entry.first + "' is not connected to the root link '" +
+                             urdf_model.getRoot()->name + "' (a kinematic loop?)");
   }
-  // Bodies were appended in the order joints were discovered (parent before child, but siblings' subtrees
-  // interleaved). Renumber into depth-first order following the document order of the joints.
+  return true;
+}
+
+/// Bodies were appended in the order joints were discovered (parent before child, but siblings' subtrees
+/// interleaved). Returns the depth-first order following the document order of the joints: order[new] = old.
+std::vector<int> depthFirstBodyOrder(const Model& m, std::map<std::string, int>& joint_order) {
   const int nb = static_cast<int>(m.body_names.size());
-  if (nb == 0)
-    return fail(error, "no moving link: the root is fixed to the world and no revolute or continuous joint follows "
-                       "it (a floating base would move)");
   std::vector<std::vector<int>> children(nb);
   std::vector<int> roots;
   for (int b = 0; b < nb; ++b) (m.parent[b] < 0 ? roots : children[m.parent[b]]).push_back(b);
   // Sibling order: document order of the joint that created the body (floating base first).
   auto key = [&](int b) {
-    const int j = b - (floating_base ? 1 : 0);
+    const int j = b - (m.floating_base ? 1 : 0);
     return j < 0 ? -1 : joint_order[m.joint_names[j]];
   };
   for (auto& c : children) std::sort(c.begin(), c.end(), [&](int a, int b) { return key(a) < key(b); });
@@ -311,9 +298,16 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
     order.push_back(b);
     for (auto c = children[b].rbegin(); c != children[b].rend(); ++c) dfs.push_back(*c);
   }
+  return order;
+}
+
+/// The model in tree order (order[new] = old body): bodies, parameters, joints, subtrees and frames renumbered.
+void assembleModel(const WalkedTree& tree, const std::vector<int>& order, Model& out) {
+  const Model& m = tree.m;
+  const bool floating_base = m.floating_base;
+  const int nb = static_cast<int>(m.body_names.size());
   std::vector<int> new_index(nb);
   for (int i = 0; i < nb; ++i) new_index[order[i]] = i;
-
   Model& r = out = Model();
   r.name = m.name;
   r.floating_base = floating_base;
@@ -333,15 +327,15 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
     r.tree_rotation.push_back(m.tree_rotation[o]);
     r.tree_position.push_back(m.tree_position[o]);
     r.joint_axis.push_back(m.joint_axis[o]);
-    r.phi.segment<kParamsPerBody>(r.bodyParamIndex(i)) = phis[o];
+    r.phi.segment<kParamsPerBody>(r.bodyParamIndex(i)) = tree.phis[o];
     const int old_joint = o - (floating_base ? 1 : 0);
     if (old_joint >= 0) {
       const int j = r.jointOfBody(i);
       r.joint_names.resize(r.njoints);
       r.joint_names[j] = m.joint_names[old_joint];
-      r.position_lower[j] = lower[old_joint];
-      r.position_upper[j] = upper[old_joint];
-      r.effort_limit[j] = effort[old_joint];
+      r.position_lower[j] = tree.lower[old_joint];
+      r.position_upper[j] = tree.upper[old_joint];
+      r.effort_limit[j] = tree.effort[old_joint];
     }
   }
   r.joint_body.resize(r.njoints);
@@ -360,6 +354,59 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
     if (f.body >= 0) f.body = new_index[f.body];
     r.frames.push_back(f);
   }
+}
+
+}  // namespace
+
+bool buildModelFromUrdfFile(const std::string& path, bool floating_base, Model& model, std::string* error,
+                            double gravity_magnitude) {
+  std::ifstream in(path);
+  if (!in) return fail(error, "cannot read URDF file '" + path + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string err;
+  if (!buildModelFromUrdfString(ss.str(), floating_base, model, &err, gravity_magnitude))
+    return fail(error, "URDF '" + path + "': " + err);
+  return true;
+}
+
+bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model& out, std::string* error,
+                              double gravity_magnitude) {
+  if (!std::isfinite(gravity_magnitude) || gravity_magnitude < 0.0)
+    return fail(error, "gravity must be finite and non-negative");
+  std::map<std::string, int> joint_order;
+  if (!checkXmlAndJointOrder(xml, joint_order, error)) return false;
+  CaptureHandler capture;
+  console_bridge::useOutputHandler(&capture);
+  urdf::ModelInterfaceSharedPtr urdf_model;
+  try {
+    urdf_model = urdf::parseURDF(xml);
+  } catch (const std::exception& e) {
+    capture.last_error = e.what();
+  }
+  console_bridge::restorePreviousOutputHandler();
+  if (!urdf_model)
+    return fail(error, capture.last_error.empty() ? "urdfdom could not parse the robot" : capture.last_error);
+  // urdfdom accepts a kinematic loop detached from the root; its links then own each other (child_links are
+  // shared pointers) and would leak. Break those references whatever this function returns.
+  struct ReleaseLinks {
+    const urdf::ModelInterface& model;
+    ~ReleaseLinks() {
+      for (const auto& entry : model.links_) entry.second->child_links.clear();
+    }
+  } release_links{*urdf_model};
+  if (!urdf_model->getRoot()) return fail(error, "no root link");
+
+  WalkedTree tree;
+  tree.m.name = urdf_model->getName();
+  tree.m.floating_base = floating_base;
+  tree.m.gravity = Eigen::Vector3d(0.0, 0.0, -gravity_magnitude);
+  if (!walkLinks(*urdf_model, joint_order, tree, error)) return false;
+  if (!checkAllLinksReached(*urdf_model, tree.m, error)) return false;
+  if (tree.m.body_names.empty())
+    return fail(error, "no moving link: the root is fixed to the world and no revolute or continuous joint follows "
+                       "it (a floating base would move)");
+  assembleModel(tree, depthFirstBodyOrder(tree.m, joint_order), out);
   return true;
 }
 

@@ -8,6 +8,7 @@
 
 #include "exoid/estimator/metrics.hpp"
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"

@@ -20,7 +20,7 @@
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/dynamics.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/sim/config.hpp"
 #include "recorded_run.hpp"

@@ -6,7 +6,7 @@
 
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/inertial.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/urdf.hpp"
 #include "support/mujoco_fixture.hpp"
 #include "support/mujoco_state.hpp"

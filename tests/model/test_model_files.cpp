@@ -7,7 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/urdf.hpp"
 #include "support/mujoco_fixture.hpp"
 #include "support/mujoco_state.hpp"

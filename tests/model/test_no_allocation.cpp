@@ -5,6 +5,7 @@
 #include <random>
 
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "support/alloc_counter.hpp"

@@ -11,6 +11,7 @@
 #include "exoid/controller/leg_swing.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "sim_test_util.hpp"

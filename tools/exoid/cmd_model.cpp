@@ -6,7 +6,7 @@
 #include "exoid/common/cli.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/model/dynamics.hpp"
-#include "exoid/model/regressor.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/perturb_inertials.hpp"

@@ -116,6 +116,117 @@ Evaluation evaluate(const Model& model, const QuadraticTarget& t, const Eigen::V
   return e;
 }
 
+/// The start in log-Cholesky coordinates. Inconsistent bodies of the start begin at the prior's (projected)
+/// body: a projection of an impossible body (negative mass) can be arbitrarily far from anything the data support.
+Eigen::VectorXd startCoordinates(const Model& model, const Eigen::VectorXd& start, const Eigen::VectorXd& x_prior,
+                                 double eigenvalue_floor) {
+  Eigen::VectorXd x = consistentCoordinates(model, start, eigenvalue_floor);
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    if (!checkConsistency(Vector10d(start.segment<kParamsPerBody>(i))).consistent)
+      x.segment<kParamsPerBody>(i) = x_prior.segment<kParamsPerBody>(i);
+  }
+  return x;
+}
+
+/// Newton model of F(x) = ||A phi(x) - b||^2 + gamma ||x - x_prior||^2 around x (halved): H [p x p], g [p].
+/// Gauss-Newton with J_F = [A D; sqrt(gamma) I], D = dphi/dx per body, plus the curvature of x -> phi:
+/// the residual at a constrained minimiser is not small (the fit wants an inconsistent body), and without
+/// sum_k w_k d2 phi_k / dx2 (w = A^T r) the iteration crawls along the boundary. That term per body, by central
+/// differences of the exact Jacobian.
+void newtonModel(const Model& model, const QuadraticTarget& target, const Eigen::VectorXd& x,
+                 const Eigen::VectorXd& x_prior, double gamma, const Evaluation& cur, Eigen::MatrixXd& AD,
+                 Eigen::MatrixXd& H, Eigen::VectorXd& g) {
+  AD = target.A;
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    AD.middleCols<kParamsPerBody>(i) = target.A.middleCols<kParamsPerBody>(i) *
+                                       logCholeskyJacobian(x.segment<kParamsPerBody>(i));
+  }
+  H.noalias() = AD.transpose() * AD;
+  H.diagonal().array() += gamma;
+  const Eigen::VectorXd w = target.A.transpose() * cur.r;  // dF/dphi / 2
+  g.noalias() = AD.transpose() * cur.r;
+  g += gamma * (x - x_prior);
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    const Vector10d wb = w.segment<kParamsPerBody>(i);
+    Matrix10d S;
+    const double hstep = 1e-6;
+    for (int j = 0; j < kParamsPerBody; ++j) {
+      Vector10d tp = x.segment<kParamsPerBody>(i), tm = tp;
+      tp[j] += hstep;
+      tm[j] -= hstep;
+      S.col(j) = (logCholeskyJacobian(tp) - logCholeskyJacobian(tm)).transpose() * wb / (2.0 * hstep);
+    }
+    H.block<kParamsPerBody, kParamsPerBody>(i, i) += 0.5 * (S + S.transpose());
+  }
+}
+
+/// The Levenberg-Marquardt iteration's state between steps.
+struct LmState {
+  Eigen::VectorXd x;  ///< log-Cholesky coordinates
+  Evaluation cur;     ///< F and phi at x
+  double lambda = 1e-3;
+  int flat = 0;  ///< consecutive accepted steps that lowered F by less than tolerance (relative)
+};
+
+/// One Levenberg-Marquardt step on the Newton model (H, g): raises the damping until a step lowers F within
+/// the trust region. False when no damping gives a descent (x stationary to working precision); `converged`
+/// when the accepted step was flat (5 in a row), small or reached F = 0.
+bool levenbergMarquardtStep(const Model& model, const QuadraticTarget& target, const Eigen::VectorXd& x_prior,
+                            double gamma, const ConsistentOptions& opt, const Eigen::MatrixXd& H,
+                            const Eigen::VectorXd& g, LmState& st, bool& converged) {
+  const double dscale = std::max(H.diagonal().maxCoeff(), 1e-300);
+  while (st.lambda < 1e16) {
+    Eigen::MatrixXd Hd = H;
+    // Levenberg's damping (lambda I): it shortens the flat directions most, which the trust region needs.
+    Hd.diagonal().array() += st.lambda * dscale;
+    const Eigen::LLT<Eigen::MatrixXd> llt(Hd);
+    if (llt.info() != Eigen::Success) {  // the Newton model is not convex here: damp more
+      st.lambda *= 4.0;
+      continue;
+    }
+    const Eigen::VectorXd step = llt.solve(-g);
+    // Trust region in log-Cholesky coordinates: at most a factor e per step. A long Gauss-Newton step
+    // can otherwise jump to a far log-coordinate where the map is flat (e^d ~ 0) and stall there.
+    const double big = step.cwiseAbs().maxCoeff();
+    if (!(big <= opt.max_step)) {
+      st.lambda *= 4.0;
+      continue;
+    }
+    const Eigen::VectorXd x_new = st.x + step;
+    Evaluation next = evaluate(model, target, x_new, x_prior, gamma);
+    if (next.total < st.cur.total) {
+      const double decrease = st.cur.total - next.total;
+      const bool small_step = step.norm() <= opt.tolerance * (st.x.norm() + opt.tolerance);
+      st.flat = decrease <= opt.tolerance * st.cur.total ? st.flat + 1 : 0;
+      st.x = x_new;
+      st.cur = std::move(next);
+      st.lambda = std::max(st.lambda / 3.0, 1e-15);
+      // One flat step can be a heavily damped one on a plateau of the exponential map: ask for several.
+      if (st.flat >= 5 || small_step || st.cur.total == 0.0) converged = true;
+      return true;
+    }
+    st.lambda *= 4.0;
+  }
+  return false;
+}
+
+/// A minimiser on the boundary of the consistent set (singular pseudo-inertia) is approached with theta
+/// diverging; keep the verdict robust to round-off by lifting eigenvalues below 1e-10 of the largest.
+void liftBoundaryBodies(const Model& model, Eigen::VectorXd& phi) {
+  for (int b = 0; b < model.nbodies; ++b) {
+    const int i = model.bodyParamIndex(b);
+    const Eigen::Vector4d l =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(pseudoInertia(phi.segment<kParamsPerBody>(i)),
+                                                       Eigen::EigenvaluesOnly)
+            .eigenvalues();
+    if (!(l.minCoeff() > 1e-10 * l.maxCoeff()))
+      phi.segment<kParamsPerBody>(i) = projectBody(phi.segment<kParamsPerBody>(i), 1e-10, 1e-12);
+  }
+}
+
 }  // namespace
 
 ConsistentResult solveConsistent(const Model& model, const QuadraticTarget& target, const Eigen::VectorXd& prior,
@@ -123,109 +234,28 @@ ConsistentResult solveConsistent(const Model& model, const QuadraticTarget& targ
   const int p = model.nparams();
   const double gamma = std::max(opt.prior_weight, 0.0);
   const Eigen::VectorXd x_prior = consistentCoordinates(model, prior, opt.eigenvalue_floor);
-  // Inconsistent bodies of the start begin at the prior's (projected) body: a projection of an impossible
-  // body (negative mass) can be arbitrarily far from anything the data support.
-  Eigen::VectorXd x = consistentCoordinates(model, start, opt.eigenvalue_floor);
-  for (int b = 0; b < model.nbodies; ++b) {
-    const int i = model.bodyParamIndex(b);
-    if (!checkConsistency(Vector10d(start.segment<kParamsPerBody>(i))).consistent)
-      x.segment<kParamsPerBody>(i) = x_prior.segment<kParamsPerBody>(i);
-  }
-  Evaluation cur = evaluate(model, target, x, x_prior, gamma);
+  LmState st;
+  st.x = startCoordinates(model, start, x_prior, opt.eigenvalue_floor);
+  st.cur = evaluate(model, target, st.x, x_prior, gamma);
   ConsistentResult res;
-  res.start_cost = cur.data;
-  double lambda = 1e-3;
+  res.start_cost = st.cur.data;
   Eigen::MatrixXd AD(target.A.rows(), p), H(p, p);
   Eigen::VectorXd g(p);
-  int flat = 0;  // consecutive accepted steps that lowered F by less than tolerance (relative)
   for (int it = 0; it < opt.max_iterations && !res.converged; ++it) {
     res.iterations = it + 1;
-    // Gauss-Newton model of F around x: J_F = [A D; sqrt(gamma) I].
-    AD = target.A;
-    for (int b = 0; b < model.nbodies; ++b) {
-      const int i = model.bodyParamIndex(b);
-      AD.middleCols<kParamsPerBody>(i) = target.A.middleCols<kParamsPerBody>(i) *
-                                         logCholeskyJacobian(x.segment<kParamsPerBody>(i));
-    }
-    H.noalias() = AD.transpose() * AD;
-    H.diagonal().array() += gamma;
-    const Eigen::VectorXd w = target.A.transpose() * cur.r;  // dF/dphi / 2
-    g.noalias() = AD.transpose() * cur.r;
-    g += gamma * (x - x_prior);
-    // Newton, not only Gauss-Newton: the residual at a constrained minimiser is not small (the fit wants an
-    // inconsistent body), and without the curvature of theta -> phi, sum_k w_k d2 phi_k / dtheta2, the
-    // iteration crawls along the boundary. That term per body, by central differences of the exact Jacobian.
-    for (int b = 0; b < model.nbodies; ++b) {
-      const int i = model.bodyParamIndex(b);
-      const Vector10d wb = w.segment<kParamsPerBody>(i);
-      Matrix10d S;
-      const double hstep = 1e-6;
-      for (int j = 0; j < kParamsPerBody; ++j) {
-        Vector10d tp = x.segment<kParamsPerBody>(i), tm = tp;
-        tp[j] += hstep;
-        tm[j] -= hstep;
-        S.col(j) = (logCholeskyJacobian(tp) - logCholeskyJacobian(tm)).transpose() * wb / (2.0 * hstep);
-      }
-      H.block<kParamsPerBody, kParamsPerBody>(i, i) += 0.5 * (S + S.transpose());
-    }
-    if (cur.total == 0.0 || g.norm() <= 1e-300) {
+    newtonModel(model, target, st.x, x_prior, gamma, st.cur, AD, H, g);
+    if (st.cur.total == 0.0 || g.norm() <= 1e-300) {
       res.converged = true;
       break;
     }
-    const double dscale = std::max(H.diagonal().maxCoeff(), 1e-300);
-    // Levenberg-Marquardt: raise the damping until a step lowers F.
-    bool accepted = false;
-    while (!accepted && lambda < 1e16) {
-      Eigen::MatrixXd Hd = H;
-      // Levenberg's damping (lambda I): it shortens the flat directions most, which the trust region needs.
-      Hd.diagonal().array() += lambda * dscale;
-      const Eigen::LLT<Eigen::MatrixXd> llt(Hd);
-      if (llt.info() != Eigen::Success) {  // the Newton model is not convex here: damp more
-        lambda *= 4.0;
-        continue;
-      }
-      const Eigen::VectorXd step = llt.solve(-g);
-      // Trust region in log-Cholesky coordinates: at most a factor e per step. A long Gauss-Newton step
-      // can otherwise jump to a far log-coordinate where the map is flat (e^d ~ 0) and stall there.
-      const double big = step.cwiseAbs().maxCoeff();
-      if (!(big <= opt.max_step)) {
-        lambda *= 4.0;
-        continue;
-      }
-      const Eigen::VectorXd x_new = x + step;
-      Evaluation next = evaluate(model, target, x_new, x_prior, gamma);
-      if (next.total < cur.total) {
-        const double decrease = cur.total - next.total;
-        const bool small_step = step.norm() <= opt.tolerance * (x.norm() + opt.tolerance);
-        flat = decrease <= opt.tolerance * cur.total ? flat + 1 : 0;
-        x = x_new;
-        cur = std::move(next);
-        lambda = std::max(lambda / 3.0, 1e-15);
-        accepted = true;
-        // One flat step can be a heavily damped one on a plateau of the exponential map: ask for several.
-        if (flat >= 5 || small_step || cur.total == 0.0) res.converged = true;
-      } else {
-        lambda *= 4.0;
-      }
-    }
-    if (!accepted) {  // no descent at any damping: x is stationary to working precision
-      res.converged = true;
+    if (!levenbergMarquardtStep(model, target, x_prior, gamma, opt, H, g, st, res.converged)) {
+      res.converged = true;  // no descent at any damping: x is stationary to working precision
       break;
     }
   }
-  res.x = x;
-  res.phi = cur.phi;
-  // A minimiser on the boundary of the consistent set (singular pseudo-inertia) is approached with theta
-  // diverging; keep the verdict robust to round-off by lifting eigenvalues below 1e-10 of the largest.
-  for (int b = 0; b < model.nbodies; ++b) {
-    const int i = model.bodyParamIndex(b);
-    const Eigen::Vector4d l =
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(pseudoInertia(res.phi.segment<kParamsPerBody>(i)),
-                                                       Eigen::EigenvaluesOnly)
-            .eigenvalues();
-    if (!(l.minCoeff() > 1e-10 * l.maxCoeff()))
-      res.phi.segment<kParamsPerBody>(i) = projectBody(res.phi.segment<kParamsPerBody>(i), 1e-10, 1e-12);
-  }
+  res.x = st.x;
+  res.phi = st.cur.phi;
+  liftBoundaryBodies(model, res.phi);
   res.target_cost = (target.A * res.phi - target.b).squaredNorm();
   res.consistency = checkConsistency(model, res.phi);
   return res;

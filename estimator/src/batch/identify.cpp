@@ -40,6 +40,100 @@ LinkVerdict checkLink(const std::string& name, const Eigen::Ref<const Eigen::Mat
   return v;
 }
 
+namespace {
+
+/// The truncation rank z by the options' rule (capped at the numerical rank later); false (why) when the rule
+/// cannot run on this data.
+bool chooseRank(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
+                const IdentifyOptions& o, const LsqAccumulator* validation, const ScaledProblem& sp,
+                const LsqFactor& vfactor, IdentifyResult& out, std::string& why) {
+  const int m = train.baseColumns();
+  switch (o.rank_rule) {
+    case RankRule::Full: out.rank = out.numerical_rank; break;
+    case RankRule::Fixed:
+      if (o.rank < 0 || o.rank > m) return why = "--rank must be in [0, " + std::to_string(m) + "]", false;
+      out.rank = o.rank;
+      break;
+    case RankRule::Validation:
+      if (!validation) return why = "the validation rank rule needs validation data", false;
+      out.curve = rankByValidation(sp, vfactor);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::CrossValidation:
+    case RankRule::CrossValidation1Se:
+      if (train.folds() < 2) return why = "cross-validation needs at least 2 folds", false;
+      out.curve = rankByCrossValidation(train, model, prior, o.method,
+                                        o.rank_rule == RankRule::CrossValidation ? CvRule::Minimum : CvRule::OneStandardError);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::Jackknife:
+      if (train.folds() < 2) return why = "the jackknife needs at least 2 folds", false;
+      out.curve = rankByJackknife(train, model, prior, o.method, o.prior_uncertainty);
+      out.rank = out.curve.best;
+      break;
+    case RankRule::Gcv:
+      out.curve = rankByGcv(sp);
+      out.rank = out.curve.best;
+      break;
+  }
+  return true;
+}
+
+/// -PC: an estimate with an inconsistent link is replaced by the consistent solution at the same rank (rank 0:
+/// the prior, made consistent).
+void makePhysicallyConsistent(const Model& model, const ScaledProblem& sp, const IdentifyOptions& o,
+                              IdentifyResult& out) {
+  bool all = true;
+  for (const LinkConsistency& c : checkConsistency(model, out.phi)) all = all && c.consistent;
+  if (!all && out.rank == 0) {
+    out.phi = projectConsistent(model, out.phi);  // nothing kept: the prior, made consistent
+  } else if (!all) {
+    ConsistentOptions co;
+    co.max_iterations = o.consistent_iterations;
+    const ConsistentResult pc = solveConsistentAtRank(model, sp, out.rank, 3e-2, 1e-6, co);
+    out.consistent_iterations = pc.iterations;
+    out.phi = pc.phi;
+  }
+}
+
+/// Left at the prior: the estimate is the prior's value (the fill and WLS-RC-PC move parameters the kept
+/// directions barely reach, so reach alone overstates what stayed). Weakly excited: the norm of the
+/// parameter's (scaled) unit direction inside span(V_z) is small, yet it moved.
+void classifyExcitation(const ScaledProblem& sp, const Eigen::VectorXd& prior, double excitation_threshold,
+                        IdentifyResult& out) {
+  for (int i = 0; i < static_cast<int>(prior.size()); ++i) {
+    const double reach = out.rank > 0 ? sp.V.row(i).head(out.rank).norm() : 0.0;
+    if (std::abs(out.phi[i] - prior[i]) <= 1e-9 * sp.fill[i]) out.unexcited.push_back(i);
+    else if (reach < excitation_threshold) out.weakly_excited.push_back(i);
+  }
+}
+
+/// Training RMSE (and the data's RMS) over `rows` equations; with validation data its RMSE, the prior's, per
+/// coordinate, and the held-out ratio.
+void reportFit(const LsqAccumulator& train, const LsqAccumulator* validation, const LsqFactor& vfactor,
+               const Eigen::VectorXd& prior, const IdentifyOptions& o, long rows, IdentifyResult& out) {
+  const int m = train.baseColumns(), nv = train.coordinates();
+  {
+    const Eigen::VectorXd xb = out.phi_base;
+    double sse = 0.0, yy = 0.0;
+    for (int c = 0; c < nv; ++c) sse += train.residual(c, xb), yy += train.residual(c, Eigen::VectorXd::Zero(m));
+    out.training_rmse = std::sqrt(sse / rows);
+    out.training_y_rms = std::sqrt(yy / rows);
+  }
+  if (!validation) return;
+  out.validation_rmse = rmse(vfactor, out.phi);
+  out.prior_validation_rmse = rmse(vfactor, prior);
+  const Eigen::VectorXd xb = validation->base().base_map * out.phi;
+  for (int c = 0; c < nv; ++c)
+    out.validation_rmse_per_coordinate.push_back(std::sqrt(validation->residual(c, xb) / std::max<long>(1, validation->rows(c))));
+  if (out.training_rmse > 0.0) {
+    out.heldout_ratio = out.validation_rmse / out.training_rmse;
+    out.data_differ = out.heldout_ratio > o.data_differ_ratio;
+  }
+}
+
+}  // namespace
+
 bool identify(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
               const IdentifyOptions& o, const LsqAccumulator* validation, IdentifyResult& out, std::string* error) {
   auto fail = [&](const std::string& m) {
@@ -68,79 +162,17 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
   if (out.numerical_rank == 0) return fail("the data excite no parameter (every singular value is zero)");
   LsqFactor vfactor;
   if (validation) vfactor = toStandard(validation->mergedBase(), validation->base().base_map);
-  switch (o.rank_rule) {
-    case RankRule::Full: out.rank = out.numerical_rank; break;
-    case RankRule::Fixed:
-      if (o.rank < 0 || o.rank > m) return fail("--rank must be in [0, " + std::to_string(m) + "]");
-      out.rank = o.rank;
-      break;
-    case RankRule::Validation:
-      if (!validation) return fail("the validation rank rule needs validation data");
-      out.curve = rankByValidation(sp, vfactor);
-      out.rank = out.curve.best;
-      break;
-    case RankRule::CrossValidation:
-    case RankRule::CrossValidation1Se:
-      if (train.folds() < 2) return fail("cross-validation needs at least 2 folds");
-      out.curve = rankByCrossValidation(train, model, prior, o.method,
-                                        o.rank_rule == RankRule::CrossValidation ? CvRule::Minimum : CvRule::OneStandardError);
-      out.rank = out.curve.best;
-      break;
-    case RankRule::Jackknife:
-      if (train.folds() < 2) return fail("the jackknife needs at least 2 folds");
-      out.curve = rankByJackknife(train, model, prior, o.method, o.prior_uncertainty);
-      out.rank = out.curve.best;
-      break;
-    case RankRule::Gcv:
-      out.curve = rankByGcv(sp);
-      out.rank = out.curve.best;
-      break;
-  }
+  std::string why;
+  if (!chooseRank(train, model, prior, o, validation, sp, vfactor, out, why)) return fail(why);
   out.rank = std::min(out.rank, out.numerical_rank);
   out.phi = solveAtRank(sp, out.rank);
-  if (o.physically_consistent) {
-    bool all = true;
-    for (const LinkConsistency& c : checkConsistency(model, out.phi)) all = all && c.consistent;
-    if (!all && out.rank == 0) {
-      out.phi = projectConsistent(model, out.phi);  // nothing kept: the prior, made consistent
-    } else if (!all) {
-      ConsistentOptions co;
-      co.max_iterations = o.consistent_iterations;
-      const ConsistentResult pc = solveConsistentAtRank(model, sp, out.rank, 3e-2, 1e-6, co);
-      out.consistent_iterations = pc.iterations;
-      out.phi = pc.phi;
-    }
-  }
+  if (o.physically_consistent) makePhysicallyConsistent(model, sp, o, out);
   out.phi_base = train.base().base_map * out.phi;
   out.condition = out.rank > 0 ? sp.s[0] / sp.s[out.rank - 1] : 1.0;
-  // Left at the prior: the estimate is the prior's value (the fill and WLS-RC-PC move parameters the kept
-  // directions barely reach, so reach alone overstates what stayed). Weakly excited: the norm of the
-  // parameter's (scaled) unit direction inside span(V_z) is small, yet it moved.
-  for (int i = 0; i < p; ++i) {
-    const double reach = out.rank > 0 ? sp.V.row(i).head(out.rank).norm() : 0.0;
-    if (std::abs(out.phi[i] - prior[i]) <= 1e-9 * sp.fill[i]) out.unexcited.push_back(i);
-    else if (reach < o.excitation_threshold) out.weakly_excited.push_back(i);
-  }
+  classifyExcitation(sp, prior, o.excitation_threshold, out);
   for (int b = 0; b < model.nbodies; ++b)
     out.links.push_back(checkLink(model.body_names[b], out.phi.segment<kParamsPerBody>(model.bodyParamIndex(b))));
-  {
-    const Eigen::VectorXd xb = out.phi_base;
-    double sse = 0.0, yy = 0.0;
-    for (int c = 0; c < nv; ++c) sse += train.residual(c, xb), yy += train.residual(c, Eigen::VectorXd::Zero(m));
-    out.training_rmse = std::sqrt(sse / rows);
-    out.training_y_rms = std::sqrt(yy / rows);
-  }
-  if (validation) {
-    out.validation_rmse = rmse(vfactor, out.phi);
-    out.prior_validation_rmse = rmse(vfactor, prior);
-    const Eigen::VectorXd xb = validation->base().base_map * out.phi;
-    for (int c = 0; c < nv; ++c)
-      out.validation_rmse_per_coordinate.push_back(std::sqrt(validation->residual(c, xb) / std::max<long>(1, validation->rows(c))));
-    if (out.training_rmse > 0.0) {
-      out.heldout_ratio = out.validation_rmse / out.training_rmse;
-      out.data_differ = out.heldout_ratio > o.data_differ_ratio;
-    }
-  }
+  reportFit(train, validation, vfactor, prior, o, rows, out);
   return true;
 }
 

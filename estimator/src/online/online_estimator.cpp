@@ -11,6 +11,7 @@
 #include "exoid/estimator/batch/solvers.hpp"
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/inertial.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/signal/filters.hpp"
 
@@ -39,134 +40,171 @@ enum Channel { kStateChannel = kTickState, kRightPlate = kTickPlateRight, kLeftP
 
 }  // namespace
 
+/// The prior on the base parameters and what the standard parameters are computed from.
+struct OnlineEstimator::BasePrior {
+  Eigen::VectorXd var;      ///< [p] prior variance of each standard parameter
+  Eigen::MatrixXd BS;       ///< [m x p] B Sigma
+  Eigen::MatrixXd Sx;       ///< [m x m] B Sigma B^T
+  Eigen::MatrixXd Lambda0;  ///< [m x m] (B Sigma B^T)^-1
+};
+
 OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior_phi,
                                  const OnlineEstimatorOptions& options)
     : model_(model), opt_(options), rls_(RecursiveLsModel{}), kin_(model), fk_(model) {
-  auto fail = [&](const std::string& what) { error_ = what; };  // then return
-  if (!model.floating_base) {
-    fail("the online estimator needs a floating-base model standing on force plates");
+  if (!checkModelAndOptions()) return;
+  dt_ = 1.0 / opt_.sample_hz;
+  if (prior_phi.size() != model.nparams() || !prior_phi.allFinite()) {
+    setError("the prior must have one finite value per parameter");
     return;
   }
-  feet_[0] = model.bodyIndex("right_foot");
-  feet_[1] = model.bodyIndex("left_foot");
+  BasePrior prior;
+  if (!setUpRecursiveLs(base, prior_phi, prior)) return;
+  m_base_ = base.rank;
+  // A diagnose sidecar (docs/estimator.md "Extra columns"): its dynamics effects become parameters m..m+ne-1
+  // (prior 0, sigma = factor x |value|), its gains correct y. Added before the data and the filter are sized,
+  // so the filter runs on E's entries too and the checkpoint structure holds the columns.
+  std::vector<double> effect_sigma;
+  if (!opt_.effects.effects.empty() && !addEffectColumns(effect_sigma)) return;
+  rls_ = RecursiveLsData(rls_model_);
+  adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
+  initial_weights_ = rls_model_.row_weight;
+  filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
+  initStandardParameters(base, prior_phi, prior, effect_sigma);
+  sizeWorkspace();
+}
+
+void OnlineEstimator::setError(const std::string& what) { error_ = what; }
+
+bool OnlineEstimator::checkModelAndOptions() {
+  if (!model_.floating_base) {
+    setError("the online estimator needs a floating-base model standing on force plates");
+    return false;
+  }
+  feet_[0] = model_.bodyIndex("right_foot");
+  feet_[1] = model_.bodyIndex("left_foot");
   if (feet_[0] < 0 || feet_[1] < 0) {
-    fail("the model needs right_foot and left_foot links (the plates' bodies)");
-    return;
+    setError("the model needs right_foot and left_foot links (the plates' bodies)");
+    return false;
   }
-  footholds_ = defaultFootholds(model);
+  footholds_ = defaultFootholds(model_);
   if (footholds_.empty()) {
-    fail("the model needs right_sole / left_sole frames (base position from the legs)");
-    return;
+    setError("the model needs right_sole / left_sole frames (base position from the legs)");
+    return false;
   }
   if (opt_.filter_order < 2 || opt_.filter_order > Biquad::kMaxOrder || opt_.filter_order % 2 != 0) {
-    fail("filter order " + std::to_string(opt_.filter_order) + ": must be even, 2 to " + std::to_string(Biquad::kMaxOrder));
-    return;
+    setError("filter order " + std::to_string(opt_.filter_order) + ": must be even, 2 to " + std::to_string(Biquad::kMaxOrder));
+    return false;
   }
   if (opt_.derivative_half_window < 1 || opt_.derivative_half_window > 500) {
-    fail("derivative half window " + std::to_string(opt_.derivative_half_window) + ": must be 1 to 500 ticks");
-    return;
+    setError("derivative half window " + std::to_string(opt_.derivative_half_window) + ": must be 1 to 500 ticks");
+    return false;
   }
   if (opt_.gyro_half_window < 1 || opt_.gyro_half_window > 500) {
-    fail("gyro half window " + std::to_string(opt_.gyro_half_window) + ": must be 1 to 500 ticks");
-    return;
+    setError("gyro half window " + std::to_string(opt_.gyro_half_window) + ": must be 1 to 500 ticks");
+    return false;
   }
   if (!(opt_.sample_hz > 0.0 && std::isfinite(opt_.sample_hz))) {
-    fail("sample rate must be > 0");
-    return;
+    setError("sample rate must be > 0");
+    return false;
   }
   if (!(opt_.prior_relative > 0.0 && std::isfinite(opt_.prior_relative))) {
-    fail("prior uncertainty must be > 0");
-    return;
+    setError("prior uncertainty must be > 0");
+    return false;
   }
   if (opt_.forget_every < 1 || opt_.uncertainty_every < 1) {
-    fail("forget_every and uncertainty_every must be >= 1");
-    return;
+    setError("forget_every and uncertainty_every must be >= 1");
+    return false;
   }
   if (!(opt_.block_threshold > 0.0) || !(opt_.excited_gain > 0.0) ||
       !(opt_.min_excitation >= 0.0 && opt_.min_excitation <= 1.0))
     {
-    fail("block threshold and excited gain must be > 0, minimum excitation in [0, 1]");
-    return;
+    setError("block threshold and excited gain must be > 0, minimum excitation in [0, 1]");
+    return false;
   }
-  dt_ = 1.0 / opt_.sample_hz;
-  const int p = model.nparams(), m = base.rank, nv = model.nv;
-  if (prior_phi.size() != p || !prior_phi.allFinite()) {
-    fail("the prior must have one finite value per parameter");
-    return;
-  }
+  return true;
+}
 
+bool OnlineEstimator::setUpRecursiveLs(const BaseParameters& base, const Eigen::VectorXd& prior_phi,
+                                       BasePrior& prior) {
+  const Model& model = model_;
+  const int m = base.rank;
   // Prior on the standard parameters: independent, sigma_i = relative * h_i (h the WLS-C scale: |prior|, zero
   // priors their kind's). On x = B phi it is N(B phi_prior, B Sigma B^T): Lambda0 = (B Sigma B^T)^-1.
-  const Eigen::VectorXd var = (opt_.prior_relative * columnScale(model, prior_phi)).cwiseAbs2();
-  const Eigen::MatrixXd BS = base.base_map * var.asDiagonal();  // [m x p]
-  const Eigen::MatrixXd Sx = BS * base.base_map.transpose();
-  Eigen::LLT<Eigen::MatrixXd> sx(Sx);
+  prior.var = (opt_.prior_relative * columnScale(model, prior_phi)).cwiseAbs2();
+  prior.BS = base.base_map * prior.var.asDiagonal();  // [m x p]
+  prior.Sx = prior.BS * base.base_map.transpose();
+  Eigen::LLT<Eigen::MatrixXd> sx(prior.Sx);
   if (sx.info() != Eigen::Success) {
-    fail("prior covariance of the base parameters is not positive definite");
-    return;
+    setError("prior covariance of the base parameters is not positive definite");
+    return false;
   }
-  Eigen::MatrixXd Lambda0 = sx.solve(Eigen::MatrixXd::Identity(m, m));
+  Eigen::MatrixXd& Lambda0 = prior.Lambda0;
+  Lambda0 = sx.solve(Eigen::MatrixXd::Identity(m, m));
   Lambda0 = 0.5 * (Lambda0 + Lambda0.transpose());
   RecursiveLsOptions ro;
   ro.forgetting = opt_.forgetting == Forgetting::Stabilised ? opt_.lambda : 1.0;
   ro.row_weight = opt_.row_weight;
   if (!(opt_.lambda > 0.0 && opt_.lambda <= 1.0)) {
-    fail("forgetting factor must be in (0, 1]");
-    return;
+    setError("forgetting factor must be in (0, 1]");
+    return false;
   }
   if (opt_.change_threshold > 0.0 &&
       !(opt_.change_window_s > 0.0 && opt_.change_baseline_s > 0.0 && opt_.change_hold_s >= 0.0 &&
         opt_.change_keep > 0.0 && opt_.change_keep <= 1.0)) {
-    fail("change detection: window and baseline must be > 0, hold >= 0, keep in (0, 1]");
-    return;
+    setError("change detection: window and baseline must be > 0, hold >= 0, keep in (0, 1]");
+    return false;
   }
   std::string err;
   if (!makeRecursiveLs(model, base, prior_phi, Lambda0, ro, rls_model_, &err)) {
-    fail(err);
-    return;
+    setError(err);
+    return false;
   }
-  m_base_ = m;
-  // A diagnose sidecar (docs/estimator.md "Extra columns"): its dynamics effects become parameters m..m+ne-1
-  // (prior 0, sigma = factor x |value|), its gains correct y. Added before the data and the filter are sized,
-  // so the filter runs on E's entries too and the checkpoint structure holds the columns.
-  std::vector<double> effect_sigma;
-  if (!opt_.effects.effects.empty()) {
-    if (!(opt_.effect_prior_factor > 0.0 && std::isfinite(opt_.effect_prior_factor))) {
-      fail("effect prior factor must be > 0");
-      return;
-    }
-    std::vector<int> rows;
-    for (const Effect& e : opt_.effects.effects) {
-      if (e.joint < 0 || e.joint >= model.njoints || !std::isfinite(e.value)) {
-        fail("effects: a joint index outside the model or a non-finite value");
-        return;
-      }
-      if (e.kind == EffectKind::Delay) {
-        fail(std::string("effects: a time delay (") + model.joint_names[e.joint] +
-             ") needs the torque's future; the online estimator cannot apply it (remove it from the sidecar)");
-        return;
-      }
-      if (isMeasurementEffect(e.kind)) continue;
-      rows.push_back(model.jointRow(e.joint));
-      effect_sigma.push_back(opt_.effect_prior_factor * std::fabs(e.value) + 1e-6);
-      // Armature multiplies the acceleration, which tau_correction leaves out of the rigid part too (below).
-      ff_effect_.push_back(e.kind == EffectKind::Armature ? 0 : 1);
-    }
-    if (!addExtraColumns(rls_model_, rows, Eigen::Map<const Eigen::VectorXd>(effect_sigma.data(), effect_sigma.size()),
-                         &err)) {
-      fail(err);
-      return;
-    }
-    ne_ = static_cast<int>(rows.size());
-    effect_row_ = rows;
-    effects_ = true;
+  return true;
+}
+
+bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
+  std::string err;
+  if (!(opt_.effect_prior_factor > 0.0 && std::isfinite(opt_.effect_prior_factor))) {
+    setError("effect prior factor must be > 0");
+    return false;
   }
-  rls_ = RecursiveLsData(rls_model_);
-  adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
-  initial_weights_ = rls_model_.row_weight;
-  filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
+  std::vector<int> rows;
+  for (const Effect& e : opt_.effects.effects) {
+    if (e.joint < 0 || e.joint >= model_.njoints || !std::isfinite(e.value)) {
+      setError("effects: a joint index outside the model or a non-finite value");
+      return false;
+    }
+    if (e.kind == EffectKind::Delay) {
+      setError(std::string("effects: a time delay (") + model_.joint_names[e.joint] +
+               ") needs the torque's future; the online estimator cannot apply it (remove it from the sidecar)");
+      return false;
+    }
+    if (isMeasurementEffect(e.kind)) continue;
+    rows.push_back(model_.jointRow(e.joint));
+    effect_sigma.push_back(opt_.effect_prior_factor * std::fabs(e.value) + 1e-6);
+    // Armature multiplies the acceleration, which tau_correction leaves out of the rigid part too (below).
+    ff_effect_.push_back(e.kind == EffectKind::Armature ? 0 : 1);
+  }
+  if (!addExtraColumns(rls_model_, rows, Eigen::Map<const Eigen::VectorXd>(effect_sigma.data(), effect_sigma.size()),
+                       &err)) {
+    setError(err);
+    return false;
+  }
+  ne_ = static_cast<int>(rows.size());
+  effect_row_ = rows;
+  effects_ = true;
+  return true;
+}
+
+void OnlineEstimator::initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi,
+                                             const BasePrior& prior, const std::vector<double>& effect_sigma) {
+  const Model& model = model_;
+  const int p = model.nparams(), m = base.rank;
+  const Eigen::VectorXd& var = prior.var;
+  const Eigen::MatrixXd& BS = prior.BS;
+  const Eigen::MatrixXd& Lambda0 = prior.Lambda0;
   prior_sigma_ = Eigen::VectorXd::Zero(m + ne_);
-  prior_sigma_.head(m) = Sx.diagonal().cwiseSqrt();
+  prior_sigma_.head(m) = prior.Sx.diagonal().cwiseSqrt();
   for (int e = 0; e < ne_; ++e) prior_sigma_[m + e] = effect_sigma[e];
   // Standard parameters from base parameters: the conditional mean of the prior given x (the same prior),
   // phi = phi_prior + G (x - x0), G = Sigma B^T Lambda0 (B G = I: the base parameters are reproduced exactly);
@@ -194,7 +232,11 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
     phi_c_ = prior_phi;
     d_ = u_m_ = Eigen::VectorXd::Zero(m);
   }
+}
 
+void OnlineEstimator::sizeWorkspace() {
+  const Model& model = model_;
+  const int p = model.nparams(), m = m_base_, nv = model.nv;
   const int mx = m + ne_;  // the estimated parameters: base, then effects
   R_ = Eigen::MatrixXd::Zero(mx, mx);
   dD_ = R1_ = Y_ = M_ = R_;
@@ -487,100 +529,22 @@ void OnlineEstimator::prepare(EstimatorOutputSample& out) const {
 }
 
 void OnlineEstimator::publish(EstimatorOutputSample& out) {
-  const int nv = model_.nv;
   const bool selective = opt_.forgetting == Forgetting::Selective;
-  // WLS-R (thesis eqs. 29-32) online: sigma_c from the previous solve's residuals over the whole memory. The
-  // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history.
-  if (adaptive_weights_ && rls_.solves > 0 && rls_.effective_samples > 0.0) {
-    for (int c = 0; c < nv; ++c) {
-      const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
-      rls_model_.row_weight[c] = 1.0 / std::max(rls_.residual_rms[c], 1e-6 * y_rms + 1e-12);
-    }
-  }
+  updateRowWeights();
   // The covariance costs m^3 (most of a publication): every uncertainty_every-th one, the stddevs kept between.
   const bool uncertainty = publications_++ % opt_.uncertainty_every == 0;
   const bool solved = selective ? solveRecursiveLs(rls_model_, rls_, uncertainty, &R_, &r_)
                                 : solveRecursiveLs(rls_model_, rls_, uncertainty);
-  // Residual RMS over the estimate's memory (selective: earlier blocks carried, forgetting-weighted).
-  if (selective) {
-    const double n = n_carry_ + rls_.effective_samples;
-    for (int c = 0; c < nv; ++c)
-      out.residual_rms[c] = n > 0.0 ? std::sqrt((rss_carry_[c] + rls_.residual_rms[c] * rls_.residual_rms[c] *
-                                                                     rls_.effective_samples) / n)
-                                    : 0.0;
-    out.effective_samples = n;
-  } else {
-    out.residual_rms = rls_.residual_rms;
-    out.effective_samples = rls_.effective_samples;
-  }
-  // Standard parameters and their uncertainty: phi = phi_prior + G (x - x0), var = diag(G C G^T) + var0.
-  dx_ = rls_.x - rls_model_.x0;
-  phi_.noalias() = G_ * dx_.head(m_base_);
-  phi_ += phi_prior_;
-  if (uncertainty) {
-    GC_.noalias() = G_ * rls_.covariance.topLeftCorner(m_base_, m_base_);  // marginal over the effect columns
-    for (int i = 0; i < phi_.size(); ++i)
-      param_stddev_[i] = std::sqrt(std::max(0.0, GC_.row(i).dot(G_.row(i)) + phi_var0_[i]));
-  }
-  out.param_stddev = param_stddev_;
-  out.params = phi_;
-  out.base_params = rls_.x;
-  out.base_stddev = rls_.sigma;
-  // Excitation: fraction of base parameters whose variance the data cut to 1 / (1 + excited_gain) of the prior's.
-  // (Over the rigid model's base parameters: the effect columns are reported in base_params but not counted.)
-  int excited = 0;
-  for (int j = 0; j < m_base_; ++j)
-    if (prior_sigma_[j] * prior_sigma_[j] >= (1.0 + opt_.excited_gain) * rls_.sigma[j] * rls_.sigma[j]) ++excited;
-  out.excitation = m_base_ > 0 ? static_cast<double>(excited) / m_base_ : 0.0;
-  // Consistency: the conditional mean reproduces x exactly (B G = I), so when its every link passes the
-  // pseudo-inertia test it is the consistent answer; otherwise the last reconcile()'s phi_c, judged by its misfit.
-  bool mean_ok = true;
-  for (int b = 0; b < model_.nbodies; ++b)
-    mean_ok = mean_ok &&
-              checkConsistency(Vector10d(phi_.segment<kParamsPerBody>(model_.bodyParamIndex(b)))).consistent;
-  bool consistent = mean_ok;
-  chi2_ = ratio_ = 0.0;
-  if (!mean_ok && have_phi_c_ && solved) {
-    out.params = phi_c_;
-    consistent = links_ok_ && misfit(out.residual_rms, out.effective_samples);
-  }
+  reportResidualRms(selective, out);
+  standardParameters(uncertainty, out);
+  out.excitation = excitation();
+  const bool consistent = judgeConsistency(solved, out);
   out.consistent = consistent;
   // tau_correction = K(q, 0, 0)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed configuration
   // (gravity terms only): the estimator does not know the controller's desired acceleration, and the measured
   // one (encoders differenced twice) is the noisiest signal it has.
-  if (has_state_) {
-    ff_state_ = state_;
-    // Velocity terms left out too: at the protocol's slow moves they are small, and the Coulomb friction column
-    // sign(v) at the twice-noisy differenced velocity near standstill flips at random, which put ~0.8 N m of
-    // noise into every joint's tau_correction (measured: 4x the controller's joint-torque prediction error).
-    ff_state_.v.setZero();
-    ff_state_.base_omega.setZero();
-    ff_state_.base_velocity.setZero();
-    ff_state_.a.setZero();
-    ff_state_.base_domega.setZero();
-    ff_state_.base_acceleration.setZero();
-    computeJointTorqueRegressor(model_, kin_, ff_state_);
-    dx_.head(m_base_) = rls_.x.head(m_base_) - x_model_;
-    for (int c = 0; c < nv; ++c) {
-      double sum = 0.0;
-      for (int j : rls_model_.active[c]) {
-        if (j >= m_base_) break;  // active sets are sorted: the effect columns come last
-        sum += kin_.K(c, rls_model_.independent[j]) * dx_[j];
-      }
-      out.tau_correction[c] = sum;
-    }
-    // The sidecar's effects, which the controller's model lacks entirely: each column as the estimator last
-    // filtered it (F(E), the sample of `tick`: the smoothed velocity's friction, the offset) times its estimate.
-    // Armature is left out, like the rigid part's acceleration terms.
-    const int p = model_.nparams();
-    for (int e = 0; e < ne_; ++e) {
-      if (!ff_effect_[e]) continue;
-      const int r = effect_row_[e];
-      out.tau_correction[r] += Kf_(r, p + e) * rls_.x[m_base_ + e];
-    }
-  } else {
-    out.tau_correction.setZero();
-  }
+  if (has_state_) feedforwardTorque(out);
+  else out.tau_correction.setZero();
   out.tick = row_tick_ >= 0 ? row_tick_ : 0;
   out.samples_used = rls_.accepted;
   out.rejected_nonfinite = static_cast<int32_t>(rejected_[static_cast<int>(InputStatus::NonFinite)] +
@@ -596,6 +560,108 @@ void OnlineEstimator::publish(EstimatorOutputSample& out) {
   out.valid = valid_rest_ && consistent;
   since_publication_ = 0;
   if (selective && block_samples_ >= opt_.forget_every) fold();
+}
+
+void OnlineEstimator::updateRowWeights() {
+  const int nv = model_.nv;
+  // WLS-R (thesis eqs. 29-32) online: sigma_c from the previous solve's residuals over the whole memory. The
+  // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history.
+  if (adaptive_weights_ && rls_.solves > 0 && rls_.effective_samples > 0.0) {
+    for (int c = 0; c < nv; ++c) {
+      const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
+      rls_model_.row_weight[c] = 1.0 / std::max(rls_.residual_rms[c], 1e-6 * y_rms + 1e-12);
+    }
+  }
+}
+
+void OnlineEstimator::reportResidualRms(bool selective, EstimatorOutputSample& out) const {
+  const int nv = model_.nv;
+  // Residual RMS over the estimate's memory (selective: earlier blocks carried, forgetting-weighted).
+  if (selective) {
+    const double n = n_carry_ + rls_.effective_samples;
+    for (int c = 0; c < nv; ++c)
+      out.residual_rms[c] = n > 0.0 ? std::sqrt((rss_carry_[c] + rls_.residual_rms[c] * rls_.residual_rms[c] *
+                                                                     rls_.effective_samples) / n)
+                                    : 0.0;
+    out.effective_samples = n;
+  } else {
+    out.residual_rms = rls_.residual_rms;
+    out.effective_samples = rls_.effective_samples;
+  }
+}
+
+void OnlineEstimator::standardParameters(bool uncertainty, EstimatorOutputSample& out) {
+  // Standard parameters and their uncertainty: phi = phi_prior + G (x - x0), var = diag(G C G^T) + var0.
+  dx_ = rls_.x - rls_model_.x0;
+  phi_.noalias() = G_ * dx_.head(m_base_);
+  phi_ += phi_prior_;
+  if (uncertainty) {
+    GC_.noalias() = G_ * rls_.covariance.topLeftCorner(m_base_, m_base_);  // marginal over the effect columns
+    for (int i = 0; i < phi_.size(); ++i)
+      param_stddev_[i] = std::sqrt(std::max(0.0, GC_.row(i).dot(G_.row(i)) + phi_var0_[i]));
+  }
+  out.param_stddev = param_stddev_;
+  out.params = phi_;
+  out.base_params = rls_.x;
+  out.base_stddev = rls_.sigma;
+}
+
+double OnlineEstimator::excitation() const {
+  // Excitation: fraction of base parameters whose variance the data cut to 1 / (1 + excited_gain) of the prior's.
+  // (Over the rigid model's base parameters: the effect columns are reported in base_params but not counted.)
+  int excited = 0;
+  for (int j = 0; j < m_base_; ++j)
+    if (prior_sigma_[j] * prior_sigma_[j] >= (1.0 + opt_.excited_gain) * rls_.sigma[j] * rls_.sigma[j]) ++excited;
+  return m_base_ > 0 ? static_cast<double>(excited) / m_base_ : 0.0;
+}
+
+bool OnlineEstimator::judgeConsistency(bool solved, EstimatorOutputSample& out) {
+  // Consistency: the conditional mean reproduces x exactly (B G = I), so when its every link passes the
+  // pseudo-inertia test it is the consistent answer; otherwise the last reconcile()'s phi_c, judged by its misfit.
+  bool mean_ok = true;
+  for (int b = 0; b < model_.nbodies; ++b)
+    mean_ok = mean_ok &&
+              checkConsistency(Vector10d(phi_.segment<kParamsPerBody>(model_.bodyParamIndex(b)))).consistent;
+  bool consistent = mean_ok;
+  chi2_ = ratio_ = 0.0;
+  if (!mean_ok && have_phi_c_ && solved) {
+    out.params = phi_c_;
+    consistent = links_ok_ && misfit(out.residual_rms, out.effective_samples);
+  }
+  return consistent;
+}
+
+void OnlineEstimator::feedforwardTorque(EstimatorOutputSample& out) {
+  const int nv = model_.nv;
+  ff_state_ = state_;
+  // Velocity terms left out too: at the protocol's slow moves they are small, and the Coulomb friction column
+  // sign(v) at the twice-noisy differenced velocity near standstill flips at random, which put ~0.8 N m of
+  // noise into every joint's tau_correction (measured: 4x the controller's joint-torque prediction error).
+  ff_state_.v.setZero();
+  ff_state_.base_omega.setZero();
+  ff_state_.base_velocity.setZero();
+  ff_state_.a.setZero();
+  ff_state_.base_domega.setZero();
+  ff_state_.base_acceleration.setZero();
+  computeJointTorqueRegressor(model_, kin_, ff_state_);
+  dx_.head(m_base_) = rls_.x.head(m_base_) - x_model_;
+  for (int c = 0; c < nv; ++c) {
+    double sum = 0.0;
+    for (int j : rls_model_.active[c]) {
+      if (j >= m_base_) break;  // active sets are sorted: the effect columns come last
+      sum += kin_.K(c, rls_model_.independent[j]) * dx_[j];
+    }
+    out.tau_correction[c] = sum;
+  }
+  // The sidecar's effects, which the controller's model lacks entirely: each column as the estimator last
+  // filtered it (F(E), the sample of `tick`: the smoothed velocity's friction, the offset) times its estimate.
+  // Armature is left out, like the rigid part's acceleration terms.
+  const int p = model_.nparams();
+  for (int e = 0; e < ne_; ++e) {
+    if (!ff_effect_[e]) continue;
+    const int r = effect_row_[e];
+    out.tau_correction[r] += Kf_(r, p + e) * rls_.x[m_base_ + e];
+  }
 }
 
 bool OnlineEstimator::misfit(const Eigen::VectorXd& rms, double effective_samples) {

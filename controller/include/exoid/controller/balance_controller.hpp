@@ -118,7 +118,7 @@ class BalanceController {
   const QpProblem& problem() const { return qp_; }
   const QpResult& result() const { return result_; }
   const CoMReference& reference() const { return ref_; }
-  const Vector6d& desiredMomentumRate() const { return rate_desired_; }
+  const LinearAngular6d& desiredMomentumRate() const { return rate_desired_; }
   const DisturbanceObserver& disturbanceObserver() const { return disturbance_; }
   /// Trajectory duration (s), known once the trajectory is generated (at the end of the start-up latch).
   double trajectoryDuration() const { return trajectory_.ready() ? trajectory_.duration() : 0.0; }
@@ -131,6 +131,19 @@ class BalanceController {
   void updateDynamics(const State& state);  // model dynamics, then the blend toward the estimate
   void advanceEstimateBlend(int64_t tick);
   void fallbackTorque(JointCommandSample& out);
+  // The stages of tick(), in order:
+  /// Validates the state sample and feeds the observer; `fresh` when it was taken. Returns why the tick
+  /// falls back so far (None, InvalidInput, OutOfOrder, Stale).
+  FallbackReason acceptState(const RobotStateSample& in, bool& fresh);
+  /// The CoM reference of the tick: the trajectory once the feet are latched, else the current CoM held.
+  void updateReference(int64_t tick, ControllerStatus& status);
+  /// Disturbance estimate, the QP, and tau_cmd_ from its solution; false (reason set) when the QP failed.
+  bool computeTorque(FallbackReason& reason, ControllerStatus& status);
+  /// Reference, momentum, the QP's contact wrenches and the trajectory's progress into the status.
+  void reportTaskState(bool qp_ok, ControllerStatus& status) const;
+  /// Torque mode (the solution becomes the last safe command) or the fallback (Recovering while a latched
+  /// damping waits for recovery_ticks good ticks).
+  void selectMode(FallbackReason& reason, JointCommandSample& out);
 
   const Model& model_;
   ControllerConfig cfg_;
@@ -153,7 +166,7 @@ class BalanceController {
   QpResult result_;
 
   CoMReference ref_;
-  Vector6d rate_desired_ = Vector6d::Zero();
+  LinearAngular6d rate_desired_ = LinearAngular6d::Zero();
   Eigen::VectorXd dnu_desired_, dnu_weights_;
   Eigen::VectorXd tau_gen_;      // [nv] generalized force of the solution
   Eigen::VectorXd tau_cmd_;      // [njoints] command being built

@@ -64,6 +64,13 @@ class BaseStateObserver {
 
  private:
   void footKinematics();  // fills sole_b_, Rsole_b_, J_ for the current q
+  // The stages of update(), in order:
+  /// Orientation (gyro prediction corrected toward the IMU's, complementary) and angular velocity, base frame.
+  void updateOrientation(const RobotStateSample& sample, bool first, double dt);
+  /// Joint positions, and velocities by filtered differences over dt.
+  void updateJoints(const RobotStateSample& sample, bool first, double dt);
+  /// Base position and linear velocity from the stationary soles (latched at the end of the start-up window).
+  void updateBaseFromSoles();
 
   const Model& model_;
   ObserverConfig cfg_;

@@ -38,7 +38,7 @@ class BalanceFormulation {
   const Eigen::VectorXd& torqueLimits() const { return tau_max_; }
 
   /// Fills `qp` (sized with dimensions()). Allocation-free.
-  void build(const RobotDynamicsData& dyn, const Vector6d& momentum_rate_desired, const Vector6d& momentum_weights,
+  void build(const RobotDynamicsData& dyn, const LinearAngular6d& momentum_rate_desired, const LinearAngular6d& momentum_weights,
              const Eigen::VectorXd& dnu_desired, const Eigen::VectorXd& dnu_weights,
              const ContactSixD& right, const ContactSixD& left, QpProblem& qp);
 
@@ -49,6 +49,22 @@ class BalanceFormulation {
   int droppedContactDirections() const { return dropped_; }
 
  private:
+  // The blocks of build(), each a part of the QP (x = [dnu (nv); f_right (6); f_left (6)]):
+  /// Cost: posture/regularization on dnu and the momentum task on the contact wrenches,
+  /// H_ff = A_f^T W A_f + w_f I, g_f = -A_f^T W target (target: the desired rate less gravity and -tau_ff).
+  void buildCost(const RobotDynamicsData& dyn, const LinearAngular6d& momentum_rate_desired,
+                 const LinearAngular6d& momentum_weights, const Eigen::VectorXd& dnu_desired,
+                 const Eigen::VectorXd& dnu_weights, QpProblem& qp);
+  /// Equalities: the unactuated rows of M dnu + h + tau_ff = Jc^T f. Returns their number.
+  int buildUnactuatedDynamics(const RobotDynamicsData& dyn, QpProblem& qp) const;
+  /// Equalities after the first nu_rows: Jc dnu = rhs in the eigenbasis of Jc Jc^T (gauge rows where rank-deficient).
+  void buildStationarySoles(const RobotDynamicsData& dyn, const ContactSixD& right, const ContactSixD& left,
+                            int nu_rows, QpProblem& qp);
+  /// Inequalities: each sole's friction pyramid, CoP and normal-force bounds.
+  void buildContactWrenchLimits(const ContactSixD& right, const ContactSixD& left, QpProblem& qp);
+  /// Inequalities: |M dnu + h + tau_ff - Jc^T f| <= tau_max on the actuated rows.
+  void buildTorqueLimits(const RobotDynamicsData& dyn, QpProblem& qp) const;
+
   int nv_;
   double force_weight_;
   double range_tolerance_;

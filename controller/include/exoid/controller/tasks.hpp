@@ -21,11 +21,11 @@ class MomentumTask {
   explicit MomentumTask(const MomentumTaskConfig& config);
 
   /// Desired momentum rate for the reference `ref` and the current estimate in `dyn`. Allocation-free.
-  void compute(const CoMReference& ref, const RobotDynamicsData& dyn, Vector6d& desired_rate) const;
+  void compute(const CoMReference& ref, const RobotDynamicsData& dyn, LinearAngular6d& desired_rate) const;
   /// A_f (6 x 12) for the sole positions and the CoM in `dyn`.
   static void wrenchMap(const RobotDynamicsData& dyn, Eigen::Matrix<double, 6, 12>& A);
   /// Cost weights, [linear; angular].
-  Vector6d weights() const;
+  LinearAngular6d weights() const;
 
  private:
   MomentumTaskConfig cfg_;
@@ -67,7 +67,7 @@ class ContactSixD {
   const Eigen::Matrix3d& referenceRotation() const { return R_ref_; }
 
   /// Right-hand side of Jc dnu = rhs (world [linear; angular]). Allocation-free.
-  void motionRhs(const RobotDynamicsData& dyn, Vector6d& rhs) const;
+  void motionRhs(const RobotDynamicsData& dyn, LinearAngular6d& rhs) const;
   /// Rows on the world wrench [F; M] and their bounds (infinite where one-sided). Allocation-free.
   void wrenchConstraints(InequalityMatrix& C, InequalityVector& lower, InequalityVector& upper) const;
 

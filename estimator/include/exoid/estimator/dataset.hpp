@@ -173,7 +173,27 @@ class DatasetBuilder {
   int margin() const { return margin_; }
 
  private:
+  /// One block of buffer_ to rows: filters designed, signals filtered and differentiated, orientation fused,
+  /// regressor rows emitted, history kept. The stages below, in that order.
   bool processBlock(bool last, std::string* error);
+  struct BlockSignals;
+  /// The filters for the window's median step, the lookahead they need (want) and edge_ (trim_edges); false
+  /// on a cutoff at or above Nyquist.
+  bool designFilters(BlockSignals& b, int& want, std::string* error);
+  /// q, v, a [n x nj]: measured (filtered) or differentiated (filterAndDifferentiate / Savitzky-Golay).
+  void jointSignals(BlockSignals& b) const;
+  /// Floating base: omega, domega (measured or differentiated) and the classical acceleration [n x 3].
+  void baseSignals(BlockSignals& b) const;
+  /// The base orientation from the legs (R_ws of the soles from the first 1000 samples) with the IMU's
+  /// low-passed correction; the accelerometer's gravity term re-based on it.
+  void fuseOrientation(BlockSignals& b);
+  /// trim_edges: false for the run's first edge_ samples and, in the last block, its last edge_ (counted).
+  bool keepSample(int i, int n, bool last);
+  void setSensorTorque(const Eigen::VectorXd& tau);  ///< joint torques into sensor_torque_ [nv]
+  /// K and y of every sample to emit (or, parallel filtering, of the whole window into Kall_, Yall_, Tall_).
+  void regressWindow(const BlockSignals& b, bool last, int emit_end);
+  /// Parallel filtering: W, y and tau of the window filtered column by column, [head_, emit_end) emitted.
+  void emitFilteredWindow(const BlockSignals& b, bool last, int emit_end);
   const Model& model_;
   DatasetOptions opt_;
   RowSink sink_;

@@ -37,20 +37,6 @@ void crba(const Model& model, DynamicsData& out, const State& state);
 /// The same for an arbitrary parameter vector phi [nparams] (e.g. an estimate; friction entries unused).
 void crba(const Model& model, const Eigen::VectorXd& phi, DynamicsData& out, const State& state);
 
-/// Geometric Jacobian of a point fixed on a body (reference coordinates): J [6 x nv], rows
-/// [angular velocity; linear velocity of the point], so that [omega; v_point] = J nu. Requires a prior
-/// forwardKinematics (or rnea/crba) on out.kin for the same q. point_in_body: point in body coordinates.
-void computePointJacobian(const Model& model, const Data& kin, int body, const Eigen::Vector3d& point_in_body,
-                          Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> J);
-
-/// Classical acceleration drift of a body point: [angular acc; linear acc of the point] at dnu = 0 and no
-/// gravity, i.e. dJ nu, so that the point's acceleration is J dnu + drift. Uses kin computed for the
-/// state with zero accelerations; call forwardKinematicsDrift first.
-Eigen::Matrix<double, 6, 1> pointAccelerationDrift(const Data& kin, int body, const Eigen::Vector3d& point_in_body);
-
-/// Forward kinematics at zero acceleration and zero gravity (velocity-product terms only).
-void forwardKinematicsDrift(const Model& model, Data& kin, const State& state);
-
 /// Mass, centre of mass and total spatial momentum about the reference origin (reference coordinates).
 /// Requires forwardKinematics on out.kin. Allocation-free.
 void centroidal(const Model& model, DynamicsData& out);

@@ -3,12 +3,6 @@
 
 namespace exoid {
 
-/// Kinematics of every body in the reference frame (base frame if floating, root frame if fixed):
-/// rotations, origins, joint axes, angular velocity/acceleration and the classical acceleration of each
-/// origin minus gravity, by one forward pass over the tree. Gravity enters as an upward acceleration of the
-/// root: acc_root = a_base - R_wb^T g (floating) or -g (fixed). Allocation-free.
-void forwardKinematics(const Model& model, Data& data, const State& state);
-
 /// Joint torque regressor K(q, v, dv) of the seed thesis, eqs. (10)-(14) with the friction columns of
 /// eqs. (2.48)-(2.49): K * phi = generalized force, for the parameters phi of Model::phi.
 ///

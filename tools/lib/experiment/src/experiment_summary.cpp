@@ -8,6 +8,7 @@
 
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/tools/run_table.hpp"
 

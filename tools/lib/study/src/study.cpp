@@ -21,6 +21,7 @@
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/estimator/metrics.hpp"
 #include "exoid/model/inertial.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/signal/filters.hpp"

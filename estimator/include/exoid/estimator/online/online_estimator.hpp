@@ -190,6 +190,32 @@ class OnlineEstimator {
     Eigen::Vector3d plate_position[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     Eigen::Matrix3d foot_rotation[2] = {Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity()};  ///< R_bf(q)
   };
+  // Set-up (the constructor's stages, in order); each failure sets error_ and returns false.
+  struct BasePrior;
+  void setError(const std::string& what);
+  /// The model (floating base, feet, soles) and the options' ranges.
+  bool checkModelAndOptions();
+  /// The prior on the base parameters, Lambda0 = (B Sigma B^T)^-1, and the recursive LS model on it.
+  bool setUpRecursiveLs(const BaseParameters& base, const Eigen::VectorXd& prior_phi, BasePrior& prior);
+  /// The sidecar's dynamics effects as extra columns (prior 0, sigma = factor x |value| + 1e-6).
+  bool addEffectColumns(std::vector<double>& effect_sigma);
+  /// phi = phi_prior + G (x - x0) with G = Sigma B^T Lambda0, its variance floor, and reconcile()'s prior rows.
+  void initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi, const BasePrior& prior,
+                              const std::vector<double>& effect_sigma);
+  void sizeWorkspace();  ///< every per-sample buffer, so that the loop does not allocate
+  // publish()'s stages, in order:
+  /// WLS-R online: each row's weight 1 / sigma_c from the previous solve's residuals over the whole memory.
+  void updateRowWeights();
+  /// Residual RMS and effective samples over the estimate's memory (selective: earlier blocks carried).
+  void reportResidualRms(bool selective, EstimatorOutputSample& out) const;
+  /// phi and its stddev (recomputed when `uncertainty`) into out.params, param_stddev, base_params, base_stddev.
+  void standardParameters(bool uncertainty, EstimatorOutputSample& out);
+  /// Fraction of the base parameters whose variance the data cut to 1 / (1 + excited_gain) of the prior's.
+  double excitation() const;
+  /// The conditional mean if every link is consistent, else the last reconcile()'s phi_c judged by its misfit.
+  bool judgeConsistency(bool solved, EstimatorOutputSample& out);
+  /// out.tau_correction = K(q, 0, 0) (phi_hat - phi_model) + the sidecar's non-armature effects.
+  void feedforwardTorque(EstimatorOutputSample& out);
   InputStatus admit(int channel, long tick, SampleFault values, bool sizes_ok, int* slot);
   void processReleased();  // every tick the assembly releases: complete ones are processed
   void assemble(int held, long tick);  // a complete tick's messages -> the ring
