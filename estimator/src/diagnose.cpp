@@ -1,5 +1,6 @@
 #include "exoid/estimator/diagnose.hpp"
 
+#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 
 #include "exoid/estimator/diagnose_stages.hpp"
@@ -60,50 +61,18 @@ double effectSignal(EffectKind k, const EffectShape& shape, double v, double a, 
 }
 
 // ---------------------------------------------------------------------------------------------------------
-// Student's t tail through the regularised incomplete beta function (continued fraction, Lentz).
+// Student's t from Boost.Math; its errors set errno and give NaN instead of throwing (the diagnosis never throws).
 namespace {
-double betaContinuedFraction(double a, double b, double x) {
-  const double tiny = 1e-300;
-  double c = 1.0, d = 1.0 - (a + b) * x / (a + 1.0);
-  if (std::fabs(d) < tiny) d = tiny;
-  d = 1.0 / d;
-  double h = d;
-  for (int m = 1; m <= 300; ++m) {
-    const double m2 = 2.0 * m;
-    double aa = m * (b - m) * x / ((a + m2 - 1.0) * (a + m2));
-    d = 1.0 + aa * d;
-    if (std::fabs(d) < tiny) d = tiny;
-    c = 1.0 + aa / c;
-    if (std::fabs(c) < tiny) c = tiny;
-    d = 1.0 / d;
-    h *= d * c;
-    aa = -(a + m) * (a + b + m) * x / ((a + m2) * (a + m2 + 1.0));
-    d = 1.0 + aa * d;
-    if (std::fabs(d) < tiny) d = tiny;
-    c = 1.0 + aa / c;
-    if (std::fabs(c) < tiny) c = tiny;
-    d = 1.0 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::fabs(del - 1.0) < 1e-15) break;
-  }
-  return h;
-}
-// I_x(a, b)
-double incompleteBeta(double a, double b, double x) {
-  if (x <= 0.0) return 0.0;
-  if (x >= 1.0) return 1.0;
-  const double lbt = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x);
-  if (x < (a + 1.0) / (a + b + 2.0)) return std::exp(lbt) * betaContinuedFraction(a, b, x) / a;
-  return 1.0 - std::exp(lbt) * betaContinuedFraction(b, a, 1.0 - x) / b;
-}
+namespace bmp = boost::math::policies;
+using NoThrow = bmp::policy<bmp::domain_error<bmp::errno_on_error>, bmp::pole_error<bmp::errno_on_error>,
+                            bmp::overflow_error<bmp::errno_on_error>, bmp::evaluation_error<bmp::errno_on_error>>;
 }  // namespace
 
 double studentTUpperTail(double t, double dof) {
-  if (std::isnan(t)) return 1.0;
+  if (std::isnan(t) || !(dof > 0.0)) return 1.0;
   if (std::isinf(t)) return t > 0 ? 0.0 : 1.0;
-  const double tail = 0.5 * incompleteBeta(0.5 * dof, 0.5, dof / (dof + t * t));  // P(T >= |t|)
-  return t >= 0.0 ? tail : 1.0 - tail;
+  const double p = boost::math::cdf(boost::math::complement(boost::math::students_t_distribution<double, NoThrow>(dof), t));
+  return std::isfinite(p) ? p : 1.0;
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -229,7 +229,7 @@ struct DiagnosisResult {
 bool diagnose(const Model& model, const std::vector<Segment>& train, const std::vector<Segment>& validate,
               const DiagnoseOptions& options, DiagnosisResult& out, std::string* error);
 
-/// One-sided p-value P(T >= t) of Student's t with dof degrees of freedom.
+/// One-sided p-value P(T >= t) of Student's t with dof degrees of freedom (Boost.Math); 1 for a NaN t or dof <= 0.
 double studentTUpperTail(double t, double dof);
 
 /// The augmented model's sidecar (docs/diagnose.md): YAML with the shape constants and one entry per effect.
