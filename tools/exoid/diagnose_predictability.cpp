@@ -91,12 +91,6 @@ std::string termsText(const est::JointPredictability& j) {
   return s;
 }
 
-bool openOut(const fs::path& out, const std::string& name, std::ofstream& f, std::string* error) {
-  f.open(out / name);
-  if (!f && error) *error = "cannot write '" + (out / name).string() + "'";
-  return static_cast<bool>(f);
-}
-
 // predictability.csv: one row per tested joint.
 bool writeJointsCsv(const fs::path& out, const Model& model, const est::PredictabilityResult& res,
                     const est::PredictabilityOptions& opt, std::string* error) {

@@ -94,12 +94,6 @@ fig.suptitle("Residual spectra before and after augmentation (held-out data)")
 fig.tight_layout(); fig.savefig(os.path.join(here, "spectra.png"), dpi=100); plt.close(fig)
 )PY";
 
-bool openOut(const fs::path& out, const std::string& name, std::ofstream& f, std::string* error) {
-  f.open(out / name);
-  if (!f && error) *error = "cannot write '" + (out / name).string() + "'";
-  return static_cast<bool>(f);
-}
-
 std::string safeName(std::string s) {
   for (char& c : s)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
@@ -484,6 +478,12 @@ void printSummary(const est::DiagnosisResult& res, const est::OnlineComparison& 
   std::printf("report: %s\n", (out / "report.md").string().c_str());
 }
 }  // namespace
+
+bool openOut(const fs::path& out, const std::string& name, std::ofstream& f, std::string* error) {
+  f.open(out / name);
+  if (!f && error) *error = "cannot write '" + (out / name).string() + "'";
+  return static_cast<bool>(f);
+}
 
 bool writePlotScript(const std::string& out_dir, const std::string& name, const char* script, bool run,
                      const std::string& python, const std::string& args, bool* plotted, std::string* error) {

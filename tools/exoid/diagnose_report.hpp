@@ -4,6 +4,8 @@
 // the plots and the console summary, from what the command was asked and what the diagnosis found.
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +20,9 @@ struct DiagnoseInputs {
   std::vector<std::string> train_files, calib_files, val_files, val_calib_files;
   bool no_plots = false;
 };
+
+/// Opens out/name for writing; false with *error = "cannot write '...'" when it cannot.
+bool openOut(const std::filesystem::path& out, const std::string& name, std::ofstream& f, std::string* error);
 
 /// The one way `exoid diagnose` plots: the script `name` is written into out_dir next to the CSVs it reads and, when
 /// `run`, run as `python 'out_dir/name' args` (a failure is a warning on stderr: the CSVs stay). *plotted: it ran and

@@ -42,6 +42,10 @@ void candidateSignals(const Model& model, const DiagnoseOptions& opt, DiagnoseDa
   for (const DiagnosisCandidate& cd : data.cands) data.measurement_cands = data.measurement_cands || isMeasurementEffect(cd.kind);
 }
 
+int payloadParameter(const Model& model, const DiagnoseData& data, int c) {
+  return model.bodyParamIndex(data.plinks[(c - data.pc0) / 4]) + (c - data.pc0) % 4;
+}
+
 double candidateSignal(const Model& model, const DiagnoseOptions& opt, const DiagnoseData& data, size_t s, long i,
                        const DiagnosisCandidate& cd) {
   if (data.unmeasured(model, s, cd.coord)) return 0.0;
@@ -59,7 +63,7 @@ double problemEntry(const Model& model, const DiagnoseOptions& opt, const Diagno
   const int m = data.m;
   if (c < m) return K(r, data.decl[c]);
   if (c < data.pc0) return candidateSignal(model, opt, data, s, i, data.cands[c - m]);
-  if (c < data.iy) return K(r, model.bodyParamIndex(data.plinks[(c - data.pc0) / 4]) + (c - data.pc0) % 4);
+  if (c < data.iy) return K(r, payloadParameter(model, data, c));
   return y[r];
 }
 }  // namespace

@@ -8,8 +8,6 @@
 namespace exoid::estimator {
 
 namespace {
-int positionIn(const std::vector<int>& S, int col) { return static_cast<int>(std::find(S.begin(), S.end(), col) - S.begin()); }
-
 // Streams segment s once more (with q when it has stream_state) and fills rs.after: y minus the augmented model.
 bool augmentedResidual(const Model& model, const DiagnoseOptions& opt, const DiagnoseData& data, size_t s,
                        ResidualSeries& rs, std::string* error) {
@@ -19,12 +17,12 @@ bool augmentedResidual(const Model& model, const DiagnoseOptions& opt, const Dia
   std::vector<DiagnosisCandidate> chosen;
   std::vector<int> chosen_pos, payload_pos, payload_param;  // positions in S (and xa); the payloads' columns of K
   for (size_t i = 0; i < data.fcol.size(); ++i)
-    chosen.push_back(data.cands[data.fcol[i] - m]), chosen_pos.push_back(positionIn(data.S, data.fcol[i]));
+    chosen.push_back(data.cands[data.fcol[i] - m]), chosen_pos.push_back(columnPosition(data.S, data.fcol[i]));
   for (size_t i = 0; i < data.pcol.size(); ++i)
     for (int k = 0; k < 4; ++k) {
       const int c = data.pcol[i] + k;
-      payload_pos.push_back(positionIn(data.S, c));
-      payload_param.push_back(model.bodyParamIndex(data.plinks[(c - data.pc0) / 4]) + (c - data.pc0) % 4);
+      payload_pos.push_back(columnPosition(data.S, c));
+      payload_param.push_back(payloadParameter(model, data, c));
     }
   long i = 0;
   const DiagnosisRowSink row = [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd&) {

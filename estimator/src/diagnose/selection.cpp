@@ -140,9 +140,9 @@ bool selectEffects(const Model& model, const DiagnoseOptions& opt, DiagnoseData&
   return false;
 }
 
-namespace {
-int positionIn(const std::vector<int>& S, int col) { return static_cast<int>(std::find(S.begin(), S.end(), col) - S.begin()); }
-}  // namespace
+int columnPosition(const std::vector<int>& S, int col) {
+  return static_cast<int>(std::find(S.begin(), S.end(), col) - S.begin());
+}
 
 void finalFit(const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& out) {
   const int F = opt.folds, nv = data.nv, P = data.P, iy = data.iy;
@@ -163,17 +163,17 @@ void finalFit(const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& o
   const double s2 = (data.Rtrain[F].col(iy) - Aw * xw).squaredNorm() / std::max<double>(data.total_rows - ns, 1);
   const Eigen::MatrixXd Rinv = Rw.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(ns, ns));
   for (size_t i = 0; i < out.payloads.size(); ++i) {  // final values; the jackknife errors stay the selection's
-    const int c = data.pcol[i], k = positionIn(data.S, c);
+    const int c = data.pcol[i], k = columnPosition(data.S, c);
     out.payloads[i].mass = xa[k];
     out.payloads[i].com =
-        Eigen::Vector3d(xa[positionIn(data.S, c + 1)], xa[positionIn(data.S, c + 2)], xa[positionIn(data.S, c + 3)]) / xa[k];
+        Eigen::Vector3d(xa[columnPosition(data.S, c + 1)], xa[columnPosition(data.S, c + 2)], xa[columnPosition(data.S, c + 3)]) / xa[k];
     // Admissibility is decided at selection; a final refit that leaves it says the data do not pin the CoM (a load on
     // a foot flat on its plate: its height moves no torque).
     const bool ok = xa[k] > 0.0 && out.payloads[i].com.norm() <= opt.payload_com_bound;
     out.payloads[i].status = ok ? "accepted" : "accepted; the final refit puts its CoM beyond the bound: not determined";
   }
   for (size_t i = 0; i < out.findings.size(); ++i) {
-    const int k = positionIn(data.S, data.fcol[i]);
+    const int k = columnPosition(data.S, data.fcol[i]);
     out.findings[i].effect.value = xa[k];
     out.findings[i].std_error = std::sqrt(s2 * Rinv.row(k).squaredNorm());
   }
@@ -185,9 +185,8 @@ bool relinearise(const Model& model, DiagnoseData& data, std::string* error) {
   std::vector<int> ppos, pparam;  // positions in xa of the payloads' columns, their columns of K
   for (size_t i = 0; i < data.pcol.size(); ++i)
     for (int k = 0; k < 4; ++k) {
-      ppos.push_back(positionIn(data.S, data.pcol[i] + k));
-      const int c = data.pcol[i] + k;
-      pparam.push_back(model.bodyParamIndex(data.plinks[(c - data.pc0) / 4]) + (c - data.pc0) % 4);
+      ppos.push_back(columnPosition(data.S, data.pcol[i] + k));
+      pparam.push_back(payloadParameter(model, data, data.pcol[i] + k));
     }
   for (size_t s = 0; s < data.caches.size(); ++s) {
     SegmentSignals& cache = data.caches[s];

@@ -114,6 +114,11 @@ struct DiagnoseData {
   bool unmeasured(const Model& model, size_t s, int r) const { return !segmentRowMeasured(model, segment(s), r); }
 };
 
+/// Position of P-space column `col` in the current model's columns data.S (the index into data.xa).
+int columnPosition(const std::vector<int>& S, int col);
+/// The column of K behind P-space payload column c (pc0 <= c < iy): the link's m, mcx, mcy or mcz.
+int payloadParameter(const Model& model, const DiagnoseData& data, int c);
+
 /// Central differences of the columns of x [n x k] over (possibly jittering) times t [n]; one-sided at the ends.
 Eigen::MatrixXd centralDifference(const std::vector<double>& t, const Eigen::MatrixXd& x);
 
