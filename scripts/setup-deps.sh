@@ -2,7 +2,7 @@
 # Installs every dependency exoid needs, idempotently, on Debian 12 (run as root, or with sudo available).
 #  - Debian packages (pinned major versions come from Debian 12 "bookworm": MuJoCo 2.2.2, LCM 1.3.1, KDL 1.5.1,
 #    urdfdom 3.0.1, Eigen 3.4.0, GoogleTest 1.12.1, Google Benchmark 1.7.1, yaml-cpp 0.7.0, cereal 1.3.2,
-#    CLI11 2.1.2, nlohmann/json 3.11.2; clang 14 with its sanitizer and libFuzzer runtimes for the checking build).
+#    CLI11 2.1.2, nlohmann/json 3.11.2, Boost 1.74 (headers: Boost.Math); clang 14 with its sanitizer and libFuzzer runtimes for the checking build).
 #  - From PyPI, into the project-local virtual environment .deps/venv, only what Debian lacks:
 #    proxsuite (ProxQP, the controller's QP solver; ships C++ headers and a CMake config via cmeel).
 # Builds find the PyPI package's CMake config through scripts/env.sh (EXOID_CMEEL_PREFIX).
@@ -18,6 +18,7 @@ DEB_PACKAGES=(
   iproute2 util-linux xvfb xauth x11-apps imagemagick xdotool
   python3-matplotlib
   libxgboost-dev
+  libboost-dev
   clang libclang-rt-14-dev llvm-14
   libegl-dev libegl-mesa0 libgl1-mesa-dri ffmpeg libglfw3-dev
 )

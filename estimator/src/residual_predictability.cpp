@@ -151,6 +151,316 @@ void stateDictionary(const Model& model, const StateTable& st, int j, const std:
   }
 }
 
+// The stage samples: every segment decimated to rate_hz, from max_lag after its start (the lagged terms need history).
+// Segments in the order of their names, not as given: the folds are contiguous over the training samples and the
+// trees subsample rows by index, so the same files in another order would otherwise give other figures.
+struct StageSamples {
+  long N = 0;
+  std::vector<int> seg;                     // [N] series index
+  std::vector<long> idx;                    // [N] sample index in its segment
+  std::vector<bool> val;                    // [N] from a validation segment
+  Eigen::VectorXd tt;                       // [N] time, s
+  std::vector<double> seg_dt;               // [series] median sample interval (0: segment not used)
+  std::vector<std::vector<long>> seg_rows;  // [series] its stage samples
+};
+
+StageSamples stageSamples(const std::vector<ResidualSeries>& series, const PredictabilityOptions& o, double max_lag) {
+  StageSamples ss;
+  ss.seg_dt.assign(series.size(), 0.0);
+  std::vector<size_t> by_name(series.size());
+  for (size_t s = 0; s < series.size(); ++s) by_name[s] = s;
+  std::stable_sort(by_name.begin(), by_name.end(), [&](size_t a, size_t b) { return series[a].segment < series[b].segment; });
+  for (const size_t s : by_name) {
+    const ResidualSeries& rs = series[s];
+    const long n = rs.t.size();
+    if (n < 3) continue;
+    std::vector<double> d(n - 1);
+    for (long i = 0; i + 1 < n; ++i) d[i] = rs.t[i + 1] - rs.t[i];
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    const double dt = d[d.size() / 2];
+    if (!(dt > 0.0)) continue;
+    ss.seg_dt[s] = dt;
+    const long step = std::max(1L, std::lround(1.0 / (o.rate_hz * dt)));
+    for (long i = std::lround(max_lag / dt); i < n; i += step) ss.seg.push_back(static_cast<int>(s)), ss.idx.push_back(i);
+  }
+  ss.N = static_cast<long>(ss.seg.size());
+  ss.tt.resize(ss.N);
+  ss.val.resize(ss.N);
+  ss.seg_rows.assign(series.size(), {});
+  for (long k = 0; k < ss.N; ++k) {
+    ss.tt[k] = series[ss.seg[k]].t[ss.idx[k]], ss.val[k] = series[ss.seg[k]].validation;
+    ss.seg_rows[ss.seg[k]].push_back(k);
+  }
+  return ss;
+}
+
+// The state at the stage samples (StateTable) and the residual Rz [N x nj] there. Without q, q(t) - q(t - L) is the
+// trapezoidal integral of v.
+void stateAtSamples(const Model& model, const std::vector<ResidualSeries>& series, const PredictabilityOptions& o,
+                    const StageSamples& ss, StateTable& st, Eigen::MatrixXd& Rz) {
+  const long N = ss.N;
+  const int nj = model.njoints, nl = static_cast<int>(o.lags.size());
+  const bool has_q = st.has_q;
+  st.Q.resize(N, nj), st.V.resize(N, nj), st.A.resize(N, nj), st.T.resize(N, nj);
+  st.Vlag.assign(nl, Eigen::MatrixXd(N, nj)), st.Dq.assign(nl, Eigen::MatrixXd(N, nj));
+  Rz.resize(N, nj);
+  std::vector<Eigen::MatrixXd> cumv(series.size());  // integral of v (q up to a constant) when q is not given
+  if (!has_q)
+    for (size_t s = 0; s < series.size(); ++s) {
+      const ResidualSeries& rs = series[s];
+      cumv[s] = Eigen::MatrixXd::Zero(rs.t.size(), nj);
+      for (long i = 1; i < rs.t.size(); ++i)
+        cumv[s].row(i) = cumv[s].row(i - 1) + 0.5 * (rs.t[i] - rs.t[i - 1]) * (rs.v.row(i) + rs.v.row(i - 1));
+    }
+  for (long k = 0; k < N; ++k) {
+    const ResidualSeries& rs = series[ss.seg[k]];
+    const long i = ss.idx[k];
+    for (int j = 0; j < nj; ++j) {
+      const int r = model.jointRow(j);
+      st.Q(k, j) = has_q ? rs.q(i, j) : 0.0;
+      st.V(k, j) = rs.v(i, j), st.A(k, j) = rs.a(i, j), st.T(k, j) = rs.tau_model(i, r), Rz(k, j) = rs.after(i, r);
+      for (int l = 0; l < nl; ++l) {
+        const long il = std::max(0L, i - std::lround(o.lags[l] / ss.seg_dt[ss.seg[k]]));
+        st.Vlag[l](k, j) = rs.v(il, j);
+        st.Dq[l](k, j) = has_q ? rs.q(i, j) - rs.q(il, j) : cumv[ss.seg[k]](i, j) - cumv[ss.seg[k]](il, j);
+      }
+    }
+  }
+}
+
+// Kinematic neighbours of each joint: the parent body's joint and the children's.
+std::vector<std::vector<int>> kinematicNeighbours(const Model& model) {
+  std::vector<std::vector<int>> nb(model.njoints);
+  for (int j = 0; j < model.njoints; ++j) {
+    const int pb = model.parent[model.joint_body[j]];
+    if (pb >= 0 && model.jointOfBody(pb) >= 0) {
+      const int pj = model.jointOfBody(pb);
+      nb[j].push_back(pj), nb[pj].push_back(j);
+    }
+  }
+  return nb;
+}
+
+// One joint's training rows in time order per segment, cut into contiguous folds, and the fits over them.
+struct FoldPlan {
+  const StageSamples& ss;
+  const PredictabilityOptions& o;
+  std::vector<long> train_rows, val_rows;
+  std::vector<int> fold;  // [N] -1: not a training row
+
+  FoldPlan(const StageSamples& samples, const PredictabilityOptions& options, const std::vector<bool>& usable)
+      : ss(samples), o(options), fold(samples.N, -1) {
+    for (long k = 0; k < ss.N; ++k)
+      if (usable[k]) (ss.val[k] ? val_rows : train_rows).push_back(k);
+    for (size_t i = 0; i < train_rows.size(); ++i) fold[train_rows[i]] = static_cast<int>(i * o.folds / train_rows.size());
+  }
+  bool held(const std::vector<int>& folds, long k) const { return std::find(folds.begin(), folds.end(), fold[k]) != folds.end(); }
+  // Training rows outside the folds in `folds` and outside block_seconds of them within their segment.
+  std::vector<long> trainingOutside(const std::vector<int>& folds) const {
+    std::map<int, std::pair<double, double>> span;  // segment -> time range of the held rows
+    for (long k : train_rows)
+      if (held(folds, k)) {
+        auto it = span.find(ss.seg[k]);
+        if (it == span.end()) span[ss.seg[k]] = {ss.tt[k], ss.tt[k]};
+        else it->second.first = std::min(it->second.first, ss.tt[k]), it->second.second = std::max(it->second.second, ss.tt[k]);
+      }
+    std::vector<long> rows;
+    for (long k : train_rows) {
+      if (held(folds, k)) continue;
+      auto it = span.find(ss.seg[k]);
+      if (it != span.end() && ss.tt[k] >= it->second.first - o.block_seconds && ss.tt[k] <= it->second.second + o.block_seconds)
+        continue;
+      rows.push_back(k);
+    }
+    return rows;
+  }
+  std::vector<long> foldRows(int f) const {
+    std::vector<long> rows;
+    for (long k : train_rows)
+      if (fold[k] == f) rows.push_back(k);
+    return rows;
+  }
+  // Sparse model size by cross-validation over the folds in `among` (SSE summed per size).
+  int chooseSize(const Eigen::MatrixXd& X, const Eigen::VectorXd& r, const std::vector<int>& among,
+                 const std::vector<int>& also_held) const {
+    std::vector<double> sse(o.max_terms + 1, 0.0);
+    for (int g : among) {
+      std::vector<int> held = also_held;
+      held.push_back(g);
+      const std::vector<long> tr = trainingOutside(held), te = foldRows(g);
+      if (tr.size() < 20 || te.empty()) continue;
+      const std::vector<SparseModel> path = forwardSelectionPath(X, r, tr, o.max_terms);
+      for (int s = 0; s <= o.max_terms; ++s) {
+        const SparseModel& m = path[std::min<size_t>(s, path.size() - 1)];
+        for (long k : te) sse[s] += std::pow(r[k] - m.predict(X, k), 2);
+      }
+    }
+    return static_cast<int>(std::min_element(sse.begin(), sse.end()) - sse.begin());
+  }
+};
+
+// Joint j's predictions: cross-fitted on the training rows (each fold from the others, its size chosen on them), then
+// the final models on all training rows for the validation rows (sparse model sm, the trees' feature gains).
+bool predictJoint(const Eigen::MatrixXd& X, const Eigen::MatrixXd& F, const Eigen::VectorXd& r, const FoldPlan& plan,
+                  const PredictabilityOptions& o, int j, Eigen::MatrixXd& Psp, Eigen::MatrixXd& Ptr, SparseModel& sm,
+                  Eigen::VectorXd& gain, std::string* error) {
+  std::string err;
+  const int nf = o.folds;
+  for (int f = 0; f < nf; ++f) {
+    const std::vector<long> tr = plan.trainingOutside({f}), te = plan.foldRows(f);
+    if (te.empty()) continue;
+    if (tr.size() < 20) {  // too little data outside the guard: predict zero (no skill claimed)
+      for (long k : te) Psp(k, j) = Ptr(k, j) = 0.0;
+      continue;
+    }
+    std::vector<int> others;
+    for (int g = 0; g < nf; ++g)
+      if (g != f) others.push_back(g);
+    const std::vector<SparseModel> path = forwardSelectionPath(X, r, tr, plan.chooseSize(X, r, others, {f}));
+    for (long k : te) Psp(k, j) = path.back().predict(X, k);
+    if (o.trees) {
+      Eigen::VectorXd pred;
+      if (!fitBoostedTrees(F, r, tr, te, o.tree, pred, nullptr, &err))
+        return error && (*error = "residual predictability: " + err, true), false;
+      for (size_t i = 0; i < te.size(); ++i) Ptr(te[i], j) = pred[static_cast<Eigen::Index>(i)];
+    }
+  }
+  std::vector<int> all(nf);
+  std::iota(all.begin(), all.end(), 0);
+  sm = forwardSelectionPath(X, r, plan.train_rows, plan.chooseSize(X, r, all, {})).back();
+  for (long k : plan.val_rows) Psp(k, j) = sm.predict(X, k);
+  gain = Eigen::VectorXd::Zero(F.cols());
+  if (o.trees) {
+    Eigen::VectorXd pred;
+    if (!fitBoostedTrees(F, r, plan.train_rows, plan.val_rows, o.tree, pred, &gain, &err))
+      return error && (*error = "residual predictability: " + err, true), false;
+    for (size_t i = 0; i < plan.val_rows.size(); ++i) Ptr(plan.val_rows[i], j) = pred[static_cast<Eigen::Index>(i)];
+  }
+  return true;
+}
+
+// Held-out blocks of joint j: per segment, block_seconds of the stage samples (a last piece under half a block joins the
+// one before); per block the residual's and each method's error sums of squares. Fills jp.blocks, rms, validation_*.
+struct BlockSums {
+  std::vector<double> ssr, sse_s, sse_t;
+  double sr = 0.0;
+  long nr = 0;
+};
+BlockSums heldOutBlocks(const std::vector<ResidualSeries>& series, const StageSamples& ss, const std::vector<bool>& usable,
+                        const Eigen::MatrixXd& Psp, const Eigen::MatrixXd& Ptr, const Eigen::VectorXd& r,
+                        const PredictabilityOptions& o, int j, JointPredictability& jp) {
+  BlockSums b;
+  std::vector<double> vr(3, 0.0);
+  long nvr = 0;
+  for (size_t s = 0; s < series.size(); ++s) {
+    std::vector<long> rows;
+    for (long k : ss.seg_rows[s])
+      if (usable[k] && !std::isnan(Psp(k, j))) rows.push_back(k);
+    if (rows.empty()) continue;
+    const double t0 = ss.tt[rows.front()], span = ss.tt[rows.back()] - t0;
+    const int nb_seg = std::max(1, static_cast<int>(std::floor(span / o.block_seconds + 0.5)));
+    const size_t first = b.ssr.size();
+    b.ssr.resize(first + nb_seg, 0.0), b.sse_s.resize(first + nb_seg, 0.0), b.sse_t.resize(first + nb_seg, 0.0);
+    for (long k : rows) {
+      const int bl = std::min(nb_seg - 1, static_cast<int>((ss.tt[k] - t0) / o.block_seconds));
+      const double e_s = r[k] - Psp(k, j), e_t = o.trees ? r[k] - Ptr(k, j) : r[k];
+      b.ssr[first + bl] += r[k] * r[k], b.sse_s[first + bl] += e_s * e_s, b.sse_t[first + bl] += e_t * e_t;
+      b.sr += r[k] * r[k], ++b.nr;
+      if (series[s].validation) vr[0] += r[k] * r[k], vr[1] += e_s * e_s, vr[2] += e_t * e_t, ++nvr;
+    }
+  }
+  jp.blocks = static_cast<int>(b.ssr.size());
+  jp.rms = std::sqrt(b.sr / std::max(b.nr, 1L));
+  if (nvr > 0) {
+    jp.validation_rms = std::sqrt(vr[0] / nvr);
+    if (vr[0] > 0) jp.validation_share_sparse = 1 - vr[1] / vr[0], jp.validation_share_trees = o.trees ? 1 - vr[2] / vr[0] : 0.0;
+  }
+  return b;
+}
+
+// The verdict before the size floor: each method's block test; predictable when one passes the level with at least
+// min_share; the reported method is the larger significant share (else the larger share). True: the trees.
+bool judgeMethods(const BlockSums& b, const PredictabilityOptions& o, double level, double min_share,
+                  JointPredictability& jp) {
+  const BlockTest bs = blockTest(b.ssr, b.sse_s), bt = o.trees ? blockTest(b.ssr, b.sse_t) : BlockTest{};
+  jp.share_sparse = bs.share, jp.se_sparse = bs.se, jp.p_sparse = bs.p;
+  jp.share_trees = bt.share, jp.se_trees = bt.se, jp.p_trees = bt.p;
+  const bool sig_s = bs.p < level && bs.share >= min_share, sig_t = o.trees && bt.p < level && bt.share >= min_share;
+  jp.predictable = sig_s || sig_t;  // the size floor is applied once the pooled RMS is known
+  const bool use_trees = o.trees && ((sig_t && (!sig_s || bt.share > bs.share)) || (!jp.predictable && bt.share > bs.share));
+  jp.method = use_trees ? "trees" : "sparse";
+  const BlockTest& m = use_trees ? bt : bs;
+  jp.share = m.share, jp.se = m.se, jp.p = m.p;
+  return use_trees;
+}
+
+// The sparse model's terms with their weights (squared standardized coefficients, normalised), and the state variables
+// the reported method depends on (the trees' feature gains, or the terms' weights split over their variables).
+void explainJoint(const std::vector<Column>& dict, const std::vector<Column>& raw, const SparseModel& sm,
+                  const std::vector<long>& train_rows, bool use_trees, const Eigen::VectorXd& gain, JointPredictability& jp) {
+  double tw = 0.0;
+  for (size_t i = 0; i < sm.terms.size(); ++i) {
+    const Eigen::VectorXd& x = dict[sm.terms[i]].x;
+    double m = 0.0, s2 = 0.0;
+    for (long k : train_rows) m += x[k];
+    m /= static_cast<double>(train_rows.size());
+    for (long k : train_rows) s2 += (x[k] - m) * (x[k] - m);
+    const double w = std::pow(sm.coef[static_cast<Eigen::Index>(i)], 2) * s2 / static_cast<double>(train_rows.size());
+    jp.terms.push_back({dict[sm.terms[i]].name, sm.coef[static_cast<Eigen::Index>(i)], w});
+    tw += w;
+  }
+  for (PredictabilityTerm& t : jp.terms) t.weight = tw > 0 ? t.weight / tw : 0.0;
+  std::sort(jp.terms.begin(), jp.terms.end(), [](const auto& x, const auto& y) { return x.weight > y.weight; });
+  std::map<std::string, double> vw;
+  if (use_trees) {
+    const double g = gain.sum();
+    for (size_t c = 0; c < raw.size(); ++c)
+      if (g > 0) vw[raw[c].vars.front()] += gain[static_cast<Eigen::Index>(c)] / g;
+  } else {
+    for (size_t i = 0; i < sm.terms.size(); ++i) {
+      const Column& c = dict[sm.terms[i]];
+      double w = 0.0;
+      for (const PredictabilityTerm& t : jp.terms)
+        if (t.name == c.name) w = t.weight;
+      for (const std::string& var : c.vars) vw[var] += w / c.vars.size();
+    }
+  }
+  for (const auto& [name, w] : vw)
+    if (w > 0.05) jp.variables.push_back({name, w});
+  std::sort(jp.variables.begin(), jp.variables.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
+  jp.predictable_rms = std::sqrt(std::max(jp.share, 0.0)) * jp.rms;
+}
+
+std::string predictableSentence(const std::string& joint, const JointPredictability& jp, bool use_trees, double level) {
+  std::string vars;
+  for (size_t i = 0; i < jp.variables.size() && i < 4; ++i)
+    vars += (i == 0 ? "" : i + 1 == std::min<size_t>(jp.variables.size(), 4) ? " and " : ", ") + jp.variables[i].first;
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "an effect the model lacks on %s: %.0f %% (+- %.0f) of the remaining held-out residual (RMS %.3g N m) "
+                "is predictable from the state (%s; p = %.2g, level %.2g); depends on %s",
+                joint.c_str(), 100 * jp.share, 100 * jp.se, jp.rms, use_trees ? "gradient-boosted trees" : "sparse regression",
+                jp.p, level, vars.empty() ? "(no single variable)" : vars.c_str());
+  return buf;
+}
+
+// The plot series: every segment's stage samples with the residual and both methods' predictions.
+void plotSeries(const std::vector<ResidualSeries>& series, const StageSamples& ss, const Eigen::MatrixXd& Rz,
+                const Eigen::MatrixXd& Psp, const Eigen::MatrixXd& Ptr, int nj, PredictabilityResult& out) {
+  for (size_t s = 0; s < series.size(); ++s) {
+    PredictabilityResult::Series ps;
+    ps.segment = series[s].segment;
+    ps.validation = series[s].validation;
+    const long n = static_cast<long>(ss.seg_rows[s].size());
+    ps.t.resize(n), ps.residual.resize(n, nj), ps.sparse.resize(n, nj), ps.trees.resize(n, nj);
+    for (long i = 0; i < n; ++i) {
+      const long k = ss.seg_rows[s][i];
+      ps.t[i] = ss.tt[k];
+      ps.residual.row(i) = Rz.row(k), ps.sparse.row(i) = Psp.row(k), ps.trees.row(i) = Ptr.row(k);
+    }
+    out.series.push_back(std::move(ps));
+  }
+}
 
 }  // namespace
 
@@ -164,109 +474,33 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     if (error) *error = "residual predictability: rate_hz and block_seconds must be positive and folds >= 3";
     return false;
   }
-  bool has_q = true;
-  for (const ResidualSeries& rs : series) has_q = has_q && rs.q.rows() == rs.t.size() && rs.q.cols() == nj;
-  const double max_lag = o.lags.empty() ? 0.0 : *std::max_element(o.lags.begin(), o.lags.end());
-  const int nl = static_cast<int>(o.lags.size());
-
-  // Stage samples: every segment decimated to rate_hz, from max_lag after its start (the lagged terms need history).
-  struct Sample {
-    int seg;
-    long i;  // index in the segment
-  };
-  std::vector<Sample> samples;
-  std::vector<double> seg_dt(series.size(), 0.0);
-  // Segments in the order of their names, not as given: the folds are contiguous over the training samples and the
-  // trees subsample rows by index, so the same files in another order would otherwise give other figures.
-  std::vector<size_t> by_name(series.size());
-  for (size_t s = 0; s < series.size(); ++s) by_name[s] = s;
-  std::stable_sort(by_name.begin(), by_name.end(), [&](size_t a, size_t b) { return series[a].segment < series[b].segment; });
-  for (const size_t s : by_name) {
-    const ResidualSeries& rs = series[s];
-    const long n = rs.t.size();
-    if (n < 3) continue;
-    std::vector<double> d(n - 1);
-    for (long i = 0; i + 1 < n; ++i) d[i] = rs.t[i + 1] - rs.t[i];
-    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-    const double dt = d[d.size() / 2];
-    if (!(dt > 0.0)) continue;
-    seg_dt[s] = dt;
-    const long step = std::max(1L, std::lround(1.0 / (o.rate_hz * dt)));
-    for (long i = std::lround(max_lag / dt); i < n; i += step) samples.push_back({static_cast<int>(s), i});
-  }
-  const long N = static_cast<long>(samples.size());
-  if (N == 0) return true;
-  Eigen::VectorXd tt(N);
-  std::vector<int> seg(N);
-  std::vector<bool> val(N);
-  for (long k = 0; k < N; ++k) {
-    seg[k] = samples[k].seg, tt[k] = series[samples[k].seg].t[samples[k].i], val[k] = series[samples[k].seg].validation;
-  }
-  // Base state variables at the stage samples [N x nj]; lagged [N x nj] per lag.
   StateTable st;
-  st.has_q = has_q;
-  st.Q.resize(N, nj), st.V.resize(N, nj), st.A.resize(N, nj), st.T.resize(N, nj);
-  st.Vlag.assign(nl, Eigen::MatrixXd(N, nj)), st.Dq.assign(nl, Eigen::MatrixXd(N, nj));
-  Eigen::MatrixXd Rz(N, nj);
-  Eigen::MatrixXd &Q = st.Q, &V = st.V, &A = st.A, &T = st.T;
-  std::vector<Eigen::MatrixXd>& Vlag = st.Vlag;
-  std::vector<Eigen::MatrixXd>& Dq = st.Dq;
-  std::vector<Eigen::MatrixXd> cumv(series.size());  // integral of v (q up to a constant) when q is not given
-  if (!has_q)
-    for (size_t s = 0; s < series.size(); ++s) {
-      const ResidualSeries& rs = series[s];
-      cumv[s] = Eigen::MatrixXd::Zero(rs.t.size(), nj);
-      for (long i = 1; i < rs.t.size(); ++i)
-        cumv[s].row(i) = cumv[s].row(i - 1) + 0.5 * (rs.t[i] - rs.t[i - 1]) * (rs.v.row(i) + rs.v.row(i - 1));
-    }
-  for (long k = 0; k < N; ++k) {
-    const ResidualSeries& rs = series[seg[k]];
-    const long i = samples[k].i;
-    for (int j = 0; j < nj; ++j) {
-      const int r = model.jointRow(j);
-      Q(k, j) = has_q ? rs.q(i, j) : 0.0;
-      V(k, j) = rs.v(i, j), A(k, j) = rs.a(i, j), T(k, j) = rs.tau_model(i, r), Rz(k, j) = rs.after(i, r);
-      for (int l = 0; l < nl; ++l) {
-        const long il = std::max(0L, i - std::lround(o.lags[l] / seg_dt[seg[k]]));
-        Vlag[l](k, j) = rs.v(il, j);
-        Dq[l](k, j) = has_q ? rs.q(i, j) - rs.q(il, j) : cumv[seg[k]](i, j) - cumv[seg[k]](il, j);
-      }
-    }
-  }
-  // Kinematic neighbours: the parent body's joint and the children's.
-  std::vector<std::vector<int>> nb(nj);
-  for (int j = 0; j < nj; ++j) {
-    const int pb = model.parent[model.joint_body[j]];
-    if (pb >= 0 && model.jointOfBody(pb) >= 0) {
-      const int pj = model.jointOfBody(pb);
-      nb[j].push_back(pj), nb[pj].push_back(j);
-    }
-  }
-  const std::vector<std::string>& jn = model.joint_names;
-
+  st.has_q = true;
+  for (const ResidualSeries& rs : series) st.has_q = st.has_q && rs.q.rows() == rs.t.size() && rs.q.cols() == nj;
+  const StageSamples ss = stageSamples(series, o, o.lags.empty() ? 0.0 : *std::max_element(o.lags.begin(), o.lags.end()));
+  const long N = ss.N;
+  if (N == 0) return true;
+  Eigen::MatrixXd Rz;
+  stateAtSamples(model, series, o, ss, st, Rz);
+  const std::vector<std::vector<int>> nb = kinematicNeighbours(model);
   // Joints tested: those with data (a held-base segment's unmeasured rows are not).
   std::vector<int> tested;
   std::vector<std::vector<bool>> usable(nj, std::vector<bool>(N, true));
   for (int j = 0; j < nj; ++j) {
     long ntr = 0;
     for (long k = 0; k < N; ++k) {
-      usable[j][k] = !series[seg[k]].held_base || heldBaseRowMeasured(model, model.jointRow(j));
-      if (usable[j][k] && !val[k]) ++ntr;
+      usable[j][k] = !series[ss.seg[k]].held_base || heldBaseRowMeasured(model, model.jointRow(j));
+      if (usable[j][k] && !ss.val[k]) ++ntr;
     }
     if (ntr >= 10L * o.folds) tested.push_back(j);
   }
-  const int methods = o.trees ? 2 : 1;
   out.ran = true;
-  out.has_q = has_q;
-  out.tests = static_cast<int>(tested.size()) * methods;
+  out.has_q = st.has_q;
+  out.tests = static_cast<int>(tested.size()) * (o.trees ? 2 : 1);
   out.level = out.tests > 0 ? alpha / out.tests : alpha;
-  // Plot series: every segment's stage samples.
-  std::vector<std::vector<long>> seg_rows(series.size());
-  for (long k = 0; k < N; ++k) seg_rows[seg[k]].push_back(k);
   Eigen::MatrixXd Psp = Eigen::MatrixXd::Constant(N, nj, std::nan("")), Ptr = Psp;
   double pooled_ss = 0.0;
   long pooled_n = 0;
-
   for (int j : tested) {
     std::vector<Column> dict, raw;
     stateDictionary(model, st, j, nb[j], o, dict, raw);
@@ -274,181 +508,17 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     for (size_t c = 0; c < dict.size(); ++c) X.col(c) = dict[c].x;
     for (size_t c = 0; c < raw.size(); ++c) F.col(c) = raw[c].x;
     const Eigen::VectorXd r = Rz.col(j);
-
-    // Training rows in time order per segment, cut into contiguous folds.
-    std::vector<long> train_rows, val_rows;
-    for (long k = 0; k < N; ++k)
-      if (usable[j][k]) (val[k] ? val_rows : train_rows).push_back(k);
-    const int nf = o.folds;
-    std::vector<int> fold(N, -1);
-    for (size_t i = 0; i < train_rows.size(); ++i) fold[train_rows[i]] = static_cast<int>(i * nf / train_rows.size());
-    // Training rows outside the folds in `held` and outside block_seconds of them within their segment.
-    auto trainingOutside = [&](const std::vector<int>& held) {
-      std::map<int, std::pair<double, double>> span;  // segment -> time range of the held rows
-      for (long k : train_rows)
-        if (std::find(held.begin(), held.end(), fold[k]) != held.end()) {
-          auto it = span.find(seg[k]);
-          if (it == span.end()) span[seg[k]] = {tt[k], tt[k]};
-          else it->second.first = std::min(it->second.first, tt[k]), it->second.second = std::max(it->second.second, tt[k]);
-        }
-      std::vector<long> rows;
-      for (long k : train_rows) {
-        if (std::find(held.begin(), held.end(), fold[k]) != held.end()) continue;
-        auto it = span.find(seg[k]);
-        if (it != span.end() && tt[k] >= it->second.first - o.block_seconds && tt[k] <= it->second.second + o.block_seconds)
-          continue;
-        rows.push_back(k);
-      }
-      return rows;
-    };
-    auto foldRows = [&](int f) {
-      std::vector<long> rows;
-      for (long k : train_rows)
-        if (fold[k] == f) rows.push_back(k);
-      return rows;
-    };
-    // Sparse model size by cross-validation over the folds in `among` (SSE summed per size).
-    auto chooseSize = [&](const std::vector<int>& among, const std::vector<int>& also_held) {
-      std::vector<double> sse(o.max_terms + 1, 0.0);
-      for (int g : among) {
-        std::vector<int> held = also_held;
-        held.push_back(g);
-        const std::vector<long> tr = trainingOutside(held), te = foldRows(g);
-        if (tr.size() < 20 || te.empty()) continue;
-        const std::vector<SparseModel> path = forwardSelectionPath(X, r, tr, o.max_terms);
-        for (int s = 0; s <= o.max_terms; ++s) {
-          const SparseModel& m = path[std::min<size_t>(s, path.size() - 1)];
-          for (long k : te) sse[s] += std::pow(r[k] - m.predict(X, k), 2);
-        }
-      }
-      return static_cast<int>(std::min_element(sse.begin(), sse.end()) - sse.begin());
-    };
-    // Cross-fitted predictions of the training rows.
-    std::string err;
-    for (int f = 0; f < nf; ++f) {
-      const std::vector<long> tr = trainingOutside({f}), te = foldRows(f);
-      if (te.empty()) continue;
-      if (tr.size() < 20) {  // too little data outside the guard: predict zero (no skill claimed)
-        for (long k : te) Psp(k, j) = Ptr(k, j) = 0.0;
-        continue;
-      }
-      std::vector<int> others;
-      for (int g = 0; g < nf; ++g)
-        if (g != f) others.push_back(g);
-      const int size = chooseSize(others, {f});
-      const std::vector<SparseModel> path = forwardSelectionPath(X, r, tr, size);
-      for (long k : te) Psp(k, j) = path.back().predict(X, k);
-      if (o.trees) {
-        Eigen::VectorXd pred;
-        if (!fitBoostedTrees(F, r, tr, te, o.tree, pred, nullptr, &err)) {
-          if (error) *error = "residual predictability: " + err;
-          return false;
-        }
-        for (size_t i = 0; i < te.size(); ++i) Ptr(te[i], j) = pred[static_cast<Eigen::Index>(i)];
-      }
-    }
-    // Final models on all training rows: validation predictions, terms, importances.
-    std::vector<int> all(nf);
-    std::iota(all.begin(), all.end(), 0);
-    const int size = chooseSize(all, {});
-    const std::vector<SparseModel> path = forwardSelectionPath(X, r, train_rows, size);
-    const SparseModel& sm = path.back();
-    for (long k : val_rows) Psp(k, j) = sm.predict(X, k);
-    Eigen::VectorXd gain = Eigen::VectorXd::Zero(F.cols());
-    if (o.trees) {
-      Eigen::VectorXd pred;
-      if (!fitBoostedTrees(F, r, train_rows, val_rows, o.tree, pred, &gain, &err)) {
-        if (error) *error = "residual predictability: " + err;
-        return false;
-      }
-      for (size_t i = 0; i < val_rows.size(); ++i) Ptr(val_rows[i], j) = pred[static_cast<Eigen::Index>(i)];
-    }
-
-    // Held-out blocks: per segment, block_seconds of the stage samples (a last piece under half a block joins the
-    // one before).
+    const FoldPlan plan(ss, o, usable[j]);
+    SparseModel sm;
+    Eigen::VectorXd gain;
+    if (!predictJoint(X, F, r, plan, o, j, Psp, Ptr, sm, gain, error)) return false;
     JointPredictability jp;
     jp.joint = j;
-    std::vector<double> ssr, sse_s, sse_t, vr(3, 0.0);
-    double sr = 0.0;
-    long nr = 0, nvr = 0;
-    for (size_t s = 0; s < series.size(); ++s) {
-      std::vector<long> rows;
-      for (long k : seg_rows[s])
-        if (usable[j][k] && !std::isnan(Psp(k, j))) rows.push_back(k);
-      if (rows.empty()) continue;
-      const double t0 = tt[rows.front()], span = tt[rows.back()] - t0;
-      const int nb_seg = std::max(1, static_cast<int>(std::floor(span / o.block_seconds + 0.5)));
-      const size_t first = ssr.size();
-      ssr.resize(first + nb_seg, 0.0), sse_s.resize(first + nb_seg, 0.0), sse_t.resize(first + nb_seg, 0.0);
-      for (long k : rows) {
-        const int b = std::min(nb_seg - 1, static_cast<int>((tt[k] - t0) / o.block_seconds));
-        const double e_s = r[k] - Psp(k, j), e_t = o.trees ? r[k] - Ptr(k, j) : r[k];
-        ssr[first + b] += r[k] * r[k], sse_s[first + b] += e_s * e_s, sse_t[first + b] += e_t * e_t;
-        sr += r[k] * r[k], ++nr;
-        if (series[s].validation) vr[0] += r[k] * r[k], vr[1] += e_s * e_s, vr[2] += e_t * e_t, ++nvr;
-      }
-    }
-    jp.blocks = static_cast<int>(ssr.size());
-    jp.rms = std::sqrt(sr / std::max(nr, 1L));
-    if (nvr > 0) {
-      jp.validation_rms = std::sqrt(vr[0] / nvr);
-      if (vr[0] > 0) jp.validation_share_sparse = 1 - vr[1] / vr[0], jp.validation_share_trees = o.trees ? 1 - vr[2] / vr[0] : 0.0;
-    }
-    const BlockTest bs = blockTest(ssr, sse_s), bt = o.trees ? blockTest(ssr, sse_t) : BlockTest{};
-    jp.share_sparse = bs.share, jp.se_sparse = bs.se, jp.p_sparse = bs.p;
-    jp.share_trees = bt.share, jp.se_trees = bt.se, jp.p_trees = bt.p;
-    const bool sig_s = bs.p < out.level && bs.share >= min_share, sig_t = o.trees && bt.p < out.level && bt.share >= min_share;
-    jp.predictable = sig_s || sig_t;  // the size floor is applied below, once the pooled RMS is known
-    const bool use_trees = o.trees && ((sig_t && (!sig_s || bt.share > bs.share)) || (!jp.predictable && bt.share > bs.share));
-    jp.method = use_trees ? "trees" : "sparse";
-    const BlockTest& b = use_trees ? bt : bs;
-    jp.share = b.share, jp.se = b.se, jp.p = b.p;
-    // The sparse model's terms and their weights (squared standardized coefficients).
-    double tw = 0.0;
-    for (size_t i = 0; i < sm.terms.size(); ++i) {
-      const Eigen::VectorXd& x = dict[sm.terms[i]].x;
-      double m = 0.0, s2 = 0.0;
-      for (long k : train_rows) m += x[k];
-      m /= static_cast<double>(train_rows.size());
-      for (long k : train_rows) s2 += (x[k] - m) * (x[k] - m);
-      const double w = std::pow(sm.coef[static_cast<Eigen::Index>(i)], 2) * s2 / static_cast<double>(train_rows.size());
-      jp.terms.push_back({dict[sm.terms[i]].name, sm.coef[static_cast<Eigen::Index>(i)], w});
-      tw += w;
-    }
-    for (PredictabilityTerm& t : jp.terms) t.weight = tw > 0 ? t.weight / tw : 0.0;
-    std::sort(jp.terms.begin(), jp.terms.end(), [](const auto& x, const auto& y) { return x.weight > y.weight; });
-    std::map<std::string, double> vw;
-    if (use_trees) {
-      const double g = gain.sum();
-      for (size_t c = 0; c < raw.size(); ++c)
-        if (g > 0) vw[raw[c].vars.front()] += gain[static_cast<Eigen::Index>(c)] / g;
-    } else {
-      for (size_t i = 0; i < sm.terms.size(); ++i) {
-        const Column& c = dict[sm.terms[i]];
-        double w = 0.0;
-        for (const PredictabilityTerm& t : jp.terms)
-          if (t.name == c.name) w = t.weight;
-        for (const std::string& var : c.vars) vw[var] += w / c.vars.size();
-      }
-    }
-    for (const auto& [name, w] : vw)
-      if (w > 0.05) jp.variables.push_back({name, w});
-    std::sort(jp.variables.begin(), jp.variables.end(), [](const auto& x, const auto& y) { return x.second > y.second; });
-    jp.predictable_rms = std::sqrt(std::max(jp.share, 0.0)) * jp.rms;
-    pooled_ss += sr, pooled_n += nr;
-    if (jp.predictable) {
-      std::string vars;
-      for (size_t i = 0; i < jp.variables.size() && i < 4; ++i)
-        vars += (i == 0 ? "" : i + 1 == std::min<size_t>(jp.variables.size(), 4) ? " and " : ", ") + jp.variables[i].first;
-      char buf[512];
-      std::snprintf(buf, sizeof buf,
-                    "an effect the model lacks on %s: %.0f %% (+- %.0f) of the remaining held-out residual (RMS %.3g N m) "
-                    "is predictable from the state (%s; p = %.2g, level %.2g); depends on %s",
-                    jn[j].c_str(), 100 * jp.share, 100 * jp.se, jp.rms,
-                    use_trees ? "gradient-boosted trees" : "sparse regression", jp.p, out.level,
-                    vars.empty() ? "(no single variable)" : vars.c_str());
-      jp.sentence = buf;
-    }
+    const BlockSums b = heldOutBlocks(series, ss, usable[j], Psp, Ptr, r, o, j, jp);
+    const bool use_trees = judgeMethods(b, o, out.level, min_share, jp);
+    explainJoint(dict, raw, sm, plan.train_rows, use_trees, gain, jp);
+    pooled_ss += b.sr, pooled_n += b.nr;
+    if (jp.predictable) jp.sentence = predictableSentence(model.joint_names[j], jp, use_trees, out.level);
     out.joints.push_back(std::move(jp));
   }
   // The relevance floor: a significant predictable part below min_rms_fraction of the pooled held-out RMS is not named.
@@ -459,19 +529,7 @@ bool residualPredictability(const Model& model, const std::vector<ResidualSeries
     jp.verdict = jp.predictable ? "predictable" : significant ? "significant but small" : "not significant";
     if (!jp.predictable) jp.sentence.clear();
   }
-  for (size_t s = 0; s < series.size(); ++s) {
-    PredictabilityResult::Series ps;
-    ps.segment = series[s].segment;
-    ps.validation = series[s].validation;
-    const long n = static_cast<long>(seg_rows[s].size());
-    ps.t.resize(n), ps.residual.resize(n, nj), ps.sparse.resize(n, nj), ps.trees.resize(n, nj);
-    for (long i = 0; i < n; ++i) {
-      const long k = seg_rows[s][i];
-      ps.t[i] = tt[k];
-      ps.residual.row(i) = Rz.row(k), ps.sparse.row(i) = Psp.row(k), ps.trees.row(i) = Ptr.row(k);
-    }
-    out.series.push_back(std::move(ps));
-  }
+  plotSeries(series, ss, Rz, Psp, Ptr, nj, out);
   return true;
 }
 

@@ -1,6 +1,8 @@
 // Outputs of the residual-predictability stage of `exoid diagnose` (diagnose_predictability.hpp).
 #include "diagnose_predictability.hpp"
 
+#include "diagnose_report.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -70,85 +72,71 @@ std::string pct(double x) {
   std::snprintf(b, sizeof b, "%.1f", 100.0 * x);
   return b;
 }
-}  // namespace
 
-bool writePredictability(const std::string& out_dir, const Model& model, const estimator::PredictabilityResult& res,
-                         const estimator::PredictabilityOptions& opt, bool plot, const std::string& python,
-                         nlohmann::json& js, std::string* report, std::string* console, std::string* error) {
-  const fs::path out(out_dir);
-  auto open = [&](const std::string& name, std::ofstream& f) {
-    f.open(out / name);
-    if (!f && error) *error = "cannot write '" + (out / name).string() + "'";
-    return static_cast<bool>(f);
-  };
-  std::ostringstream md, con;
-  if (!res.ran) {
-    js["predictability"] = {{"ran", false}};
-    if (report) *report = "";
-    if (console) *console = "";
-    return true;
+namespace est = exoid::estimator;
+
+// The reported method's variable weights ("name:percent ...") and the sparse terms ("+coef*term ...").
+std::string variablesText(const est::JointPredictability& j) {
+  std::string s;
+  for (const auto& [name, w] : j.variables) s += (s.empty() ? "" : " ") + name + ":" + pct(w);
+  return s;
+}
+std::string termsText(const est::JointPredictability& j) {
+  std::string s;
+  char b[64];
+  for (const est::PredictabilityTerm& t : j.terms) {
+    std::snprintf(b, sizeof b, "%+.4g*", t.coefficient);
+    s += (s.empty() ? "" : " ") + std::string(b) + t.name;
   }
-  auto vars = [](const estimator::JointPredictability& j) {
-    std::string s;
-    for (const auto& [name, w] : j.variables) s += (s.empty() ? "" : " ") + name + ":" + pct(w);
-    return s;
-  };
-  auto terms = [](const estimator::JointPredictability& j) {
-    std::string s;
-    char b[64];
-    for (const estimator::PredictabilityTerm& t : j.terms) {
-      std::snprintf(b, sizeof b, "%+.4g*", t.coefficient);
-      s += (s.empty() ? "" : " ") + std::string(b) + t.name;
-    }
-    return s;
-  };
-  {
-    std::ofstream f;
-    if (!open("predictability.csv", f)) return false;
-    f << "joint,predictable,verdict,predictable_rms,method,share,std_error,p_value,level,share_sparse,se_sparse,p_sparse,share_trees,se_trees,"
-         "p_trees,validation_share_sparse,validation_share_trees,rms,blocks,variables,terms\n";
-    for (const estimator::JointPredictability& j : res.joints) {
-      f << model.joint_names[j.joint] << ',' << (j.predictable ? 1 : 0) << ',' << j.verdict << ',' << j.predictable_rms
-        << ',' << j.method << ',' << j.share << ','
-        << j.se << ',' << j.p << ',' << res.level << ',' << j.share_sparse << ',' << j.se_sparse << ',' << j.p_sparse << ',';
-      if (opt.trees) f << j.share_trees << ',' << j.se_trees << ',' << j.p_trees;
-      else f << ",,";
-      f << ',' << j.validation_share_sparse << ',' << (opt.trees ? std::to_string(j.validation_share_trees) : "") << ','
-        << j.rms << ',' << j.blocks << ",\"" << vars(j) << "\",\"" << terms(j) << "\"\n";
-    }
+  return s;
+}
+
+// predictability.csv: one row per tested joint.
+bool writeJointsCsv(const fs::path& out, const Model& model, const est::PredictabilityResult& res,
+                    const est::PredictabilityOptions& opt, std::string* error) {
+  std::ofstream f;
+  if (!openOut(out, "predictability.csv", f, error)) return false;
+  f << "joint,predictable,verdict,predictable_rms,method,share,std_error,p_value,level,share_sparse,se_sparse,p_sparse,share_trees,se_trees,"
+       "p_trees,validation_share_sparse,validation_share_trees,rms,blocks,variables,terms\n";
+  for (const est::JointPredictability& j : res.joints) {
+    f << model.joint_names[j.joint] << ',' << (j.predictable ? 1 : 0) << ',' << j.verdict << ',' << j.predictable_rms
+      << ',' << j.method << ',' << j.share << ','
+      << j.se << ',' << j.p << ',' << res.level << ',' << j.share_sparse << ',' << j.se_sparse << ',' << j.p_sparse << ',';
+    if (opt.trees) f << j.share_trees << ',' << j.se_trees << ',' << j.p_trees;
+    else f << ",,";
+    f << ',' << j.validation_share_sparse << ',' << (opt.trees ? std::to_string(j.validation_share_trees) : "") << ','
+      << j.rms << ',' << j.blocks << ",\"" << variablesText(j) << "\",\"" << termsText(j) << "\"\n";
   }
-  {
-    std::ofstream f;
-    if (!open("predictability_series.csv", f)) return false;
-    f << "segment,validation,t";
-    for (const estimator::JointPredictability& j : res.joints) {
-      const std::string& n = model.joint_names[j.joint];
-      f << ",residual_" << n << ",sparse_" << n << ",trees_" << n;
-    }
-    f << '\n';
-    char b[96];
-    for (const estimator::PredictabilityResult::Series& s : res.series)
-      for (long i = 0; i < s.t.size(); ++i) {
-        std::snprintf(b, sizeof b, "%.6f", s.t[i]);
-        f << s.segment << ',' << (s.validation ? 1 : 0) << ',' << b;
-        for (const estimator::JointPredictability& j : res.joints) {
-          std::snprintf(b, sizeof b, ",%.6g,%.6g,%.6g", s.residual(i, j.joint), s.sparse(i, j.joint), s.trees(i, j.joint));
-          f << b;
-        }
-        f << '\n';
+  return true;
+}
+
+// predictability_series.csv: per segment's stage sample the residual and both methods' predictions per joint.
+bool writeSeriesCsv(const fs::path& out, const Model& model, const est::PredictabilityResult& res, std::string* error) {
+  std::ofstream f;
+  if (!openOut(out, "predictability_series.csv", f, error)) return false;
+  f << "segment,validation,t";
+  for (const est::JointPredictability& j : res.joints) {
+    const std::string& n = model.joint_names[j.joint];
+    f << ",residual_" << n << ",sparse_" << n << ",trees_" << n;
+  }
+  f << '\n';
+  char b[96];
+  for (const est::PredictabilityResult::Series& s : res.series)
+    for (long i = 0; i < s.t.size(); ++i) {
+      std::snprintf(b, sizeof b, "%.6f", s.t[i]);
+      f << s.segment << ',' << (s.validation ? 1 : 0) << ',' << b;
+      for (const est::JointPredictability& j : res.joints) {
+        std::snprintf(b, sizeof b, ",%.6g,%.6g,%.6g", s.residual(i, j.joint), s.sparse(i, j.joint), s.trees(i, j.joint));
+        f << b;
       }
-  }
-  {
-    std::ofstream f;
-    if (!open("plot_predictability.py", f)) return false;
-    f << kPlotScript;
-  }
-  bool plotted = false;
-  if (plot && !res.joints.empty()) {
-    const std::string cmd = python + " '" + (out / "plot_predictability.py").string() + "'";
-    plotted = std::system(cmd.c_str()) == 0;
-    if (!plotted) std::fprintf(stderr, "exoid diagnose: warning: the plot script failed (%s); the CSVs are written\n", cmd.c_str());
-  }
+      f << '\n';
+    }
+  return true;
+}
+
+// summary.json's "predictability" entry.
+nlohmann::json predictabilityJson(const Model& model, const est::PredictabilityResult& res,
+                                  const est::PredictabilityOptions& opt) {
   nlohmann::json pj;
   pj["ran"] = true;
   pj["level"] = res.level;
@@ -159,10 +147,10 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
   pj["block_seconds"] = opt.block_seconds;
   pj["rate_hz"] = opt.rate_hz;
   pj["joints"] = nlohmann::json::array();
-  for (const estimator::JointPredictability& j : res.joints) {
+  for (const est::JointPredictability& j : res.joints) {
     nlohmann::json v = nlohmann::json::array(), t = nlohmann::json::array();
     for (const auto& [name, w] : j.variables) v.push_back({{"name", name}, {"weight", w}});
-    for (const estimator::PredictabilityTerm& x : j.terms)
+    for (const est::PredictabilityTerm& x : j.terms)
       t.push_back({{"term", x.name}, {"coefficient", x.coefficient}, {"weight", x.weight}});
     pj["joints"].push_back({{"joint", model.joint_names[j.joint]}, {"predictable", j.predictable}, {"verdict", j.verdict},
                             {"predictable_rms", j.predictable_rms}, {"method", j.method},
@@ -172,8 +160,13 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
                             {"validation_share_trees", j.validation_share_trees}, {"rms", j.rms}, {"blocks", j.blocks},
                             {"variables", v}, {"terms", t}, {"sentence", j.sentence}});
   }
-  js["predictability"] = pj;
+  return pj;
+}
 
+// The report.md section (method, named joints, the table) and the console lines.
+void predictabilityReport(const Model& model, const est::PredictabilityResult& res, const est::PredictabilityOptions& opt,
+                          bool plotted, std::string* report, std::string* console) {
+  std::ostringstream md, con;
   char buf[2048];
   md << "## Is the remaining residual predictable from the state?\n\n";
   std::snprintf(buf, sizeof buf,
@@ -190,7 +183,7 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
                 opt.block_seconds, opt.block_seconds, res.level, res.tests, opt.min_rms_fraction, res.pooled_rms);
   md << buf;
   bool any = false;
-  for (const estimator::JointPredictability& j : res.joints)
+  for (const est::JointPredictability& j : res.joints)
     if (j.predictable) md << "- " << j.sentence << "\n", con << "  " << j.sentence << "\n", any = true;
   if (!any) {
     md << "Nothing: no joint's remaining residual is predictable from the state on held-out data.\n";
@@ -198,7 +191,7 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
   }
   md << "\n| joint | verdict | held-out RMS (N m) | sparse: share +- SE (p) | trees: share +- SE (p) | validation only: sparse / trees | "
         "depends on | sparse terms |\n|---|---|---|---|---|---|---|---|\n";
-  for (const estimator::JointPredictability& j : res.joints) {
+  for (const est::JointPredictability& j : res.joints) {
     std::string trees = "-";
     if (opt.trees) {
       std::snprintf(buf, sizeof buf, "%.0f %% +- %.0f (%.2g)", 100 * j.share_trees, 100 * j.se_trees, j.p_trees);
@@ -208,13 +201,33 @@ bool writePredictability(const std::string& out_dir, const Model& model, const e
                   model.joint_names[j.joint].c_str(), j.verdict.c_str(), j.rms, 100 * j.share_sparse,
                   100 * j.se_sparse, j.p_sparse, trees.c_str(), 100 * j.validation_share_sparse,
                   100 * j.validation_share_trees);
-    md << buf << vars(j) << " | " << terms(j) << " |\n";
+    md << buf << variablesText(j) << " | " << termsText(j) << " |\n";
   }
   md << "\n(`predictability.csv`; variable weights in %: the reported method's, sparse terms' standardized squared "
         "coefficients or the trees' total split gain.)\n\n";
   if (plotted) md << "![Residual against the stage's predictions](predictability.png)\n\n";
   if (report) *report = md.str();
   if (console) *console = con.str();
+}
+}  // namespace
+
+bool writePredictability(const std::string& out_dir, const Model& model, const estimator::PredictabilityResult& res,
+                         const estimator::PredictabilityOptions& opt, bool plot, const std::string& python,
+                         nlohmann::json& js, std::string* report, std::string* console, std::string* error) {
+  if (!res.ran) {
+    js["predictability"] = {{"ran", false}};
+    if (report) *report = "";
+    if (console) *console = "";
+    return true;
+  }
+  const fs::path out(out_dir);
+  bool plotted = false;
+  if (!writeJointsCsv(out, model, res, opt, error) || !writeSeriesCsv(out, model, res, error) ||
+      !writePlotScript(out_dir, "plot_predictability.py", kPlotScript, plot && !res.joints.empty(), python, "", &plotted,
+                       error))
+    return false;
+  js["predictability"] = predictabilityJson(model, res, opt);
+  predictabilityReport(model, res, opt, plotted, report, console);
   return true;
 }
 

@@ -12,15 +12,6 @@
 
 namespace exoid::estimator {
 
-namespace {
-// Upper triangle of the top rows x rows block of an in-place Householder QR of `work` (rows >= cols).
-void triangularize(Eigen::Ref<Eigen::MatrixXd> work, Eigen::Ref<Eigen::MatrixXd> out) {
-  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(work);
-  const int n = static_cast<int>(out.cols());
-  out = qr.matrixQR().topRows(n).triangularView<Eigen::Upper>();
-}
-}  // namespace
-
 std::vector<std::vector<int>> activeBaseColumns(const Model& model, const BaseParameters& base) {
   const int m = base.rank;
   Eigen::MatrixXd pattern = Eigen::MatrixXd::Zero(model.nv, m);

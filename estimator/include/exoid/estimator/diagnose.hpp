@@ -229,7 +229,7 @@ struct DiagnosisResult {
 bool diagnose(const Model& model, const std::vector<Segment>& train, const std::vector<Segment>& validate,
               const DiagnoseOptions& options, DiagnosisResult& out, std::string* error);
 
-/// One-sided p-value P(T >= t) of Student's t with dof degrees of freedom.
+/// One-sided p-value P(T >= t) of Student's t with dof degrees of freedom (Boost.Math); 1 for a NaN t or dof <= 0.
 double studentTUpperTail(double t, double dof);
 
 /// The augmented model's sidecar (docs/diagnose.md): YAML with the shape constants and one entry per effect.
@@ -271,6 +271,21 @@ class EffectCorrector {
   Eigen::MatrixXd K_, E_;
   Eigen::VectorXd y_, tau_, v_, v_prev_, a_;
 };
+
+/// The online estimator with and without the sidecar's columns (issue 9 item 4), offline: the training rows fed sample
+/// by sample through RecursiveLs (no forgetting, prior = the URDF +-25 %, the effects' prior 0 with sigma 10 x their
+/// value; gains corrected on the sensor part of y), then its torque prediction on the validation rows, back in
+/// measured units. Both see the same rows, so the difference is the sidecar alone. Runs (out.ran) only with validation
+/// data and an effect, and not with a held declared model (the rows then hold y - K phi_declared, not what the online
+/// estimator sees). res: the diagnosis of train/validate (its series give v, a per row).
+struct OnlineComparison {
+  bool ran = false;
+  double before = -1.0, after = -1.0;              ///< joint-row RMSE on the validation rows, N m
+  Eigen::VectorXd joint_before, joint_after;       ///< [njoints] per joint
+};
+bool compareOnline(const Model& model, const DiagnoseOptions& options, const std::vector<Segment>& train,
+                   const std::vector<Segment>& validate, const DiagnosisResult& res, const EffectSet& set,
+                   OnlineComparison& out, std::string* error);
 
 /// Measurement effects on y [nv]: a torque-sensor gain g makes the sensor's part tau_j of its joint's row
 /// tau_j / (1 + g) (y_j += tau_j / (1 + g) - tau_j); tau_sensor [nv] = that part (DatasetBuilder::sensorTorque();

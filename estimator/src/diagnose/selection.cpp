@@ -1,0 +1,213 @@
+// Forward selection of the diagnosis, its final fit and the Gauss-Newton reference (diagnose_stages.hpp,
+// docs/diagnose.md).
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+
+#include "exoid/estimator/diagnose_stages.hpp"
+
+namespace exoid::estimator {
+
+namespace {
+double correlation(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  const Eigen::VectorXd x = a.array() - a.mean(), y = b.array() - b.mean();
+  const double den = std::sqrt(x.squaredNorm() * y.squaredNorm());
+  return den > 0 ? x.dot(y) / den : 0.0;
+}
+
+// The step's choice. The test decides whether a coordinate has an effect at all (some admissible candidate there
+// significant at the Bonferroni level: the false-alarm rate); the held-out gain decides which kind it is, among that
+// coordinate's admissible candidates significant on their own at alpha. (Requiring the kind itself to pass the test
+// let a noisier fold pattern lose to a worse kind: viscous 10 N m s/rad on a hip, gain 1076 at p = 1.7e-4, was named
+// Coulomb, gain 861 at p = 6e-5, with the level at 1.5e-4.) Stribeck's column is a refinement of Coulomb friction: it
+// is named only when it predicts the held-out data clearly better (stribeck_margin) than Coulomb on the same joint.
+// A payload is its own test (Bonferroni level, usable like the others) and competes with the best effect by held-out
+// gain. best: candidate index (-1: none), pbest: index into pevals (-1: none; when >= 0, best is -1).
+struct StepChoice {
+  int best = -1, pbest = -1;
+  double best_gain = 0.0;
+  Finding best_finding;
+  std::vector<char> coord_has_effect;
+};
+StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, const std::vector<CandidateEval>& evals,
+                      const std::vector<PayloadEval>& pevals, double level) {
+  StepChoice ch;
+  const auto usable = [&](const CandidateEval& ev) { return ev.admissible && ev.gain > 0 && ev.f.explained >= opt.min_explained; };
+  ch.coord_has_effect.assign(static_cast<size_t>(data.nv), 0);
+  for (const CandidateEval& ev : evals)
+    if (usable(ev) && ev.f.p_value < level) ch.coord_has_effect[static_cast<size_t>(data.cands[ev.c].coord)] = 1;
+  // A kind competes on an established coordinate when it is significant on its own at alpha (uncorrected: the
+  // multiplicity is already paid by the coordinate's test).
+  const auto competes = [&](const CandidateEval& ev) {
+    return usable(ev) && ev.f.p_value < opt.alpha && ch.coord_has_effect[static_cast<size_t>(data.cands[ev.c].coord)];
+  };
+  for (const CandidateEval& ev : evals)
+    if (competes(ev) && ev.gain > ch.best_gain) ch.best_gain = ev.gain, ch.best = ev.c, ch.best_finding = ev.f;
+  if (ch.best >= 0 && data.cands[ch.best].kind == EffectKind::Stribeck)
+    for (const CandidateEval& ev : evals)
+      if (competes(ev) && data.cands[ev.c].kind == EffectKind::Coulomb && data.cands[ev.c].joint == data.cands[ch.best].joint &&
+          ev.gain * (1.0 + opt.stribeck_margin) >= ch.best_gain)
+        ch.best = ev.c, ch.best_finding = ev.f;
+  const auto pusable = [&](const PayloadEval& pe) { return pe.admissible && pe.gain > 0 && pe.f.explained >= opt.min_explained; };
+  for (size_t k = 0; k < pevals.size(); ++k)
+    if (pusable(pevals[k]) && pevals[k].f.p_value < level &&
+        pevals[k].gain > std::max(ch.best >= 0 ? ch.best_gain : 0.0, ch.pbest >= 0 ? pevals[static_cast<size_t>(ch.pbest)].gain : 0.0))
+      ch.pbest = static_cast<int>(k);
+  if (ch.pbest >= 0) ch.best = -1;
+  return ch;
+}
+
+// The first step's scores of every tested candidate and payload (out.first_step, out.payload_first_step).
+void recordFirstStep(const Model& model, const DiagnoseOptions& opt, const DiagnoseData& data,
+                     const std::vector<CandidateEval>& evals, const std::vector<PayloadEval>& pevals,
+                     const StepChoice& ch, double level, DiagnosisResult& out) {
+  for (size_t k = 0; k < pevals.size(); ++k) {
+    PayloadFinding pf = pevals[k].f;
+    pf.status = static_cast<int>(k) == ch.pbest      ? "accepted"
+                : !pevals[k].admissible             ? "inadmissible (mass <= 3 standard errors or CoM beyond the bound)"
+                : pf.explained < opt.min_explained  ? "below min-explained"
+                : pf.p_value >= level               ? "not significant"
+                                                    : "significant (a larger one was taken first)";
+    out.payload_first_step.push_back(pf);
+  }
+  for (const CandidateEval& ev : evals) {
+    const DiagnosisCandidate& cd = data.cands[ev.c];
+    CandidateScore sc;
+    sc.effect = ev.f.effect;
+    sc.explained = ev.f.explained;
+    sc.p_value = ev.f.p_value;
+    sc.separable = ev.separable;
+    sc.std_error = ev.jackknife_se;
+    Eigen::VectorXd res(out.train_samples), sig(out.train_samples);
+    long at = 0;
+    for (size_t s = 0; s < data.ntrain; ++s)
+      for (long i = 0; i < data.caches[s].n; ++i, ++at) {
+        res[at] = data.caches[s].y(i, cd.coord) - data.caches[s].tau0(i, cd.coord);
+        sig[at] = candidateSignal(model, opt, data, s, i, cd);
+      }
+    sc.correlation = correlation(res, sig);
+    sc.status = ev.c == ch.best                                             ? "accepted"
+                : !ev.admissible                                            ? "inadmissible sign"
+                : ev.f.explained < opt.min_explained                        ? "below min-explained"
+                : !ch.coord_has_effect[static_cast<size_t>(cd.coord)]       ? "not significant"
+                : ev.f.p_value >= opt.alpha                                 ? "not significant"
+                : ev.f.p_value >= level                                     ? "significant at alpha only (a larger one was taken)"
+                                                                            : "significant (a larger one was taken first)";
+    out.first_step.push_back(sc);
+  }
+}
+}  // namespace
+
+StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data,
+                       const std::vector<CandidateEval>& evals, const std::vector<PayloadEval>& pevals, int step,
+                       DiagnosisResult& out) {
+  const int tested = static_cast<int>(evals.size() + pevals.size());
+  const double level = opt.alpha / std::max(tested, 1);  // Bonferroni over the step's candidates
+  const StepChoice ch = chooseStep(opt, data, evals, pevals, level);
+  if (step == 0) recordFirstStep(model, opt, data, evals, pevals, ch, level, out);
+  if (ch.pbest >= 0) {
+    const PayloadEval& pe = pevals[static_cast<size_t>(ch.pbest)];
+    data.pdone[static_cast<size_t>(pe.l)] = 1;
+    for (int k = 0; k < 4; ++k) data.S.push_back(data.pc0 + 4 * pe.l + k);
+    data.pcol.push_back(data.pc0 + 4 * pe.l);
+    out.payloads.push_back(pe.f);
+    out.payloads.back().tested = tested;
+    out.payloads.back().status = "accepted";
+    // The gain and delay signals: about the model with the payload (relinearise), then select on.
+    return data.measurement_cands ? StepOutcome::PayloadRelinearise : StepOutcome::Payload;
+  }
+  if (ch.best < 0) return StepOutcome::Stop;
+  Finding f = ch.best_finding;
+  f.tested = tested;
+  data.S.push_back(data.m + ch.best);
+  data.fcol.push_back(data.m + ch.best);
+  out.findings.push_back(f);
+  return StepOutcome::Effect;
+}
+
+bool selectEffects(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& out) {
+  data.excluded.assign(static_cast<size_t>(data.nc), 0);
+  for (int step = data.steps_done; data.selecting && step < opt.max_effects; ++step) {
+    data.steps_done = step + 1;
+    CurrentFits fits;
+    currentFits(opt, data, fits);
+    const std::vector<CandidateEval> evals = screenCandidates(model, opt, data, fits, step, out);
+    const std::vector<PayloadEval> pevals = screenPayloads(model, opt, data, fits, step, out);
+    const StepOutcome o = selectStep(model, opt, data, evals, pevals, step, out);
+    if (o == StepOutcome::PayloadRelinearise) return true;
+    if (o == StepOutcome::Stop) break;
+  }
+  return false;
+}
+
+int columnPosition(const std::vector<int>& S, int col) {
+  return static_cast<int>(std::find(S.begin(), S.end(), col) - S.begin());
+}
+
+void finalFit(const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& out) {
+  const int F = opt.folds, nv = data.nv, P = data.P, iy = data.iy;
+  std::vector<std::pair<int, int>> w;
+  for (int f = 0; f < F; ++f)
+    for (int r = 0; r < nv; ++r) w.push_back({f, r});
+  const Eigen::MatrixXd Ru = mergeFoldFactors(data, w, true);
+  const int ns = static_cast<int>(data.S.size());
+  Eigen::MatrixXd Au(P, ns), Aw(P, ns);
+  for (int k = 0; k < ns; ++k) Au.col(k) = Ru.col(data.S[k]), Aw.col(k) = data.Rtrain[F].col(data.S[k]);
+  data.xa = Au.householderQr().solve(Ru.col(iy));
+  if (ns == 0) return;  // (a held declared model and nothing found)
+  const Eigen::VectorXd& xa = data.xa;
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr(Aw);
+  const Eigen::MatrixXd Rw = qr.matrixQR().topRows(ns).triangularView<Eigen::Upper>();
+  const Eigen::VectorXd xw = Rw.triangularView<Eigen::Upper>().solve(
+      (qr.householderQ() * Eigen::MatrixXd::Identity(P, ns)).transpose() * data.Rtrain[F].col(iy));
+  const double s2 = (data.Rtrain[F].col(iy) - Aw * xw).squaredNorm() / std::max<double>(data.total_rows - ns, 1);
+  const Eigen::MatrixXd Rinv = Rw.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(ns, ns));
+  for (size_t i = 0; i < out.payloads.size(); ++i) {  // final values; the jackknife errors stay the selection's
+    const int c = data.pcol[i], k = columnPosition(data.S, c);
+    out.payloads[i].mass = xa[k];
+    out.payloads[i].com =
+        Eigen::Vector3d(xa[columnPosition(data.S, c + 1)], xa[columnPosition(data.S, c + 2)], xa[columnPosition(data.S, c + 3)]) / xa[k];
+    // Admissibility is decided at selection; a final refit that leaves it says the data do not pin the CoM (a load on
+    // a foot flat on its plate: its height moves no torque).
+    const bool ok = xa[k] > 0.0 && out.payloads[i].com.norm() <= opt.payload_com_bound;
+    out.payloads[i].status = ok ? "accepted" : "accepted; the final refit puts its CoM beyond the bound: not determined";
+  }
+  for (size_t i = 0; i < out.findings.size(); ++i) {
+    const int k = columnPosition(data.S, data.fcol[i]);
+    out.findings[i].effect.value = xa[k];
+    out.findings[i].std_error = std::sqrt(s2 * Rinv.row(k).squaredNorm());
+  }
+}
+
+bool relinearise(const Model& model, DiagnoseData& data, std::string* error) {
+  const int nv = data.nv, m = data.m;
+  const Eigen::VectorXd xr = data.xa.head(m);
+  std::vector<int> ppos, pparam;  // positions in xa of the payloads' columns, their columns of K
+  for (size_t i = 0; i < data.pcol.size(); ++i)
+    for (int k = 0; k < 4; ++k) {
+      ppos.push_back(columnPosition(data.S, data.pcol[i] + k));
+      pparam.push_back(payloadParameter(model, data, data.pcol[i] + k));
+    }
+  for (size_t s = 0; s < data.caches.size(); ++s) {
+    SegmentSignals& cache = data.caches[s];
+    long i = 0;
+    const bool ok = data.segment(s).stream(
+        [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd&, const Eigen::VectorXd&) {
+          if (i >= cache.n) return;
+          for (int r = 0; r < nv; ++r) {
+            double pr = 0.0;
+            for (int c = 0; c < m; ++c) pr += K(r, data.decl[c]) * xr[c];
+            for (size_t e = 0; e < ppos.size(); ++e) pr += K(r, pparam[e]) * data.xa[ppos[e]];
+            cache.tau(i, r) = pr;
+          }
+          ++i;
+        },
+        error);
+    if (!ok) return false;
+    if (i != cache.n) return error && (*error = data.segment(s).name + ": the data changed between two reads", true), false;
+    cache.dtau = centralDifference(cache.t, cache.tau);
+  }
+  return true;
+}
+
+}  // namespace exoid::estimator

@@ -1,0 +1,189 @@
+// The diagnosis's sidecar (effects.yaml, docs/diagnose.md) and its use as known corrections: effect columns,
+// measurement corrections, EffectCorrector.
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include "exoid/estimator/diagnose.hpp"
+
+namespace exoid::estimator {
+
+// ---------------------------------------------------------------------------------------------------------
+bool writeEffects(const std::string& path, const Model& model, const EffectSet& set, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp);
+    if (!f) return error && (*error = "cannot write '" + tmp + "'", true), false;
+    char buf[512];
+    f << "# Effects the rigid-body model lacks, found by `exoid diagnose` (format: docs/diagnose.md).\n"
+         "# Dynamics effects add a column on their joint's row: viscous v, coulomb tanh(v / width),\n"
+         "# stribeck tanh(v / width) exp(-(v / stribeck_velocity)^2) (width: the effect's, else coulomb_width),\n"
+         "# offset 1, armature dv/dt.\n"
+         "# Measurement effects correct the torque: gain g (measured = (1 + g) true), delay d (s, measured(t) =\n"
+         "# true(t - d)).\n";
+    f << "model: \"" << set.model << "\"\n";
+    std::snprintf(buf, sizeof buf, "coulomb_width: %.17g  # rad/s\nstribeck_velocity: %.17g  # rad/s\neffects:\n",
+                  set.shape.coulomb_width, set.shape.stribeck_velocity);
+    f << buf;
+    if (set.effects.empty()) f << "  []\n";
+    for (const Effect& e : set.effects) {
+      if (e.joint < 0 || e.joint >= model.njoints) return error && (*error = "effect on an unknown joint", true), false;
+      if (e.width > 0.0 && isDryFriction(e.kind))
+        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
+                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
+      else
+        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g}  # %s\n", model.joint_names[e.joint].c_str(),
+                      effectKindName(e.kind), e.value, effectUnit(e.kind));
+      f << buf;
+    }
+    if (!f.good()) return error && (*error = "write failed on '" + tmp + "'", true), false;
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    if (error) *error = "cannot rename '" + tmp + "' to '" + path + "'";
+    return false;
+  }
+  return true;
+}
+
+namespace {
+// Why the sidecar's top-level mapping is not one (empty: it is): known keys only, positive finite shape constants.
+std::string readShape(const YAML::Node& root, EffectSet& set) {
+  if (!root.IsMap()) return "expected a mapping with 'effects'";
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    const std::string key = it->first.as<std::string>();
+    if (key != "model" && key != "coulomb_width" && key != "stribeck_velocity" && key != "effects")
+      return "unknown key '" + key + "'";
+  }
+  if (root["model"]) set.model = root["model"].as<std::string>();
+  if (root["coulomb_width"]) set.shape.coulomb_width = root["coulomb_width"].as<double>();
+  if (root["stribeck_velocity"]) set.shape.stribeck_velocity = root["stribeck_velocity"].as<double>();
+  if (!(set.shape.coulomb_width > 0) || !std::isfinite(set.shape.coulomb_width) || !(set.shape.stribeck_velocity > 0) ||
+      !std::isfinite(set.shape.stribeck_velocity))
+    return "coulomb_width and stribeck_velocity must be positive and finite";
+  return "";
+}
+
+// One entry of 'effects' (where: "effects[i]"), or why not (empty: read): a known joint and kind, a finite value, a
+// positive finite width on dry friction only, no other key.
+std::string readEffect(const YAML::Node& e, const std::string& where, const Model& model, Effect& ef) {
+  if (!e.IsMap() || !e["joint"] || !e["kind"] || !e["value"]) return where + ": needs joint, kind and value";
+  ef.joint = model.jointIndex(e["joint"].as<std::string>());
+  if (ef.joint < 0) return where + ": unknown joint '" + e["joint"].as<std::string>() + "'";
+  if (!parseEffectKind(e["kind"].as<std::string>(), ef.kind)) return where + ": unknown kind '" + e["kind"].as<std::string>() + "'";
+  ef.value = e["value"].as<double>();
+  if (!std::isfinite(ef.value)) return where + ": value is not finite";
+  for (auto kv = e.begin(); kv != e.end(); ++kv) {
+    const std::string k = kv->first.as<std::string>();
+    if (k != "joint" && k != "kind" && k != "value" && k != "width") return where + ": unknown key '" + k + "'";
+  }
+  if (!e["width"]) return "";
+  ef.width = e["width"].as<double>();
+  if (!(ef.width > 0) || !std::isfinite(ef.width)) return where + ": width must be positive and finite";
+  if (!isDryFriction(ef.kind)) return where + ": a width belongs to coulomb and stribeck effects only";
+  return "";
+}
+}  // namespace
+
+bool readEffects(const std::string& path, const Model& model, EffectSet& set, std::string* error) {
+  auto fail = [&](const std::string& m) {
+    if (error) *error = path + ": " + m;
+    return false;
+  };
+  if (std::ifstream probe(path); !probe) return fail("cannot open the file");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const std::exception& e) {
+    return fail(std::string("not readable YAML: ") + e.what());
+  }
+  set = EffectSet{};
+  try {
+    if (const std::string why = readShape(root, set); !why.empty()) return fail(why);
+    const YAML::Node effects = root["effects"];
+    if (!effects || !effects.IsSequence()) return fail("'effects' must be a list");
+    for (size_t i = 0; i < effects.size(); ++i) {
+      Effect ef;
+      if (const std::string why = readEffect(effects[i], "effects[" + std::to_string(i) + "]", model, ef); !why.empty())
+        return fail(why);
+      set.effects.push_back(ef);
+    }
+  } catch (const std::exception& ex) {
+    return fail(std::string("malformed: ") + ex.what());
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+int effectColumnCount(const EffectSet& set) {
+  int n = 0;
+  for (const Effect& e : set.effects) n += isMeasurementEffect(e.kind) ? 0 : 1;
+  return n;
+}
+
+void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
+                   const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E) {
+  E.setZero();
+  int col = 0;
+  for (const Effect& e : set.effects) {
+    if (isMeasurementEffect(e.kind)) continue;
+    E(model.jointRow(e.joint), col++) = effectSignal(e.kind, effectShape(set.shape, e), v[e.joint], a[e.joint], 0.0, 0.0);
+  }
+}
+
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y,
+                        const Eigen::Ref<const Eigen::VectorXd>& tau_sensor) {
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::Delay) return false;
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::GainError) {
+      const int r = model.jointRow(e.joint);
+      y[r] += tau_sensor[r] / (1.0 + e.value) - tau_sensor[r];
+    }
+  return true;
+}
+
+bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eigen::VectorXd> y) {
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::Delay) return false;
+  for (const Effect& e : set.effects)
+    if (e.kind == EffectKind::GainError) y[model.jointRow(e.joint)] /= 1.0 + e.value;  // y is the sensor torque
+  return true;
+}
+
+EffectCorrector::EffectCorrector(const Model& model, const EffectSet& set, RowSink sink)
+    : model_(model), set_(set), sink_(std::move(sink)) {
+  E_ = Eigen::MatrixXd::Zero(model.nv, effectColumnCount(set));
+  v_ = v_prev_ = a_ = Eigen::VectorXd::Zero(model.njoints);
+}
+
+void EffectCorrector::add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor) {
+  Eigen::VectorXd v(model_.njoints);
+  for (int j = 0; j < model_.njoints; ++j) v[j] = K(model_.jointRow(j), model_.frictionParamIndex(j));
+  if (pending_) emit(t, v);
+  K_ = K, y_ = y, tau_ = tau_sensor ? *tau_sensor : y, v_ = v, t_ = t;
+  pending_ = true;
+}
+
+void EffectCorrector::finish() {
+  if (pending_) emit(t_, v_);
+  pending_ = false;
+}
+
+void EffectCorrector::emit(double t_next, const Eigen::VectorXd& v_next) {
+  // Central difference over the neighbours (one-sided at the ends), as the diagnosis's derivative().
+  const double t_lo = has_prev_ ? t_prev_ : t_;
+  const Eigen::VectorXd& v_lo = has_prev_ ? v_prev_ : v_;
+  a_ = t_next > t_lo ? Eigen::VectorXd((v_next - v_lo) / (t_next - t_lo)) : Eigen::VectorXd::Zero(model_.njoints);
+  effectColumns(model_, set_, v_, a_, E_);
+  int col = 0;
+  for (const Effect& e : set_.effects)
+    if (!isMeasurementEffect(e.kind)) y_ -= e.value * E_.col(col++);
+  correctMeasurement(model_, set_, y_, tau_);
+  sink_(t_, K_, y_);
+  t_prev_ = t_, v_prev_ = v_, has_prev_ = true;
+}
+
+}  // namespace exoid::estimator

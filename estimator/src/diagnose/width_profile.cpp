@@ -1,0 +1,48 @@
+// The Coulomb-width profile of the diagnosis (diagnose_stages.hpp, docs/diagnose.md).
+#include <Eigen/QR>
+
+#include "exoid/estimator/diagnose_stages.hpp"
+
+namespace exoid::estimator {
+
+// Per joint and dry-friction kind, the width whose signal s, together with the viscous signal v (on the joint's row),
+// would remove the most of the declared fit's training residual e: the least-squares gain g^T M^-1 g of the two
+// columns made orthogonal to the declared columns of every row (their Gram from the declared factor), M their Gram,
+// g their products with e. e is orthogonal to the declared columns, so s_perp . e = s . e. With v beside it, a wide
+// tanh gains nothing by imitating viscous friction: the width describes the dry part (alone, the KUKA's joints all
+// took the grid's widest). Every width in one pass.
+void profileCoulombWidths(DiagnoseData& data) {
+  const int nw = data.nw, ns2 = 2 * nw;
+  data.width_of.assign(static_cast<size_t>(2 * data.nj), data.widths[0]);  // the one width; with a grid, overwritten
+  if (nw <= 1) return;
+  // The declared (kept) columns' Gram is A^T A (A: their columns of the factor); R1^T R1 with R1 from its QR.
+  const int mk = static_cast<int>(data.keep.size());
+  const Eigen::MatrixXd R1 = mk > 0 ? Eigen::MatrixXd(data.A_keep.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>())
+                                    : Eigen::MatrixXd();
+  for (int j = 0; j < data.nj; ++j) {
+    const WidthProfileSums& pr = data.profile[static_cast<size_t>(j)];
+    Eigen::MatrixXd B(mk, ns2 + 1);
+    for (int a = 0; a < mk; ++a) B.row(a) = pr.B.row(data.keep[a]);
+    // Projections on the declared span: s_a^T P s_b = Z_a . Z_b with R1^T Z = B.
+    const Eigen::MatrixXd Z = mk > 0 ? Eigen::MatrixXd(R1.transpose().triangularView<Eigen::Lower>().solve(B))
+                                     : Eigen::MatrixXd::Zero(0, ns2 + 1);
+    const Eigen::VectorXd se = mk > 0 ? Eigen::VectorXd(pr.cy - B.transpose() * data.x0) : pr.cy;  // s^T e (v^T e last)
+    const double vv = pr.cc[ns2] - Z.col(ns2).squaredNorm();
+    for (int kind = 0; kind < 2; ++kind) {
+      double best = -1.0;
+      for (int w = 0; w < nw; ++w) {
+        const int s = kind * nw + w;
+        const double ss = pr.cc[s] - Z.col(s).squaredNorm(), sv = pr.cv[s] - Z.col(s).dot(Z.col(ns2));
+        const double det = ss * vv - sv * sv;
+        double score = 0.0;
+        if (det > 1e-12 * ss * vv)  // [s v] gain: g^T M^-1 g
+          score = (vv * se[s] * se[s] - 2.0 * sv * se[s] * se[ns2] + ss * se[ns2] * se[ns2]) / det;
+        else if (ss > 1e-12 * pr.cc[s])
+          score = se[s] * se[s] / ss;
+        if (score > best) best = score, data.width_of[static_cast<size_t>(2 * j + kind)] = data.widths[w];
+      }
+    }
+  }
+}
+
+}  // namespace exoid::estimator

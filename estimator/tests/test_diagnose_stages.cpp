@@ -1,0 +1,294 @@
+// The diagnosis's stages one by one (diagnose_stages.hpp), each against an independent dense computation on a short
+// synthetic KUKA LWR4+ run (y = K phi + 2 N m s/rad of viscous friction on joint 3 + noise): the streamed factors
+// against the stacked matrices, the fits against dense least squares, the fold test against per-fold refits, the
+// selection rule on hand-made scores, Student's t against its closed forms.
+#include <gtest/gtest.h>
+
+#include <Eigen/QR>
+#include <cmath>
+#include <random>
+
+#include "exoid/estimator/diagnose_stages.hpp"
+#include "exoid/model/regressor.hpp"
+#include "kuka_model.hpp"
+
+namespace exoid::estimator {
+namespace {
+
+using test::kuka;
+
+struct Run {
+  std::vector<State> states;
+  std::vector<double> t;
+  std::vector<Eigen::VectorXd> y;
+};
+
+// 8 s at 100 Hz of three sines per joint; y = K phi + 2 v_3 + N(0, 0.05^2).
+Run makeRun(const Model& model, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> f(0.1, 0.6), ph(0, 2 * M_PI), amp(0.1, 0.3);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  std::vector<std::array<double, 9>> c(model.njoints);
+  for (auto& cj : c)
+    for (int h = 0; h < 3; ++h) cj[3 * h] = f(rng), cj[3 * h + 1] = ph(rng), cj[3 * h + 2] = amp(rng);
+  Data data(model);
+  Run run;
+  for (int k = 0; k < 800; ++k) {
+    const double t = 0.01 * k;
+    State s = State::zero(model);
+    for (int j = 0; j < model.njoints; ++j)
+      for (int h = 0; h < 3; ++h) {
+        const double w = 2 * M_PI * c[j][3 * h], a = c[j][3 * h + 2] / w, arg = w * t + c[j][3 * h + 1];
+        s.q[j] += a * std::sin(arg), s.v[j] += a * w * std::cos(arg), s.a[j] -= a * w * w * std::sin(arg);
+      }
+    computeJointTorqueRegressor(model, data, s);
+    Eigen::VectorXd y = data.K * model.phi;
+    y[3] += 2.0 * s.v[3];
+    for (int r = 0; r < model.nv; ++r) y[r] += noise(rng);
+    run.states.push_back(s), run.t.push_back(t), run.y.push_back(y);
+  }
+  return run;
+}
+
+Segment segmentOf(const Model& model, const Run& run, const std::string& name) {
+  return {name, [&model, &run](const DiagnosisRowSink& sink, std::string*) {
+            Data data(model);
+            for (size_t i = 0; i < run.states.size(); ++i) {
+              computeJointTorqueRegressor(model, data, run.states[i]);
+              sink(run.t[i], data.K, run.y[i], run.y[i]);
+            }
+            return true;
+          }};
+}
+
+// Stages up to the candidate columns on one training and one validation run.
+struct Prepared {
+  Run train = makeRun(kuka(), 11), val = makeRun(kuka(), 12);
+  std::vector<Segment> tr, va;
+  DiagnoseOptions opt;
+  DiagnoseData data;
+  DiagnosisResult out;
+  Prepared() {
+    const Model& model = kuka();
+    tr = {segmentOf(model, train, "train")}, va = {segmentOf(model, val, "val")};
+    opt.folds = 5;
+    opt.chunk_seconds = 0.5;
+    std::string err;
+    declaredColumns(model, opt, tr, va, data, out);
+    EXPECT_TRUE(trainingPass(model, opt, data, out, &err)) << err;
+    EXPECT_TRUE(declaredFit(data, out, &err)) << err;
+    profileCoulombWidths(data);
+    EXPECT_TRUE(declaredPrediction(model, data, out, &err)) << err;
+    rowWeights(model, data);
+    candidateSignals(model, opt, data, out);
+  }
+  // The stacked declared rows K_decl [n nv x m] and y of the training run.
+  void dense(Eigen::MatrixXd& W, Eigen::VectorXd& y) const {
+    const Model& model = kuka();
+    Data d(model);
+    const long n = static_cast<long>(train.states.size());
+    W.resize(n * model.nv, data.m), y.resize(n * model.nv);
+    for (long i = 0; i < n; ++i) {
+      computeJointTorqueRegressor(model, d, train.states[i]);
+      for (int r = 0; r < model.nv; ++r) {
+        for (int c = 0; c < data.m; ++c) W(i * model.nv + r, c) = d.K(r, data.decl[c]);
+        y[i * model.nv + r] = train.y[i][r];
+      }
+    }
+  }
+};
+
+TEST(DiagnoseStages, TriangularFactorKeepsTheGramOfTheStreamedRows) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g;
+  for (int rows : {3, 7, 300}) {  // fewer rows than columns, then several blocks of 64
+    Eigen::MatrixXd A(rows, 7);
+    for (int i = 0; i < A.size(); ++i) A.data()[i] = g(rng);
+    TriangularFactor f(7);
+    for (int i = 0; i < rows; ++i) f.nextRow() = A.row(i);
+    f.flush();
+    EXPECT_LT((f.R().transpose() * f.R() - A.transpose() * A).norm(), 1e-10 * (A.transpose() * A).norm()) << rows;
+    EXPECT_EQ(f.R().triangularView<Eigen::StrictlyLower>().toDenseMatrix().norm(), 0.0);
+    EXPECT_LT((TriangularFactor::triangular(A).transpose() * TriangularFactor::triangular(A) - A.transpose() * A).norm(),
+              1e-10 * (A.transpose() * A).norm());
+  }
+}
+
+TEST(DiagnoseStages, DeclaredFitIsTheDenseLeastSquaresFitAndItsPrediction) {
+  const Prepared p;
+  Eigen::MatrixXd W;
+  Eigen::VectorXd y;
+  p.dense(W, y);
+  ASSERT_EQ(p.out.train_samples, 800);
+  ASSERT_EQ(p.out.validation_samples, 800);
+  EXPECT_EQ(p.data.m + p.out.dropped_columns, p.data.md);
+  const Eigen::VectorXd x = W.colPivHouseholderQr().solve(y);
+  EXPECT_LT((p.data.x0 - x).norm(), 1e-8 * x.norm());
+  const Eigen::VectorXd pred = W * x;
+  const SegmentSignals& c = p.data.caches[0];
+  for (long i : {0L, 399L, 799L})
+    for (int r = 0; r < 7; ++r) EXPECT_NEAR(c.tau0(i, r), pred[i * 7 + r], 1e-8) << i << " " << r;
+  // Row weights: the RMS of the declared residual per coordinate.
+  for (int r = 0; r < 7; ++r) {
+    double ss = 0.0;
+    for (long i = 0; i < 800; ++i) ss += std::pow(y[i * 7 + r] - pred[i * 7 + r], 2);
+    EXPECT_NEAR(p.data.sigma[r], std::sqrt(ss / 800), 1e-9) << r;
+  }
+  // v from K's friction column, a its central difference.
+  EXPECT_NEAR(c.v(5, 2), p.train.states[5].v[2], 1e-12);
+  EXPECT_NEAR(c.a(5, 2), (p.train.states[6].v[2] - p.train.states[4].v[2]) / 0.02, 1e-9);
+}
+
+TEST(DiagnoseStages, CandidateSignalsAndTheirColumns) {
+  const Prepared p;
+  // Every kind on every joint (the arm's joints are actuated and measured).
+  EXPECT_EQ(p.data.nc, kEffectKinds * 7);
+  EXPECT_EQ(p.data.P, p.data.m + p.data.nc + 1);  // no payload columns without a held model
+  for (int r = 0; r < 7; ++r) EXPECT_EQ(p.data.active[r].back(), p.data.iy);
+  for (const DiagnosisCandidate& cd : p.data.cands) {
+    const double v = p.train.states[100].v[cd.joint], a = p.data.caches[0].a(100, cd.joint);
+    const double tau = p.data.caches[0].tau(100, cd.coord), dtau = p.data.caches[0].dtau(100, cd.coord);
+    const double expect = cd.kind == EffectKind::Viscous    ? v
+                          : cd.kind == EffectKind::Offset   ? 1.0
+                          : cd.kind == EffectKind::Armature ? a
+                          : cd.kind == EffectKind::GainError ? tau  // fixed base: the sensor's part is all of y
+                          : cd.kind == EffectKind::Delay    ? -dtau
+                          : cd.kind == EffectKind::Coulomb  ? std::tanh(v / cd.width)
+                                                            : std::tanh(v / cd.width) * std::exp(-std::pow(v / 0.1, 2));
+    EXPECT_NEAR(candidateSignal(kuka(), p.opt, p.data, 0, 100, cd), expect, 1e-12) << effectKindName(cd.kind);
+  }
+}
+
+TEST(DiagnoseStages, ScreeningMatchesPerFoldDenseRefits) {
+  Prepared p;
+  std::string err;
+  ASSERT_TRUE(foldFactors(kuka(), p.opt, p.data, &err)) << err;
+  p.data.S.resize(p.data.m);
+  for (int c = 0; c < p.data.m; ++c) p.data.S[c] = c;
+  p.data.pdone.assign(0, 0);
+  p.data.excluded.assign(p.data.nc, 0);
+  CurrentFits fits;
+  currentFits(p.opt, p.data, fits);
+  const std::vector<CandidateEval> evals = screenCandidates(kuka(), p.opt, p.data, fits, 0, p.out);
+  // The viscous candidate on joint 3, independently: dense weighted rows, fold of sample i = floor(t_i / 0.5) mod 5.
+  int cv = -1;
+  for (int c = 0; c < p.data.nc; ++c)
+    if (p.data.cands[c].kind == EffectKind::Viscous && p.data.cands[c].joint == 3) cv = c;
+  const CandidateEval* ev = nullptr;
+  for (const CandidateEval& e : evals) ev = e.c == cv ? &e : ev;
+  ASSERT_NE(ev, nullptr);
+  Eigen::MatrixXd W;
+  Eigen::VectorXd y;
+  p.dense(W, y);
+  const long rows = W.rows();
+  Eigen::MatrixXd Wc(rows, p.data.m + 1);
+  Eigen::VectorXd wy(rows);
+  std::vector<int> fold(rows);
+  for (long k = 0; k < rows; ++k) {
+    const long i = k / 7;
+    const int r = static_cast<int>(k % 7);
+    const double s = 1.0 / p.data.sigma[r];
+    Wc.row(k).head(p.data.m) = s * W.row(k);
+    Wc(k, p.data.m) = r == 3 ? s * p.train.states[i].v[3] : 0.0;
+    wy[k] = s * y[k];
+    fold[k] = static_cast<int>(static_cast<long>(p.train.t[i] / 0.5) % 5);
+  }
+  const Eigen::VectorXd all = Wc.colPivHouseholderQr().solve(wy);
+  EXPECT_NEAR(ev->f.effect.value, all[p.data.m], 1e-6);
+  EXPECT_NEAR(ev->f.effect.value, 2.0, 0.1);
+  Eigen::VectorXd d(5);
+  for (int f = 0; f < 5; ++f) {
+    std::vector<long> in, out;
+    for (long k = 0; k < rows; ++k) (fold[k] == f ? out : in).push_back(k);
+    auto sub = [&](const std::vector<long>& idx, int cols) {
+      Eigen::MatrixXd A(idx.size(), cols);
+      for (size_t k = 0; k < idx.size(); ++k) A.row(k) = Wc.row(idx[k]).head(cols);
+      return A;
+    };
+    auto vec = [&](const std::vector<long>& idx) {
+      Eigen::VectorXd b(idx.size());
+      for (size_t k = 0; k < idx.size(); ++k) b[k] = wy[idx[k]];
+      return b;
+    };
+    const Eigen::VectorXd x0 = sub(in, p.data.m).colPivHouseholderQr().solve(vec(in));
+    const Eigen::VectorXd x1 = sub(in, p.data.m + 1).colPivHouseholderQr().solve(vec(in));
+    d[f] = (vec(out) - sub(out, p.data.m) * x0).squaredNorm() - (vec(out) - sub(out, p.data.m + 1) * x1).squaredNorm();
+  }
+  const double mean = d.mean(), sd = std::sqrt((d.array() - mean).square().sum() / 4);
+  EXPECT_NEAR(ev->gain, mean, 1e-6 * std::fabs(mean));
+  EXPECT_NEAR(ev->f.t_stat, mean / (sd / std::sqrt(5.0)), 1e-6 * std::fabs(ev->f.t_stat));
+  EXPECT_DOUBLE_EQ(ev->f.p_value, studentTUpperTail(ev->f.t_stat, 4));
+}
+
+TEST(DiagnoseStages, SelectStepTestsTheCoordinateThenPicksTheKindByGain) {
+  Prepared p;
+  p.data.S.clear();
+  auto eval = [&](EffectKind kind, int joint, double gain, double pv) {
+    CandidateEval e;
+    for (int c = 0; c < p.data.nc; ++c)
+      if (p.data.cands[c].kind == kind && p.data.cands[c].joint == joint) e.c = c;
+    e.gain = gain, e.admissible = true, e.f.explained = 0.5, e.f.p_value = pv;
+    e.f.effect = {kind, joint, 1.0, 0.0};
+    return e;
+  };
+  // Level 0.01 / 3. Joint 2: Coulomb significant at the level, viscous at alpha only with the larger gain: viscous.
+  std::vector<CandidateEval> ev = {eval(EffectKind::Coulomb, 2, 5.0, 1e-4), eval(EffectKind::Viscous, 2, 8.0, 5e-3),
+                                   eval(EffectKind::Offset, 4, 50.0, 5e-3)};  // joint 4: not established
+  EXPECT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
+  ASSERT_EQ(p.out.findings.size(), 1u);
+  EXPECT_EQ(p.out.findings[0].effect.kind, EffectKind::Viscous);
+  EXPECT_EQ(p.out.findings[0].tested, 3);
+  // Stribeck within the margin of Coulomb on the same joint: Coulomb is named.
+  ev = {eval(EffectKind::Stribeck, 5, 10.5, 1e-5), eval(EffectKind::Coulomb, 5, 10.0, 1e-5)};
+  EXPECT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
+  EXPECT_EQ(p.out.findings.back().effect.kind, EffectKind::Coulomb);
+  // Nothing significant at the Bonferroni level: stop.
+  ev = {eval(EffectKind::Offset, 6, 10.0, 0.02)};
+  EXPECT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Stop);
+  EXPECT_EQ(p.out.findings.size(), 2u);
+}
+
+TEST(DiagnoseStages, SummariesAreTheResidualsRms) {
+  const Model& model = kuka();
+  Prepared p;
+  p.opt.folds = 10;  // with 5, t over 4 degrees of freedom cannot pass 0.01 / 49 candidates
+  p.opt.chunk_seconds = 0.25;
+  std::string err;
+  ASSERT_TRUE(foldFactors(model, p.opt, p.data, &err)) << err;
+  p.data.S.resize(p.data.m);
+  for (int c = 0; c < p.data.m; ++c) p.data.S[c] = c;
+  p.data.pdone.clear();
+  ASSERT_FALSE(selectEffects(model, p.opt, p.data, p.out));
+  finalFit(p.opt, p.data, p.out);
+  ASSERT_FALSE(p.out.findings.empty());
+  EXPECT_EQ(p.out.findings[0].effect.kind, EffectKind::Viscous);
+  EXPECT_EQ(p.out.findings[0].effect.joint, 3);
+  ASSERT_TRUE(residualSeries(model, p.opt, p.data, p.out, &err)) << err;
+  p.out.has_validation = true;
+  summarizeCoordinates(model, p.opt, p.data, p.out);
+  const ResidualSeries& v = p.out.series[1];
+  ASSERT_TRUE(v.validation);
+  for (int r = 0; r < 7; ++r) {
+    EXPECT_NEAR(p.out.coordinates[r].rms_before, std::sqrt(v.before.col(r).squaredNorm() / 800), 1e-12);
+    EXPECT_NEAR(p.out.coordinates[r].rms_after, std::sqrt(v.after.col(r).squaredNorm() / 800), 1e-12);
+  }
+  // Joint 3 after: the 2 N m s/rad are gone down to the noise; before they were not.
+  EXPECT_LT(p.out.coordinates[3].rms_after, 0.06);
+  EXPECT_GT(p.out.coordinates[3].rms_before, 0.1);
+}
+
+TEST(StudentT, BoostTailMatchesClosedForms) {
+  for (double t : {-3.0, -0.5, 0.0, 0.7, 2.0, 9.0, 40.0}) {
+    EXPECT_NEAR(studentTUpperTail(t, 1), 0.5 - std::atan(t) / M_PI, 1e-14);                    // Cauchy
+    EXPECT_NEAR(studentTUpperTail(t, 2), 0.5 * (1 - t / std::sqrt(t * t + 2)), 1e-14);        // dof 2
+    const double x = t / std::sqrt(t * t + 4);                                              // dof 4
+    const double p4 = 0.5 - 0.5 * x * (1.5 - 0.5 * x * x);
+    EXPECT_NEAR(studentTUpperTail(t, 4), p4, 1e-13 + 1e-12 * p4) << t;
+  }
+  EXPECT_EQ(studentTUpperTail(INFINITY, 5), 0.0);
+  EXPECT_EQ(studentTUpperTail(-INFINITY, 5), 1.0);
+  EXPECT_EQ(studentTUpperTail(std::nan(""), 5), 1.0);
+}
+
+}  // namespace
+}  // namespace exoid::estimator
