@@ -11,6 +11,7 @@
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/render/scene.hpp"

@@ -6,6 +6,7 @@
 
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 
 namespace exoid::render {

@@ -19,6 +19,7 @@
 
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/render/scene.hpp"

@@ -34,7 +34,8 @@ int fail(const std::string& msg) { return common::badInput("exoid identify", msg
 void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
   app.add_option("--data", o.data, "training data: LCM logs (exoid experiment's run.lcmlog) and/or CSVs (*.csv)")->required();
   app.add_option("--validate", o.validate, "validation data (same kinds); needed by --rank validation; its RMSE is reported, "
-                 "with a warning when it is more than 2 x the training RMSE (the data differ)");
+                 "with a warning when it is more than 2 x the training RMSE (the data differ); filtered with --cutoff "
+                 "like the training data, except truth-pipeline logs (ideal, unfiltered: the thesis protocol)");
   app.add_option("--model", o.model_path, "robot URDF (default config/exo.urdf)");
   app.add_flag("--fixed-base", o.fixed_base, "the model's root link is fixed to the world (e.g. data/kuka_lwr4)");
   app.add_option("--pipeline", o.pipeline, "LCM logs: 'sensors' (encoders, torque sensors, IMU, plates; no ground truth) or "

@@ -90,7 +90,9 @@ SourceOptions trainingSource(const IdentifyRunOptions& o) {
   return so;
 }
 
-/// The validation data's: as recorded (ideal by default, thesis IV-A): no effects, no noise, no filter.
+/// The validation data's: as recorded, no effects, no added noise. Truth-pipeline logs are ideal (thesis IV-A) and
+/// stay unfiltered; measured validation data (sensors-pipeline logs, CSV) carry the training data's noise and get
+/// its filter (unfiltered, twice-differenced encoders drown the held-out RMSE and the rank chosen with it).
 SourceOptions validationSource(const IdentifyRunOptions& o, const SourceOptions& training) {
   SourceOptions vo = training;
   vo.effects = nullptr;
@@ -99,7 +101,8 @@ SourceOptions validationSource(const IdentifyRunOptions& o, const SourceOptions&
   vo.dataset.encoder_noise = 0.0;
   vo.dataset.orientation_from_legs = vo.pipeline == intake::LogPipeline::Sensors && o.orientation == "fused";
   vo.dataset.derive = o.derive;
-  vo.dataset.cutoff_hz = 0.0;
+  const bool ideal = vo.pipeline == intake::LogPipeline::Truth && !o.validate.empty() && !isCsvPath(o.validate.front());
+  vo.dataset.cutoff_hz = ideal ? 0.0 : training.dataset.cutoff_hz;
   return vo;
 }
 
