@@ -100,13 +100,4 @@ done
   --train "$out/undeclared_seed1/run.lcmlog" --calibration "$out/undeclared_calibration1/run.lcmlog" \
   --validate "$out/undeclared_seed2/run.lcmlog" --validate-calibration "$out/undeclared_calibration2/run.lcmlog" \
   --python "$py" --out "$out/diagnose_undeclared"
-# The runs it used, as keyframe strips (start, largest CoM excursion, end), linked from its report.
-{
-  echo; echo "## The runs (keyframes: start, largest CoM excursion, end; exoid render)"
-  for s in 1 2; do
-    "$bin/exoid" render --log "$out/undeclared_seed$s/run.lcmlog" --scenario "$scen" --out "$out/undeclared_seed$s/render" \
-      --format none --keyframes --quiet >/dev/null
-    echo; echo "undeclared_seed$s: ![](../undeclared_seed$s/render/keyframes.png)"
-  done
-} >> "$out/diagnose_undeclared/report.md"
 echo "(report: $out/diagnose_undeclared/report.md)"

@@ -189,9 +189,9 @@ void BalanceController::updateDynamics(const State& state) {
   const double w = estimate_use_.weight;
   vertical_shift_ = 0.0;
   vertical_shift_rate_ = 0.0;
-  dyn_.tau_ff.setZero();
+  dyn_.tau_correction.setZero();
   if (w <= 0.0) return;
-  if (cfg_.estimate.use_feedforward) dyn_.tau_ff = w * ff_input_;
+  if (cfg_.estimate.use_feedforward) dyn_.tau_correction = w * ff_input_;
   if (!cfg_.estimate.use_com) return;
   double mass;
   Eigen::Vector3d com, com_velocity;
@@ -338,7 +338,7 @@ bool BalanceController::computeTorque(FallbackReason& reason, ControllerStatus& 
   if (cfg_.disturbance.enabled) {
     const bool plates = cfg_.disturbance.force_plates && plateResidual();
     disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_, plates ? &wrench_residual_ : nullptr);
-    dyn_.tau_ff += disturbance_.estimate();
+    dyn_.tau_correction += disturbance_.estimate();
   }
   const bool qp_ok = runQp();
   st.qp_status = result_.status;
@@ -426,7 +426,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   st.qp_iterations = 0;
   st.qp_solve_us = 0.0;
   if (fresh) {
-    // Dynamics with the estimate blended in: tau_ff (estimator) in h + tau_ff, the controller's CoM.
+    // Dynamics with the estimate blended in: tau_correction (estimator) in h + tau_correction, the controller's CoM.
     updateDynamics(observer_->state());
     // Reference: the trajectory once the feet are latched (its height moved with the estimate's vertical CoM
     // offset); before that, hold the current CoM.

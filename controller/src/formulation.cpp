@@ -44,15 +44,15 @@ void BalanceFormulation::buildCost(const RobotDynamicsData& dyn, const LinearAng
   MomentumTask::wrenchMap(dyn, Af_);
   // Newton-Euler about the controller's CoM c (the model's, or the estimate's): the gravity of h acts at the
   // model's CoM, the correction's base rows [moment; force] (base coordinates, about the base origin) are an
-  // external wrench -tau_ff on the robot (with an estimate: the payload's weight). The contact wrenches must
+  // external wrench -tau_correction on the robot (with an estimate: the payload's weight). The contact wrenches must
   // produce the desired rate against both (else the dynamics could absorb a CoM error into the correction).
   LinearAngular6d target = rate_desired;
   const Eigen::Vector3d weight = dyn.model_mass * gravity_;
   target.head<3>() -= weight;
   target.tail<3>() -= (dyn.model_com - dyn.com).cross(weight);
-  const Eigen::Vector3d F = -(dyn.R * dyn.tau_ff.segment<3>(3));
+  const Eigen::Vector3d F = -(dyn.R * dyn.tau_correction.segment<3>(3));
   target.head<3>() -= F;
-  target.tail<3>() -= -(dyn.R * dyn.tau_ff.head<3>()) + (dyn.base_position - dyn.com).cross(F);
+  target.tail<3>() -= -(dyn.R * dyn.tau_correction.head<3>()) + (dyn.base_position - dyn.com).cross(F);
   // H_ff = A_f^T W A_f + w_f I,  g_f = -A_f^T W target
   const Eigen::Matrix<double, 6, 12> WAf = w_mom.asDiagonal() * Af_;
   Hff_.noalias() = Af_.transpose() * WAf;
@@ -70,7 +70,7 @@ int BalanceFormulation::buildUnactuatedDynamics(const RobotDynamicsData& dyn, Qp
     qp.A.row(k).head(nv) = M.row(r);
     qp.A.block<1, 6>(k, nv) = -dyn.Jc[0].col(r).transpose();
     qp.A.block<1, 6>(k, nv + 6) = -dyn.Jc[1].col(r).transpose();
-    qp.b[k] = -(dyn.h[r] + dyn.tau_ff[r]);
+    qp.b[k] = -(dyn.h[r] + dyn.tau_correction[r]);
   }
   return nu_rows;
 }
@@ -138,7 +138,7 @@ void BalanceFormulation::buildTorqueLimits(const RobotDynamicsData& dyn, QpProbl
     qp.C.row(row).head(nv) = M.row(r);
     qp.C.block<1, 6>(row, nv) = -dyn.Jc[0].col(r).transpose();
     qp.C.block<1, 6>(row, nv + 6) = -dyn.Jc[1].col(r).transpose();
-    const double bias = dyn.h[r] + dyn.tau_ff[r];
+    const double bias = dyn.h[r] + dyn.tau_correction[r];
     qp.l[row] = -tau_max_[static_cast<Eigen::Index>(k)] - bias;
     qp.u[row] = tau_max_[static_cast<Eigen::Index>(k)] - bias;
   }
@@ -147,7 +147,7 @@ void BalanceFormulation::buildTorqueLimits(const RobotDynamicsData& dyn, QpProbl
 void BalanceFormulation::generalizedForce(const RobotDynamicsData& dyn, const Eigen::VectorXd& x,
                                           Eigen::VectorXd& tau) const {
   tau.noalias() = dyn.dyn.M * x.head(nv_);
-  tau += dyn.h + dyn.tau_ff;
+  tau += dyn.h + dyn.tau_correction;
   tau.noalias() -= dyn.Jc[0].transpose() * x.segment<6>(nv_);
   tau.noalias() -= dyn.Jc[1].transpose() * x.segment<6>(nv_ + 6);
 }

@@ -7,7 +7,7 @@ namespace exoid::controller {
 RobotDynamicsData::RobotDynamicsData(const Model& model)
     : dyn(model),
       h(Eigen::VectorXd::Zero(model.nv)),
-      tau_ff(Eigen::VectorXd::Zero(model.nv)),
+      tau_correction(Eigen::VectorXd::Zero(model.nv)),
       nu(Eigen::VectorXd::Zero(model.nv)),
       Jc{LinearAngular6Xd::Zero(6, model.nv), LinearAngular6Xd::Zero(6, model.nv)},
       J_scratch(Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, model.nv)) {}

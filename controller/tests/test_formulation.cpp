@@ -137,7 +137,7 @@ TEST_F(FormulationTest, FeedforwardEntersTheDynamics) {
   const int knee = model_.jointRow(model_.jointIndex("right_knee"));
   Eigen::VectorXd ff = Eigen::VectorXd::Zero(nv);
   ff[knee] = 3.0;
-  dyn_->tau_ff = ff;
+  dyn_->tau_correction = ff;
   right_->setReference(dyn_->foot_position[0], dyn_->foot_rotation[0]);
   CoMReference ref;
   ref.position = dyn_->com;
@@ -156,13 +156,13 @@ TEST_F(FormulationTest, FeedforwardEntersTheDynamics) {
   EXPECT_NEAR(tau1[knee] - tau0[knee], 3.0, 1e-5);
   // A feedforward on the passive ankle in/eversion row must be balanced by the contact wrenches.
   const int ie = model_.jointRow(model_.jointIndex("right_ankle_ie"));
-  dyn_->tau_ff.setZero();
-  dyn_->tau_ff[ie] = 0.5;
+  dyn_->tau_correction.setZero();
+  dyn_->tau_correction[ie] = 0.5;
   form_->build(*dyn_, rate_, momentum.weights(), dnu_des, w, *right_, *left_, qp_);
   solver_->solve(qp_, res_);
   ASSERT_EQ(res_.status, QpStatus::Solved);
   Eigen::VectorXd tau2(nv);
-  form_->generalizedForce(*dyn_, res_.x, tau2);  // includes tau_ff
+  form_->generalizedForce(*dyn_, res_.x, tau2);  // includes tau_correction
   EXPECT_NEAR(tau2[ie], 0.0, 1e-8);
   EXPECT_GT((res_.x.tail<12>() - x0.tail<12>()).norm(), 0.1);
 }

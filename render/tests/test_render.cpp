@@ -7,6 +7,7 @@
 //  - a damaged log is refused (exit 3, nothing written) unless --allow-partial; an intact one gives one PNG
 //    per 1 / fps of the run;
 //  - what a frame shows: the last sample of each channel at or before its tick, the estimate's CoM against MuJoCo;
+//  - the reports' keyframe strips (writeRunKeyframes) are exoid render's, byte for byte;
 //  - exo_sim --view without a display: one line, and the run goes on.
 #include <gtest/gtest.h>
 #include <lcm/eventlog.h>
@@ -22,6 +23,7 @@
 #include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/render/run_keyframes.hpp"
 #include "exoid/render/scene.hpp"
 #include "support/run_command.hpp"
 
@@ -298,6 +300,49 @@ TEST_F(Render, DamagedLogIsRefusedUnlessAllowPartialAndFramesFollowTheRun) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.file("all/front")), {}), 6);  // t = 0, 0.1, ..., 0.5
   EXPECT_TRUE(std::filesystem::exists(dir.file("all/keyframes.png")));
+}
+
+// The reports' strips (exoid diagnose, exoid study) come from writeRunKeyframes: the same picture, byte for byte,
+// as `exoid render --keyframes` at its defaults (640x480, 30 fps, front view); a damaged log is drawn from its
+// readable part with the damage named, a log without the truth channel is not drawn and says why.
+TEST_F(Render, RunKeyframesAreTheKeyframesOfExoidRender) {
+  const test::TempDir dir("render_keyframes");
+  const std::string good = writeTruthLog(model_, dir.file("run.lcmlog")), cut = dir.file("cut.lcmlog");
+  std::filesystem::copy_file(good, cut);
+  std::filesystem::resize_file(cut, std::filesystem::file_size(good) / 2 + 7);
+  std::string note, err;
+  ASSERT_TRUE(render::writeRunKeyframes(good, model_, config("exo.xml"), dir.file("strip.png"), &note, &err)) << err;
+  EXPECT_EQ(note, "");
+  const auto r = test::runCommand(test::exoidBinary() + " render --quiet --format none --keyframes --log " + good +
+                                      " --out " + dir.file("cli"), dir.path);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto bytes = [](const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  };
+  const std::string strip = bytes(dir.file("strip.png"));
+  ASSERT_GT(strip.size(), 24u);
+  EXPECT_EQ(strip, bytes(dir.file("cli/keyframes.png")));
+  auto be32 = [&](size_t at) {  // the PNG's IHDR: width and height, big-endian, at bytes 16 and 20
+    return (static_cast<uint32_t>(static_cast<unsigned char>(strip[at])) << 24) |
+           (static_cast<uint32_t>(static_cast<unsigned char>(strip[at + 1])) << 16) |
+           (static_cast<uint32_t>(static_cast<unsigned char>(strip[at + 2])) << 8) | static_cast<unsigned char>(strip[at + 3]);
+  };
+  EXPECT_EQ(be32(16), 3u * 640u);
+  EXPECT_EQ(be32(20), 480u);
+  ASSERT_TRUE(render::writeRunKeyframes(cut, model_, config("exo.xml"), dir.file("cut.png"), &note, &err)) << err;
+  EXPECT_NE(note.find("readable part ends at byte"), std::string::npos) << note;
+  {  // a log with another channel only: refused with the reason
+    lcm_eventlog_t* log = lcm_eventlog_create(dir.file("other.lcmlog").c_str(), "w");
+    char data[4] = {0, 0, 0, 0};
+    lcm_eventlog_event_t e{};
+    e.channellen = 5, e.channel = const_cast<char*>("OTHER"), e.datalen = 4, e.data = data;
+    lcm_eventlog_write_event(log, &e);
+    lcm_eventlog_destroy(log);
+  }
+  EXPECT_FALSE(render::writeRunKeyframes(dir.file("other.lcmlog"), model_, config("exo.xml"), dir.file("other.png"), &note, &err));
+  EXPECT_FALSE(err.empty());
+  EXPECT_FALSE(std::filesystem::exists(dir.file("other.png")));
 }
 
 TEST(RenderCli, HelpDocumentsTheDamageRuleAndBadOptionsAreOneLine) {

@@ -129,7 +129,9 @@ void addDiagnoseOptions(CLI::App& app, DiagnoseArgs& a) {
                "damaged log (damaged stretches, a cut-off tail, events the adapters reject) is refused (exit 3, the damage "
                "on stderr); with this flag its readable part is used and the damage reported on stdout, in summary.json "
                "and report.md");
-  app.add_flag("--no-plots", a.in.no_plots, "do not run the plot script (it is still written)");
+  app.add_flag("--no-plots", a.in.no_plots, "do not run the plot script (it is still written) nor draw the runs' keyframes");
+  app.add_option("--scene", a.in.scene_mjcf, "MJCF of the scene for the runs' keyframe strips in report.md (LCM-log inputs; "
+                 "default config/exo.xml)")->type_name("MJCF");
   app.add_flag("--no-predictability", a.no_predictability, "skip the last stage, which asks whether the residual left after "
                "augmentation is predictable from the state (sparse regression over a dictionary of q, v, a of each joint "
                "and its neighbours, their products and history; gradient-boosted trees; docs/diagnose.md)");

@@ -5,11 +5,14 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
 #include "exoid/common/process_main.hpp"
+#include "exoid/model/urdf.hpp"
+#include "exoid/render/run_keyframes.hpp"
 #include "exoid/tools/process.hpp"
 #include "exoid/tools/study.hpp"
 
@@ -83,7 +86,9 @@ bool parseList(const std::string& s, std::vector<T>& out) {
 struct StudyArgs {
   std::string cutoffs = "0,10,15,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
   std::string runs, sensors_filter = "inputs", orientation = "fused";
+  std::string scene = std::string(EXOID_CONFIG_DIR) + "/exo.xml";
   int moves = 0;
+  bool no_keyframes = false;
 };
 
 void addStudyOptions(CLI::App& app, tools::StudyOptions& o, StudyArgs& a) {
@@ -92,6 +97,8 @@ void addStudyOptions(CLI::App& app, tools::StudyOptions& o, StudyArgs& a) {
                  "seed 12), test (nominal.yaml, seed 13); each recorded by exoid experiment when DIR/<run>/run.lcmlog "
                  "is missing, reused otherwise (instead of --train/--validation/--test)");
   app.add_option("--moves", a.moves, "--runs: CoM moves per recorded run (0: the controller's default)")->check(CLI::Range(0, 1000));
+  app.add_flag("--no-keyframes", a.no_keyframes, "do not draw the runs' keyframe strips at the end of table2.md");
+  app.add_option("--scene", a.scene, "MJCF of the scene for the keyframe strips (default config/exo.xml)");
   app.add_option("--train", o.train, "LCM log of the training run (noise: nominal.yaml)");
   app.add_option("--validation", o.validation, "LCM log of the ideal validation run (ideal.yaml, another seed)");
   app.add_option("--test", o.test, "LCM log of a held-out test run (another seed), scored as well");
@@ -151,6 +158,29 @@ bool resolveStudyOptions(const StudyArgs& a, tools::StudyOptions& o, std::string
 }
 }  // namespace
 
+// table2.md's last section: the runs the study used, each as its keyframe strip (start, largest CoM excursion, end;
+// `exoid render --keyframes`), or why it is not drawn. False with *err when table2.md cannot be appended to.
+static bool appendRunKeyframes(const tools::StudyOptions& o, const std::string& scene, std::string* err) {
+  Model model;
+  std::string why;
+  const bool have_model = buildModelFromUrdfFile(o.model_path, true, model, &why);
+  std::ofstream md(o.out_dir + "/table2.md", std::ios::app);
+  if (!md) return *err = "cannot append to '" + o.out_dir + "/table2.md'", false;
+  md << "\n## The runs\n\nEach run as keyframes: start, largest CoM excursion, end (`exoid render --keyframes`).\n\n";
+  const std::pair<const char*, const std::string*> runs[] = {{"train", &o.train}, {"validation", &o.validation}, {"test", &o.test}};
+  for (const auto& [name, log] : runs) {
+    if (log->empty()) continue;
+    const std::string png = std::string("keyframes_") + name + ".png";
+    std::string note;
+    md << "- " << name << " `" << *log << "`";
+    if (have_model && render::writeRunKeyframes(*log, model, scene, o.out_dir + "/" + png, &note, &why))
+      md << (note.empty() ? "" : " (" + note + ")") << ":\n\n  ![" << name << " run](" << png << ")\n\n";
+    else
+      md << ": not drawn (" << why << ")\n\n";
+  }
+  return static_cast<bool>(md);
+}
+
 int cmdStudy(int argc, char** argv) {
   CLI::App app(kDescription, "exoid study");
   tools::StudyOptions o;
@@ -176,6 +206,7 @@ int cmdStudy(int argc, char** argv) {
       return fail(err);
   }
   if (!tools::runStudy(o, &err)) return fail(err);
+  if (!a.no_keyframes && !appendRunKeyframes(o, a.scene, &err)) return fail(err);
   return 0;
 }
 

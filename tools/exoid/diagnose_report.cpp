@@ -12,6 +12,7 @@
 
 #include "diagnose_predictability.hpp"
 #include "exoid/model/inertial.hpp"
+#include "exoid/render/run_keyframes.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
 
 namespace exoid::cli {
@@ -459,6 +460,27 @@ void reportTail(std::ostringstream& md, bool plotted, const std::string& plot_cs
     md << "\n`" << payload_urdf << "`: the declared model with the payloads found added to their links (point masses).\n";
 }
 
+// report.md: each run used (training, validation; LCM logs: a CSV has no pose to draw) as its keyframe strip, the
+// picture of `exoid render --keyframes` (start, largest CoM excursion, end). One that cannot be drawn says why.
+void reportRuns(std::ostringstream& md, const Model& model, const DiagnoseInputs& in, const fs::path& out) {
+  std::vector<std::pair<const char*, std::string>> runs;  // (role, file)
+  for (const std::string& f : in.train_files)
+    if (!tools::isCsvPath(f)) runs.emplace_back("training", f);
+  for (const std::string& f : in.val_files)
+    if (!tools::isCsvPath(f)) runs.emplace_back("validation", f);
+  if (runs.empty() || in.no_plots) return;
+  md << "## The runs\n\nEach run as keyframes: start, largest CoM excursion, end (`exoid render --keyframes`).\n\n";
+  for (size_t k = 0; k < runs.size(); ++k) {
+    const std::string png = "keyframes_" + std::to_string(k + 1) + ".png";
+    std::string note, err;
+    md << "- " << runs[k].first << " `" << runs[k].second << "`";
+    if (render::writeRunKeyframes(runs[k].second, model, in.scene_mjcf, (out / png).string(), &note, &err))
+      md << (note.empty() ? "" : " (" + note + ")") << ":\n\n  ![" << runs[k].first << " run](" << png << ")\n\n";
+    else
+      md << ": not drawn (" << err << ")\n\n";
+  }
+}
+
 // The console summary.
 void printSummary(const est::DiagnosisResult& res, const est::OnlineComparison& online, const std::string& predictability,
                   const fs::path& out) {
@@ -545,6 +567,7 @@ bool writeDiagnosis(const Model& model, const Model& declared_model, const est::
   reportCandidates(md, model, res);
   reportHidden(md, model, res);
   md << predictability_md;
+  reportRuns(md, model, in, out);
   reportTail(md, plotted, plot_csv, set, payload_urdf);
   std::ofstream r;
   if (!openOut(out, "report.md", r, error)) return false;

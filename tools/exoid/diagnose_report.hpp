@@ -19,6 +19,8 @@ struct DiagnoseInputs {
   std::string model_path, out_dir, declared = "rigid", declared_model_path, python = "python3";
   std::vector<std::string> train_files, calib_files, val_files, val_calib_files;
   bool no_plots = false;
+  /// The scene of the runs' keyframe strips in report.md (LCM-log inputs only; none with no_plots).
+  std::string scene_mjcf = std::string(EXOID_CONFIG_DIR) + "/exo.xml";
 };
 
 /// Opens out/name for writing; false with *error = "cannot write '...'" when it cannot.

@@ -33,7 +33,7 @@ const char* toString(FallbackReason reason);
 enum class EstimateRejection : int8_t {
   None = 0,
   Disabled,      ///< estimate.enabled is false
-  WrongSize,     ///< params not [nparams] or tau_ff not [nv]
+  WrongSize,     ///< params not [nparams] or tau_correction not [nv]
   NonFinite,     ///< a parameter or a feedforward component is NaN/Inf
   NotValid,      ///< the estimator flags it not valid (not excited, not converged)
   Inconsistent,  ///< flagged inconsistent, or a body's pseudo-inertia is not positive definite here
@@ -90,9 +90,9 @@ class BalanceController {
   /// Sizes a command sample for this model (setup).
   void prepare(JointCommandSample& command) const;
   /// The online estimator's output (EXO_ESTIMATE as a plain sample; base_params etc. are not read). Accepted
-  /// when config.estimate.enabled, params [nparams] and tau_ff [nv] finite, flagged valid and consistent, every
+  /// when config.estimate.enabled, params [nparams] and tau_correction [nv] finite, flagged valid and consistent, every
   /// body's parameters consistent (model/inertial.hpp) and the total mass within max_relative_mass_change of the
-  /// model's. While the accepted estimate is younger than estimate.max_age_ticks (from its tick), tau_ff
+  /// model's. While the accepted estimate is younger than estimate.max_age_ticks (from its tick), tau_correction
   /// (bounded by max_abs) enters the QP's dynamics and params give the momentum task's CoM and momentum,
   /// blended in and out over estimate.blend_time. A refused estimate withdraws the current one (counted by
   /// reason) and returns false. Allocation-free.

@@ -95,7 +95,7 @@ struct FallbackConfig {
 /// The online estimator's output (EXO_ESTIMATE) in the control law (docs/controller.md, "Using the estimate").
 struct EstimateConfig {
   bool enabled = false;          ///< accept estimates at all (setEstimate refuses every one otherwise)
-  bool use_feedforward = false;  ///< its tau_ff [nv] enters the QP's dynamics (h + tau_ff), base rows too
+  bool use_feedforward = false;  ///< its tau_correction [nv] enters the QP's dynamics (h + tau_correction), base rows too
   bool use_com = false;          ///< its parameters give the CoM and centroidal momentum of the momentum task
   /// with use_com: also the CoM height (and its rate), which then moves the reference height; off: the model's
   /// height, the estimate's horizontal CoM (docs/controller.md, "Using the online estimate")

@@ -26,7 +26,7 @@ struct RobotDynamicsData {
 
   DynamicsData dyn;               ///< model-library scratch (M in dyn.M)
   Eigen::VectorXd h;              ///< [nv] nonlinear effects C(q, nu) nu + g(q) (rnea at dnu = 0)
-  Eigen::VectorXd tau_ff;         ///< [nv] generalized-force correction from the estimator (0 by default)
+  Eigen::VectorXd tau_correction; ///< [nv] generalized-force correction: the estimate's and the disturbance observer's (0 by default)
   Eigen::VectorXd nu;             ///< [nv] generalized velocity of the state
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  ///< world <- base
   std::array<LinearAngular6Xd, 2> Jc;    ///< [right, left] world contact Jacobians [linear; angular]
@@ -40,7 +40,7 @@ struct RobotDynamicsData {
   Eigen::Vector3d com = Eigen::Vector3d::Zero();           ///< world
   Eigen::Vector3d com_velocity = Eigen::Vector3d::Zero();  ///< world
   LinearAngular6d momentum = LinearAngular6d::Zero();  ///< world, [linear; angular about com]
-  // The URDF model's mass and CoM: where the gravity of h acts (tau_ff carries the rest).
+  // The URDF model's mass and CoM: where the gravity of h acts (tau_correction carries the rest).
   double model_mass = 0.0;
   Eigen::Vector3d model_com = Eigen::Vector3d::Zero();  ///< world
   Eigen::Matrix<double, 6, Eigen::Dynamic> J_scratch;  ///< base-frame Jacobian scratch (the model's [angular; linear])
