@@ -102,7 +102,7 @@ void BM_StreamingQr(benchmark::State& state) {
     estimator::LsqAccumulator acc(model, base, ao);
     for (int i = 0; i < 62200; ++i) acc.add(K[i % K.size()], y[i % y.size()]);
     acc.flush();
-    const estimator::ScaledProblem sp = estimator::prepare(acc, model, model.phi, estimator::Method::WlsRC);
+    const estimator::ScaledProblem sp = estimator::scaleProblem(acc, model, model.phi, estimator::Method::WlsRC);
     benchmark::DoNotOptimize(estimator::solveAtRank(sp, sp.numericalRank()).data());
   }
 }

@@ -177,7 +177,7 @@ void BM_EstimatorPublish(benchmark::State& state) {
   opt.forgetting = state.range(0) == 0 ? Forgetting::None : Forgetting::Selective;
   OnlineEstimator est(model, s.base, model.phi, opt);
   EstimatorOutputSample out;
-  est.prepare(out);
+  est.sizeOutput(out);
   estimator::testing::SensorTick t = estimator::testing::makeSensorTick(model);
   std::mt19937_64 rng(1);
   long k = 0;
@@ -190,7 +190,7 @@ void BM_EstimatorPublish(benchmark::State& state) {
       est.addPlate(t.plate[1]);
     }
     state.ResumeTiming();
-    est.publish(out);
+    est.fillOutput(out);
   }
   benchmark::DoNotOptimize(out.tau_correction.data());
 }

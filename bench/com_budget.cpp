@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
       return 2;
     }
     EstimatorOutputSample out;
-    est.prepare(out);
+    est.sizeOutput(out);
     long publications = 0;
     for (const auto& t : ticks) {
       RobotStateSample s = *t.state;
@@ -95,14 +95,14 @@ int main(int argc, char** argv) {
       est.addPlate(p[0]);
       est.addPlate(p[1]);
       if (est.samplesSincePublication() >= 10) {  // like exo_estimator at 100 Hz
-        est.publish(out);
+        est.fillOutput(out);
         if (has('t') && ++publications % 300 == 0) {
           const Eigen::Vector3d e = error(out.params);
           std::printf("  t %5.1f s: CoM error %7.2f %7.2f %7.2f mm\n", 1e-3 * static_cast<double>(t.state->tick), e.x(), e.y(), e.z());
         }
       }
     }
-    est.publish(out);
+    est.fillOutput(out);
     const Eigen::Vector3d e1 = error(out.params);
     est.reconcile(out);
     const Eigen::Vector3d e2 = error(out.params);

@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
     ref.rmse += estimator::rmse(vf, prior) / priors;
     int mi = 0;
     for (estimator::Method m : {estimator::Method::Ols, estimator::Method::WlsR, estimator::Method::WlsC, estimator::Method::WlsRC}) {
-      const estimator::ScaledProblem sp = estimator::prepare(acc, model, prior, m);
+      const estimator::ScaledProblem sp = estimator::scaleProblem(acc, model, prior, m);
       int zs[6];
       zs[5] = estimator::rankByJackknife(acc, model, prior, m, perturb).best;
       zs[0] = sp.numericalRank();

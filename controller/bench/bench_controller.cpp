@@ -40,10 +40,10 @@ const Recording& recording() {
     }
     BalanceController ctrl(r.model, r.config, 1);
     RobotStateSample s;
-    sim.prepare(s);
+    sim.sizeState(s);
     JointCommandSample cmd, pending;
-    ctrl.prepare(cmd);
-    ctrl.prepare(pending);
+    ctrl.sizeCommand(cmd);
+    ctrl.sizeCommand(pending);
     ControllerStatus st;
     const auto& t = r.config.trajectory;
     const long n = static_cast<long>((r.config.observer.latch_ticks * r.config.loop.period + t.initial_hold +
@@ -92,7 +92,7 @@ void BM_ControllerTick(benchmark::State& state) {
   est.tau_correction = Eigen::VectorXd::Constant(rec.model.nv, 0.1);
   auto ctrl = std::make_unique<BalanceController>(rec.model, cfg, 1);
   JointCommandSample cmd;
-  ctrl->prepare(cmd);
+  ctrl->sizeCommand(cmd);
   ControllerStatus st;
   std::vector<double> tick_us, qp_us;
   tick_us.reserve(1 << 20);

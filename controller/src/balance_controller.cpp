@@ -128,7 +128,7 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
 
 BalanceController::~BalanceController() = default;
 
-void BalanceController::prepare(JointCommandSample& c) const {
+void BalanceController::sizeCommand(JointCommandSample& c) const {
   c.tau = Eigen::VectorXd::Zero(model_.njoints);
   c.tau_ff = Eigen::VectorXd::Zero(model_.njoints);
 }
@@ -413,7 +413,7 @@ void BalanceController::selectMode(FallbackReason& reason, JointCommandSample& o
 
 void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out, ControllerStatus& st) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (out.tau.size() != model_.njoints || out.tau_ff.size() != model_.njoints) prepare(out);  // misuse only
+  if (out.tau.size() != model_.njoints || out.tau_ff.size() != model_.njoints) sizeCommand(out);  // misuse only
   out.tick = in.tick + 1;
   out.source_tick = in.tick;
   out.utime = in.utime + static_cast<int64_t>(std::llround(cfg_.loop.period * 1e6));

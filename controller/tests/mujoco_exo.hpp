@@ -68,7 +68,7 @@ class MujocoExo {
   }
 
   /// Sizes a sample for this robot (setup).
-  void prepare(RobotStateSample& s) const {
+  void sizeState(RobotStateSample& s) const {
     s.q = Eigen::VectorXd::Zero(njoints_);
     s.tau = Eigen::VectorXd::Zero(njoints_);
     s.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(njoints_, true);

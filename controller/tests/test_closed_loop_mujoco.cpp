@@ -59,10 +59,10 @@ LoopMetrics runClosedLoop(const ControllerConfig& cfg, uint64_t seed, const test
   EXPECT_TRUE(ctrl.ok()) << ctrl.error();
 
   RobotStateSample state;
-  sim.prepare(state);
+  sim.sizeState(state);
   JointCommandSample cmd, pending;
-  ctrl.prepare(cmd);
-  ctrl.prepare(pending);
+  ctrl.sizeCommand(cmd);
+  ctrl.sizeCommand(pending);
   ControllerStatus st;
 
   LoopMetrics m;

@@ -155,7 +155,7 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
                            "--quiet"},
                           out);
   RobotStateSample state;
-  sim.prepare(state);
+  sim.sizeState(state);
   exoid_lcm::robot_state_t msg;
   // EXO_ESTIMATE at 100 Hz for 1 s (the model plus 1 kg on the base link), then one flagged not valid: the
   // controller takes them from LCM (its summary line counts them) and withdraws on the refusal.

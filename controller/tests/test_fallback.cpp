@@ -48,7 +48,7 @@ class FallbackTest : public ::testing::Test {
     solver_ = solver.get();
     ctrl_ = std::make_unique<BalanceController>(model_, cfg, 1, std::move(solver));
     ASSERT_TRUE(ctrl_->ok()) << ctrl_->error();
-    ctrl_->prepare(cmd_);
+    ctrl_->sizeCommand(cmd_);
     sample_.q = Eigen::VectorXd::Zero(model_.njoints);  // standing pose of config/exo.urdf
     sample_.tau = Eigen::VectorXd::Zero(model_.njoints);
     sample_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model_.njoints, true);

@@ -103,10 +103,10 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
   ASSERT_TRUE(ctrl.ok()) << ctrl.error();
 
   RobotStateSample state;
-  sim.prepare(state);
+  sim.sizeState(state);
   JointCommandSample cmd, pending;
-  ctrl.prepare(cmd);
-  ctrl.prepare(pending);
+  ctrl.sizeCommand(cmd);
+  ctrl.sizeCommand(pending);
   ControllerStatus st;
   // The online estimate at 100 Hz (its CoM moves), a small generalized
   // correction (the model plus 1 kg on the base link), a non-finite one now and then (refused: withdrawn, blended out) and a pause (stale).

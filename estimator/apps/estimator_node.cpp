@@ -30,7 +30,7 @@ EstimatorNode::EstimatorNode(LcmEndpoint& lcm, const Model& model, OnlineEstimat
   ch_plate_[1] = gate_.channelIndex(channels::kPlateLeft);
   state_.q = state_.tau = Eigen::VectorXd::Zero(model.njoints);
   state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
-  est_.prepare(out_);
+  est_.sizeOutput(out_);
   toLcm(out_, param_names_, coord_names_, out_msg_);  // sizes the message once
   lcm_.reserve(static_cast<size_t>(out_msg_.getEncodedSize()) + 1024);
   last_checkpoint_ = last_state_ = std::chrono::steady_clock::now();
@@ -70,7 +70,7 @@ void EstimatorNode::onPlate(int i, const void* data, int size) {
 
 void EstimatorNode::maybePublish() {
   if (est_.samplesSincePublication() < opt_.publish_every) return;
-  est_.publish(out_);
+  est_.fillOutput(out_);
   // Consistent standard parameters at a lower rate (allocates, ~10 ms: docs/estimator.md), off the receive
   // path on a worker: a finished solve is adopted here and used from the next publication.
   if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {

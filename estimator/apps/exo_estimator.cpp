@@ -259,8 +259,8 @@ int finish(const Args& a, const exoid::Model& model, const Eigen::VectorXd& prio
   last = node.lastOutput();
   if (!a.final_path.empty()) {
     if (node.publications() == 0) {  // nothing published yet: the estimate as it stands (the prior if no data)
-      est.prepare(last);
-      est.publish(last);
+      est.sizeOutput(last);
+      est.fillOutput(last);
     }
     if (!writeFinal(a.final_path, model, prior, last, &err)) {
       std::fprintf(stderr, "exo_estimator: error: %s\n", err.c_str());

@@ -184,8 +184,8 @@ TEST(BatchSolvers, EveryMethodAtEveryRankEqualsTheDenseSvdOfTheStackedProblem) {
   for (Method method : {Method::Ols, Method::WlsR, Method::WlsC, Method::WlsRC}) {
     FillOptions thesis_fill;
     thesis_fill.metric = FillMetric::Scaled;  // the thesis's fill: eq. 23 (OLS, WLS-R), eq. 27 (C)
-    const ScaledProblem sp = prepare(acc, pb.model, prior, method, {}, thesis_fill);
-    const ScaledProblem spp = prepare(acc, pb.model, prior, method);  // the default: the prior's own metric
+    const ScaledProblem sp = scaleProblem(acc, pb.model, prior, method, {}, thesis_fill);
+    const ScaledProblem spp = scaleProblem(acc, pb.model, prior, method);  // the default: the prior's own metric
     ASSERT_EQ(sp.s.size(), m);
     Eigen::VectorXd s_dense;
     const std::vector<int> ranks = {1, 10, 40, 77, m};
@@ -221,7 +221,7 @@ TEST(BatchSolvers, RankChoiceCurvesAreConsistentWithTheirDefinitions) {
   const LsqAccumulator acc = accumulate(pb, {64, 4, 50, 2});
   const LsqAccumulator vacc = accumulate(val, {64, 1, 50, 2});
   Eigen::VectorXd prior = pb.model.phi * 1.2;
-  const ScaledProblem sp = prepare(acc, pb.model, prior, Method::WlsRC);
+  const ScaledProblem sp = scaleProblem(acc, pb.model, prior, Method::WlsRC);
   const LsqFactor vf = toStandard(vacc.mergedBase(), val.base.base_map);
   const RankCurve vc = rankByValidation(sp, vf);
   for (int z : {0, 5, 50, vc.best}) {

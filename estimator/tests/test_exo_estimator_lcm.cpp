@@ -78,7 +78,7 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
     else ADD_FAILURE() << why, ++refused;
   });
   EstimatorOutputSample expected;
-  ref.prepare(expected);
+  ref.sizeOutput(expected);
   std::vector<EstimatorOutputSample> expected_all;
 
   testing::SensorTick t = testing::makeSensorTick(model);
@@ -119,7 +119,7 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
     ref.addPlate(t.plate[0]);
     ref.addPlate(t.plate[1]);
     if (ref.samplesSincePublication() >= nopt.publish_every) {
-      ref.publish(expected);
+      ref.fillOutput(expected);
       if (ref.reconcileDue()) ref.reconcile(expected);  // as the node does
       expected_all.push_back(expected);
     }
@@ -213,8 +213,8 @@ TEST(ExoEstimatorLcm, CheckpointRecordsTheSidecarsEffects) {
     EstimatorNode node(lcm, model, est, nopt);
     feedTicks(lcm, node, model, 5, 150);
     EstimatorOutputSample out;
-    est.prepare(out);
-    est.publish(out);  // a solve with every sample, then the checkpoint of the same state and weights
+    est.sizeOutput(out);
+    est.fillOutput(out);  // a solve with every sample, then the checkpoint of the same state and weights
     x = out.base_params;
     ASSERT_TRUE(node.writeCheckpoint(&err)) << err;
   }

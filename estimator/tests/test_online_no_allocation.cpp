@@ -93,7 +93,7 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     ASSERT_TRUE(est.ok()) << est.error();
     ASSERT_EQ(est.effectColumnCount(), effects ? 5 : 0);
     EstimatorOutputSample out;
-    est.prepare(out);
+    est.sizeOutput(out);
     testing::SensorTick t = testing::makeSensorTick(model), bad = t;
     std::mt19937_64 rng(2);
     // A consistent-parameter solve first (it allocates: exo_estimator runs it on a worker), so that the
@@ -105,7 +105,7 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
       est.addPlate(t.plate[0]);
       est.addPlate(t.plate[1]);
     }
-    est.publish(out);
+    est.fillOutput(out);
     est.reconcile(out);
     exoid::test::AllocationCounter counter;
     Eigen::internal::set_is_malloc_allowed(false);
@@ -121,7 +121,7 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
         bad.state.q[3] = std::nan("");
         est.addState(bad.state);  // non-finite: rejected
       }
-      if (k % 10 == 9) est.publish(out);
+      if (k % 10 == 9) est.fillOutput(out);
     }
     Eigen::internal::set_is_malloc_allowed(true);
     counter.stop();

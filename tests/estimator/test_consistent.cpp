@@ -230,7 +230,7 @@ TEST_F(ConsistentExo, WlsRcPcOnTheStreamedFactorsStaysCloseToWlsRc) {
   }
   acc.flush();
   const Eigen::VectorXd prior = randomPrior(model_, 0.25, 13);
-  const ScaledProblem sp = prepare(acc, model_, prior, Method::WlsRC);
+  const ScaledProblem sp = scaleProblem(acc, model_, prior, Method::WlsRC);
   const int z = sp.numericalRank();
   const Eigen::VectorXd rc = solveAtRank(sp, z);
   ASSERT_GT(countInconsistent(checkConsistency(model_, rc)), 0) << "the setup must make WLS-RC inconsistent";

@@ -224,8 +224,8 @@ TEST(OnlineEffects, SidecarInTheEstimatorNodeCompensatesUndeclaredDryFriction) {
   // the rigid part recomputed here from the configuration of the published tick (a publication made now, so that
   // its tick is the last sample's).
   EstimatorOutputSample out;
-  est->prepare(out);
-  est->publish(out);
+  est->sizeOutput(out);
+  est->fillOutput(out);
   const long tick = out.tick;
   ASSERT_TRUE(tick >= 0 && static_cast<size_t>(tick) < train.states.size());
   const RobotStateSample& st_sample = train.states[static_cast<size_t>(tick)];

@@ -126,8 +126,8 @@ TEST(OnlineEstimator, NoForgettingEqualsTheBatchRegularisedSolutionOnSimulatedDa
     }
   }
   EstimatorOutputSample out;
-  est.prepare(out);
-  est.publish(out);
+  est.sizeOutput(out);
+  est.fillOutput(out);
   EXPECT_EQ(out.samples_used, rows);
   EXPECT_EQ(rows, static_cast<long>(f.train.states.size()) - 2 * opt.derivative_half_window);  // the fit's ends
   EXPECT_EQ(out.samples_rejected, 0);
@@ -197,8 +197,8 @@ TEST(OnlineEstimator, HeldOutJointTorqueRmseWithinTwoPercentOfBatchWlsRc) {
   ASSERT_TRUE(est.ok()) << est.error();
   feed(est, f.train, 0, f.train.states.size());
   EstimatorOutputSample out;
-  est.prepare(out);
-  est.publish(out);
+  est.sizeOutput(out);
+  est.fillOutput(out);
 
   const double rmse_online = jointRmse(model, held, est.baseEstimate(), rows);
   const double rmse_batch = jointRmse(model, held, batch.phi_base, rows);
@@ -213,12 +213,12 @@ TEST(OnlineEstimator, HeldOutJointTorqueRmseWithinTwoPercentOfBatchWlsRc) {
   // As exo_estimator runs by default: WLS-R weights estimated online, a publication every 10 samples.
   OnlineEstimator wlsr(model, f.base, f.prior, OnlineEstimatorOptions{});
   EstimatorOutputSample o;
-  wlsr.prepare(o);
+  wlsr.sizeOutput(o);
   for (size_t i = 0; i < f.train.states.size(); ++i) {
     feed(wlsr, f.train, i, i + 1);
-    if (wlsr.samplesSincePublication() >= 10) wlsr.publish(o);
+    if (wlsr.samplesSincePublication() >= 10) wlsr.fillOutput(o);
   }
-  wlsr.publish(o);
+  wlsr.fillOutput(o);
   const double rmse_wlsr = jointRmse(model, held, wlsr.baseEstimate(), rows);
   std::printf("online with its own WLS-R weights: %.4f N m (online / batch %.4f)\n", rmse_wlsr, rmse_wlsr / rmse_batch);
   const auto links = checkConsistency(model, o.params);
@@ -252,12 +252,12 @@ TEST(OnlineEstimator, ExactSensorsGiveTheBatchPredictionAndTheTotalMass) {
   const long rows = batchAccumulate(model, held_out, dopt, held);
   OnlineEstimator est(model, f.base, f.prior, OnlineEstimatorOptions{});
   EstimatorOutputSample out;
-  est.prepare(out);
+  est.sizeOutput(out);
   for (size_t i = 0; i < train.states.size(); ++i) {
     feed(est, train, i, i + 1);
-    if (est.samplesSincePublication() >= 10) est.publish(out);
+    if (est.samplesSincePublication() >= 10) est.fillOutput(out);
   }
-  est.publish(out);
+  est.fillOutput(out);
   const double online = jointRmse(model, held, est.baseEstimate(), rows);
   const double batch_rmse = jointRmse(model, held, batch.phi_base, rows);
   const double prior = jointRmse(model, held, f.base.base_map * f.prior, rows);
@@ -411,12 +411,12 @@ TEST(OnlineEstimator, SixtySecondsStandingStillKeepTheUncertaintyBounded) {
     OnlineEstimator est(model, f.base, f.prior, opt);
     ASSERT_TRUE(est.ok()) << est.error();
     EstimatorOutputSample out;
-    est.prepare(out);
+    est.sizeOutput(out);
     for (size_t i = 0; i < f.train.states.size(); ++i) {
       feed(est, f.train, i, i + 1);
-      if (i % 100 == 99) est.publish(out);
+      if (i % 100 == 99) est.fillOutput(out);
     }
-    est.publish(out);
+    est.fillOutput(out);
     run.trace_start = out.base_stddev.squaredNorm();
     run.excitation_start = out.excitation;
     // Standing still: the last tick's sensors again and again, with fresh noise.
@@ -448,7 +448,7 @@ TEST(OnlineEstimator, SixtySecondsStandingStillKeepTheUncertaintyBounded) {
       est.addPlate(p[0]);
       est.addPlate(p[1]);
       if (k % 100 == 99) {
-        est.publish(out);
+        est.fillOutput(out);
         ASSERT_TRUE(out.params.allFinite() && out.base_stddev.allFinite());
         run.worst_ratio = std::max(run.worst_ratio, out.base_stddev.cwiseQuotient(est.priorBaseStddev()).maxCoeff());
       }
@@ -493,10 +493,10 @@ TEST(OnlineEstimator, BadInputsAreRejectedCountedAndLeaveTheEstimateUntouched) {
     dirty.addPlate(f.train.plates[i][1]);
   }
   EstimatorOutputSample a, b;
-  clean.prepare(a);
-  dirty.prepare(b);
-  clean.publish(a);
-  dirty.publish(b);
+  clean.sizeOutput(a);
+  dirty.sizeOutput(b);
+  clean.fillOutput(a);
+  dirty.fillOutput(b);
   EXPECT_EQ(a.params, b.params);
   EXPECT_EQ(a.tau_correction, b.tau_correction);
   EXPECT_EQ(b.rejected_nonfinite, 2);
@@ -510,8 +510,8 @@ TEST(OnlineEstimator, BadInputsAreRejectedCountedAndLeaveTheEstimateUntouched) {
   feed(gap, f.train, 0, 150);
   feed(gap, f.train, 151, n);
   EstimatorOutputSample g;
-  gap.prepare(g);
-  gap.publish(g);
+  gap.sizeOutput(g);
+  gap.fillOutput(g);
   const long L = opt.derivative_half_window;
   EXPECT_EQ(g.samples_missing, 2 * L + 1);
   EXPECT_EQ(g.samples_used, a.samples_used - (2 * L + 1));
@@ -528,19 +528,19 @@ TEST(OnlineEstimator, CheckpointRestartResumesAndRefusesOtherOptions) {
     opt.forgetting = forgetting;
     OnlineEstimator a(model, f.base, f.prior, opt);
     EstimatorOutputSample oa, ob;
-    a.prepare(oa);
+    a.sizeOutput(oa);
     const size_t half = f.train.states.size() / 20 * 10;  // a multiple of the publication step
     for (size_t i = 0; i < half; i += 10) {
       feed(a, f.train, i, i + 10);
-      a.publish(oa);
+      a.fillOutput(oa);
     }
     std::string err;
     ASSERT_TRUE(a.saveCheckpoint(path, &err)) << err;
     OnlineEstimator b(model, f.base, f.prior, opt);
-    b.prepare(ob);
+    b.sizeOutput(ob);
     ASSERT_TRUE(b.loadCheckpoint(path, &err)) << err;
-    b.publish(ob);
-    a.publish(oa);
+    b.fillOutput(ob);
+    a.fillOutput(oa);
     EXPECT_LE((oa.params - ob.params).norm(), 1e-12 * oa.params.norm()) << forgettingName(forgetting);
     EXPECT_EQ(oa.samples_used, ob.samples_used);
     // Stale ticks stay rejected after the restart. The restarted estimator comes back 50 ticks later (what a
@@ -549,17 +549,17 @@ TEST(OnlineEstimator, CheckpointRestartResumesAndRefusesOtherOptions) {
     EXPECT_EQ(b.addState(f.train.states[half - 100]), InputStatus::OutOfOrder);
     OnlineEstimator c(model, f.base, f.prior, opt);
     EstimatorOutputSample oc;
-    c.prepare(oc);
+    c.sizeOutput(oc);
     for (size_t i = 0; i < half; i += 10) {
       feed(c, f.train, i, i + 10);
-      c.publish(oc);
+      c.fillOutput(oc);
     }
-    c.publish(oc);
+    c.fillOutput(oc);
     for (size_t i = half + 50; i < f.train.states.size(); i += 10) {
       feed(b, f.train, i, i + 10);
       feed(c, f.train, i, i + 10);
-      b.publish(ob);
-      c.publish(oc);
+      b.fillOutput(ob);
+      c.fillOutput(oc);
     }
     EXPECT_LE((ob.params - oc.params).norm(), 1e-12 * oc.params.norm()) << forgettingName(forgetting);
     EXPECT_EQ(ob.samples_used, oc.samples_used);
@@ -596,12 +596,12 @@ TEST(OnlineEstimator, ConsistentParametersReproduceTheBaseEstimateAsWellAsTheTru
   const Model& model = f.model;
   OnlineEstimator est(model, f.base, f.prior, OnlineEstimatorOptions{});
   EstimatorOutputSample out;
-  est.prepare(out);
+  est.sizeOutput(out);
   for (size_t i = 0; i < f.train.states.size(); ++i) {
     feed(est, f.train, i, i + 1);
-    if (est.samplesSincePublication() >= 10) est.publish(out);
+    if (est.samplesSincePublication() >= 10) est.fillOutput(out);
   }
-  est.publish(out);
+  est.fillOutput(out);
   EXPECT_GT(countInconsistent(checkConsistency(model, out.params)), 0);
   EXPECT_FALSE(out.valid);
   const Eigen::MatrixXd A = est.rlsData().A.selfadjointView<Eigen::Upper>();
@@ -651,14 +651,14 @@ double comErrorMm(const Fixture& f, const OnlineEstimatorOptions& opt, Eigen::Ve
   OnlineEstimator est(model, f.base, prior ? *prior : f.prior, opt);
   EXPECT_TRUE(est.ok()) << est.error();
   EstimatorOutputSample out;
-  est.prepare(out);
+  est.sizeOutput(out);
   State mean = State::zero(model);
   for (size_t i = 0; i < log.states.size(); ++i) {
     feed(est, log, i, i + 1);
-    if (est.samplesSincePublication() >= 10) est.publish(out);
+    if (est.samplesSincePublication() >= 10) est.fillOutput(out);
     mean.q += log.states[i].q / static_cast<double>(log.states.size());
   }
-  est.publish(out);
+  est.fillOutput(out);
   DynamicsData dd(model);
   exoid::forwardKinematics(model, dd.kin, mean);  // the run's mean posture, base frame
   centroidal(model, model.phi, dd);
@@ -757,7 +757,7 @@ TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAla
   OnlineEstimator est(f.model, f.base, f.model.phi, opt);
   ASSERT_TRUE(est.ok()) << est.error();
   EstimatorOutputSample out;
-  est.prepare(out);
+  est.sizeOutput(out);
   const auto totalMass = [&] {
     double m = 0.0;
     for (int b = 0; b < f.model.nbodies; ++b) m += est.params()[f.model.bodyParamIndex(b)];
@@ -767,7 +767,7 @@ TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAla
   for (size_t i = 0; i < log.states.size(); ++i) {
     feed(est, log, i, i + 1);
     if (est.samplesSincePublication() < 10) continue;
-    est.publish(out);
+    est.fillOutput(out);
     const long tick = log.states[i].tick;
     if (tick < attach_tick) {  // the last publication before the attachment
       EXPECT_EQ(est.changesDetected(), 0) << "false alarm at tick " << tick;
@@ -787,10 +787,10 @@ TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAla
 
   OnlineEstimator quiet(f.model, f.base, f.prior, opt);
   ASSERT_TRUE(quiet.ok());
-  quiet.prepare(out);
+  quiet.sizeOutput(out);
   for (size_t i = 0; i < f.train.states.size(); ++i) {
     feed(quiet, f.train, i, i + 1);
-    if (quiet.samplesSincePublication() >= 10) quiet.publish(out);
+    if (quiet.samplesSincePublication() >= 10) quiet.fillOutput(out);
   }
   EXPECT_EQ(quiet.changesDetected(), 0);
   EXPECT_LT(quiet.largestChangeStatistic(), opt.change_threshold);

@@ -132,7 +132,7 @@ TEST(RankRule, UnknownPriorUncertaintyIsTheDataScale) {
   const Eigen::VectorXd h = estimator::columnScale(m, d.prior);
   for (int i = 0; i < m.nInertialParams(); ++i) EXPECT_NEAR(sigma[i], 0.25 / std::sqrt(3.0) * h[i], 1e-12 * h[i]) << i;
   // WLS-RC's column scale of the unknown kind is the same data scale (the stated kinds keep columnScale's).
-  const estimator::ScaledProblem sp = estimator::prepare(*d.train, m, d.prior, estimator::Method::WlsRC);
+  const estimator::ScaledProblem sp = estimator::scaleProblem(*d.train, m, d.prior, estimator::Method::WlsRC);
   for (int i = 0; i < m.nInertialParams(); ++i) EXPECT_EQ(sp.h[i], h[i]) << i;
   for (int j = 0; j < m.njoints; ++j)  // a joint's friction acts on that joint's torque alone
     for (int k = 0; k < 2; ++k) {
@@ -156,7 +156,7 @@ TEST(RankRule, NotExcitedCountsWhatStayedAtThePrior) {
   }
   d.train = accumulate(d.arm, d.train_run, 100.0, 5, dir.file("still.csv"));
   const estimator::IdentifyResult r = identify(d, estimator::RankRule::Jackknife);
-  const estimator::ScaledProblem sp = estimator::prepare(*d.train, d.arm.model, d.prior, estimator::Method::WlsRC);
+  const estimator::ScaledProblem sp = estimator::scaleProblem(*d.train, d.arm.model, d.prior, estimator::Method::WlsRC);
   std::vector<bool> at_prior(d.prior.size(), false);
   for (int i : r.unexcited) at_prior[i] = true;
   int moved = 0;

@@ -40,7 +40,7 @@ void writeError(char* error, size_t size, const std::string& text) {
 bool build(BalancePlugin& p, std::string* err) {
   p.ctrl = std::make_unique<BalanceController>(p.model, p.cfg, p.seed);
   if (!p.ctrl->ok()) return *err = p.ctrl->error(), false;
-  p.ctrl->prepare(p.command);
+  p.ctrl->sizeCommand(p.command);
   p.status = ControllerStatus{};
   return true;
 }

@@ -135,7 +135,7 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   controller::BalanceController ref(model, cfg, 3);
   ASSERT_TRUE(ref.ok()) << ref.error();
   JointCommandSample ref_cmd;
-  ref.prepare(ref_cmd);
+  ref.sizeCommand(ref_cmd);
   controller::ControllerStatus ref_status;
 
   // The same controller never given the plates: the observer (disturbance.force_plates) must make a
@@ -143,7 +143,7 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
   ASSERT_TRUE(cfg.disturbance.enabled && cfg.disturbance.force_plates);
   controller::BalanceController blind(model, cfg, 3);
   JointCommandSample blind_cmd;
-  blind.prepare(blind_cmd);
+  blind.sizeCommand(blind_cmd);
   controller::ControllerStatus blind_status;
   exoid_lcm::force_plate_t plate_msg;
   ForcePlateSample plate;
@@ -267,7 +267,7 @@ TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenU
   cfg.trajectory.moves = 2;
   controller::BalanceController ref(model, cfg, 3);
   JointCommandSample ref_cmd;
-  ref.prepare(ref_cmd);
+  ref.sizeCommand(ref_cmd);
   controller::ControllerStatus ref_status;
   // The model plus 2 kg on the base link, and a feedforward on an actuated joint.
   EstimatorOutputSample est;

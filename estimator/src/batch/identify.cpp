@@ -155,7 +155,7 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
     return fail("too little data: " + std::to_string(rows) + " equations for " + std::to_string(m) +
                 " base parameters (" + std::to_string(train.samples()) + " samples)");
   }
-  const ScaledProblem sp = prepare(train, model, prior, o.method);
+  const ScaledProblem sp = scaleProblem(train, model, prior, o.method);
   out.singular_values = sp.s;
   out.row_weight = sp.row_weight;
   out.numerical_rank = sp.numericalRank();

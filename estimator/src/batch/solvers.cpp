@@ -147,12 +147,12 @@ TrainingFactors trainingFactors(const LsqAccumulator& acc, const Model& model, M
   return t;
 }
 
-ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+ScaledProblem scaleProblem(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
                       const std::vector<bool>& include, const FillOptions& fill) {
-  return prepare(weightedFactor(acc, model, rowScaled(method), include), model, prior, method, fill);
+  return scaleProblem(weightedFactor(acc, model, rowScaled(method), include), model, prior, method, fill);
 }
 
-ScaledProblem prepare(const WeightedFactor& f, const Model& model, const Eigen::VectorXd& prior, Method method,
+ScaledProblem scaleProblem(const WeightedFactor& f, const Model& model, const Eigen::VectorXd& prior, Method method,
                       const FillOptions& fill) {
   const int p = model.nparams();
   ScaledProblem sp;
@@ -241,7 +241,7 @@ std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors&
   for (int k = 0; k < K && K > 1; ++k) {
     const long n = tf.fold_rows[k];
     if (n == 0) continue;  // an empty fold
-    const ScaledProblem sp = prepare(tf.without[k], model, prior, tf.method, fill);
+    const ScaledProblem sp = scaleProblem(tf.without[k], model, prior, tf.method, fill);
     r = std::min(r, static_cast<int>(sp.s.size()));
     for (int z = 0; z <= static_cast<int>(sp.s.size()); ++z) {
       const Eigen::VectorXd xb = B * solveAtRank(sp, z);
@@ -319,12 +319,12 @@ RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const E
                           double prior_uncertainty) {
   RankCurve c;
   c.rule = "jackknife over time blocks: z of least risk, data variance against the prior's per direction";
-  const ScaledProblem all = prepare(tf.all, model, prior, tf.method);
+  const ScaledProblem all = scaleProblem(tf.all, model, prior, tf.method);
   const int r = all.numericalRank(), K = static_cast<int>(tf.without.size());
   std::vector<Eigen::VectorXd> a;
   for (int k = 0; k < K; ++k) {
     if (tf.fold_rows[k] == 0 || tf.without[k].rows == 0) continue;  // an empty fold
-    const ScaledProblem sp = prepare(tf.without[k], model, prior, tf.method);
+    const ScaledProblem sp = scaleProblem(tf.without[k], model, prior, tf.method);
     // Coordinates along the full problem's right singular vectors, in its scaled units (at full rank the
     // fill does not change them).
     const Eigen::VectorXd phi = solveAtRank(sp, sp.numericalRank());

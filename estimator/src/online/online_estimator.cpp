@@ -518,7 +518,7 @@ void OnlineEstimator::fold() {
   block_samples_ = 0;
 }
 
-void OnlineEstimator::prepare(EstimatorOutputSample& out) const {
+void OnlineEstimator::sizeOutput(EstimatorOutputSample& out) const {
   const int p = model_.nparams(), m = rls_model_.m, nv = model_.nv;
   out.params = Eigen::VectorXd::Zero(p);
   out.param_stddev = Eigen::VectorXd::Zero(p);
@@ -528,7 +528,7 @@ void OnlineEstimator::prepare(EstimatorOutputSample& out) const {
   out.residual_rms = Eigen::VectorXd::Zero(nv);
 }
 
-void OnlineEstimator::publish(EstimatorOutputSample& out) {
+void OnlineEstimator::fillOutput(EstimatorOutputSample& out) {
   const bool selective = opt_.forgetting == Forgetting::Selective;
   updateRowWeights();
   // The covariance costs m^3 (most of a publication): every uncertainty_every-th one, the stddevs kept between.

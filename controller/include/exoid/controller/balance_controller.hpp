@@ -88,7 +88,7 @@ class BalanceController {
   const std::string& error() const { return error_; }
 
   /// Sizes a command sample for this model (setup).
-  void prepare(JointCommandSample& command) const;
+  void sizeCommand(JointCommandSample& command) const;
   /// The online estimator's output (EXO_ESTIMATE as a plain sample; base_params etc. are not read). Accepted
   /// when config.estimate.enabled, params [nparams] and tau_correction [nv] finite, flagged valid and consistent, every
   /// body's parameters consistent (model/inertial.hpp) and the total mass within max_relative_mass_change of the

@@ -102,14 +102,14 @@ bool replayOnline(Comparison& cmp, size_t to, Eigen::VectorXd& x, const estimato
   if (!est.ok()) return false;
   cmp.prior_sigma = est.priorBaseStddev();
   EstimatorOutputSample out;
-  est.prepare(out);
+  est.sizeOutput(out);
   for (size_t i = 0; i < to; ++i) {
     est.addState(*cmp.ticks[i].state);
     est.addPlate(*cmp.ticks[i].plate[0]);
     est.addPlate(*cmp.ticks[i].plate[1]);
-    if (est.samplesSincePublication() >= cmp.publish_every) est.publish(out);
+    if (est.samplesSincePublication() >= cmp.publish_every) est.fillOutput(out);
   }
-  est.publish(out);
+  est.fillOutput(out);
   x = out.base_params;
   return true;
 }

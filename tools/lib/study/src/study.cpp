@@ -393,7 +393,7 @@ void scoreValidationRanked(const Study& st, Job& job, const JobFactors& jf, cons
     const auto tp = std::chrono::steady_clock::now();
     const bool row_scaled = m == Method::WlsR || m == Method::WlsRC;
     const estimator::ScaledProblem sp =
-        estimator::prepare(row_scaled ? jf.weighted.all : jf.plain.all, st.model, prior, m, fill);
+        estimator::scaleProblem(row_scaled ? jf.weighted.all : jf.plain.all, st.model, prior, m, fill);
     const estimator::RankCurve curve = estimator::rankByValidation(sp, st.vfac);
     job.seconds["OLS/WLS-R/WLS-C/WLS-RC"] += since(tp);
     scoreEstimate(st, job, range, i, estimator::methodName(m), estimator::solveAtRank(sp, curve.best), curve.best);

@@ -96,10 +96,10 @@ struct ScaledProblem {
 };
 
 /// Builds the scaled problem from the training folds (include: all when empty).
-ScaledProblem prepare(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
+ScaledProblem scaleProblem(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
                       const std::vector<bool>& include = {}, const FillOptions& fill = {});
 /// The same from a weighted factor of the method's row weighting (no pass over the accumulator).
-ScaledProblem prepare(const WeightedFactor& factor, const Model& model, const Eigen::VectorXd& prior, Method method,
+ScaledProblem scaleProblem(const WeightedFactor& factor, const Model& model, const Eigen::VectorXd& prior, Method method,
                       const FillOptions& fill = {});
 
 /// Standard parameters [p] using the z largest singular values (z clamped to [0, r]); the directions not

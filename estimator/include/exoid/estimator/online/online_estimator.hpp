@@ -15,7 +15,7 @@
 //   4. the recursive WLS update (recursive_ls.hpp).
 // At publication: solve, uncertainty, standard parameters, consistency, excitation, residuals, tau_correction.
 //
-// Real time: everything is sized by the constructor / prepare(); addState, addPlate and publish allocate
+// Real time: everything is sized by the constructor / sizeOutput(); addState, addPlate and fillOutput allocate
 // nothing and throw nothing. Checkpoints do file I/O: call them off the per-sample path.
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -115,13 +115,13 @@ class OnlineEstimator {
   InputStatus addState(const RobotStateSample& state);
   InputStatus addPlate(const ForcePlateSample& plate);
 
-  /// Samples folded in since the last publish().
+  /// Samples folded in since the last fillOutput().
   long samplesSincePublication() const { return since_publication_; }
   /// Sizes `out` (params, stddevs, tau_correction, residuals); call once before publish.
-  void prepare(EstimatorOutputSample& out) const;
+  void sizeOutput(EstimatorOutputSample& out) const;
   /// Solves and fills `out` (see docs/estimator.md for each field). utime is left to the caller.
   /// Allocation-free once `out` is prepared.
-  void publish(EstimatorOutputSample& out);
+  void fillOutput(EstimatorOutputSample& out);
   /// True when the publication just made is one whose standard parameters reconcile() should make consistent.
   bool reconcileDue() const;
   /// Physically consistent standard parameters that reproduce the base estimate (docs/estimator.md,
@@ -203,7 +203,7 @@ class OnlineEstimator {
   void initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi, const BasePrior& prior,
                               const std::vector<double>& effect_sigma);
   void sizeWorkspace();  ///< every per-sample buffer, so that the loop does not allocate
-  // publish()'s stages, in order:
+  // fillOutput()'s stages, in order:
   /// WLS-R online: each row's weight 1 / sigma_c from the previous solve's residuals over the whole memory.
   void updateRowWeights();
   /// Residual RMS and effective samples over the estimate's memory (selective: earlier blocks carried).
