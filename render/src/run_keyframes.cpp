@@ -1,5 +1,6 @@
 #include "exoid/render/run_keyframes.hpp"
 
+#include <sstream>
 #include <vector>
 
 #include "exoid/intake/run_log.hpp"
@@ -23,6 +24,21 @@ bool writeRunKeyframes(const std::string& log_path, const Model& model, const st
   RenderData rdata;
   return loadRenderModel(mjcf_path, model, sim::Scenario{}, 640, 480, rmodel, err) && makeRenderData(rmodel, rdata, err) &&
          writeKeyframeStrip(rmodel, rdata, frames, front, png_path, err);
+}
+
+std::string runKeyframesSection(const std::vector<ReportRun>& runs, const Model* model, const std::string& no_model_why,
+                                const std::string& mjcf_path, const std::string& out_dir) {
+  std::ostringstream md;
+  md << "## The runs\n\nEach run as keyframes: start, largest CoM excursion, end (`exoid render --keyframes`).\n\n";
+  for (const ReportRun& r : runs) {
+    std::string note, err = no_model_why;
+    md << "- " << r.role << " `" << r.log_path << "`";
+    if (model && writeRunKeyframes(r.log_path, *model, mjcf_path, out_dir + "/" + r.png, &note, &err))
+      md << (note.empty() ? "" : " (" + note + ")") << ":\n\n  ![" << r.role << " run](" << r.png << ")\n\n";
+    else
+      md << ": not drawn (" << err << ")\n\n";
+  }
+  return md.str();
 }
 
 }  // namespace exoid::render

@@ -164,20 +164,12 @@ static bool appendRunKeyframes(const tools::StudyOptions& o, const std::string& 
   Model model;
   std::string why;
   const bool have_model = buildModelFromUrdfFile(o.model_path, true, model, &why);
+  std::vector<render::ReportRun> runs;
+  for (const auto& [name, log] : {std::pair<const char*, const std::string*>{"train", &o.train}, {"validation", &o.validation}, {"test", &o.test}})
+    if (!log->empty()) runs.push_back({name, *log, std::string("keyframes_") + name + ".png"});
   std::ofstream md(o.out_dir + "/table2.md", std::ios::app);
   if (!md) return *err = "cannot append to '" + o.out_dir + "/table2.md'", false;
-  md << "\n## The runs\n\nEach run as keyframes: start, largest CoM excursion, end (`exoid render --keyframes`).\n\n";
-  const std::pair<const char*, const std::string*> runs[] = {{"train", &o.train}, {"validation", &o.validation}, {"test", &o.test}};
-  for (const auto& [name, log] : runs) {
-    if (log->empty()) continue;
-    const std::string png = std::string("keyframes_") + name + ".png";
-    std::string note;
-    md << "- " << name << " `" << *log << "`";
-    if (have_model && render::writeRunKeyframes(*log, model, scene, o.out_dir + "/" + png, &note, &why))
-      md << (note.empty() ? "" : " (" + note + ")") << ":\n\n  ![" << name << " run](" << png << ")\n\n";
-    else
-      md << ": not drawn (" << why << ")\n\n";
-  }
+  md << "\n" << render::runKeyframesSection(runs, have_model ? &model : nullptr, why, scene, o.out_dir);
   return static_cast<bool>(md);
 }
 

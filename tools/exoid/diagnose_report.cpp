@@ -463,22 +463,13 @@ void reportTail(std::ostringstream& md, bool plotted, const std::string& plot_cs
 // report.md: each run used (training, validation; LCM logs: a CSV has no pose to draw) as its keyframe strip, the
 // picture of `exoid render --keyframes` (start, largest CoM excursion, end). One that cannot be drawn says why.
 void reportRuns(std::ostringstream& md, const Model& model, const DiagnoseInputs& in, const fs::path& out) {
-  std::vector<std::pair<const char*, std::string>> runs;  // (role, file)
-  for (const std::string& f : in.train_files)
-    if (!tools::isCsvPath(f)) runs.emplace_back("training", f);
-  for (const std::string& f : in.val_files)
-    if (!tools::isCsvPath(f)) runs.emplace_back("validation", f);
+  std::vector<render::ReportRun> runs;
+  for (const auto* files : {&in.train_files, &in.val_files})
+    for (const std::string& f : *files)
+      if (!tools::isCsvPath(f))
+        runs.push_back({files == &in.train_files ? "training" : "validation", f, "keyframes_" + std::to_string(runs.size() + 1) + ".png"});
   if (runs.empty() || in.no_plots) return;
-  md << "## The runs\n\nEach run as keyframes: start, largest CoM excursion, end (`exoid render --keyframes`).\n\n";
-  for (size_t k = 0; k < runs.size(); ++k) {
-    const std::string png = "keyframes_" + std::to_string(k + 1) + ".png";
-    std::string note, err;
-    md << "- " << runs[k].first << " `" << runs[k].second << "`";
-    if (render::writeRunKeyframes(runs[k].second, model, in.scene_mjcf, (out / png).string(), &note, &err))
-      md << (note.empty() ? "" : " (" + note + ")") << ":\n\n  ![" << runs[k].first << " run](" << png << ")\n\n";
-    else
-      md << ": not drawn (" << err << ")\n\n";
-  }
+  md << render::runKeyframesSection(runs, &model, "", in.scene_mjcf, out.string());
 }
 
 // The console summary.
