@@ -11,6 +11,7 @@
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/perturb_inertials.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
+#include "exoid/tools/wearer_urdf.hpp"
 
 namespace exoid::cli {
 
@@ -63,6 +64,58 @@ int cmdModelPerturb(int argc, char** argv) {
   return 0;
 }
 
+void printStandingCom(const Model& model);
+
+// exoid model wearer: the exo URDF plus the wearer from de Leva's table (tools/wearer_urdf.hpp, docs/wearer.md).
+int cmdModelWearer(int argc, char** argv) {
+  CLI::App app{
+      "Writes the clinic's prior of the exoskeleton with its wearer: the exoskeleton URDF plus the wearer's 16 body\n"
+      "segments from de Leva (1996) Table 4 at the given mass, height and sex (masses, CoM positions and radii of\n"
+      "gyration scaled to the height), each a link on a fixed joint to the exoskeleton link it rides on (thighs,\n"
+      "shanks, feet; head, trunk and arms rigid on the pelvis). --variation draws a person who is not the table\n"
+      "(each mass, CoM fraction and radius x (1 + U[-V, V]), seeded; masses renormalised to --mass).",
+      "exoid model wearer"};
+  common::configureCli(app);
+  std::string path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", out, sex = "m";
+  WearerSpec spec;
+  int64_t seed = 1;
+  app.add_option("--model", path, "exoskeleton URDF (default config/exo.urdf)")->type_name("URDF");
+  app.add_option("--mass", spec.mass_kg, "wearer's body mass in kg")->required()
+      ->transform(common::strictNumber(1.0, 300.0))->type_name("KG");
+  app.add_option("--height", spec.height_m, "wearer's height (stature) in m")->required()
+      ->transform(common::strictNumber(1.0, 2.5))->type_name("M");
+  app.add_option("--sex", sex, "m or f (de Leva's male or female table)")->required()
+      ->check(CLI::IsMember({"m", "f"}))->type_name("m|f");
+  app.add_option("--seed", seed, "seed of the variation draw (default 1)")
+      ->transform(common::strictInteger(0, std::numeric_limits<int64_t>::max()))->type_name("N");
+  app.add_option("--variation", spec.variation, "relative variation V of each segment parameter (default 0: the table)")
+      ->transform(common::strictNumber(0.0, 0.5))->type_name("V");
+  app.add_option("--out", out, "the prior URDF to write")->required()->type_name("URDF");
+  app.footer("Prints one line per wearer segment, then the prior's total mass and standing CoM. exit codes: 0 success,\n"
+             "2 bad input (unreadable URDF without the exo's links, bad option, unwritable output).");
+  if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
+  spec.sex = sex == "f" ? Sex::Female : Sex::Male;
+  spec.seed = static_cast<uint64_t>(seed);
+  std::string err;
+  WearerMount mount;
+  Model prior;
+  if (!tools::writeWearerPrior(path, spec, out, &mount, &err) || !buildModelFromUrdfFile(out, true, prior, &err)) {
+    std::fprintf(stderr, "exoid model wearer: error: %s\n", err.c_str());
+    return 2;
+  }
+  std::printf("%-20s %-16s %9s  %s\n", "segment", "on link", "mass [kg]", "CoM in link frame [m]");
+  double wearer_mass = 0.0;
+  for (const MountedSegment& s : mount.segments) {
+    wearer_mass += s.mass;
+    std::printf("%-20s %-16s %9.4f  (%.4f, %.4f, %.4f)\n", s.segment.c_str(), s.link.c_str(), s.mass, s.com.x(),
+                s.com.y(), s.com.z());
+  }
+  std::printf("\nWearer %.4f kg (%s, %.3f m); exoskeleton + wearer in %s\n", wearer_mass,
+              spec.sex == Sex::Male ? "male" : "female", spec.height_m, out.c_str());
+  printStandingCom(prior);
+  return 0;
+}
+
 /// One line per moving link: parent, joint, axis, mass, CoM.
 void printBodies(const Model& model) {
   std::printf(" #  %-22s %-22s %-16s %-22s %9s  %s\n", "link", "parent", "joint", "axis (link frame)", "mass [kg]",
@@ -111,6 +164,7 @@ void printStandingCom(const Model& model) {
 
 int cmdModel(int argc, char** argv) {
   if (argc >= 3 && std::strcmp(argv[2], "perturb") == 0) return cmdModelPerturb(argc - 1, argv + 1);
+  if (argc >= 3 && std::strcmp(argv[2], "wearer") == 0) return cmdModelWearer(argc - 1, argv + 1);
   CLI::App app{
       "Prints the model exoid builds from a URDF: every moving link (body) in tree order with its parent, joint,\n"
       "joint axis, mass and centre of mass; the total mass; the centre of mass in the standing pose (all joints\n"
@@ -127,6 +181,7 @@ int cmdModel(int argc, char** argv) {
   app.add_option("--gravity", g, "gravity magnitude in m/s^2 along -z of the world")
       ->transform(common::strictNumber(0.0, 1000.0))->type_name("G");
   app.footer("exoid model perturb --help: write a randomly perturbed (+-R, consistent) copy of a URDF.\n"
+             "exoid model wearer --help: write the exoskeleton URDF with its wearer (de Leva 1996 segments).\n"
              "exit codes: 0 success, 2 bad input (unreadable or malformed URDF, bad option).");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   std::string err;

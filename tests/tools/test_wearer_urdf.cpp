@@ -1,0 +1,78 @@
+// exoid model wearer / tools::writeWearerPrior: the exoskeleton URDF plus the wearer's segments. The written prior
+// loads with the exo's links and joints, weighs exo + wearer, and its standing CoM equals the one computed here
+// from the segments placed by hand on the exo's joint points (config/exo.urdf: hips 0.1 m below the pelvis origin
+// at y = -+0.11, knees 0.43 m lower, ankle axes 0.42 m lower, soles 0.09 m below the ankle axes).
+#include <gtest/gtest.h>
+
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
+#include "exoid/model/urdf.hpp"
+#include "exoid/tools/wearer_urdf.hpp"
+#include "support/paths.hpp"
+#include "support/run_command.hpp"
+
+namespace exoid {
+namespace {
+
+Eigen::Vector3d standingCom(const Model& model, double* mass) {
+  DynamicsData dyn(model);
+  forwardKinematics(model, dyn.kin, State::zero(model));
+  centroidal(model, dyn);
+  *mass = dyn.mass;
+  return dyn.com;
+}
+
+// The segments' world CoMs from the placement rules of docs/wearer.md, written out independently of wearer_mount.
+Eigen::Vector3d handPlacedCom(const Wearer& w, const BodySegment& s) {
+  const double y = s.side * 0.11, f = s.com_fraction, L = s.length;
+  const double hip = -0.1, knee = hip - 0.43, ankle = knee - 0.42, sole = ankle - 0.09;
+  switch (s.kind) {
+    case SegmentKind::Thigh: return {0.0, y, hip - f * L};
+    case SegmentKind::Shank: return {0.0, y, knee - f * L};
+    case SegmentKind::Foot: return {(f - 0.22) * L, y, 0.5 * (ankle + sole)};
+    default: return Eigen::Vector3d(0.0, 0.0, hip) + standingSegmentCom(w, s);
+  }
+}
+
+TEST(WearerUrdf, PriorWeighsExoPlusWearerAndItsComMatchesTheSegments) {
+  test::TempDir dir("wearer_urdf");
+  const std::string urdf = test::configPath("exo.urdf");
+  for (const WearerSpec& spec : {WearerSpec{75.0, 1.78, Sex::Male, 1, 0.0}, WearerSpec{52.0, 1.55, Sex::Female, 3, 0.15},
+                                 WearerSpec{110.0, 1.95, Sex::Male, 9, 0.15}}) {
+    const std::string out = dir.file("prior.urdf");
+    std::string err;
+    WearerMount mount;
+    ASSERT_TRUE(tools::writeWearerPrior(urdf, spec, out, &mount, &err)) << err;
+    Model exo, prior;
+    ASSERT_TRUE(buildModelFromUrdfFile(urdf, true, exo, &err)) << err;
+    ASSERT_TRUE(buildModelFromUrdfFile(out, true, prior, &err)) << err;
+    EXPECT_EQ(prior.body_names, exo.body_names);  // the wearer is lumped into the exo's links
+    EXPECT_EQ(prior.joint_names, exo.joint_names);
+    EXPECT_GE(prior.frameIndex("wearer_right_thigh"), 0);
+    double m_exo = 0.0, m_prior = 0.0;
+    const Eigen::Vector3d c_exo = standingCom(exo, &m_exo), c_prior = standingCom(prior, &m_prior);
+    EXPECT_NEAR(m_prior, m_exo + spec.mass_kg, 1e-9);
+
+    Wearer w;
+    ASSERT_TRUE(buildWearer(spec, w, &err)) << err;
+    Eigen::Vector3d moment = m_exo * c_exo;
+    for (const BodySegment& s : w.segments) moment += s.mass * handPlacedCom(w, s);
+    EXPECT_LT((c_prior - moment / (m_exo + spec.mass_kg)).norm(), 1e-9) << spec.mass_kg;
+  }
+}
+
+TEST(WearerUrdf, CommandWritesThePriorAndRefusesBadInput) {
+  test::TempDir dir("wearer_cli");
+  const std::string out = dir.file("p.urdf");
+  const std::string cmd = test::exoidBinary() + " model wearer --mass 75 --height 1.78 --sex m --out " + out;
+  const test::CommandResult ok = test::runCommand(cmd, dir.path);
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(ok.out.find("Total mass: 116.0500 kg"), std::string::npos) << ok.out;
+  EXPECT_EQ(test::runCommand(cmd + " --variation 0.9", dir.path).exit_code, 2);
+  EXPECT_EQ(test::runCommand(test::exoidBinary() + " model wearer --mass 75 --height 1.78 --sex x --out " + out,
+                             dir.path).exit_code, 2);
+  EXPECT_EQ(test::runCommand(cmd + " --model " + dir.file("missing.urdf"), dir.path).exit_code, 2);
+}
+
+}  // namespace
+}  // namespace exoid
