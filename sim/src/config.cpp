@@ -202,6 +202,67 @@ bool parseEffects(const Ctx& c, const YAML::Node& n, Effects* e) {
   return true;
 }
 
+// wearer: {mass_kg, height_m, sex, seed, variation, trunk: {...}, passive_moments, joint_damping, reflex: {...}}.
+bool parseWearerTrunk(const Ctx& c, const YAML::Node& n, WearerTrunk* t) {
+  const std::string key = "wearer.trunk";
+  if (!checkKeys(c, n, key, {"stiffness", "damping", "sway_rms", "sway_cutoff_hz"})) return false;
+  YAML::Node v;
+  if (!getRequired(c, n, key, "stiffness", &v) || !toVector<3>(c, v, key + ".stiffness", &t->stiffness, true) ||
+      !getRequired(c, n, key, "damping", &v) || !toVector<3>(c, v, key + ".damping", &t->damping, true))
+    return false;
+  if (n["sway_rms"] && !toNonNegative(c, n["sway_rms"], key + ".sway_rms", &t->sway_rms)) return false;
+  if (n["sway_cutoff_hz"] && !toDouble(c, n["sway_cutoff_hz"], key + ".sway_cutoff_hz", &t->sway_cutoff_hz)) return false;
+  if (!(t->sway_cutoff_hz > 0.0 && t->sway_cutoff_hz <= 100.0)) return c.fail(key + ".sway_cutoff_hz", "must be in (0, 100] Hz");
+  return true;
+}
+
+bool parseWearerReflex(const Ctx& c, const YAML::Node& n, WearerReflex* r) {
+  const std::string key = "wearer.reflex";
+  if (!checkKeys(c, n, key, {"rate_hz", "amplitude", "duration_s"})) return false;
+  YAML::Node v;
+  if (!getRequired(c, n, key, "rate_hz", &v) || !toNonNegative(c, v, key + ".rate_hz", &r->rate_hz) ||
+      !getRequired(c, n, key, "amplitude", &v) || !toNonNegative(c, v, key + ".amplitude", &r->amplitude))
+    return false;
+  if (n["duration_s"] && !toDouble(c, n["duration_s"], key + ".duration_s", &r->duration_s)) return false;
+  if (!(r->duration_s >= 0.01 && r->duration_s <= 10.0)) return c.fail(key + ".duration_s", "must be in [0.01, 10] s");
+  if (r->rate_hz > 10.0) return c.fail(key + ".rate_hz", "must be <= 10 per s");
+  return true;
+}
+
+bool parseWearer(const Ctx& c, const YAML::Node& n, WearerConfig* w) {
+  const std::string key = "wearer";
+  if (!checkKeys(c, n, key, {"mass_kg", "height_m", "sex", "seed", "variation", "trunk", "passive_moments",
+                             "joint_damping", "reflex"}))
+    return false;
+  w->enabled = true;
+  YAML::Node v;
+  std::string sex, why;
+  if (!getRequired(c, n, key, "mass_kg", &v) || !toDouble(c, v, "wearer.mass_kg", &w->spec.mass_kg) ||
+      !getRequired(c, n, key, "height_m", &v) || !toDouble(c, v, "wearer.height_m", &w->spec.height_m) ||
+      !getRequired(c, n, key, "sex", &v) || !toString(c, v, "wearer.sex", &sex) ||
+      !getRequired(c, n, key, "trunk", &v) || !parseWearerTrunk(c, v, &w->trunk))
+    return false;
+  if (sex != "m" && sex != "f") return c.fail("wearer.sex", "expected m or f, got '" + sex + "'");
+  w->spec.sex = sex == "f" ? Sex::Female : Sex::Male;
+  if (const YAML::Node s = n["seed"]) {
+    int64_t seed = 0;
+    if (!s.IsScalar() || !common::yamlInteger(s, 0, INT64_MAX, seed, &why)) return c.fail("wearer.seed", why.empty() ? "expected an unsigned integer" : why);
+    w->spec.seed = static_cast<uint64_t>(seed);
+  }
+  if (n["variation"] && !toDouble(c, n["variation"], "wearer.variation", &w->spec.variation)) return false;
+  if (const YAML::Node p = n["passive_moments"]) {
+    if (!p.IsScalar() || (p.Scalar() != "true" && p.Scalar() != "false"))
+      return c.fail("wearer.passive_moments", "expected true or false");
+    w->passive_moments = p.Scalar() == "true";
+  }
+  if (n["joint_damping"] && !toVector<3>(c, n["joint_damping"], "wearer.joint_damping", &w->joint_damping.b, true))
+    return false;
+  if (n["reflex"] && !parseWearerReflex(c, n["reflex"], &w->reflex)) return false;
+  Wearer check;  // the ranges of mass, height and variation are the builder's
+  if (!buildWearer(w->spec, check, &why)) return c.fail(key, why);
+  return true;
+}
+
 }  // namespace
 
 bool loadSensorConfig(const std::string& path, SensorConfig* out, std::string* err) {
@@ -257,7 +318,9 @@ bool loadScenario(const std::string& path, Scenario* out, std::string* err) {
   Scenario s;
   s.source = path;
   try {
-    if (!checkKeys(c, root, "", {"name", "description", "seed", "noise", "effects", "initial_state", "harness"})) return false;
+    if (!checkKeys(c, root, "", {"name", "description", "seed", "noise", "effects", "initial_state", "harness",
+                                  "wearer"}))
+      return false;
     YAML::Node v;
     if (!getRequired(c, root, "", "name", &v) || !toString(c, v, "name", &s.name)) return false;
     if (s.name.empty()) return c.fail("name", "must not be empty");
@@ -300,6 +363,7 @@ bool loadScenario(const std::string& path, Scenario* out, std::string* err) {
       if (h["lift"] && !toDouble(c, h["lift"], "harness.lift", &s.harness.lift)) return false;
       if (!(s.harness.lift >= 0.0 && s.harness.lift <= 2.0)) return c.fail("harness.lift", "must be in [0, 2] m");
     }
+    if (root["wearer"] && !parseWearer(c, root["wearer"], &s.wearer)) return false;
   } catch (const YAML::Exception& e) {
     return c.fail("", std::string("YAML error: ") + e.what());
   }

@@ -3,6 +3,7 @@
 #include "exoid/sim/sim.hpp"
 
 #include "mjcf_check.hpp"
+#include "wearer.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -120,7 +121,7 @@ bool loadMjcf(SimModel& sm, std::string* err) {
   if (std::abs(sm.m->opt.timestep - 0.001) > 1e-12)
     return fail(err, f + ": <option timestep>: must be 0.001 (one 1 kHz control tick per step), found " +
                          std::to_string(sm.m->opt.timestep));
-  return true;
+  return !sm.scenario.wearer.enabled || loadWearer(sm, err);  // recompiled with the wearer's bodies
 }
 
 // Joints: exactly one free joint (the base, on a child of the world), every other joint a hinge (named); the
@@ -140,6 +141,7 @@ bool findJoints(SimModel& sm, std::string* err) {
       sm.base_dof = m->jnt_dofadr[j];
     } else if (m->jnt_type[j] == mjJNT_HINGE) {
       if (!name) return fail(err, f + ": hinge joint #" + std::to_string(j) + " has no name");
+      if (sm.wearer.enabled && jn.rfind(kWearerPrefix, 0) == 0) continue;  // the wearer's lumbar: not an exo joint
       sm.joint_names.push_back(jn);
       sm.joint_id.push_back(j);
       sm.qpos_adr.push_back(m->jnt_qposadr[j]);
@@ -366,7 +368,7 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
   sm.options = options;
   sm.scenario = scenario;
   sm.noise = noise;
-  if (!loadMjcf(sm, err) || !findJoints(sm, err) || !findActuators(sm, err) || !findImu(sm, err) ||
+  if (!loadMjcf(sm, err) || !findJoints(sm, err) || !findWearerJoints(sm, err) || !findActuators(sm, err) || !findImu(sm, err) ||
       !findFeetAndPlates(sm, err))
     return false;
   // Scenario effects (MuJoCo model and sensor model only: the URDF does not see them).
@@ -420,6 +422,7 @@ void simReset(const SimModel& sm, SimData& sd) {
   for (int w = 0; w < mjNWARNING; ++w) sd.warnings_seen[static_cast<size_t>(w)] = d->warning[w].number;
   sd.initial_base_height = d->qpos[sm.base_qpos + 2];
   sd.stats = SimStats();
+  resetWearerState(sm, sd);
 }
 
 JointCommandSample simZeroCommand(const SimModel& sm) {
@@ -624,6 +627,7 @@ bool simStep(const SimModel& sm, SimData& sd, const JointCommandSample& command)
   mj_step1(m, d);
   stageRecordState(sm, sd);
   stageHarness(sm, sd);
+  stageWearer(sm, sd);
   const bool applied = stageControl(sm, sd, command);
   mj_step2(m, d);
   stageTruth(sm, sd);

@@ -7,6 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "exoid/model/anthropometry.hpp"
+#include "exoid/model/passive_joint_moments.hpp"
+
 namespace exoid::sim {
 
 /// One-sigma Gaussian white noise of every sensor, per sample (1 kHz). Zero switches a sensor's noise off.
@@ -83,6 +86,31 @@ struct Harness {
   double lift = 0.2;  ///< m the pelvis is raised above its standing height, so that the swinging feet clear the plates
 };
 
+/// The wearer's upper body (head, trunk above the navel, arms) on a 3-hinge lumbar joint on the pelvis (docs/wearer.md).
+struct WearerTrunk {
+  Eigen::Vector3d stiffness = Eigen::Vector3d::Zero();  ///< N m/rad about the pelvis's x (roll), y (pitch), z (yaw)
+  Eigen::Vector3d damping = Eigen::Vector3d::Zero();    ///< N m s/rad, same axes
+  double sway_rms = 0.0;        ///< N m per axis: active sway torque, low-pass filtered Gaussian noise (0: passive)
+  double sway_cutoff_hz = 0.5;  ///< its first-order low-pass corner
+};
+
+/// Spasm / reflex torque bursts on the wearer's leg joints (hip flexion, knee, ankle dorsiflexion, either leg).
+struct WearerReflex {
+  double rate_hz = 0.0;     ///< mean bursts per second (Poisson onsets; 0: none)
+  double amplitude = 0.0;   ///< N m, peak of the half-sine burst, random sign
+  double duration_s = 0.3;  ///< of one burst
+};
+
+/// YAML `wearer:` (docs/wearer.md): a person strapped into the exoskeleton, unknown to the URDF.
+struct WearerConfig {
+  bool enabled = false;
+  WearerSpec spec;                 ///< mass_kg, height_m, sex, seed, variation
+  WearerTrunk trunk;
+  bool passive_moments = true;     ///< Riener & Edrich 1999 elastic + damping on hip/knee/ankle (sagittal)
+  PassiveJointDamping joint_damping;  ///< N m s/rad (hip, knee, ankle)
+  WearerReflex reflex;
+};
+
 struct Scenario {
   std::string name = "default";
   std::string description;
@@ -92,6 +120,7 @@ struct Scenario {
   Effects effects;
   InitialState initial;
   Harness harness;                    ///< YAML `harness: {lift: 0.2}` (present: enabled)
+  WearerConfig wearer;                ///< YAML `wearer: {...}` (present: enabled)
   std::string source;                 ///< file it was read from ("" = built-in default)
 };
 

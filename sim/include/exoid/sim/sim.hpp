@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "exoid/model/wearer_mount.hpp"
 #include "exoid/samples.hpp"
 #include "exoid/sim/config.hpp"
 
@@ -79,6 +80,19 @@ class MjOwned {
   T* p_ = nullptr;
 };
 
+/// Scenario::wearer in the MuJoCo model (docs/wearer.md "In the simulation"): the wearer's segments are bodies welded
+/// to the exo links they ride on, its upper body sits on three lumbar hinges ("wearer_lumbar_x/y/z", not exo joints:
+/// left out of the samples' joint arrays), and stageWearer applies the passive leg moments, the sway and the reflexes.
+struct WearerSim {
+  bool enabled = false;
+  Wearer wearer;                       ///< the simulated person (de Leva + variation)
+  WearerMount mount;                   ///< its segments on the exo links (pelvis-frame lumbar pivot)
+  MountedSegment upper_body;           ///< the lumped body on the lumbar joint
+  std::array<int, 3> lumbar_qpos{}, lumbar_dof{};  ///< x, y, z hinges
+  std::array<std::array<int, 3>, 2> leg_qpos{}, leg_dof{};  ///< [right, left][hip_fe, knee, ankle_pd]
+  double sway_decay = 0.0;             ///< exp(-2 pi fc h): first-order low-pass of the sway torque per tick
+};
+
 /// Constant description: the MuJoCo model with the scenario's effects applied, and every id the pipeline
 /// needs. Owns m (RAII); movable, not copyable.
 struct SimModel {
@@ -110,6 +124,7 @@ struct SimModel {
 
   std::vector<double> qpos_init;  ///< [nq] initial configuration (MJCF qpos0 + scenario initial_state)
   double harness_mass = 0.0;      ///< kg added to the base by Scenario::harness (kHarnessMass, else 0)
+  WearerSim wearer;               ///< Scenario::wearer (enabled = false: none)
 
   /// Payloads attached mid-run (effects.payload attach_at_s > 0): simStep composes each into its link at the
   /// start of its tick, changing the mjModel in place (the one part of SimModel a run changes); simReset
@@ -147,6 +162,20 @@ struct SimData {
   std::array<int, mjNWARNING> warnings_seen{};  ///< [mjNWARNING] MuJoCo warning counts already accounted for
   double initial_base_height = 0.0;  ///< m, base height at reset
   SimStats stats;
+
+  /// Scenario::wearer's state: its own generator (seeded from the wearer's seed, so that the sensor noise is the
+  /// same draw with or without a wearer), the sway torque's filter state, the current reflex burst, and the
+  /// passive, sway and reflex torques applied at the last tick (qfrc_applied; not measured by the torque sensors).
+  struct WearerState {
+    std::mt19937_64 rng;
+    Eigen::Vector3d sway = Eigen::Vector3d::Zero();   ///< N m about the lumbar x, y, z hinges
+    int reflex_joint = -1;                            ///< 0..5: [right, left] x [hip, knee, ankle]; -1 none
+    int64_t reflex_start = 0, reflex_ticks = 0;
+    double reflex_sign = 1.0;
+    int reflexes = 0;                                 ///< bursts started since reset
+    std::array<LegJoints, 2> passive{LegJoints::Zero(), LegJoints::Zero()};  ///< [right, left] N m
+    std::array<LegJoints, 2> reflex{LegJoints::Zero(), LegJoints::Zero()};
+  } wearer;
 };
 
 /// Loads and compiles the MJCF, checks the sim's contract (one free joint on the root body, hinge joints,
@@ -182,6 +211,10 @@ void stageRecordState(const SimModel& model, SimData& data);
 /// After mj_step1, Scenario::harness only: the harness wrench on the base, -(subtree mass) g through the system's
 /// CoM (xfrc_applied), so that the held robot neither falls nor turns. No-op without a harness.
 void stageHarness(const SimModel& model, SimData& data);
+/// After mj_step1, Scenario::wearer only: qfrc_applied on the exo's hip flexion, knee and ankle dorsiflexion dofs =
+/// the wearer's passive moments (Riener & Edrich + damping) plus any reflex burst; on the lumbar hinges the active
+/// sway torque. No-op without a wearer. Allocation-free.
+void stageWearer(const SimModel& model, SimData& data);
 /// Validates/clamps the command into d->ctrl. Returns false if refused.
 bool stageControl(const SimModel& model, SimData& data, const JointCommandSample& command);
 /// After mj_step2: qacc_k, applied torques, per-foot contact wrenches from MuJoCo's contacts.
