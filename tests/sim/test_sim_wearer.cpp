@@ -13,6 +13,7 @@
 #include "exoid/model/urdf.hpp"
 #include "exoid/sim/sim.hpp"
 #include "exoid/tools/wearer_urdf.hpp"
+#include "support/alloc_counter.hpp"
 #include "support/paths.hpp"
 
 namespace exoid::sim {
@@ -141,6 +142,22 @@ TEST(SimWearer, SwayRmsAndReflexRateAsConfigured) {
     stageWearer(sm, again);
     ASSERT_EQ(sd.wearer.sway, again.wearer.sway);
   }
+}
+
+// The wearer's stage runs in the 1 kHz loop: a step with passive moments, sway and reflexes allocates nothing.
+TEST(SimWearer, StepWithAWearerDoesNotAllocate) {
+  Scenario sc = scenario("wearer_heavy_sway_reflex");
+  sc.wearer.reflex.rate_hz = 10.0;  // bursts within the 1000 ticks
+  SimModel sm;
+  SimData sd;
+  load(sc, sm, sd);
+  JointCommandSample cmd = simZeroCommand(sm);
+  exoid::test::AllocationCounter counter;
+  for (int k = 0; k < 1000; ++k) simStep(sm, sd, cmd);
+  counter.stop();
+  EXPECT_EQ(counter.news(), 0);
+  EXPECT_EQ(counter.mallocs(), 0);
+  EXPECT_GT(sd.wearer.reflexes, 0);
 }
 
 TEST(SimWearer, RefusesABadWearer) {
