@@ -172,10 +172,10 @@ double standingAnkleHeight(const Wearer& w) {
 }
 
 double standingComHeight(const Wearer& w) {
-  const double H = w.spec.height_m;
-  const double hip = standingAnkleHeight(w) +
-                     H / deLevaStature(w.spec.sex) *
-                         (deLevaRow(w.spec.sex, SegmentKind::Shank).length_m + deLevaRow(w.spec.sex, SegmentKind::Thigh).length_m);
+  const double scale = w.spec.height_m / deLevaStature(w.spec.sex);
+  const Sex sex = w.spec.sex;
+  const double legs = deLevaRow(sex, SegmentKind::Shank).length_m + deLevaRow(sex, SegmentKind::Thigh).length_m;
+  const double hip = standingAnkleHeight(w) + scale * legs;  // MIDH above the floor
   double mz = 0.0;
   for (const BodySegment& s : w.segments) mz += s.mass * (hip + standingSegmentCom(w, s).z());
   return mz / w.totalMass();

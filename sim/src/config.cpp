@@ -211,8 +211,10 @@ bool parseWearerTrunk(const Ctx& c, const YAML::Node& n, WearerTrunk* t) {
       !getRequired(c, n, key, "damping", &v) || !toVector<3>(c, v, key + ".damping", &t->damping, true))
     return false;
   if (n["sway_rms"] && !toNonNegative(c, n["sway_rms"], key + ".sway_rms", &t->sway_rms)) return false;
-  if (n["sway_cutoff_hz"] && !toDouble(c, n["sway_cutoff_hz"], key + ".sway_cutoff_hz", &t->sway_cutoff_hz)) return false;
-  if (!(t->sway_cutoff_hz > 0.0 && t->sway_cutoff_hz <= 100.0)) return c.fail(key + ".sway_cutoff_hz", "must be in (0, 100] Hz");
+  if (n["sway_cutoff_hz"] && !toDouble(c, n["sway_cutoff_hz"], key + ".sway_cutoff_hz", &t->sway_cutoff_hz))
+    return false;
+  if (!(t->sway_cutoff_hz > 0.0 && t->sway_cutoff_hz <= 100.0))
+    return c.fail(key + ".sway_cutoff_hz", "must be in (0, 100] Hz");
   return true;
 }
 
@@ -246,7 +248,8 @@ bool parseWearer(const Ctx& c, const YAML::Node& n, WearerConfig* w) {
   w->spec.sex = sex == "f" ? Sex::Female : Sex::Male;
   if (const YAML::Node s = n["seed"]) {
     int64_t seed = 0;
-    if (!s.IsScalar() || !common::yamlInteger(s, 0, INT64_MAX, seed, &why)) return c.fail("wearer.seed", why.empty() ? "expected an unsigned integer" : why);
+    if (!s.IsScalar()) return c.fail("wearer.seed", std::string("expected an unsigned integer, found ") + typeName(s));
+    if (!common::yamlInteger(s, 0, INT64_MAX, seed, &why)) return c.fail("wearer.seed", why);
     w->spec.seed = static_cast<uint64_t>(seed);
   }
   if (n["variation"] && !toDouble(c, n["variation"], "wearer.variation", &w->spec.variation)) return false;

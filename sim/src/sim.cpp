@@ -368,8 +368,8 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
   sm.options = options;
   sm.scenario = scenario;
   sm.noise = noise;
-  if (!loadMjcf(sm, err) || !findJoints(sm, err) || !findWearerJoints(sm, err) || !findActuators(sm, err) || !findImu(sm, err) ||
-      !findFeetAndPlates(sm, err))
+  if (!loadMjcf(sm, err) || !findJoints(sm, err) || !findWearerJoints(sm, err) || !findActuators(sm, err) ||
+      !findImu(sm, err) || !findFeetAndPlates(sm, err))
     return false;
   // Scenario effects (MuJoCo model and sensor model only: the URDF does not see them).
   sm.scenario.source = scenario.source.empty() ? std::string("scenario") : scenario.source;

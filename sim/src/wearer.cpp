@@ -68,7 +68,8 @@ bool exoStandingFromMujoco(const SimModel& sm, ExoStanding& out, std::string* er
       return false;
     const std::string sole = exoLegLink("sole", side);  // the sole site: on the sole plane (the geom's centre is not)
     const int site = mj_name2id(m, mjOBJ_SITE, sole.c_str());
-    if (site < 0) return fail(err, sm.mjcf_path + ": <site name=\"" + sole + "\">: missing (the wearer's foot rests on it)");
+    if (site < 0)
+      return fail(err, sm.mjcf_path + ": <site name=\"" + sole + "\">: missing (the wearer's foot rests on it)");
     out.sole[k] = Eigen::Vector3d(d->site_xpos + 3 * site);
   }
   return true;
@@ -205,15 +206,17 @@ void stageWearer(const SimModel& sm, SimData& sd) {
     if (t >= st.reflex_ticks) {
       st.reflex_joint = -1;
     } else {
+      const double phase = M_PI * static_cast<double>(t) / static_cast<double>(st.reflex_ticks);
       st.reflex[static_cast<size_t>(st.reflex_joint / 3)][st.reflex_joint % 3] =
-          st.reflex_sign * cfg.reflex.amplitude * std::sin(M_PI * static_cast<double>(t) / static_cast<double>(st.reflex_ticks));
+          st.reflex_sign * cfg.reflex.amplitude * std::sin(phase);
     }
   }
   for (size_t s = 0; s < 2; ++s) {
-    LegJoints q, v;
-    for (int i = 0; i < 3; ++i) q[i] = d->qpos[w.leg_qpos[s][static_cast<size_t>(i)]], v[i] = d->qvel[w.leg_dof[s][static_cast<size_t>(i)]];
+    const std::array<int, 3>&qa = w.leg_qpos[s], &da = w.leg_dof[s];
+    const LegJoints q(d->qpos[qa[0]], d->qpos[qa[1]], d->qpos[qa[2]]);
+    const LegJoints v(d->qvel[da[0]], d->qvel[da[1]], d->qvel[da[2]]);
     st.passive[s] = cfg.passive_moments ? passiveJointMoments(q, v, cfg.joint_damping) : LegJoints::Zero();
-    for (int i = 0; i < 3; ++i) d->qfrc_applied[w.leg_dof[s][static_cast<size_t>(i)]] = st.passive[s][i] + st.reflex[s][i];
+    for (int i = 0; i < 3; ++i) d->qfrc_applied[da[static_cast<size_t>(i)]] = st.passive[s][i] + st.reflex[s][i];
   }
   // Active sway: first-order low-pass Gaussian noise with a stationary RMS of sway_rms per axis.
   const double a = w.sway_decay, rms = cfg.trunk.sway_rms;

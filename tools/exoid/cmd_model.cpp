@@ -91,8 +91,9 @@ int cmdModelWearer(int argc, char** argv) {
   app.add_option("--variation", spec.variation, "relative variation V of each segment parameter (default 0: the table)")
       ->transform(common::strictNumber(0.0, 0.5))->type_name("V");
   app.add_option("--out", out, "the prior URDF to write")->required()->type_name("URDF");
-  app.footer("Prints one line per wearer segment, then the prior's total mass and standing CoM. exit codes: 0 success,\n"
-             "2 bad input (unreadable URDF without the exo's links, bad option, unwritable output).");
+  app.footer("Prints one line per wearer segment, then the prior's total mass and standing CoM.\n"
+             "exit codes: 0 success, 2 bad input (unreadable URDF without the exo's links, bad option, unwritable\n"
+             "output).");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   spec.sex = sex == "f" ? Sex::Female : Sex::Male;
   spec.seed = static_cast<uint64_t>(seed);

@@ -86,7 +86,8 @@ struct Harness {
   double lift = 0.2;  ///< m the pelvis is raised above its standing height, so that the swinging feet clear the plates
 };
 
-/// The wearer's upper body (head, trunk above the navel, arms) on a 3-hinge lumbar joint on the pelvis (docs/wearer.md).
+/// The wearer's upper body (head, trunk above the navel, arms) on a 3-hinge lumbar joint on the pelvis
+/// (docs/wearer.md).
 struct WearerTrunk {
   Eigen::Vector3d stiffness = Eigen::Vector3d::Zero();  ///< N m/rad about the pelvis's x (roll), y (pitch), z (yaw)
   Eigen::Vector3d damping = Eigen::Vector3d::Zero();    ///< N m s/rad, same axes

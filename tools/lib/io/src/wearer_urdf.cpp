@@ -61,14 +61,16 @@ bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const
     if (err) *err = "'" + urdf_in + "' has no </robot>";
     return false;
   }
-  std::string add = "\n  <!-- The wearer (exoid model wearer, docs/wearer.md): de Leva 1996 segments on fixed joints -->\n";
+  std::string add = "\n  <!-- The wearer (exoid model wearer, docs/wearer.md): de Leva 1996 segments -->\n";
   for (const MountedSegment& s : mount.segments) {
     const Eigen::Matrix3d& I = s.inertia_com;
     char buf[1024];
     std::snprintf(buf, sizeof buf,
                   "  <link name=\"%s\">\n    <inertial>\n      <origin xyz=\"%.17g %.17g %.17g\" rpy=\"0 0 0\"/>\n"
-                  "      <mass value=\"%.17g\"/>\n      <inertia ixx=\"%.17g\" ixy=\"%.17g\" ixz=\"%.17g\" iyy=\"%.17g\" "
-                  "iyz=\"%.17g\" izz=\"%.17g\"/>\n    </inertial>\n  </link>\n"
+                  "      <mass value=\"%.17g\"/>\n"
+                  "      <inertia ixx=\"%.17g\" ixy=\"%.17g\" ixz=\"%.17g\" iyy=\"%.17g\" iyz=\"%.17g\""
+                  " izz=\"%.17g\"/>\n"
+                  "    </inertial>\n  </link>\n"
                   "  <joint name=\"%s_mount\" type=\"fixed\"><parent link=\"%s\"/><child link=\"%s\"/>"
                   "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/></joint>\n",
                   wearerLinkName(s).c_str(), s.com.x(), s.com.y(), s.com.z(), s.mass, I(0, 0), I(0, 1), I(0, 2),
