@@ -212,7 +212,8 @@ void stageWearer(const SimModel& sm, SimData& sd) {
     }
   }
   for (size_t s = 0; s < 2; ++s) {
-    const std::array<int, 3>&qa = w.leg_qpos[s], &da = w.leg_dof[s];
+    const std::array<int, 3>& qa = w.leg_qpos[s];
+    const std::array<int, 3>& da = w.leg_dof[s];
     const LegJoints q(d->qpos[qa[0]], d->qpos[qa[1]], d->qpos[qa[2]]);
     const LegJoints v(d->qvel[da[0]], d->qvel[da[1]], d->qvel[da[2]]);
     st.passive[s] = cfg.passive_moments ? passiveJointMoments(q, v, cfg.joint_damping) : LegJoints::Zero();

@@ -181,6 +181,7 @@ struct SimData {
 /// Loads and compiles the MJCF, checks the sim's contract (one free joint on the root body, hinge joints,
 /// joint motors, the IMU and plate sensors, sole geoms, static plates), applies the scenario's effects to
 /// the MuJoCo model and tares the plates. `noise` is the effective sensor config (see resolveSensorConfig).
+/// With Scenario::wearer the MJCF is recompiled with the wearer's bodies and lumbar hinges (WearerSim).
 /// On failure: false and one line in *err naming the file and field.
 bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scenario& scenario, SimModel& out,
              std::string* err, const SimOptions& options = SimOptions());
