@@ -76,14 +76,14 @@ int cmdModelWearer(int argc, char** argv) {
       "(each mass, CoM fraction and radius x (1 + U[-V, V]), seeded; masses renormalised to --mass).",
       "exoid model wearer"};
   common::configureCli(app);
-  std::string path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", out, sex = "m";
+  std::string path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", out, sex;
   WearerSpec spec;
   int64_t seed = 1;
   app.add_option("--model", path, "exoskeleton URDF (default config/exo.urdf)")->type_name("URDF");
   app.add_option("--mass", spec.mass_kg, "wearer's body mass in kg")->required()
-      ->transform(common::strictNumber(1.0, 300.0))->type_name("KG");
+      ->transform(common::strictNumber(1.0, 300.0))->type_name("KG")->default_str("");
   app.add_option("--height", spec.height_m, "wearer's height (stature) in m")->required()
-      ->transform(common::strictNumber(1.0, 2.5))->type_name("M");
+      ->transform(common::strictNumber(1.0, 2.5))->type_name("M")->default_str("");
   app.add_option("--sex", sex, "m or f (de Leva's male or female table)")->required()
       ->check(CLI::IsMember({"m", "f"}))->type_name("m|f");
   app.add_option("--seed", seed, "seed of the variation draw (default 1)")
