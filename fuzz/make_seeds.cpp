@@ -124,6 +124,7 @@ std::vector<std::pair<std::string, std::vector<uint8_t>>> messages(const Model& 
   e.base_params = Eigen::VectorXd::Constant(nb, 0.1);
   e.base_stddev = Eigen::VectorXd::Constant(nb, 0.01);
   e.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  e.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   e.residual_rms = Eigen::VectorXd::Constant(model.nv, 0.1);
   exoid_lcm::estimator_output_t em;
   toLcm(e, model.paramNames(), model.coordinateNames(), em);

@@ -32,6 +32,7 @@ ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceCont
   estimate_.params = Eigen::VectorXd::Zero(model.nparams());
   estimate_.param_stddev = Eigen::VectorXd::Zero(model.nparams());
   estimate_.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  estimate_.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   ctrl_.sizeCommand(command_);
   // Pre-size the outgoing messages once (toLcm reuses their vectors afterwards).
   toLcm(command_, joint_names_, command_msg_);

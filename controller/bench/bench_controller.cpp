@@ -90,6 +90,7 @@ void BM_ControllerTick(benchmark::State& state) {
   est.params.segment<kParamsPerBody>(rec.model.bodyParamIndex(0)) += paramsFromInertial(
       1.0, Eigen::Vector3d(-0.1, 0.0, 0.3), Eigen::Matrix3d::Identity(), 0.005 * Eigen::Matrix3d::Identity());
   est.tau_correction = Eigen::VectorXd::Constant(rec.model.nv, 0.1);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(rec.model.nv);
   auto ctrl = std::make_unique<BalanceController>(rec.model, cfg, 1);
   JointCommandSample cmd;
   ctrl->sizeCommand(cmd);

@@ -142,7 +142,10 @@ bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
   };
   if (!cfg_.estimate.enabled) return refuse(EstimateRejection::Disabled);
   if (e.params.size() != model_.nparams() || e.tau_correction.size() != model_.nv) return refuse(EstimateRejection::WrongSize);
-  if (!e.params.allFinite() || !e.tau_correction.allFinite()) return refuse(EstimateRejection::NonFinite);
+  if (e.tau_correction_stddev.size() != model_.nv) return refuse(EstimateRejection::WrongSize);
+  if (!e.params.allFinite() || !e.tau_correction.allFinite() || !e.tau_correction_stddev.allFinite() ||
+      !e.com_stddev.allFinite() || !std::isfinite(e.mass_stddev))
+    return refuse(EstimateRejection::NonFinite);
   if (!e.valid) return refuse(EstimateRejection::NotValid);
   if (!e.consistent) return refuse(EstimateRejection::Inconsistent);
   double mass = 0.0;
@@ -158,7 +161,12 @@ bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
   if (!(std::abs(mass - model_mass) <= cfg_.estimate.max_relative_mass_change * model_mass))
     return refuse(EstimateRejection::Mass);
   phi_hat_ = e.params;
-  ff_input_ = e.tau_correction.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
+  com_stddev_ = e.com_stddev;
+  mass_stddev_ = e.mass_stddev;
+  // Each entry of the correction as far as it stands out of its own uncertainty, then bounded.
+  for (int r = 0; r < model_.nv; ++r)
+    ff_input_[r] = trustWeight(e.tau_correction[r], e.tau_correction_stddev[r]) * e.tau_correction[r];
+  ff_input_ = ff_input_.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
   estimate_tick_ = e.tick;
   has_estimate_ = true;
   ++estimate_use_.accepted;
@@ -197,19 +205,29 @@ void BalanceController::updateDynamics(const State& state) {
   Eigen::Vector3d com, com_velocity;
   LinearAngular6d momentum;
   centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
-  // The estimate's height is taken only when asked (use_com_height, the default; docs/controller.md).
-  if (!cfg_.estimate.use_com_height) {
-    com.z() = dyn_.com.z();
-    com_velocity.z() = dyn_.com_velocity.z();
-  }
+  // Trust per world axis: the CoM's change from the model's against its uncertainty (the velocity and the
+  // momentum follow their axis's CoM: their change comes from the same parameters). The height only when asked
+  // (use_com_height, the default; docs/controller.md).
+  Eigen::Vector3d t;
+  for (int i = 0; i < 3; ++i) t[i] = w * trustWeight(com[i] - dyn_.com[i], com_stddev_[i]);
+  if (!cfg_.estimate.use_com_height) t.z() = 0.0;
   // A vertical CoM offset taken from the estimate moves the reference height with it: with straight knees the
   // stance, not the controller, sets the height, so only the horizontal CoM changes what is tracked.
-  vertical_shift_ = w * (com.z() - dyn_.com.z());
-  vertical_shift_rate_ = w * (com_velocity.z() - dyn_.com_velocity.z());
-  dyn_.mass += w * (mass - dyn_.mass);
-  dyn_.com += w * (com - dyn_.com);
-  dyn_.com_velocity += w * (com_velocity - dyn_.com_velocity);
-  dyn_.momentum += w * (momentum - dyn_.momentum);
+  vertical_shift_ = t.z() * (com.z() - dyn_.com.z());
+  vertical_shift_rate_ = t.z() * (com_velocity.z() - dyn_.com_velocity.z());
+  dyn_.mass += w * trustWeight(mass - dyn_.mass, mass_stddev_) * (mass - dyn_.mass);
+  dyn_.com += t.cwiseProduct(com - dyn_.com);
+  dyn_.com_velocity += t.cwiseProduct(com_velocity - dyn_.com_velocity);
+  dyn_.momentum.head<3>() += t.cwiseProduct(momentum.head<3>() - dyn_.momentum.head<3>());
+  dyn_.momentum.tail<3>() += t.cwiseProduct(momentum.tail<3>() - dyn_.momentum.tail<3>());
+}
+
+double BalanceController::trustWeight(double change, double stddev) const {
+  const double k = cfg_.estimate.trust_sigmas, a = std::abs(change);
+  if (k <= 0.0) return 1.0;
+  if (!(a > k * stddev)) return 0.0;  // within k sigma of the model (and 0 = 0): the model stands
+  const double r = k * stddev / a;
+  return 1.0 - r * r;
 }
 
 bool BalanceController::setForcePlate(const ForcePlateSample& p) {
@@ -334,7 +352,6 @@ void BalanceController::updateReference(int64_t tick, ControllerStatus& st) {
 
 bool BalanceController::computeTorque(FallbackReason& reason, ControllerStatus& st) {
   // The disturbance observer's estimate of what the model (and the estimate) still misses is added.
-  const bool use_ff = cfg_.estimate.use_feedforward && estimate_use_.weight > 0.0;
   if (cfg_.disturbance.enabled) {
     const bool plates = cfg_.disturbance.force_plates && plateResidual();
     disturbance_.update(dyn_.dyn.M, dyn_.nu, gap_, plates ? &wrench_residual_ : nullptr);
@@ -353,9 +370,10 @@ bool BalanceController::computeTorque(FallbackReason& reason, ControllerStatus& 
   for (Eigen::Index j = 0; j < tau_cmd_.size(); ++j)
     tau_cmd_[j] = joint_actuated_[j] ? clampAbs(tau_gen_[6 + j], joint_limit_[j]) : 0.0;
   if (!tau_cmd_.allFinite() && reason == FallbackReason::None) reason = FallbackReason::NonFiniteTorque;
-  // command.tau_ff reports the estimator's feedforward only (not the disturbance observer's estimate).
+  // command.tau_ff reports everything fed forward on the joints: what the controller added to its model's
+  // dynamics (the estimate's trusted, blended correction and the disturbance observer's estimate).
   for (Eigen::Index j = 0; j < tau_ff_joint_.size(); ++j)
-    tau_ff_joint_[j] = joint_actuated_[j] && use_ff ? estimate_use_.weight * ff_input_[6 + j] : 0.0;
+    tau_ff_joint_[j] = joint_actuated_[j] ? dyn_.tau_correction[6 + j] : 0.0;
   return true;
 }
 

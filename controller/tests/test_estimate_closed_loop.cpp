@@ -67,6 +67,7 @@ Runs runBoth(const Model& model, const Model& robot, const ControllerConfig& cfg
   est.valid = est.consistent = true;
   est.params = phi;
   est.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   DynamicsData with_phi(model), with_model(model);
   ControllerStatus last;
   r.with = testing::runScenarioClosedLoop(
@@ -144,6 +145,7 @@ TEST(EstimateClosedLoop, EstimatorKilledMidRunIsWithdrawnInTimeAndTheRobotKeepsB
   est.valid = est.consistent = true;
   est.params = phi;
   est.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   DynamicsData with_phi(model), with_model(model);
   const long kill = 4000, restart = 7000;  // ticks: dead from 4 s to 7 s
   long last_sent = -1, first_drop = -1, first_zero = -1, back_to_one = -1;

@@ -166,6 +166,7 @@ TEST(ExoControllerBinary, RunsAShortTrajectoryInLockstepAndExitsZero) {
       1.0, Eigen::Vector3d(-0.1, 0.0, 0.3), Eigen::Matrix3d::Identity(), 0.005 * Eigen::Matrix3d::Identity());
   est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
   est.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   est.residual_rms = Eigen::VectorXd::Zero(model.nv);
   exoid_lcm::estimator_output_t est_msg;
   bool exited = false;

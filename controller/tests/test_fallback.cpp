@@ -215,6 +215,7 @@ EstimatorOutputSample modelEstimate(const Model& model, int64_t tick) {
   e.valid = e.consistent = true;
   e.params = model.phi;
   e.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  e.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   return e;
 }
 
@@ -233,17 +234,85 @@ TEST_F(FallbackTest, EstimateFeedforwardIsAppliedReportedAndAgesOut) {
   e.tau_correction[model_.jointRow(knee)] = 2.5;
   ASSERT_TRUE(ctrl_->setEstimate(e));
   tick(k++);
-  EXPECT_NEAR(cmd_.tau_ff[knee], 2.5, 1e-12);
+  // command.tau_ff: everything fed forward, the estimate's correction plus the disturbance observer's estimate.
+  const int row = model_.jointRow(knee);
+  EXPECT_NEAR(cmd_.tau_ff[knee], 2.5 + ctrl_->disturbanceObserver().estimate()[row], 1e-12);
   EXPECT_NEAR(cmd_.tau[knee] - tau0[knee], 2.5, 0.05);  // the state barely changed in one tick
   EXPECT_EQ(st_.estimate.weight, 1.0);
   for (int i = 0; i < cfg.estimate.max_age_ticks + 1; ++i) tick(k++);
-  EXPECT_EQ(cmd_.tau_ff.norm(), 0.0);
+  EXPECT_NEAR(cmd_.tau_ff[knee], ctrl_->disturbanceObserver().estimate()[row], 1e-12);  // the estimate withdrawn
   EXPECT_NEAR(cmd_.tau[knee], tau0[knee], 0.05);
   EXPECT_EQ(st_.estimate.withdrawn_stale, 1);
   EXPECT_EQ(st_.estimate.withdrawn_refused, 0);
   EXPECT_FALSE(st_.estimate.active);
 }
 
+
+TEST_F(FallbackTest, TrustUsesOnlyWhatStandsOutOfTheEstimatesUncertainty) {
+  // Issue 20: each quantity the estimate changes enters with weight max(0, 1 - (k sigma / |change|)^2), k =
+  // estimate.trust_sigmas (3), sigma the estimate's own one-sigma. A hand-made estimate: the model plus 2 kg on the
+  // base link (the CoM moves on every axis), two joint corrections; sigmas chosen to put each quantity on a known
+  // side of the threshold. Expected values computed here from the parameters (centroidalWorld).
+  ControllerConfig cfg = cfg_;
+  cfg.estimate.blend_time = 0.0;
+  ASSERT_EQ(cfg.estimate.trust_sigmas, 3.0);  // the shipped configuration
+  make(cfg);
+  int64_t k = settle();
+  tick(k++);
+  EstimatorOutputSample e = modelEstimate(model_, k);
+  e.params.segment<kParamsPerBody>(model_.bodyParamIndex(0)) += paramsFromInertial(
+      2.0, Eigen::Vector3d(0.08, 0.05, 0.1), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
+  const int knee = model_.jointIndex("left_knee"), hip = model_.jointIndex("right_hip_fe");
+  ASSERT_GE(knee, 0);
+  ASSERT_GE(hip, 0);
+  e.tau_correction[model_.jointRow(knee)] = 2.5;  // 2.5 sigma: not used
+  e.tau_correction_stddev[model_.jointRow(knee)] = 1.0;
+  e.tau_correction[model_.jointRow(hip)] = 5.0;   // 5 sigma: weight 1 - (3/5)^2 = 0.64
+  e.tau_correction_stddev[model_.jointRow(hip)] = 1.0;
+  // The CoM change at the current state (the state barely moves in one tick: recomputed after it below).
+  controller::RobotDynamicsData d = ctrl_->dynamics();
+  double m0, m1;
+  Eigen::Vector3d c0, c1, v;
+  LinearAngular6d h;
+  controller::centroidalWorld(model_, model_.phi, d, m0, c0, v, h);
+  controller::centroidalWorld(model_, e.params, d, m1, c1, v, h);
+  const Eigen::Vector3d change = c1 - c0;
+  ASSERT_GT(change.cwiseAbs().minCoeff(), 1e-4);
+  e.com_stddev = Eigen::Vector3d(std::abs(change.x()) / 10.0,  // 10 sigma: weight 0.91
+                                 std::abs(change.y()) / 2.0,   // 2 sigma: not used
+                                 0.0);                         // exact: used whole
+  e.mass_stddev = 2.0;  // 1 sigma: the mass change is not used
+  ASSERT_TRUE(ctrl_->setEstimate(e));
+  tick(k++);
+  d = ctrl_->dynamics();
+  controller::RobotDynamicsData scratch = d;
+  controller::centroidalWorld(model_, model_.phi, scratch, m0, c0, v, h);
+  controller::centroidalWorld(model_, e.params, scratch, m1, c1, v, h);
+  const Eigen::Vector3d used = d.com - c0, full = c1 - c0;
+  EXPECT_NEAR(used.x(), 0.91 * full.x(), 1e-9);
+  EXPECT_NEAR(used.y(), 0.0, 1e-12);
+  EXPECT_NEAR(used.z(), full.z(), 1e-9);
+  EXPECT_NEAR(d.mass, m0, 1e-9);  // within 1 sigma: the model's mass
+  EXPECT_NEAR(d.tau_correction[model_.jointRow(knee)] - ctrl_->disturbanceObserver().estimate()[model_.jointRow(knee)],
+              0.0, 1e-12);
+  EXPECT_NEAR(d.tau_correction[model_.jointRow(hip)] - ctrl_->disturbanceObserver().estimate()[model_.jointRow(hip)],
+              0.64 * 5.0, 1e-12);
+  // trust_sigmas 0: everything as it is.
+  cfg.estimate.trust_sigmas = 0.0;
+  make(cfg);
+  k = settle();
+  tick(k++);
+  e.tick = k;
+  ASSERT_TRUE(ctrl_->setEstimate(e));
+  tick(k++);
+  d = ctrl_->dynamics();
+  scratch = d;
+  controller::centroidalWorld(model_, e.params, scratch, m1, c1, v, h);
+  EXPECT_NEAR((d.com - c1).norm(), 0.0, 1e-9);
+  EXPECT_NEAR(d.mass, m1, 1e-9);
+  EXPECT_NEAR(d.tau_correction[model_.jointRow(knee)] - ctrl_->disturbanceObserver().estimate()[model_.jointRow(knee)],
+              2.5, 1e-12);
+}
 TEST_F(FallbackTest, UnusableEstimatesAreRefusedByReasonAndWithdrawTheCurrentOne) {
   int64_t k = settle();
   const auto refused = [&](EstimateRejection r) { return st_.estimate.rejected[static_cast<size_t>(r)]; };

@@ -117,6 +117,7 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
       paramsFromInertial(1.0, Eigen::Vector3d(0.02, 0.05, 0.0), Eigen::Matrix3d::Identity(),
                          0.001 * Eigen::Matrix3d::Identity());
   est.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   // Force plates for the disturbance observer: the wrench the controller planned last tick, as a plate at the
   // world origin reads it (this loop's MuJoCo has no plates), stamped with the tick its command is applied at.

@@ -20,6 +20,7 @@ PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vec
     estimate_.param_stddev = Eigen::VectorXd::Zero(model.nparams());
     coord_names_ = model.coordinateNames();
     estimate_.tau_correction = Eigen::VectorXd::Zero(model.nv);
+    estimate_.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
     subscription_ = ep_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
       if (gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
                              coord_names_))

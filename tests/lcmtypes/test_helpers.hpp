@@ -169,10 +169,14 @@ inline EstimatorOutputSample makeEstimate() {
   }
   s.tau_correction.resize(nc);
   s.residual_rms.resize(nc);
+  s.tau_correction_stddev.resize(nc);
   for (int i = 0; i < nc; ++i) {
     s.tau_correction[i] = value(14, i);
     s.residual_rms[i] = 0.01 * (i + 1);
+    s.tau_correction_stddev[i] = 0.003 * (i + 1);
   }
+  s.com_stddev = Eigen::Vector3d(0.0011, 0.0012, 0.0043);
+  s.mass_stddev = 0.021;
   return s;
 }
 
@@ -224,7 +228,9 @@ inline bool same(const EstimatorOutputSample& a, const EstimatorOutputSample& b)
          a.rejected_duplicate == b.rejected_duplicate && a.samples_missing == b.samples_missing &&
          a.excitation == b.excitation && a.effective_samples == b.effective_samples && sameMat(a.params, b.params) &&
          sameMat(a.param_stddev, b.param_stddev) && sameMat(a.base_params, b.base_params) &&
-         sameMat(a.base_stddev, b.base_stddev) && sameMat(a.tau_correction, b.tau_correction) && sameMat(a.residual_rms, b.residual_rms);
+         sameMat(a.base_stddev, b.base_stddev) && sameMat(a.tau_correction, b.tau_correction) && sameMat(a.residual_rms, b.residual_rms) &&
+         sameMat(a.tau_correction_stddev, b.tau_correction_stddev) && sameMat(a.com_stddev, b.com_stddev) &&
+         a.mass_stddev == b.mass_stddev;
 }
 
 /// Encodes with LCM's own encoder and decodes into a fresh message.

@@ -112,13 +112,13 @@ void addSupervisionOptions(CLI::App& app, tools::ExperimentOptions& o) {
   app.add_flag("--no-estimator", o.no_estimator,
                "do not run exo_estimator (by default it runs beside the loop, reading the\n"
                "sensors and publishing EXO_ESTIMATE; the summary compares it with a batch fit)");
-  app.add_flag("--estimate-feedback", o.estimate_feedback,
-               "let the controller use EXO_ESTIMATE while it is valid (feedforward in its dynamics,\n"
-               "the estimate's CoM in its momentum task; docs/controller.md). Off by default:\n"
-               "it pays where the controller's model is wrong (a +-25 % prior: joint-torque prediction\n"
-               "error 6.4x lower, true-CoM error 12x; undeclared payloads: true-CoM error 2.5-8.9x lower in\n"
-               "8 of 8), while on an exact model the estimate's noise costs a little (nominal: true-CoM\n"
-               "RMSE 2.75 vs 0.37 mm; docs/estimator.md, \"Closing the loop\")");
+  app.add_flag("--estimate-feedback,!--no-estimate-feedback", o.estimate_feedback,
+               "the controller uses EXO_ESTIMATE while it is valid (on by default; off with\n"
+               "--no-estimate-feedback or --no-estimator): its correction in the dynamics, its mass\n"
+               "and CoM in the momentum task, each only as far as it stands out of the estimate's own\n"
+               "uncertainty (controller estimate.trust_sigmas; docs/controller.md, \"Trust\"). On an\n"
+               "exact model it changes nothing measurable; with a wrong model it removes most of the\n"
+               "CoM error (docs/estimator.md, \"Closing the loop\")");
   app.add_option("--estimator-args", o.estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
                  "the experiment's defaults, \"--forgetting none\". --effects FILE (a\n"

@@ -93,6 +93,7 @@ void* create(const exoid_plugin_config* c, char* error, size_t error_size) {
     p->state.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(nj, false);
     p->estimate.params = Eigen::VectorXd::Zero(p->model.nparams());
     p->estimate.tau_correction = Eigen::VectorXd::Zero(p->model.nv);
+    p->estimate.tau_correction_stddev = Eigen::VectorXd::Zero(p->model.nv);
     if (!build(*p, &err)) return writeError(error, error_size, config_path + ": " + err), nullptr;
     return p.release();
   } catch (const std::exception& e) {

@@ -90,7 +90,7 @@ TEST(PluginLoad, ErrorsNameTheLibraryAndTheProblem) {
   sim::PluginOptions wrong = faultOptions("ok 0 0");
   wrong.path = pluginLib("exoid_fault_plugin_abi1");
   EXPECT_EQ(load(wrong, exo, &err), nullptr);
-  EXPECT_NE(err.find("ABI version 1, this exo_sim needs 3"), std::string::npos) << err;
+  EXPECT_NE(err.find("ABI version 1, this exo_sim needs 4"), std::string::npos) << err;
   wrong.path = pluginLib("exoid_fault_plugin_size");
   EXPECT_EQ(load(wrong, exo, &err), nullptr);
   EXPECT_NE(err.find("struct sizes (state " + std::to_string(sizeof(exoid_plugin_state) + 8)), std::string::npos) << err;
@@ -156,6 +156,7 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
       2.0, Eigen::Vector3d(-0.1, 0.03, 0.3), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
   est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
   est.tau_correction = Eigen::VectorXd::LinSpaced(model.nv, -0.3, 0.4);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   est.residual_rms = Eigen::VectorXd::Zero(model.nv);
   exoid_lcm::estimator_output_t est_msg;
   const std::vector<std::string> param_names = model.paramNames(), coord_names = model.coordinateNames();
@@ -276,6 +277,7 @@ TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenU
   est.params.segment<kParamsPerBody>(model.bodyParamIndex(0)) += paramsFromInertial(
       2.0, Eigen::Vector3d(0.0, 0.05, 0.1), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
   est.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   est.tau_correction[model.jointRow(2)] = 1.5;  // N m on an actuated joint
   long differ = 0, with_ff = 0;
   double max_ff = 0.0;
@@ -295,15 +297,19 @@ TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenU
     plugin->step(s);
     ref.tick(s, ref_cmd, ref_status);
     differ += plugin->command().tau == ref_cmd.tau && plugin->command().tau_ff == ref_cmd.tau_ff ? 0 : 1;
-    // Reported as the command's feedforward part, blended in while fresh, then out (max_age_ticks = 80).
-    if (plugin->command().tau_ff[2] != 0.0) ++with_ff;
-    max_ff = std::max(max_ff, plugin->command().tau_ff[2]);
+    // Reported as part of the command's feedforward (with the disturbance observer's estimate), blended in while
+    // fresh, then out (max_age_ticks = 80).
+    const double from_estimate =
+        plugin->command().tau_ff[2] - ref.disturbanceObserver().estimate()[model.jointRow(2)];
+    if (std::abs(from_estimate) > 1e-12) ++with_ff;
+    max_ff = std::max(max_ff, from_estimate);
   });
   EXPECT_EQ(differ, 0);
   EXPECT_GT(with_ff, cfg.estimate.max_age_ticks);
   EXPECT_GT(max_ff, 0.0);
   EXPECT_LT(max_ff, 1.5);  // blended (blend_time 1 s): never the full value within 81 ticks
-  EXPECT_EQ(plugin->command().tau_ff[2], 0.0);  // withdrawn and blended out by tick 500
+  EXPECT_NEAR(plugin->command().tau_ff[2], ref.disturbanceObserver().estimate()[model.jointRow(2)], 1e-12);  // withdrawn
+                                                                                       // and blended out by tick 500
   EXPECT_EQ(ref_status.estimate.withdrawn_stale, 1);
   EXPECT_EQ(plugin->stats().estimates_accepted, 1);
   EXPECT_EQ(plugin->stats().estimates_rejected, 2);
@@ -468,6 +474,7 @@ TEST(PluginInTheLoop, PublishesCommandAndStatusAndTakesTheEstimate) {
   est.params = model.phi;
   est.param_stddev = Eigen::VectorXd::Zero(model.nparams());
   est.tau_correction = Eigen::VectorXd::Zero(model.nv);
+  est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   est.residual_rms = Eigen::VectorXd::Zero(model.nv);
   exoid_lcm::estimator_output_t est_msg;
   ep.subscribe<exoid_lcm::robot_state_t>(channels::kState, [&](const char*, const exoid_lcm::robot_state_t& s) {
@@ -509,7 +516,7 @@ TEST(PluginCli, BadPluginsExitTwoWithOneLineAndHelpListsTheOptions) {
     std::string args, expect;
   } cases[] = {
       {"--controller-plugin /nonexistent/lib.so", "--controller-plugin /nonexistent/lib.so: cannot load"},
-      {"--controller-plugin " + pluginLib("exoid_fault_plugin_abi1"), "ABI version 1, this exo_sim needs 3"},
+      {"--controller-plugin " + pluginLib("exoid_fault_plugin_abi1"), "ABI version 1, this exo_sim needs 4"},
       {"--controller-plugin " + pluginLib("exoid_not_a_plugin"), "not a controller plugin"},
       {"--controller-plugin " + pluginLib("exoid_controller_plugin") + " --controller-config /nonexistent.yaml",
        "/nonexistent.yaml"},

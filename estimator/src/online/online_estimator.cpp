@@ -69,6 +69,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
   initial_weights_ = rls_model_.row_weight;
   filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
+  filter_correlation_ = filterCorrelationTime(opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
   initStandardParameters(base, prior_phi, prior, effect_sigma);
   sizeWorkspace();
 }
@@ -260,6 +261,10 @@ void OnlineEstimator::sizeWorkspace() {
   state_ = ff_state_ = fk_state_ = State::zero(model);
   y_ = yf_ = tau_sensor_ = Eigen::VectorXd::Zero(nv);
   innovation_ = innovation_mean_ = innovation_ms_ = Eigen::VectorXd::Zero(nv);
+  corr_mean_ = corr_ms_ = corr_var_ = tau_stddev_ = Eigen::VectorXd::Zero(nv);
+  row_correlation_ = Eigen::VectorXd::Constant(nv, filter_correlation_);
+  V_ = AV_ = Eigen::MatrixXd::Zero(mx, 4 + nv);
+  AT_ = Eigen::MatrixXd::Zero(mx, mx);
   Kf_ = Eigen::MatrixXd::Zero(nv, p + ne_);
   if (ne_ > 0) Kx_ = Eigen::MatrixXd::Zero(nv, p + ne_);
 }
@@ -423,7 +428,13 @@ void OnlineEstimator::process() {
   } else {
     filter_.filter(rls_model_, kin_.K, y_, Kf_, yf_);
   }
-  if (opt_.change_threshold > 0.0 && Kf_.allFinite() && yf_.allFinite()) detectChange(r1.tick);
+  if (Kf_.allFinite() && yf_.allFinite()) {
+    // Innovation of this sample against the last published estimate (before the sample is folded in).
+    predictRecursiveLs(rls_model_, rls_, Kf_, innovation_);
+    innovation_ = yf_ - innovation_;
+    trackResidualCorrelation();
+    if (opt_.change_threshold > 0.0) detectChange(r1.tick);
+  }
   if (updateRecursiveLs(rls_model_, rls_, r1.tick, Kf_, yf_) == SampleStatus::Accepted) {
     row_tick_ = r1.tick;
     ++since_publication_;
@@ -434,9 +445,6 @@ void OnlineEstimator::process() {
 }
 
 void OnlineEstimator::detectChange(long tick) {
-  // Innovation of this sample against the last published estimate (before the sample is folded in).
-  predictRecursiveLs(rls_model_, rls_, Kf_, innovation_);
-  innovation_ = yf_ - innovation_;
   const double a_mean = std::min(1.0, 1.0 / (opt_.change_window_s * opt_.sample_hz));
   const double a_ms = std::min(1.0, 1.0 / (opt_.change_baseline_s * opt_.sample_hz));
   innovation_mean_ += a_mean * (innovation_ - innovation_mean_);
@@ -525,6 +533,9 @@ void OnlineEstimator::sizeOutput(EstimatorOutputSample& out) const {
   out.base_params = Eigen::VectorXd::Zero(m);
   out.base_stddev = Eigen::VectorXd::Zero(m);
   out.tau_correction = Eigen::VectorXd::Zero(nv);
+  out.tau_correction_stddev = Eigen::VectorXd::Zero(nv);
+  out.com_stddev.setZero();
+  out.mass_stddev = 0.0;
   out.residual_rms = Eigen::VectorXd::Zero(nv);
 }
 
@@ -543,8 +554,12 @@ void OnlineEstimator::fillOutput(EstimatorOutputSample& out) {
   // tau_correction = K(q, 0, 0)(phi_hat - phi_model) = K_B (x - B phi_model) at the latest reconstructed configuration
   // (gravity terms only): the estimator does not know the controller's desired acceleration, and the measured
   // one (encoders differenced twice) is the noisiest signal it has.
-  if (has_state_) feedforwardTorque(out);
-  else out.tau_correction.setZero();
+  if (has_state_) {
+    feedforwardTorque(out);
+    controllerUncertainty(uncertainty, out);
+  } else {
+    out.tau_correction.setZero();
+  }
   out.tick = row_tick_ >= 0 ? row_tick_ : 0;
   out.samples_used = rls_.accepted;
   out.rejected_nonfinite = static_cast<int32_t>(rejected_[static_cast<int>(InputStatus::NonFinite)] +

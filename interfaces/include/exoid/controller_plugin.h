@@ -41,7 +41,7 @@ extern "C" {
 #endif
 
 /* Bumped on any change of the structs or of the function table. */
-#define EXOID_CONTROLLER_PLUGIN_ABI_VERSION 3u
+#define EXOID_CONTROLLER_PLUGIN_ABI_VERSION 4u
 /* Largest joint count a sample carries (the exoskeleton has 10). */
 #define EXOID_PLUGIN_MAX_JOINTS 32
 /* Force plates per set_force_plates call: 0 right, 1 left. */

@@ -160,7 +160,8 @@ inline void toPlugin(const EstimatorOutputSample& s, exoid_plugin_estimate& p) {
 /// (the values are copied as they are: the controller's setEstimate judges them). False (s untouched) on other
 /// sizes or missing arrays.
 inline bool fromPlugin(const exoid_plugin_estimate& p, EstimatorOutputSample& s) {
-  if (!p.params || !p.tau_correction || p.num_params != s.params.size() || p.num_coords != s.tau_correction.size())
+  if (!p.params || !p.tau_correction || !p.tau_correction_stddev || p.num_params != s.params.size() ||
+      p.num_coords != s.tau_correction.size() || p.num_coords != s.tau_correction_stddev.size())
     return false;
   EXOID_SCHEMA_ESTIMATOR_OUTPUT(EXOID_FROM_ABI)
   return true;

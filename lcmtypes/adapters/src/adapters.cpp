@@ -401,18 +401,25 @@ bool fromLcm(const exoid_lcm::estimator_output_t& msg, const std::vector<std::st
       !c.length(msg.base_stddev.size(), msg.num_base, "base_stddev") ||
       !c.length(msg.coord_names.size(), msg.num_coords, "coord_names") ||
       !c.length(msg.tau_correction.size(), msg.num_coords, "tau_correction") ||
-      !c.length(msg.residual_rms.size(), msg.num_coords, "residual_rms"))
+      !c.length(msg.residual_rms.size(), msg.num_coords, "residual_rms") ||
+      !c.length(msg.tau_correction_stddev.size(), msg.num_coords, "tau_correction_stddev"))
     return false;
   if (!c.names(msg.param_names, expected_param_names, "param_names") ||
       !c.names(msg.coord_names, expected_coord_names, "coord_names"))
     return false;
   if (!c.finite(msg.params, "params") || !c.finite(msg.param_stddev, "param_stddev") ||
       !c.finite(msg.base_params, "base_params") || !c.finite(msg.base_stddev, "base_stddev") ||
-      !c.finite(msg.tau_correction, "tau_correction") || !c.finite(msg.residual_rms, "residual_rms"))
+      !c.finite(msg.tau_correction, "tau_correction") || !c.finite(msg.residual_rms, "residual_rms") ||
+      !c.finite(msg.tau_correction_stddev, "tau_correction_stddev"))
     return false;
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(msg.com_stddev[i]) || msg.com_stddev[i] < 0.0)
+      return c.fail(std::isfinite(msg.com_stddev[i]) ? RejectReason::Malformed : RejectReason::NonFinite,
+                    "com_stddev[%d] %g is not a finite one-sigma value", i, msg.com_stddev[i]);
   if (!c.nonNegative(msg.param_stddev.data(), msg.param_stddev.size(), "param_stddev") ||
       !c.nonNegative(msg.base_stddev.data(), msg.base_stddev.size(), "base_stddev") ||
-      !c.nonNegative(msg.residual_rms.data(), msg.residual_rms.size(), "residual_rms"))
+      !c.nonNegative(msg.residual_rms.data(), msg.residual_rms.size(), "residual_rms") ||
+      !c.nonNegative(msg.tau_correction_stddev.data(), msg.tau_correction_stddev.size(), "tau_correction_stddev"))
     return false;
 
   EXOID_SCHEMA_ESTIMATOR_OUTPUT(EXOID_FROM_LCM)
@@ -426,6 +433,7 @@ void toLcm(const EstimatorOutputSample& s, const std::vector<std::string>& param
   requireSize(s.base_stddev.size(), static_cast<size_t>(s.base_params.size()), "EstimatorOutputSample.base_stddev");
   requireSize(s.tau_correction.size(), coord_names.size(), "EstimatorOutputSample.tau_correction");
   requireSize(s.residual_rms.size(), coord_names.size(), "EstimatorOutputSample.residual_rms");
+  requireSize(s.tau_correction_stddev.size(), coord_names.size(), "EstimatorOutputSample.tau_correction_stddev");
   msg.num_params = count32(param_names.size());
   copyNames(param_names, msg.param_names);
   msg.num_base = count32(static_cast<size_t>(s.base_params.size()));

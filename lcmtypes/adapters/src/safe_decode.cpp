@@ -125,6 +125,7 @@ bool safeDecode(const void* data, int size, exoid_lcm::estimator_output_t& msg) 
   const int32_t nc = w.readCount();
   w.skipStrings(nc);
   w.skipDoubles(2 * int64_t{nc});
+  w.skipDoubles(3 + 1 + int64_t{nc});  // com_stddev, mass_stddev, tau_correction_stddev
   return decodeChecked(w, data, size, msg);
 }
 

@@ -129,6 +129,9 @@ class BalanceController {
   void startTrajectory(int64_t tick);
   bool runQp();
   void updateDynamics(const State& state);  // model dynamics, then the blend toward the estimate
+  /// Weight of an estimated change from the model with one-sigma `stddev`: max(0, 1 - (k stddev / |change|)^2),
+  /// k = estimate.trust_sigmas (1 when k is 0). Zero within k sigma; -> 1 as the change stands out.
+  double trustWeight(double change, double stddev) const;
   void advanceEstimateBlend(int64_t tick);
   void fallbackTorque(JointCommandSample& out);
   // The stages of tick(), in order:
@@ -174,6 +177,8 @@ class BalanceController {
   Eigen::VectorXd tau_ff_joint_;   // [njoints] feedforward reported in the command
   Eigen::VectorXd ff_input_;       // [nv] feedforward of the last accepted estimate (bounded)
   Eigen::VectorXd phi_hat_;        // [nparams] parameters of the last accepted estimate
+  Eigen::Vector3d com_stddev_ = Eigen::Vector3d::Zero();  // m, world axes: its CoM's uncertainty
+  double mass_stddev_ = 0.0;       // kg: its total mass's uncertainty
   Eigen::VectorXi joint_actuated_;  // [njoints] 1 if actuated
   Eigen::VectorXd joint_limit_;     // [njoints] torque bound (0 on unactuated joints)
 

@@ -69,7 +69,7 @@
   F(MODE, mode, CommandMode::Torque, YES) /* 0 torque, 1 hold last safe, 2 damping, 3 off */                    \
   F(ABI_I32, num_joints, _, YES)   /* ABI: pre-filled by the host */                                            \
   F(JOINTS, tau, _, YES)           /* total joint torque command, N m (0 on unactuated joints) */               \
-  F(JOINTS, tau_ff, _, YES)        /* per-joint feedforward part of tau (from the estimated model), N m */
+  F(JOINTS, tau_ff, _, YES)        /* per-joint feedforward part of tau: all the controller added to its model (estimate, disturbance observer), N m */
 
 /* Exact simulator state at one tick, for validation only (never used by controller or estimator).
  * GroundTruthSample / exoid_lcm.ground_truth_t (EXO_TRUTH). Base quantities refer to the base-link origin. */
@@ -137,7 +137,11 @@
   F(VECX, param_stddev, _, NO)      /* [nparams] one-sigma uncertainty of each (>= 0) */                        \
   F(VECX, base_params, _, NO)       /* [nbase] estimated base parameters */                                     \
   F(VECX, base_stddev, _, NO)       /* [nbase] one-sigma uncertainty of each (>= 0) */                          \
-  F(VECX, residual_rms, _, NO)      /* [nv] per-coordinate residual RMS over the estimate's memory (>= 0) */
+  F(VECX, residual_rms, _, NO)      /* [nv] per-coordinate residual RMS over the estimate's memory (>= 0) */    \
+  /* The uncertainty of what a controller uses (ABI v4; docs/estimator.md "Trust"), residual correlation included: */ \
+  F(V3, com_stddev, _, YES)         /* one sigma of the CoM of params at `tick`'s state, per world axis, m */   \
+  F(F64, mass_stddev, 0.0, YES)     /* one sigma of the total mass of params, kg */                            \
+  F(VECX, tau_correction_stddev, _, YES) /* [nv] one sigma of tau_correction's entries, N / N m */
 
 /* ---- the C ABI expansion (controller_plugin.h): one member per row with abi YES ---------------------- */
 #define EXOID_ABI_MEMBER(KIND, name, init, abi) EXOID_ABI_MEMBER_##abi(KIND, name)

@@ -56,8 +56,6 @@ bool checkOptions(const ExperimentOptions& o, Injection* inject, std::string* er
     *error = "--controller-plugin: no such file '" + o.plugin_lib + "'" + (ec ? " (" + ec.message() + ")" : "");
   else if (use_plugin && inject->process == "controller")
     *error = "--inject: there is no controller process with --controller plugin";
-  else if (o.no_estimator && o.estimate_feedback)
-    *error = "--estimate-feedback needs the estimator (not --no-estimator)";
   else if (o.no_estimator && inject->process == "estimator")
     *error = "--inject: there is no estimator with --no-estimator";
   else
@@ -147,6 +145,7 @@ bool checkSimInputs(ExperimentPlan& plan, std::string* error) {
 bool planExperiment(const ExperimentOptions& options, ExperimentPlan& plan, std::string* error) {
   plan.options = options;
   if (plan.options.controller_model.empty()) plan.options.controller_model = options.model;
+  if (options.no_estimator) plan.options.estimate_feedback = false;  // nothing to feed back
   plan.use_plugin = options.controller_mode == "plugin";
   plan.lockstep = !options.realtime;
   return checkOptions(plan.options, &plan.inject, error) && checkController(plan, error) &&

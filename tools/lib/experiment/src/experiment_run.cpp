@@ -344,6 +344,7 @@ bool runExperiment(const ExperimentPlan& plan, RunFacts* facts, double* wall_s, 
   facts->moves_planned = static_cast<int>(o.moves);
   facts->ticks_planned = std::llround(plan.duration_s * 1000.0);
   facts->lockstep = plan.lockstep;
+  facts->estimate_feedback = plan.options.estimate_feedback;
   facts->controller_phi = plan.controller_model.phi;
   facts->payload_attach_s = plan.payload_attach_s;
   facts->payload_mass_kg = plan.payload_mass_kg;

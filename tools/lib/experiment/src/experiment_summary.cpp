@@ -160,6 +160,7 @@ ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& 
   ExperimentSummary s;
   s.moves_planned = f.moves_planned;
   s.lockstep = f.lockstep;
+  s.estimate_feedback = f.estimate_feedback;
   s.ticks_planned = f.ticks_planned;
   s.sim_reported = f.sim_reported;
   s.ticks_simulated = f.sim_reported ? f.sim_ticks : f.ticks_planned;
@@ -281,6 +282,7 @@ std::string summaryJson(const ExperimentSummary& s) {
   j["torque_prediction_ticks"] = s.torque_prediction_ticks;
   j["estimate_messages"] = s.estimate_messages;
   j["estimate_valid_messages"] = s.estimate_valid_messages;
+  j["estimate_feedback"] = s.estimate_feedback;
   j["estimate_in_use_ticks"] = s.estimate_in_use_ticks;
   if (s.payload_attach_s > 0.0) {
     j["payload_attach_s"] = s.payload_attach_s;
@@ -337,11 +339,12 @@ std::string summaryTable(const ExperimentSummary& s) {
   std::string out = buf;
   if (s.joint_torque_prediction_rmse_nm >= 0.0) {
     std::snprintf(buf, sizeof buf,
-                  "| joint-torque prediction error (controller's model + estimator feedforward used; model alone) | "
+                  "| joint-torque prediction error (controller's model + all it fed forward; model alone) | "
                   "%.3f N m; %.3f N m | |\n"
-                  "| EXO_ESTIMATE messages (valid) / ticks with the estimate in use | %ld (%ld) / %ld | |\n",
+                  "| EXO_ESTIMATE messages (valid) / fed back to the controller / ticks with a feedforward | "
+                  "%ld (%ld) / %s / %ld | |\n",
                   s.joint_torque_prediction_rmse_nm, s.joint_torque_model_rmse_nm, s.estimate_messages,
-                  s.estimate_valid_messages, s.estimate_in_use_ticks);
+                  s.estimate_valid_messages, s.estimate_feedback ? "yes" : "no", s.estimate_in_use_ticks);
     out += buf;
   }
   if (s.payload_attach_s > 0.0 && s.estimate_messages > 0) {

@@ -35,6 +35,11 @@
 
 namespace exoid::estimator {
 
+/// Integrated autocorrelation time (samples) of white noise through the causal Butterworth of the given cutoff and
+/// order at sample_hz: (sum_k h_k)^2 / sum_k h_k^2 over its impulse response h; 1 without a filter. A mean over N
+/// filtered samples has the variance of N / T independent ones (4th order, 2 Hz at 1 kHz: T ~ 240).
+double filterCorrelationTime(double cutoff_hz, double sample_hz, int order);
+
 enum class Forgetting {
   None,        ///< lambda = 1: the exact minimiser of the batch regularised cost
   Stabilised,  ///< every direction's data information decays by lambda per sample, the prior never does
@@ -216,6 +221,15 @@ class OnlineEstimator {
   bool judgeConsistency(bool solved, EstimatorOutputSample& out);
   /// out.tau_correction = K(q, 0, 0) (phi_hat - phi_model) + the sidecar's non-armature effects.
   void feedforwardTorque(EstimatorOutputSample& out);
+  /// out.com_stddev, mass_stddev, tau_correction_stddev: the uncertainty of what the controller uses, computed
+  /// when `uncertainty` (kept between), after feedforwardTorque (its kinematics and K) (com_uncertainty.cpp).
+  void controllerUncertainty(bool uncertainty, EstimatorOutputSample& out);
+  /// Per-sample: the innovations' long batch means, for the residuals' correlation time.
+  void trackResidualCorrelation();
+  /// row_correlation_ [nv] and correlation_ from the batch means (floor: the row filter's).
+  void rowCorrelationTimes();
+  /// AT_ = Lambda0 + sum_c T_c g_c^4 sigma_c^2 D_c (upper): the data's information scaled by the correlation.
+  void sandwichInformation();
   InputStatus admit(int channel, long tick, SampleFault values, bool sizes_ok, int* slot);
   void processReleased();  // every tick the assembly releases: complete ones are processed
   void assemble(int held, long tick);  // a complete tick's messages -> the ring
@@ -303,6 +317,29 @@ class OnlineEstimator {
   long change_samples_ = 0, changes_ = 0, last_change_tick_ = -1;
   double z_max_ = 0.0;
   double ms_weight_ = 0.0;  ///< 1 - (1 - a)^n: the weight the baseline's samples have since the (re)arming
+  static constexpr double kCorrelationWindowS = 2.0;  ///< batch-means window: >> the 2 Hz filter's ~0.25 s
+
+  // Uncertainty of what the controller uses (controllerUncertainty): the residuals' correlation (per coordinate:
+  // long-window mean of the innovation, that mean's mean square, the innovation's mean square), the right-hand
+  // sides and the sandwich's information.
+  static constexpr double kMinWeightedVariance = 1e-12;  ///< floor of g_c^2 sigma_c^2 (a noise-free row)
+  Eigen::VectorXd corr_mean_, corr_ms_, corr_var_;  ///< [nv]
+  Eigen::VectorXd row_correlation_;  ///< [nv] T_c, samples per independent residual (>= 1)
+  double correlation_ = 1.0;         ///< max_c T_c of the last publication
+  double filter_correlation_ = 1.0;  ///< the row filter's, for white residuals (filterCorrelationTime)
+  Eigen::MatrixXd V_, AV_;  ///< [mx x (4 + nv)] A^-1 F and A_T A^-1 F
+  Eigen::MatrixXd AT_;      ///< [mx x mx] upper
+  Eigen::Matrix3d com_cov_ = Eigen::Matrix3d::Zero();  ///< world frame, of the last uncertainty publication
+  Eigen::Vector3d com_stddev_ = Eigen::Vector3d::Zero();
+  double mass_stddev_ = 0.0;
+  Eigen::VectorXd tau_stddev_;  ///< [nv]
+  bool have_trust_ = false;
+
+ public:
+  /// Correlation time of the residuals (samples per independent one; the largest coordinate's), last publication.
+  double residualCorrelation() const { return correlation_; }
+  /// Covariance of the published CoM (world axes), last uncertainty publication.
+  const Eigen::Matrix3d& comCovariance() const { return com_cov_; }
 };
 
 }  // namespace exoid::estimator

@@ -31,7 +31,8 @@ struct ExperimentOptions {
   std::string estimator_args = "--forgetting none";
   int64_t seed = 1, moves = 0, max_missing = 10;  ///< moves 0: the controller configuration's
   double watchdog_factor = 3.0, watchdog_margin_s = 60.0;
-  bool realtime = false, no_pin = false, no_estimator = false, estimate_feedback = false;
+  bool realtime = false, no_pin = false, no_estimator = false;
+  bool estimate_feedback = true;  ///< the controller uses the estimate (off with no_estimator)
   bool view = false;  ///< exo_sim --view: a live window where a display exists (docs/render.md)
 };
 

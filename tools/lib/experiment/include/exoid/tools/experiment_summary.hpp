@@ -17,6 +17,7 @@ struct RunFacts {
   int moves_planned = 0;
   int64_t ticks_planned = 0;        ///< planned run length (the sim's --duration in ticks)
   bool lockstep = true;             ///< the real-time factor target (>= 5x) applies to lockstep only
+  bool estimate_feedback = false;   ///< the controller was given the online estimate
   bool sim_reported = false;        ///< the sim wrote its result; the sim_* fields are known
   std::string sim_outcome;          ///< completed | fell | controller_lost | interrupted | lcm_failure
   int64_t sim_ticks = 0;            ///< ticks the sim simulated and published
@@ -61,6 +62,7 @@ struct ExperimentSummary {
   long controller_rejected = 0;    ///< input messages the controller rejected
   double realtime_factor = 0.0;    ///< the sim's simulated time / its wall time (0: unknown)
   bool lockstep = true;            ///< the >= 5x target applies
+  bool estimate_feedback = false;  ///< the controller was given the online estimate (RunFacts)
   double sim_seconds = 0.0;        ///< simulated time (ticks_simulated / 1000)
   int64_t ticks_planned = 0;
   bool sim_reported = false;       ///< the sim wrote its result (else its figures are unknown)
@@ -83,7 +85,7 @@ struct ExperimentSummary {
   long torque_prediction_ticks = 0;
   long estimate_messages = 0;          ///< EXO_ESTIMATE messages in the log
   long estimate_valid_messages = 0;    ///< of them flagged valid
-  long estimate_in_use_ticks = 0;      ///< commands carrying a non-zero estimator feedforward (the estimate in use)
+  long estimate_in_use_ticks = 0;      ///< commands carrying a non-zero feedforward (estimate or disturbance observer)
   double payload_attach_s = -1.0;      ///< mid-run payload: attach time (-1: none)
   double payload_mass_kg = 0.0;
   /// Mid-run payload: seconds from the attachment until the estimated total mass (sum of the published link

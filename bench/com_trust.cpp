@@ -1,0 +1,101 @@
+// exoid_com_trust: is the online estimate's stated CoM uncertainty (com_stddev: the covariance, inflated by the
+// residuals' correlation) honest? Replays a run log of `exoid experiment` through OnlineEstimator (library
+// defaults) and prints, every PERIOD seconds, the error of the estimate's CoM against the simulated robot's (EXO_TRUTH's
+// CoM, payloads included; the estimate's CoM at the true state of the estimate's tick, world axes), and of the
+// model's, the stated one-sigma and their ratio, and the correlation time. The ratio's
+// RMS over the run near 1 means the trust rule's threshold (controller estimate.trust_sigmas) means what it says.
+// An evaluation tool: it reads the ground truth, the estimator never does.
+//
+// usage: exoid_com_trust LOG [PERIOD_S [K]]   (K: the trust threshold in sigmas, default 3)
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/online/online_estimator.hpp"
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
+#include "truth_run.hpp"
+
+int main(int argc, char** argv) {
+  using namespace exoid;
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: exoid_com_trust LOG [PERIOD_S [K]] (see the source's header)\n");
+    return 2;
+  }
+  bench::TruthRun run;
+  if (!bench::loadTruthRun(argv[1], run)) return 2;
+  const Model& model = run.model;
+  const double period = argc > 2 ? std::atof(argv[2]) : 1.0;
+  const BaseParameters base = computeBaseParameters(model);
+  estimator::OnlineEstimatorOptions opt;
+  estimator::OnlineEstimator est(model, base, model.phi, opt);
+  if (!est.ok()) {
+    std::fprintf(stderr, "%s\n", est.error().c_str());
+    return 2;
+  }
+  EstimatorOutputSample out;
+  est.sizeOutput(out);
+  DynamicsData dd(model);
+  State s = State::zero(model);
+  auto worldCom = [&](const Eigen::VectorXd& phi) {
+    forwardKinematics(model, dd.kin, s);
+    centroidal(model, phi, dd);
+    return Eigen::Vector3d(s.base_position + s.base_orientation.toRotationMatrix() * dd.com);
+  };
+  const long first_tick = run.ticks.front().state->tick;
+  double sum_z2[3] = {0, 0, 0}, sum_e2[3] = {0, 0, 0}, z_max[3] = {0, 0, 0}, leak2[3] = {0, 0, 0};
+  long over3[3] = {0, 0, 0};
+  const double k = argc > 3 ? std::atof(argv[3]) : 3.0;
+  long n = 0, printed = -1;
+  for (const auto& t : run.ticks) {
+    est.addState(*t.state);
+    est.addPlate(*t.plate[0]);
+    est.addPlate(*t.plate[1]);
+    if (est.samplesSincePublication() < 10) continue;
+    est.fillOutput(out);
+    if (est.reconcileDue()) est.reconcile(out);  // exo_estimator's consistent parameters (synchronously here)
+    if (!out.valid || out.com_stddev.maxCoeff() <= 0.0) continue;  // the controller takes valid ones only
+    const long i = static_cast<long>(out.tick) - first_tick;
+    if (i < 0 || i >= static_cast<long>(run.ticks.size()) || run.ticks[i].truth->tick != out.tick) continue;
+    const GroundTruthSample& tr = *run.ticks[i].truth;
+    s.q = tr.q;
+    s.base_orientation = tr.base_orientation;
+    s.base_position = tr.base_position;
+    const Eigen::Vector3d e = 1e3 * (worldCom(out.params) - tr.com), e0 = 1e3 * (worldCom(model.phi) - tr.com);
+    const Eigen::Vector3d sd = 1e3 * out.com_stddev;
+    for (int i = 0; i < 3; ++i) {
+      sum_z2[i] += (e[i] / sd[i]) * (e[i] / sd[i]);
+      sum_e2[i] += e[i] * e[i];
+      const double z = std::abs(e[i] / sd[i]);
+      z_max[i] = std::max(z_max[i], z);
+      if (z > k) ++over3[i];
+      const double w = z > k ? 1.0 - (k / z) * (k / z) : 0.0;  // the trust rule's weight
+      leak2[i] += (w * e[i]) * (w * e[i]);
+    }
+    ++n;
+    const long slot = static_cast<long>(1e-3 * static_cast<double>(out.tick) / period);
+    if (slot != printed) {
+      printed = slot;
+      std::printf("t %6.2f s  model %7.2f %7.2f %7.2f  error %7.3f %7.3f %7.3f mm  sigma %7.3f %7.3f %7.3f mm  z %6.2f %6.2f %6.2f  T %.0f\n",
+                  1e-3 * static_cast<double>(out.tick), e0.x(), e0.y(), e0.z(), e.x(), e.y(), e.z(), sd.x(), sd.y(), sd.z(), e.x() / sd.x(),
+                  e.y() / sd.y(), e.z() / sd.z(), est.residualCorrelation());
+      std::printf("          mass change %.3f kg (sigma %.4f); tau_correction / sigma:", out.params[0] * 0.0 +
+                  [&] { double m = 0; for (int b = 0; b < model.nbodies; ++b) m += out.params[model.bodyParamIndex(b)] - model.phi[model.bodyParamIndex(b)]; return m; }(),
+                  out.mass_stddev);
+      for (int r = 0; r < model.nv; ++r) std::printf(" %.2f/%.3f", out.tau_correction[r], out.tau_correction_stddev[r]);
+      std::printf("\n");
+    }
+  }
+  if (n > 0)
+    std::printf("k %.1f: max |z| %.2f %.2f %.2f, publications over k %ld %ld %ld, RMS of the error let through %.3f "
+                "%.3f %.3f mm\n", k, z_max[0], z_max[1], z_max[2], over3[0], over3[1], over3[2], std::sqrt(leak2[0] / n),
+                std::sqrt(leak2[1] / n), std::sqrt(leak2[2] / n));
+  if (n > 0)
+    std::printf("over %ld publications: RMS error %.3f %.3f %.3f mm, RMS z %.2f %.2f %.2f\n", n,
+                std::sqrt(sum_e2[0] / n), std::sqrt(sum_e2[1] / n), std::sqrt(sum_e2[2] / n), std::sqrt(sum_z2[0] / n),
+                std::sqrt(sum_z2[1] / n), std::sqrt(sum_z2[2] / n));
+  return 0;
+}
