@@ -295,12 +295,13 @@ TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenU
     plugin->step(s);
     ref.tick(s, ref_cmd, ref_status);
     differ += plugin->command().tau == ref_cmd.tau && plugin->command().tau_ff == ref_cmd.tau_ff ? 0 : 1;
-    // Reported as the command's feedforward part, blended in while fresh, then out (max_age_ticks = 80).
+    // Reported as the command's feedforward part, blended in from tick 250 + lag_ticks while fresh (until 250 +
+    // max_age_ticks), then out.
     if (plugin->command().tau_ff[2] != 0.0) ++with_ff;
     max_ff = std::max(max_ff, plugin->command().tau_ff[2]);
   });
   EXPECT_EQ(differ, 0);
-  EXPECT_GT(with_ff, cfg.estimate.max_age_ticks);
+  EXPECT_GT(with_ff, cfg.estimate.max_age_ticks - cfg.estimate.lag_ticks);
   EXPECT_GT(max_ff, 0.0);
   EXPECT_LT(max_ff, 1.5);  // blended (blend_time 1 s): never the full value within 81 ticks
   EXPECT_EQ(plugin->command().tau_ff[2], 0.0);  // withdrawn and blended out by tick 500
