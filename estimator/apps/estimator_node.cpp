@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <algorithm>
 #include <filesystem>
 
 namespace exoid::estimator {
@@ -69,19 +70,39 @@ void EstimatorNode::onPlate(int i, const void* data, int size) {
 }
 
 void EstimatorNode::maybePublish() {
-  if (est_.samplesSincePublication() < opt_.publish_every) return;
+  // Tick-aligned, so that the publications are a function of the rows folded in: the first row at or after each
+  // row r with (r + 1) % publish_every == 0 (after a gap, the first row past it).
+  if (est_.samplesSincePublication() == 0) return;
+  const long row = est_.lastRowTick(), n = opt_.publish_every;
+  if (next_row_ < 0) next_row_ = (row + n) / n * n - 1;  // the first aligned row >= the first row
+  if (row < next_row_) return;
+  next_row_ = (row + 1 + n) / n * n - 1;  // the next aligned row after this one
+  publish();
+}
+
+void EstimatorNode::cycleReconcile() {
+  if (pending_.valid()) {
+    if (pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+      const auto t0 = std::chrono::steady_clock::now();
+      pending_.wait();
+      ++reconcile_waits_;
+      reconcile_wait_max_s_ = std::max(reconcile_wait_max_s_,
+                                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    pending_.get();
+  }
+  if (job_begun_) est_.finishReconcile(job_);  // phi_c from the next publication on
+  job_begun_ = est_.beginReconcile(job_);
+  if (!job_begun_) return;
+  if (opt_.reconcile_async) pending_ = std::async(std::launch::async, [this] { est_.solveReconcile(job_); });
+  else est_.solveReconcile(job_);
+}
+
+void EstimatorNode::publish() {
   est_.fillOutput(out_);
   // Consistent standard parameters at a lower rate (allocates, ~10 ms: docs/estimator.md), off the receive
-  // path on a worker: a finished solve is adopted here and used from the next publication.
-  if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-    pending_.get();
-    est_.finishReconcile(job_);
-  }
-  if (est_.reconcileDue()) {
-    if (!opt_.reconcile_async) est_.reconcile(out_);
-    else if (!pending_.valid() && est_.beginReconcile(job_))
-      pending_ = std::async(std::launch::async, [this] { est_.solveReconcile(job_); });
-  }
+  // path: begun at one due publication, adopted at the next whatever the worker's timing.
+  if (est_.reconcileDue()) cycleReconcile();
   out_.utime = out_.tick * 1000;  // the simulated (or hardware) time of the tick the estimate reached
   // Messages the gate refused never reached the estimator: their counts join the estimator's own.
   out_.rejected_nonfinite += static_cast<int32_t>(gate_.rejected(RejectReason::NonFinite) +
