@@ -1,5 +1,7 @@
 #include "plugin_link.hpp"
 
+#include <algorithm>
+
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
@@ -21,9 +23,11 @@ PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vec
     coord_names_ = model.coordinateNames();
     estimate_.tau_correction = Eigen::VectorXd::Zero(model.nv);
     subscription_ = ep_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
-      if (gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
-                             coord_names_))
-        plugin_.setEstimate(estimate_);  // every decoded estimate, as exo_controller: the plugin judges it
+      if (!gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
+                              coord_names_))
+        return;
+      plugin_.setEstimate(estimate_);  // every decoded estimate, as exo_controller: the plugin judges it
+      newest_estimate_tick_ = std::max(newest_estimate_tick_, estimate_.tick);
     });
   }
 }

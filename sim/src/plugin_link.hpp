@@ -27,6 +27,9 @@ class PluginLink {
                  std::string* err);
   /// Subscribed to EXO_ESTIMATE (else the loop has nothing to receive).
   bool listening() const { return subscription_ > 0; }
+  /// The newest tick of the estimates received (decoded, names checked; -1 before the first): LCM on one host
+  /// keeps the order, so every estimate up to it has been received (the lockstep wait, runner.cpp).
+  int64_t newestEstimateTick() const { return newest_estimate_tick_; }
 
  private:
   ControllerPlugin& plugin_;
@@ -35,6 +38,7 @@ class PluginLink {
   std::vector<std::string> param_names_, coord_names_;
   MessageGate gate_;
   int subscription_ = 0;
+  int64_t newest_estimate_tick_ = -1;
   EstimatorOutputSample estimate_;
   exoid_lcm::estimator_output_t estimate_msg_;
   exoid_lcm::joint_command_t command_msg_;

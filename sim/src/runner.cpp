@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cinttypes>
 #include <cmath>
+#include <cstring>
 #include <type_traits>
 
 #include <nlohmann/json.hpp>
@@ -101,7 +102,8 @@ class SimLoop {
       summary.fell = true;
       summary.fall_tick = k;
     }
-    return publishAll() && !(plugin_link_ && !plugin_link_->afterStep(sd_.state, sd_.plates.data(), arb_, err_));
+    return publishAll() && awaitEstimate(k) &&
+           !(plugin_link_ && !plugin_link_->afterStep(sd_.state, sd_.plates.data(), arb_, err_));
   }
 
   /// One progress line per simulated second (unless quiet).
@@ -205,6 +207,34 @@ class SimLoop {
     return r >= 0;
   }
 
+  // Lockstep with the plugin taking EXO_ESTIMATE (opt.estimate_lag_ticks >= 0), before its tick k: every estimate
+  // with tick <= k - L must be in, as they are once one with tick >= k - L is (LCM keeps the order). Waits
+  // estimate_timeout_ms (start_timeout_s before the first estimate); after a timeout no more waiting, said once.
+  // State k is already published: the estimator needs it. False on an LCM failure.
+  bool awaitEstimate(int64_t k) {
+    if (opt_.estimate_lag_ticks < 0 || opt_.mode != SimMode::Lockstep || !plugin_link_ ||
+        !plugin_link_->listening() || summary.estimate_timeouts > 0)
+      return true;
+    const int64_t need = k - opt_.estimate_lag_ticks;
+    const auto arrived = [&] { return plugin_link_->newestEstimateTick() >= need; };
+    if (need < 0 || arrived()) return true;
+    ++summary.estimate_waits;
+    const bool first = plugin_link_->newestEstimateTick() < 0;
+    const int64_t wait_ns = first ? static_cast<int64_t>(opt_.start_timeout_s * 1e9)
+                                  : int64_t{opt_.estimate_timeout_ms} * 1000000;
+    const int r = serviceUntil(ep_, monoNs() + wait_ns, arrived, stop_, err_);
+    if (r < 0) return false;
+    if (r == 0 && !(stop_ && *stop_)) {
+      ++summary.estimate_timeouts;
+      summary.estimate_wait_stopped_tick = k;
+      std::fprintf(opt_.log,
+                   "exo_sim: no EXO_ESTIMATE with tick >= %" PRId64 " within %.3f s at tick %" PRId64
+                   " (%s): the loop goes on without waiting; from here the run depends on scheduling\n",
+                   need, wait_ns * 1e-9, k, first ? "none received yet" : "the estimator stopped answering");
+    }
+    return true;
+  }
+
   const SimModel& sm_;
   SimData& sd_;
   LcmEndpoint& ep_;
@@ -300,6 +330,11 @@ std::string formatSummary(const RunSummary& s) {
                 s.fallbackTicks(), s.held_ticks, s.zero_ticks, s.timeouts, s.clamped, s.overruns, s.mujoco_warnings,
                 s.fell ? "yes" : "no", s.interrupted ? ", interrupted" : "",
                 s.plugin_finished ? ", ended by the plugin (task finished)" : "");
+  if (s.estimate_waits > 0 || s.estimate_timeouts > 0) {
+    const size_t used = std::strlen(buf);
+    std::snprintf(buf + used, sizeof buf - used, ", estimate waits %" PRId64 " (timeouts %" PRId64 "%s)",
+                  s.estimate_waits, s.estimate_timeouts, s.estimate_timeouts > 0 ? ": not reproducible" : "");
+  }
   return buf;
 }
 
@@ -332,6 +367,9 @@ void eachField(Json& j, Summary& s, F f) {
   f(j, "missing_commands", s.missing_commands);
   f(j, "interrupted", s.interrupted);
   f(j, "plugin_finished", s.plugin_finished);
+  f(j, "estimate_waits", s.estimate_waits);
+  f(j, "estimate_timeouts", s.estimate_timeouts);
+  f(j, "estimate_wait_stopped_tick", s.estimate_wait_stopped_tick);
 }
 }  // namespace
 

@@ -108,13 +108,16 @@ bool startListeners(Run& run, std::string* error) {
                                      o.controller_config, "--seed", std::to_string(o.seed), "--moves",
                                      std::to_string(o.moves), "--lcm-url", run.url};
     if (!o.estimate_feedback) args.push_back("--no-estimate");
+    // Lockstep with the estimate fed back: each state's estimate waited for (reproducible runs); below the sim's
+    // 100 ms command timeout, so that a silent estimator costs the run its reproducibility, not its commands.
+    if (o.estimate_feedback && run.plan.lockstep) args.insert(args.end(), {"--wait-estimate-ms", "80"});
     run.ctrl.pid = spawn(args, (run.out / "controller.log").string(), error, run.loop_cpu);
     if (run.ctrl.pid < 0) return stop(run.logger.pid, SIGINT, 2000), false;
     run.ctrl.running = true;
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   // The estimator with its defaults (the summary replays the same OnlineEstimatorOptions), free on any CPU: the
-  // lockstep loop never waits for it. Its checkpoint every 0.5 s of wall time (~1 s simulated at lockstep speed).
+  // lockstep loop waits for it only when its estimate is fed back (its estimates then arrive 31+ ticks early). Its checkpoint every 0.5 s of wall time (~1 s simulated at lockstep speed).
   // The estimator's prior and tau_correction reference is the controller's model (the correction is to that model).
   run.est_args = {run.bin + "/exo_estimator", "--model", o.controller_model, "--lcm-url", run.url,
                   "--checkpoint", (run.out / "estimator.ckpt").string(), "--checkpoint-every-s", "0.5",
@@ -147,6 +150,8 @@ bool startSim(Run& run, std::string* error) {
                              "--controller-config", o.controller_config, "--controller-seed", std::to_string(o.seed),
                              "--controller-moves", std::to_string(o.moves)});
   if (run.plan.use_plugin && !o.estimate_feedback) args.push_back("--no-estimate");  // the loop need not receive at all
+  if (run.plan.use_plugin && o.estimate_feedback && run.plan.lockstep)  // the plugin's estimates waited for
+    args.insert(args.end(), {"--estimate-lag-ticks", std::to_string(run.plan.estimate_lag_ticks)});
   if (o.view) args.push_back("--view");  // without a display exo_sim says so in one line (shown with its output)
   run.sim.pid = spawn(args, run.sim_log, error, run.loop_cpu);
   if (run.sim.pid < 0) {
