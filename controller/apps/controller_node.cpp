@@ -1,12 +1,16 @@
 #include "controller_node.hpp"
 
+#include <poll.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <exoid/lcm/channels.hpp>
 
 namespace exoid::controller {
 namespace {
+constexpr size_t kEstimateBufferBytes = size_t{64} << 20;  // as exo_estimator's and exoid_logger's sockets
 constexpr int kPollSliceMs = 50;  // longest single wait inside the loop (keeps signals responsive)
 constexpr int kMaxReportedRejections = 5;
 }  // namespace
@@ -57,17 +61,42 @@ ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceCont
       });
     }
   }
-  if (use_estimate) {
-    lcm_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
-      // Every decoded estimate goes to the controller, which refuses (and counts) an unusable one.
-      if (!gate_.admitEncoded(ch_estimate_, data, size, estimate_msg_, estimate_, nullptr, param_names_,
-                              kAnyNumBase, coord_names_))
-        return;
-      ctrl_.setEstimate(estimate_);
-      newest_estimate_tick_ = std::max(newest_estimate_tick_, estimate_.tick);
-      if (holding_ && !mustWait(held_state_.tick)) answerHeld();
-    });
+  if (!use_estimate) return;
+  if (lcm_.url().rfind("udpm://", 0) == 0) {
+    std::string why;
+    estimate_rx_ = lcmwire::UdpmReceiver::open(lcm_.url(), kEstimateBufferBytes, &why);
+    if (estimate_rx_) {
+      estimate_handler_ = [this](const std::string& channel, const uint8_t* data, size_t size, int64_t) {
+        if (channel == channels::kEstimate) onEstimate(data, static_cast<int>(size));
+      };
+      return;
+    }
+    std::fprintf(stderr, "exo_controller: %s: own socket refused (%s): receiving it through LCM\n",
+                 channels::kEstimate, why.c_str());
   }
+  lcm_.subscribeRaw(channels::kEstimate,
+                    [this](const char*, const void* data, int size, int64_t) { onEstimate(data, size); });
+}
+
+void ControllerNode::onEstimate(const void* data, int size) {
+  // Every decoded estimate goes to the controller, which refuses (and counts) an unusable one.
+  if (!gate_.admitEncoded(ch_estimate_, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
+                          coord_names_))
+    return;
+  ctrl_.setEstimate(estimate_);
+  newest_estimate_tick_ = std::max(newest_estimate_tick_, estimate_.tick);
+  if (holding_ && !mustWait(held_state_.tick)) answerHeld();
+}
+
+int ControllerNode::receive(int timeout_ms) {
+  if (!estimate_rx_) return lcm_.handleTimeout(timeout_ms, &err_);
+  pollfd pfd[2] = {{lcm_.fileno(), POLLIN, 0}, {estimate_rx_->fd(), POLLIN, 0}};
+  if (::poll(pfd, 2, timeout_ms) < 0 && errno != EINTR) {
+    err_ = "poll failed";
+    return -1;
+  }
+  estimate_rx_->drain(estimate_handler_);  // the estimates first: a state held for one is answered at once
+  return lcm_.handleAvailable(1000, &err_);
 }
 
 void ControllerNode::answer(const RobotStateSample& s) {
@@ -160,7 +189,7 @@ ControllerNode::Outcome ControllerNode::run(int64_t idle_timeout_ms, const volat
     }
     checkWaitTimeout();
     const int wait = static_cast<int>(std::min<long long>(holding_ ? 1 : kPollSliceMs, idle_timeout_ms - idle));
-    if (lcm_.handleTimeout(std::max(wait, 1), &err_) < 0) {
+    if (receive(std::max(wait, 1)) < 0) {
       std::fprintf(stderr, "exo_controller: LCM: %s\n", err_.c_str());
       return Outcome::LcmError;
     }

@@ -8,13 +8,18 @@
 // estimate.lag_ticks has arrived (LCM keeps the order, so every estimate the controller applies at tick k is in);
 // the plates arriving meanwhile are held and given after the answer, as without the wait. A wait that times out
 // ends the waiting for the rest of the run (counted, said once: the run is no longer reproducible).
+// On udpm:// EXO_ESTIMATE comes from the node's own socket (lcmwire::UdpmReceiver, 64 MiB kernel buffer), not
+// through LCM's receive path, whose default buffer lost bursts of estimates in lockstep runs (sim/src/plugin_link.hpp).
 #include <chrono>
 #include <csignal>
 #include <exoid/lcm/adapters.hpp>
 #include <exoid/lcm/lcm_endpoint.hpp>
 #include <exoid/lcm/message_gate.hpp>
+#include <memory>
 #include <string>
 #include <vector>
+
+#include "lcm_wire.hpp"
 
 #include "exoid/controller/balance_controller.hpp"
 
@@ -51,6 +56,9 @@ class ControllerNode {
  private:
   void answer(const RobotStateSample& s);
   void onState(const void* data, int size);
+  void onEstimate(const void* data, int size);
+  /// Waits up to timeout_ms for a message on LCM or the own socket and dispatches what both hold. < 0: failure.
+  int receive(int timeout_ms);
   // The lockstep wait for the estimate:
   /// The state of tick k must wait: no estimate with tick >= k - lag_ticks yet (and still waiting at all).
   bool mustWait(int64_t tick) const;
@@ -79,6 +87,8 @@ class ControllerNode {
   ControllerNodeStats stats_;
   std::string err_;
   int reported_ = 0;  ///< rejected states reported on stderr (the first few)
+  std::unique_ptr<lcmwire::UdpmReceiver> estimate_rx_;  ///< EXO_ESTIMATE's own socket (udpm://)
+  lcmwire::UdpmReceiver::Handler estimate_handler_;
   int wait_estimate_ms_ = 0;
   int64_t newest_estimate_tick_ = -1;  ///< of the estimates received (decoded, names checked)
   bool holding_ = false;               ///< held_state_ waits for its estimate

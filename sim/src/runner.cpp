@@ -80,7 +80,8 @@ class SimLoop {
   bool receive(int64_t k) {
     if (opt_.mode == SimMode::Lockstep && !opt_.plugin) return k < 1 || arbiterHasFresh(arb_, k) || awaitCommand(k);
     // (a plugin loop that listens to nothing never touches LCM's receive side: no receive thread)
-    return !((!plugin_link_ || plugin_link_->listening()) && ep_.handleAvailable(1000, err_) < 0);
+    return !((!plugin_link_ || plugin_link_->listening()) && ep_.handleAvailable(1000, err_) < 0) &&
+           !(plugin_link_ && !plugin_link_->drain(err_));
   }
 
   /// True when the controller, once heard, missed give_up consecutive commands up to tick k.
@@ -213,7 +214,7 @@ class SimLoop {
   // State k is already published: the estimator needs it. False on an LCM failure.
   bool awaitEstimate(int64_t k) {
     if (opt_.estimate_lag_ticks < 0 || opt_.mode != SimMode::Lockstep || !plugin_link_ ||
-        !plugin_link_->listening() || summary.estimate_timeouts > 0)
+        !plugin_link_->takesEstimates() || summary.estimate_timeouts > 0)
       return true;
     const int64_t need = k - opt_.estimate_lag_ticks;
     const auto arrived = [&] { return plugin_link_->newestEstimateTick() >= need; };
@@ -222,7 +223,7 @@ class SimLoop {
     const bool first = plugin_link_->newestEstimateTick() < 0;
     const int64_t wait_ns = first ? static_cast<int64_t>(opt_.start_timeout_s * 1e9)
                                   : int64_t{opt_.estimate_timeout_ms} * 1000000;
-    const int r = serviceUntil(ep_, monoNs() + wait_ns, arrived, stop_, err_);
+    const int r = receiveEstimatesUntil(monoNs() + wait_ns, arrived);
     if (r < 0) return false;
     if (r == 0 && !(stop_ && *stop_)) {
       ++summary.estimate_timeouts;
@@ -233,6 +234,25 @@ class SimLoop {
                    need, wait_ns * 1e-9, k, first ? "none received yet" : "the estimator stopped answering");
     }
     return true;
+  }
+
+  // serviceUntil for the estimates: LCM (when subscribed) and the plugin link's own socket. -1 on a failure, 1
+  // when arrived() became true, 0 at the deadline or a stop request.
+  template <class Done>
+  int receiveEstimatesUntil(int64_t deadline_ns, Done arrived) {
+    const int raw = plugin_link_->rawFd();
+    while (!arrived()) {
+      const int64_t left = deadline_ns - monoNs();
+      if (left <= 0 || (stop_ && *stop_)) return 0;
+      pollfd pfd[2] = {{raw, POLLIN, 0}, {plugin_link_->listening() ? ep_.fileno() : -1, POLLIN, 0}};
+      const timespec ts{static_cast<time_t>(left / 1000000000), static_cast<long>(left % 1000000000)};
+      if (ppoll(pfd, 2, &ts, nullptr) < 0 && errno != EINTR) {
+        if (err_) *err_ = "poll failed while waiting for EXO_ESTIMATE";
+        return -1;
+      }
+      if (!receive(1)) return -1;  // the plugin path of receive(): LCM and the own socket
+    }
+    return 1;
   }
 
   const SimModel& sm_;
