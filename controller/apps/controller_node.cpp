@@ -126,6 +126,7 @@ bool ControllerNode::mustWait(int64_t tick) const {
 
 void ControllerNode::answerHeld() {
   holding_ = false;
+  stats_.estimate_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - held_since_).count();
   answer(held_state_);
   for (int i = 0; i < 2; ++i)
     if (plate_held_[i]) ctrl_.setForcePlate(held_plate_[i]), plate_held_[i] = false;

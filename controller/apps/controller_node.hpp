@@ -29,6 +29,7 @@ namespace exoid::controller {
 struct ControllerNodeStats {
   long long ticks = 0, answered_bad = 0, unanswered = 0, publish_errors = 0;
   long long estimate_waits = 0;     ///< states whose estimate had not arrived yet (answered after a wait)
+  double estimate_wait_s = 0.0;     ///< wall seconds those states waited
   long long estimate_timeouts = 0;  ///< waits that ended without it (then no more waiting)
   long long estimate_wait_stopped_tick = -1;  ///< the state tick of that timeout
   double se_com = 0.0, max_com_err = 0.0, tick_sum = 0.0, tick_max = 0.0;

@@ -115,11 +115,11 @@ void printSummary(const char* outcome, const Args& a, const exoid::controller::C
   std::printf(
       "exo_controller: %s: seed %llu, moves %d/%d, ticks %lld, CoM ref-vs-estimate RMSE %.3f mm (max %.3f mm), "
       "tick mean %.1f us max %.1f us, fallbacks %d, qp failures %d, rejected %d (answered %lld, unanswered %lld), "
-      "stale %d, publish errors %lld, estimate waits %lld (timeouts %lld%s)\n",
+      "stale %d, publish errors %lld, estimate waits %lld (%.3f s, timeouts %lld%s)\n",
       outcome, a.seed, status.moves_done, cfg.trajectory.moves, st.ticks, 1e3 * rmse, 1e3 * st.max_com_err,
       st.ticks > 0 ? st.tick_sum / static_cast<double>(st.ticks) : 0.0, st.tick_max, status.fallbacks, status.qp_failures,
       status.rejected_inputs, st.answered_bad, st.unanswered, status.stale_inputs, st.publish_errors,
-      st.estimate_waits, st.estimate_timeouts, st.estimate_timeouts > 0 ? ": not reproducible" : "");
+      st.estimate_waits, st.estimate_wait_s, st.estimate_timeouts, st.estimate_timeouts > 0 ? ": not reproducible" : "");
   exoid::controller::printEstimateUse(stdout, "exo_controller", status.estimate);
   std::fflush(stdout);
 }

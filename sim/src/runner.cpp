@@ -79,9 +79,7 @@ class SimLoop {
   /// otherwise whatever LCM has. False on an LCM failure.
   bool receive(int64_t k) {
     if (opt_.mode == SimMode::Lockstep && !opt_.plugin) return k < 1 || arbiterHasFresh(arb_, k) || awaitCommand(k);
-    // (a plugin loop that listens to nothing never touches LCM's receive side: no receive thread)
-    return !((!plugin_link_ || plugin_link_->listening()) && ep_.handleAvailable(1000, err_) < 0) &&
-           !(plugin_link_ && !plugin_link_->drain(err_));
+    return receiveEstimates();
   }
 
   /// True when the controller, once heard, missed give_up consecutive commands up to tick k.
@@ -223,7 +221,9 @@ class SimLoop {
     const bool first = plugin_link_->newestEstimateTick() < 0;
     const int64_t wait_ns = first ? static_cast<int64_t>(opt_.start_timeout_s * 1e9)
                                   : int64_t{opt_.estimate_timeout_ms} * 1000000;
-    const int r = receiveEstimatesUntil(monoNs() + wait_ns, arrived);
+    const int64_t t0 = monoNs();
+    const int r = receiveEstimatesUntil(t0 + wait_ns, arrived);
+    summary.estimate_wait_s += (monoNs() - t0) * 1e-9;
     if (r < 0) return false;
     if (r == 0 && !(stop_ && *stop_)) {
       ++summary.estimate_timeouts;
@@ -236,8 +236,15 @@ class SimLoop {
     return true;
   }
 
-  // serviceUntil for the estimates: LCM (when subscribed) and the plugin link's own socket. -1 on a failure, 1
-  // when arrived() became true, 0 at the deadline or a stop request.
+  // The plugin loop's intake: LCM when something is subscribed there (a plugin loop that listens to nothing
+  // never touches LCM's receive side: no receive thread), and the plugin link's own socket. False on a failure.
+  bool receiveEstimates() {
+    return !((!plugin_link_ || plugin_link_->listening()) && ep_.handleAvailable(1000, err_) < 0) &&
+           !(plugin_link_ && !plugin_link_->drain(err_));
+  }
+
+  // serviceUntil for the estimates (receiveEstimates' two sources). -1 on a failure, 1 when arrived() became
+  // true, 0 at the deadline or a stop request.
   template <class Done>
   int receiveEstimatesUntil(int64_t deadline_ns, Done arrived) {
     const int raw = plugin_link_->rawFd();
@@ -250,7 +257,7 @@ class SimLoop {
         if (err_) *err_ = "poll failed while waiting for EXO_ESTIMATE";
         return -1;
       }
-      if (!receive(1)) return -1;  // the plugin path of receive(): LCM and the own socket
+      if (!receiveEstimates()) return -1;
     }
     return 1;
   }
@@ -352,8 +359,9 @@ std::string formatSummary(const RunSummary& s) {
                 s.plugin_finished ? ", ended by the plugin (task finished)" : "");
   if (s.estimate_waits > 0 || s.estimate_timeouts > 0) {
     const size_t used = std::strlen(buf);
-    std::snprintf(buf + used, sizeof buf - used, ", estimate waits %" PRId64 " (timeouts %" PRId64 "%s)",
-                  s.estimate_waits, s.estimate_timeouts, s.estimate_timeouts > 0 ? ": not reproducible" : "");
+    std::snprintf(buf + used, sizeof buf - used, ", estimate waits %" PRId64 " (%.3f s, timeouts %" PRId64 "%s)",
+                  s.estimate_waits, s.estimate_wait_s, s.estimate_timeouts,
+                  s.estimate_timeouts > 0 ? ": not reproducible" : "");
   }
   return buf;
 }
@@ -388,6 +396,7 @@ void eachField(Json& j, Summary& s, F f) {
   f(j, "interrupted", s.interrupted);
   f(j, "plugin_finished", s.plugin_finished);
   f(j, "estimate_waits", s.estimate_waits);
+  f(j, "estimate_wait_s", s.estimate_wait_s);
   f(j, "estimate_timeouts", s.estimate_timeouts);
   f(j, "estimate_wait_stopped_tick", s.estimate_wait_stopped_tick);
 }

@@ -76,6 +76,7 @@ struct RunSummary {
   bool plugin_finished = false;    ///< the run ended because the plugin reported its task finished
   // The lockstep wait for the estimate (RunOptions::estimate_lag_ticks).
   int64_t estimate_waits = 0;      ///< ticks whose estimate had not arrived yet (the loop waited)
+  double estimate_wait_s = 0.0;    ///< wall seconds spent in those waits
   int64_t estimate_timeouts = 0;   ///< waits that ended without it (the loop stopped waiting: not reproducible)
   int64_t estimate_wait_stopped_tick = -1;  ///< tick of that timeout (-1: none)
   int64_t fallbackTicks() const { return held_ticks + zero_ticks; }
