@@ -81,21 +81,26 @@ void EstimatorNode::maybePublish() {
 }
 
 void EstimatorNode::cycleReconcile() {
-  if (pending_.valid()) {
-    if (pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+  const int j = next_job_;  // the oldest job in flight
+  next_job_ = (next_job_ + 1) % kReconcileDepth;
+  std::future<void>& pending = pending_[static_cast<size_t>(j)];
+  OnlineEstimator::ReconcileJob& job = jobs_[static_cast<size_t>(j)];
+  if (pending.valid()) {
+    if (pending.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
       const auto t0 = std::chrono::steady_clock::now();
-      pending_.wait();
+      pending.wait();
       ++reconcile_waits_;
-      reconcile_wait_max_s_ = std::max(reconcile_wait_max_s_,
-                                       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      reconcile_wait_s_ += waited;
+      reconcile_wait_max_s_ = std::max(reconcile_wait_max_s_, waited);
     }
-    pending_.get();
+    pending.get();
   }
-  if (job_begun_) est_.finishReconcile(job_);  // phi_c from the next publication on
-  job_begun_ = est_.beginReconcile(job_);
-  if (!job_begun_) return;
-  if (opt_.reconcile_async) pending_ = std::async(std::launch::async, [this] { est_.solveReconcile(job_); });
-  else est_.solveReconcile(job_);
+  if (job_begun_[static_cast<size_t>(j)]) est_.finishReconcile(job);  // phi_c from the next publication on
+  job_begun_[static_cast<size_t>(j)] = est_.beginReconcile(job);
+  if (!job_begun_[static_cast<size_t>(j)]) return;
+  if (opt_.reconcile_async) pending = std::async(std::launch::async, [this, &job] { est_.solveReconcile(job); });
+  else est_.solveReconcile(job);
 }
 
 void EstimatorNode::publish() {

@@ -564,5 +564,30 @@ TEST(PluginCli, WithoutDurationTheRunEndsWhenThePluginFinishes) {
   EXPECT_NEAR(static_cast<double>(s.ticks), static_cast<double>(planned), 2.0) << "planned " << planned;
   EXPECT_LT(s.ticks, s.ticks_planned);  // the 3600 s cap was not what ended it
 }
+// Lockstep waiting for the estimate (exo_sim --estimate-lag-ticks L) with no estimator: before the plugin's tick L
+// the loop waits for the first estimate (--start-timeout-s), gives up once, says the run is no longer
+// reproducible, and completes without waiting again.
+TEST(PluginCli, AnEstimateThatNeverComesEndsTheWaitOnceAndIsReported) {
+  test::TempDir dir("plugin_estimate_wait");
+  const std::string result = dir.file("result.json");
+  const auto r = test::runCommand(std::string(EXOID_BIN_DIR) + "/exo_sim --quiet --lcm-url memq:// --duration 0.1 " +
+                                      "--controller-plugin " + pluginLib("exoid_controller_plugin") +
+                                      " --estimate-lag-ticks 5 --start-timeout-s 0.2 --result " + result,
+                                  dir.path);
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("no EXO_ESTIMATE with tick >= 0 within 0.200 s at tick 5 (none received yet)"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("estimate waits 1 ("), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("timeouts 1: not reproducible"), std::string::npos) << r.out;
+  sim::RunSummary s;
+  std::string err;
+  ASSERT_TRUE(sim::parseRunSummaryJson(test::slurp(result), &s, &err)) << err;
+  EXPECT_EQ(s.ticks, 100);
+  EXPECT_EQ(s.estimate_waits, 1);
+  EXPECT_EQ(s.estimate_timeouts, 1);
+  EXPECT_EQ(s.estimate_wait_stopped_tick, 5);
+  EXPECT_GE(s.estimate_wait_s, 0.2);
+}
 }  // namespace
 }  // namespace exoid
