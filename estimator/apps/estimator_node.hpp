@@ -5,8 +5,8 @@
 // first folded row at or after each row r with (r + 1) % publish_every == 0; inside the receive callback:
 // allocation-free); the checkpoint written between receive calls (never inside the per-sample path), every
 // checkpoint_every_s of wall time and on demand. What it publishes is a function of the messages it received
-// only, never of timing: the consistent solve begun at one due publication is adopted at the next (waited for),
-// and a checkpoint only reads the estimator (docs/estimator.md "Reproducible").
+// only, never of timing: the consistent solve begun at one due publication is adopted at the second due one
+// after (waited for), and a checkpoint only reads the estimator (docs/estimator.md "Determinism").
 #include <array>
 #include <future>
 #include <chrono>
