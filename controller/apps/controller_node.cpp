@@ -1,18 +1,22 @@
 #include "controller_node.hpp"
 
+#include <poll.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <exoid/lcm/channels.hpp>
 
 namespace exoid::controller {
 namespace {
+constexpr size_t kEstimateBufferBytes = size_t{64} << 20;  // as exo_estimator's and exoid_logger's sockets
 constexpr int kPollSliceMs = 50;  // longest single wait inside the loop (keeps signals responsive)
 constexpr int kMaxReportedRejections = 5;
 }  // namespace
 
 ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceController& ctrl,
-                               const ControllerConfig& config, bool use_estimate)
+                               const ControllerConfig& config, bool use_estimate, int wait_estimate_ms)
     : lcm_(lcm),
       ctrl_(ctrl),
       config_(config),
@@ -28,6 +32,8 @@ ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceCont
   state_.tau = Eigen::VectorXd::Zero(model.njoints);
   state_.has_tau = Eigen::Matrix<bool, Eigen::Dynamic, 1>::Constant(model.njoints, true);
   bad_state_ = state_;
+  held_state_ = state_;
+  wait_estimate_ms_ = use_estimate ? wait_estimate_ms : 0;
   bad_state_.q.setConstant(std::nan(""));  // a sample the controller rejects: it answers with its fallback
   estimate_.params = Eigen::VectorXd::Zero(model.nparams());
   estimate_.param_stddev = Eigen::VectorXd::Zero(model.nparams());
@@ -45,18 +51,53 @@ ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceCont
     for (int i = 0; i < 2; ++i) {
       const char* channel = i == 0 ? channels::kPlateRight : channels::kPlateLeft;
       lcm_.subscribeRaw(channel, [this, i](const char*, const void* data, int size, int64_t) {
-        if (gate_.admitEncoded(ch_plate_[i], data, size, plate_msg_, plate_, nullptr, i)) ctrl_.setForcePlate(plate_);
+        if (!gate_.admitEncoded(ch_plate_[i], data, size, plate_msg_, plate_, nullptr, i)) return;
+        if (!holding_) {
+          ctrl_.setForcePlate(plate_);
+          return;
+        }
+        if (plate_held_[i]) ctrl_.setForcePlate(held_plate_[i]);  // (not in lockstep: a newer one of this plate)
+        held_plate_[i] = plate_;
+        plate_held_[i] = true;
       });
     }
   }
-  if (use_estimate) {
-    lcm_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
-      // Every decoded estimate goes to the controller, which refuses (and counts) an unusable one.
-      if (gate_.admitEncoded(ch_estimate_, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
-                             coord_names_))
-        ctrl_.setEstimate(estimate_);
-    });
+  if (!use_estimate) return;
+  if (lcm_.url().rfind("udpm://", 0) == 0) {
+    std::string why;
+    estimate_rx_ = lcmwire::UdpmReceiver::open(lcm_.url(), kEstimateBufferBytes, &why);
+    if (estimate_rx_) {
+      estimate_handler_ = [this](const std::string& channel, const uint8_t* data, size_t size, int64_t) {
+        if (channel == channels::kEstimate) onEstimate(data, static_cast<int>(size));
+      };
+      return;
+    }
+    std::fprintf(stderr, "exo_controller: %s: own socket refused (%s): receiving it through LCM\n",
+                 channels::kEstimate, why.c_str());
   }
+  lcm_.subscribeRaw(channels::kEstimate,
+                    [this](const char*, const void* data, int size, int64_t) { onEstimate(data, size); });
+}
+
+void ControllerNode::onEstimate(const void* data, int size) {
+  // Every decoded estimate goes to the controller, which refuses (and counts) an unusable one.
+  if (!gate_.admitEncoded(ch_estimate_, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
+                          coord_names_))
+    return;
+  ctrl_.setEstimate(estimate_);
+  newest_estimate_tick_ = std::max(newest_estimate_tick_, estimate_.tick);
+  if (holding_ && !mustWait(held_state_.tick)) answerHeld();
+}
+
+int ControllerNode::receive(int timeout_ms) {
+  if (!estimate_rx_) return lcm_.handleTimeout(timeout_ms, &err_);
+  pollfd pfd[2] = {{lcm_.fileno(), POLLIN, 0}, {estimate_rx_->fd(), POLLIN, 0}};
+  if (::poll(pfd, 2, timeout_ms) < 0 && errno != EINTR) {
+    err_ = "poll failed";
+    return -1;
+  }
+  estimate_rx_->drain(estimate_handler_);  // the estimates first: a state held for one is answered at once
+  return lcm_.handleAvailable(1000, &err_);
 }
 
 void ControllerNode::answer(const RobotStateSample& s) {
@@ -79,10 +120,45 @@ void ControllerNode::answer(const RobotStateSample& s) {
   if (status_.trajectory_failed) done_ = true;
 }
 
+bool ControllerNode::mustWait(int64_t tick) const {
+  const int64_t need = tick - config_.estimate.lag_ticks;
+  return wait_estimate_ms_ > 0 && stats_.estimate_timeouts == 0 && need >= 0 && newest_estimate_tick_ < need;
+}
+
+void ControllerNode::answerHeld() {
+  holding_ = false;
+  stats_.estimate_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - held_since_).count();
+  answer(held_state_);
+  for (int i = 0; i < 2; ++i)
+    if (plate_held_[i]) ctrl_.setForcePlate(held_plate_[i]), plate_held_[i] = false;
+}
+
+void ControllerNode::checkWaitTimeout() {
+  if (!holding_ || std::chrono::steady_clock::now() - held_since_ < std::chrono::milliseconds(wait_estimate_ms_))
+    return;
+  ++stats_.estimate_timeouts;
+  stats_.estimate_wait_stopped_tick = held_state_.tick;
+  std::fprintf(stderr,
+               "exo_controller: no %s with tick >= %lld within %d ms at tick %lld (%s): answering without "
+               "waiting from here; the run depends on scheduling\n",
+               channels::kEstimate, static_cast<long long>(held_state_.tick - config_.estimate.lag_ticks),
+               wait_estimate_ms_, static_cast<long long>(held_state_.tick),
+               newest_estimate_tick_ < 0 ? "none received yet" : "the estimator stopped answering");
+  answerHeld();
+}
+
 void ControllerNode::onState(const void* data, int size) {
   last_state_ = std::chrono::steady_clock::now();
+  if (holding_) answerHeld();  // a newer state (not in lockstep, where the sim waits for the answer)
   std::string* why = reported_ < kMaxReportedRejections ? &err_ : nullptr;
   if (gate_.admitEncoded(ch_state_, data, size, state_msg_, state_, why, joint_names_)) {
+    if (mustWait(state_.tick)) {  // lockstep: its estimate first
+      held_state_ = state_;
+      holding_ = true;
+      held_since_ = std::chrono::steady_clock::now();
+      ++stats_.estimate_waits;
+      return;
+    }
     answer(state_);
     return;
   }
@@ -113,8 +189,9 @@ ControllerNode::Outcome ControllerNode::run(int64_t idle_timeout_ms, const volat
       std::fprintf(stderr, "exo_controller: no %s for %lld ms, exiting\n", channels::kState, static_cast<long long>(idle));
       return Outcome::IdleTimeout;
     }
-    const int wait = static_cast<int>(std::min<long long>(kPollSliceMs, idle_timeout_ms - idle));
-    if (lcm_.handleTimeout(std::max(wait, 1), &err_) < 0) {
+    checkWaitTimeout();
+    const int wait = static_cast<int>(std::min<long long>(holding_ ? 1 : kPollSliceMs, idle_timeout_ms - idle));
+    if (receive(std::max(wait, 1)) < 0) {
       std::fprintf(stderr, "exo_controller: LCM: %s\n", err_.c_str());
       return Outcome::LcmError;
     }

@@ -73,6 +73,7 @@ struct Args {
   unsigned long long seed = 1;
   int64_t idle_timeout_ms = kDefaultIdleTimeoutMs;
   int64_t moves = 0;  // 0: the configuration's
+  int wait_estimate_ms = 0;  // 0: never wait for the estimate
   bool no_estimate = false, quiet = false, print_duration = false;
 };
 
@@ -92,6 +93,13 @@ void addOptions(CLI::App& app, Args& a) {
   app.add_option("--idle-timeout-ms", a.idle_timeout_ms, "exit with code 3 when no robot state arrives for N ms")
       ->transform(common::strictInteger(1, 24LL * 3600 * 1000))->type_name("N");
   app.add_flag("--no-estimate", a.no_estimate, "ignore EXO_ESTIMATE (the controller runs on its URDF alone)");
+  app.add_option("--wait-estimate-ms", a.wait_estimate_ms,
+                 "lockstep: answer the state of tick k only once an EXO_ESTIMATE with tick >= k -\n"
+                 "estimate.lag_ticks has arrived, waiting at most MS ms (the estimates the controller\n"
+                 "applies then do not depend on scheduling: the run is reproducible bit for bit); after\n"
+                 "a timeout it stops waiting and says so. Keep MS below the simulator's command\n"
+                 "timeout. 0 (default): never wait")
+      ->transform(common::strictInteger(0, 3600000))->type_name("MS");
   app.add_flag("--quiet", a.quiet, "no progress lines on stderr (errors and the summary are still printed)");
   app.add_flag("--print-duration", a.print_duration,
                "print the planned run time in seconds (start-up latch + moves + holds, from the\n"
@@ -107,10 +115,11 @@ void printSummary(const char* outcome, const Args& a, const exoid::controller::C
   std::printf(
       "exo_controller: %s: seed %llu, moves %d/%d, ticks %lld, CoM ref-vs-estimate RMSE %.3f mm (max %.3f mm), "
       "tick mean %.1f us max %.1f us, fallbacks %d, qp failures %d, rejected %d (answered %lld, unanswered %lld), "
-      "stale %d, publish errors %lld\n",
+      "stale %d, publish errors %lld, estimate waits %lld (%.3f s, timeouts %lld%s)\n",
       outcome, a.seed, status.moves_done, cfg.trajectory.moves, st.ticks, 1e3 * rmse, 1e3 * st.max_com_err,
       st.ticks > 0 ? st.tick_sum / static_cast<double>(st.ticks) : 0.0, st.tick_max, status.fallbacks, status.qp_failures,
-      status.rejected_inputs, st.answered_bad, st.unanswered, status.stale_inputs, st.publish_errors);
+      status.rejected_inputs, st.answered_bad, st.unanswered, status.stale_inputs, st.publish_errors,
+      st.estimate_waits, st.estimate_wait_s, st.estimate_timeouts, st.estimate_timeouts > 0 ? ": not reproducible" : "");
   exoid::controller::printEstimateUse(stdout, "exo_controller", status.estimate);
   std::fflush(stdout);
 }
@@ -148,7 +157,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "exo_controller: LCM: %s\n", err.c_str());
     return kExitRuntime;
   }
-  ControllerNode node(*lcm, model, ctrl, cfg, !a.no_estimate);
+  ControllerNode node(*lcm, model, ctrl, cfg, !a.no_estimate, a.wait_estimate_ms);
   const volatile std::sig_atomic_t* stop = common::installStopSignals();
   if (!a.quiet)
     std::fprintf(stderr, "exo_controller: seed %llu, %d moves, waiting for %s on %s\n", a.seed, cfg.trajectory.moves,

@@ -46,8 +46,13 @@ void printEstimateUse(std::FILE* out, const char* who, const EstimateUse& u) {
     std::fprintf(out, "%s%s %d", first ? "" : ", ", toString(static_cast<EstimateRejection>(r)), u.rejected[r]);
     first = false;
   }
-  std::fprintf(out, "), withdrawn %d (stale %d, refused %d), weight %.3f, mass %.3f kg\n",
+  std::fprintf(out, "), withdrawn %d (stale %d, refused %d), weight %.3f, mass %.3f kg",
                u.withdrawn_stale + u.withdrawn_refused, u.withdrawn_stale, u.withdrawn_refused, u.weight, u.mass);
+  // Off the fixed lag's rule (0 in a reproducible run): said only when it happened.
+  if (u.late + u.out_of_order + u.overflow > 0)
+    std::fprintf(out, ", late %d, dropped %d (out of order %d, queue full %d)", u.late, u.out_of_order + u.overflow,
+                 u.out_of_order, u.overflow);
+  std::fputc('\n', out);
 }
 
 double plannedRunDuration(const ControllerConfig& c) {
@@ -115,6 +120,10 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
   planned_tick_.fill(-1);
   ff_input_ = Eigen::VectorXd::Zero(model.nv);
   phi_hat_ = model.phi;
+  for (PendingEstimate& p : pending_) {
+    p.params = model.phi;
+    p.ff = Eigen::VectorXd::Zero(model.nv);
+  }
   joint_actuated_ = Eigen::VectorXi::Zero(model.njoints);
   joint_limit_ = Eigen::VectorXd::Zero(model.njoints);
   const auto& act = formulation_.actuatedRows();
@@ -133,48 +142,107 @@ void BalanceController::sizeCommand(JointCommandSample& c) const {
   c.tau_ff = Eigen::VectorXd::Zero(model_.njoints);
 }
 
-bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
-  const auto refuse = [this](EstimateRejection why) {
-    ++estimate_use_.rejected[static_cast<size_t>(why)];
-    last_refusal_ = why;
-    has_estimate_ = false;  // a newer estimate says no: stop using the older one (blended out from its values)
-    return false;
-  };
-  if (!cfg_.estimate.enabled) return refuse(EstimateRejection::Disabled);
-  if (e.params.size() != model_.nparams() || e.tau_correction.size() != model_.nv) return refuse(EstimateRejection::WrongSize);
-  if (e.tau_correction_stddev.size() != model_.nv) return refuse(EstimateRejection::WrongSize);
+EstimateRejection BalanceController::judgeEstimate(const EstimatorOutputSample& e, double& mass) const {
+  mass = 0.0;
+  if (!cfg_.estimate.enabled) return EstimateRejection::Disabled;
+  if (e.params.size() != model_.nparams() || e.tau_correction.size() != model_.nv) return EstimateRejection::WrongSize;
+  if (e.tau_correction_stddev.size() != model_.nv) return EstimateRejection::WrongSize;
   if (!e.params.allFinite() || !e.tau_correction.allFinite() || !e.tau_correction_stddev.allFinite() ||
       !e.com_stddev.allFinite() || !std::isfinite(e.mass_stddev))
-    return refuse(EstimateRejection::NonFinite);
-  if (!e.valid) return refuse(EstimateRejection::NotValid);
-  if (!e.consistent) return refuse(EstimateRejection::Inconsistent);
-  double mass = 0.0;
+    return EstimateRejection::NonFinite;
+  if (!e.valid) return EstimateRejection::NotValid;
+  if (!e.consistent) return EstimateRejection::Inconsistent;
   for (int b = 0; b < model_.nbodies; ++b) {
     const Vector10d phi = e.params.segment<kParamsPerBody>(model_.bodyParamIndex(b));
     // The model may carry massless bodies (fixed frames); the estimator keeps them at the prior.
     if (model_.phi[model_.bodyParamIndex(b)] <= 0.0 && phi.isZero(0.0)) continue;
-    if (!checkConsistency(phi).consistent) return refuse(EstimateRejection::Inconsistent);
+    if (!checkConsistency(phi).consistent) return EstimateRejection::Inconsistent;
     mass += phi[0];
   }
   double model_mass = 0.0;
   for (int b = 0; b < model_.nbodies; ++b) model_mass += model_.phi[model_.bodyParamIndex(b)];
   if (!(std::abs(mass - model_mass) <= cfg_.estimate.max_relative_mass_change * model_mass))
-    return refuse(EstimateRejection::Mass);
-  phi_hat_ = e.params;
-  com_stddev_ = e.com_stddev;
-  mass_stddev_ = e.mass_stddev;
-  // Each entry of the correction as far as it stands out of its own uncertainty, then bounded.
-  for (int r = 0; r < model_.nv; ++r)
-    ff_input_[r] = trustWeight(e.tau_correction[r], e.tau_correction_stddev[r]) * e.tau_correction[r];
-  ff_input_ = ff_input_.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
-  estimate_tick_ = e.tick;
-  has_estimate_ = true;
-  ++estimate_use_.accepted;
-  estimate_use_.mass = mass;
-  return true;
+    return EstimateRejection::Mass;
+  return EstimateRejection::None;
 }
 
-void BalanceController::clearEstimate() { has_estimate_ = false; }
+bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
+  if (has_applied_estimate_ && e.tick < applied_estimate_tick_) {  // would undo a newer one
+    ++estimate_use_.out_of_order;
+    return false;
+  }
+  double mass = 0.0;
+  const EstimateRejection verdict = judgeEstimate(e, mass);
+  // Its slot: a free one, or (queue full) the oldest pending one's, unless this estimate is older still.
+  int at = pending_count_;  // position in the tick order
+  while (at > 0 && pending_[static_cast<size_t>(pending_order_[static_cast<size_t>(at - 1)])].tick > e.tick) --at;
+  int slot = pending_count_;
+  if (pending_count_ == kEstimateQueue) {
+    ++estimate_use_.overflow;
+    if (at == 0) return false;
+    slot = pending_order_[0];
+    std::copy(pending_order_.begin() + 1, pending_order_.begin() + pending_count_, pending_order_.begin());
+    --pending_count_;
+    --at;
+  } else {
+    // Slots in use are exactly those named in pending_order_[0, count): take the first one not named.
+    for (slot = 0; slot < kEstimateQueue; ++slot)
+      if (std::find(pending_order_.begin(), pending_order_.begin() + pending_count_, slot) ==
+          pending_order_.begin() + pending_count_)
+        break;
+  }
+  PendingEstimate& p = pending_[static_cast<size_t>(slot)];
+  p.tick = e.tick;
+  p.verdict = verdict;
+  p.late = has_last_tick_ && last_tick_ >= e.tick + cfg_.estimate.lag_ticks;
+  p.mass = mass;
+  if (verdict == EstimateRejection::None) {
+    p.params = e.params;
+    // Each entry of the correction as far as it stands out of its own uncertainty, then bounded.
+    for (int r = 0; r < model_.nv; ++r)
+      p.ff[r] = trustWeight(e.tau_correction[r], e.tau_correction_stddev[r]) * e.tau_correction[r];
+    p.ff = p.ff.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
+    p.com_stddev = e.com_stddev;
+    p.mass_stddev = e.mass_stddev;
+  }
+  std::copy_backward(pending_order_.begin() + at, pending_order_.begin() + pending_count_,
+                     pending_order_.begin() + pending_count_ + 1);
+  pending_order_[static_cast<size_t>(at)] = slot;
+  ++pending_count_;
+  return verdict == EstimateRejection::None;
+}
+
+void BalanceController::applyDueEstimates(int64_t tick) {
+  int n = 0;
+  for (; n < pending_count_; ++n) {
+    PendingEstimate& p = pending_[static_cast<size_t>(pending_order_[static_cast<size_t>(n)])];
+    if (p.tick > tick - cfg_.estimate.lag_ticks) break;
+    has_applied_estimate_ = true;
+    applied_estimate_tick_ = p.tick;
+    if (p.late) ++estimate_use_.late;
+    if (p.verdict != EstimateRejection::None) {
+      ++estimate_use_.rejected[static_cast<size_t>(p.verdict)];
+      last_refusal_ = p.verdict;
+      has_estimate_ = false;  // a newer estimate says no: stop using the older one (blended out from its values)
+      continue;
+    }
+    phi_hat_.swap(p.params);  // the slot keeps the old vectors: no allocation
+    ff_input_.swap(p.ff);
+    com_stddev_ = p.com_stddev;
+    mass_stddev_ = p.mass_stddev;
+    estimate_tick_ = p.tick;
+    has_estimate_ = true;
+    ++estimate_use_.accepted;
+    estimate_use_.mass = p.mass;
+  }
+  std::copy(pending_order_.begin() + n, pending_order_.begin() + pending_count_, pending_order_.begin());
+  pending_count_ -= n;
+}
+
+void BalanceController::clearEstimate() {
+  has_estimate_ = false;
+  pending_count_ = 0;
+}
 
 void BalanceController::advanceEstimateBlend(int64_t tick) {
   // On while the last accepted estimate stands and is fresh; the ramp moves toward on/off at 1 / blend_time.
@@ -328,6 +396,7 @@ FallbackReason BalanceController::acceptState(const RobotStateSample& in, bool& 
   last_tick_ = in.tick;
   fresh = true;
   const FallbackReason reason = gap - 1 > cfg_.fallback.max_missed_ticks ? FallbackReason::Stale : FallbackReason::None;
+  applyDueEstimates(in.tick);
   advanceEstimateBlend(in.tick);
   if (observer_->latched() && !was_latched) startTrajectory(in.tick);
   return reason;

@@ -280,14 +280,15 @@ void readFallbackSection(Reader& r, const YAML::Node& root, ControllerConfig& c)
 void readEstimateSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
   const char* n = "estimate";
   const auto s = r.section(root, n,
-                           {"enabled", "use_feedforward", "use_com", "use_com_height", "max_abs", "max_age_ticks", "blend_time",
-                            "max_relative_mass_change", "trust_sigmas"});
+                           {"enabled", "use_feedforward", "use_com", "use_com_height", "max_abs", "max_age_ticks", "lag_ticks",
+                            "blend_time", "max_relative_mass_change", "trust_sigmas"});
   r.boolean(s, n, "enabled", c.estimate.enabled);
   r.boolean(s, n, "use_feedforward", c.estimate.use_feedforward);
   r.boolean(s, n, "use_com", c.estimate.use_com);
   r.boolean(s, n, "use_com_height", c.estimate.use_com_height);
   r.number(s, n, "max_abs", c.estimate.max_abs);
   r.integer(s, n, "max_age_ticks", c.estimate.max_age_ticks);
+  r.integer(s, n, "lag_ticks", c.estimate.lag_ticks);
   r.number(s, n, "blend_time", c.estimate.blend_time);
   r.number(s, n, "max_relative_mass_change", c.estimate.max_relative_mass_change);
   r.number(s, n, "trust_sigmas", c.estimate.trust_sigmas);
@@ -418,6 +419,10 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
          positive(f.max_quaternion_norm_error, "fallback.max_quaternion_norm_error") &&
          nonneg(c.estimate.max_abs, "estimate.max_abs") &&
          (c.estimate.max_age_ticks >= 0 ? true : failWith(error, "estimate.max_age_ticks: must be >= 0")) &&
+         (c.estimate.lag_ticks >= 0 && c.estimate.lag_ticks < c.estimate.max_age_ticks
+              ? true
+              : failWith(error, "estimate.lag_ticks: must be >= 0 and below estimate.max_age_ticks (an estimate "
+                                "applied that late is already stale)")) &&
          nonneg(c.estimate.blend_time, "estimate.blend_time") &&
          positive(c.estimate.max_relative_mass_change, "estimate.max_relative_mass_change") &&
          nonneg(c.estimate.trust_sigmas, "estimate.trust_sigmas") &&

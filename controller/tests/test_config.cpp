@@ -48,7 +48,8 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_GT(c.momentum.kp_com.minCoeff(), 0.0);
   EXPECT_TRUE(c.estimate.enabled && c.estimate.use_feedforward && c.estimate.use_com);
   EXPECT_DOUBLE_EQ(c.estimate.max_abs, 150.0);
-  EXPECT_EQ(c.estimate.max_age_ticks, 80);
+  EXPECT_EQ(c.estimate.max_age_ticks, 120);
+  EXPECT_EQ(c.estimate.lag_ticks, 70);
   EXPECT_DOUBLE_EQ(c.estimate.blend_time, 1.0);
   EXPECT_DOUBLE_EQ(c.estimate.max_relative_mass_change, 0.5);
   EXPECT_TRUE(validateControllerConfig(c, &err)) << err;
@@ -74,6 +75,8 @@ TEST(ControllerConfig, ErrorsNameTheField) {
   EXPECT_NE(err.find("Nyquist"), std::string::npos) << err;
   EXPECT_FALSE(parseControllerConfig(withLine(text, "blend_time", "blend_time: -1"), "cfg", c, &err));
   EXPECT_NE(err.find("estimate.blend_time: must be >= 0"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "lag_ticks", "lag_ticks: 120"), "cfg", c, &err));
+  EXPECT_NE(err.find("estimate.lag_ticks: must be >= 0 and below estimate.max_age_ticks"), std::string::npos) << err;
   EXPECT_FALSE(parseControllerConfig(withLine(text, "max_relative_mass_change", "max_relative_mass_change: 0"), "cfg",
                                      c, &err));
   EXPECT_NE(err.find("estimate.max_relative_mass_change: must be > 0"), std::string::npos) << err;

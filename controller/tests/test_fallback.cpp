@@ -41,6 +41,9 @@ class FallbackTest : public ::testing::Test {
     std::string err;
     ASSERT_TRUE(testing::loadModel(model_, &err)) << err;
     ASSERT_TRUE(testing::loadConfig(cfg_, &err)) << err;
+    // These tests are about what an applied estimate does: applied from the tick it names (the fixed lag has
+    // its own test, EstimatesAreAppliedExactlyLagTicksAfterTheirTickInTickOrder).
+    cfg_.estimate.lag_ticks = 0;
     make(cfg_);
   }
   void make(const ControllerConfig& cfg) {
@@ -359,6 +362,72 @@ TEST_F(FallbackTest, UnusableEstimatesAreRefusedByReasonAndWithdrawTheCurrentOne
   off.estimate.enabled = false;
   make(off);
   EXPECT_FALSE(ctrl_->setEstimate(good));
+}
+
+// The fixed lag (estimate.lag_ticks = L): the estimate of tick e is applied at the state of tick e + L exactly,
+// whenever and in whatever order it was offered; none before its tick; a refusal withdraws at its tick too. An
+// estimate older than the one applied last is dropped, one that arrives after its tick is applied at the next
+// tick and counted late, a full queue drops its oldest.
+TEST_F(FallbackTest, EstimatesAreAppliedExactlyLagTicksAfterTheirTickInTickOrder) {
+  ControllerConfig cfg = cfg_;
+  cfg.estimate.lag_ticks = 20;
+  cfg.estimate.max_age_ticks = 200;
+  cfg.estimate.blend_time = 0.0;  // the weight switches at once: tau_ff shows which estimate is applied
+  make(cfg);
+  const int64_t k0 = settle();
+  const int L = cfg.estimate.lag_ticks;
+  const int knee = model_.jointIndex("left_knee");
+  // command.tau_ff holds the disturbance observer's estimate too: the estimate's part is what is left.
+  const auto fromEstimate = [&] {
+    return cmd_.tau_ff[knee] - ctrl_->disturbanceObserver().estimate()[model_.jointRow(knee)];
+  };
+  const auto offer = [&](int64_t tick, double ff, bool valid) {
+    EstimatorOutputSample e = modelEstimate(model_, tick);
+    e.tau_correction[model_.jointRow(knee)] = ff;
+    e.valid = valid;
+    return ctrl_->setEstimate(e);
+  };
+  // Offered early and out of order, before tick k0: 1.0 at k0 + 5, 2.0 at k0 + 2, a refusal at k0 + 12, 4.0 at
+  // k0 + 15.
+  EXPECT_TRUE(offer(k0 + 5, 1.0, true));
+  EXPECT_TRUE(offer(k0 + 2, 2.0, true));
+  EXPECT_FALSE(offer(k0 + 12, 3.0, false));
+  EXPECT_TRUE(offer(k0 + 15, 4.0, true));
+  EXPECT_EQ(ctrl_->pendingEstimates(), 4);
+  const auto expected = [&](int64_t k) {  // tau_ff of the command answering state k
+    if (k < k0 + 2 + L) return 0.0;
+    if (k < k0 + 5 + L) return 2.0;
+    if (k < k0 + 12 + L) return 1.0;
+    if (k < k0 + 15 + L) return 0.0;  // withdrawn by the refusal
+    return 4.0;
+  };
+  int64_t k = k0;
+  for (; k < k0 + 15 + L + 5; ++k) {
+    tick(k);
+    ASSERT_NEAR(fromEstimate(), expected(k), 1e-12) << "tick " << k - k0 << " after the offers";
+    ASSERT_EQ(st_.estimate.accepted, (k >= k0 + 2 + L) + (k >= k0 + 5 + L) + (k >= k0 + 15 + L)) << k - k0;
+    ASSERT_EQ(st_.estimate.rejected[static_cast<size_t>(EstimateRejection::NotValid)], k >= k0 + 12 + L ? 1 : 0);
+  }
+  EXPECT_EQ(ctrl_->pendingEstimates(), 0);
+  EXPECT_EQ(st_.estimate.withdrawn_refused, 1);
+  EXPECT_EQ(st_.estimate.late + st_.estimate.out_of_order + st_.estimate.overflow, 0);
+  // Older than the one applied last (k0 + 15): dropped, whatever it says.
+  EXPECT_FALSE(offer(k0 + 14, 5.0, true));
+  EXPECT_EQ(ctrl_->pendingEstimates(), 0);
+  tick(k++);
+  EXPECT_EQ(st_.estimate.out_of_order, 1);
+  EXPECT_NEAR(fromEstimate(), 4.0, 1e-12);
+  // Arrived after its tick + L had been ticked: applied at the next tick, counted late.
+  EXPECT_TRUE(offer(k - L - 3, 6.0, true));
+  tick(k++);
+  EXPECT_NEAR(fromEstimate(), 6.0, 1e-12);
+  EXPECT_EQ(st_.estimate.late, 1);
+  // A full queue drops its oldest: 17 estimates ahead, the first (tick k + 1) never applied.
+  for (int i = 1; i <= 17; ++i) offer(k + i, 10.0 + i, true);
+  EXPECT_EQ(ctrl_->pendingEstimates(), 16);
+  for (int i = 0; i <= L + 2; ++i) tick(k++);  // up to the state of tick (first k) + 2 + L
+  EXPECT_EQ(st_.estimate.overflow, 1);
+  EXPECT_NEAR(fromEstimate(), 12.0, 1e-12);  // tick k + 2's (k + 1's was dropped)
 }
 
 TEST_F(FallbackTest, EstimatedComBlendsInWithoutAKickAndIsTracked) {

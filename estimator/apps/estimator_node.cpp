@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <algorithm>
 #include <filesystem>
 
 namespace exoid::estimator {
@@ -69,19 +70,44 @@ void EstimatorNode::onPlate(int i, const void* data, int size) {
 }
 
 void EstimatorNode::maybePublish() {
-  if (est_.samplesSincePublication() < opt_.publish_every) return;
+  // Tick-aligned, so that the publications are a function of the rows folded in: the first row at or after each
+  // row r with (r + 1) % publish_every == 0 (after a gap, the first row past it).
+  if (est_.samplesSincePublication() == 0) return;
+  const long row = est_.lastRowTick(), n = opt_.publish_every;
+  if (next_row_ < 0) next_row_ = (row + n) / n * n - 1;  // the first aligned row >= the first row
+  if (row < next_row_) return;
+  next_row_ = (row + 1 + n) / n * n - 1;  // the next aligned row after this one
+  publish();
+}
+
+void EstimatorNode::cycleReconcile() {
+  const int j = next_job_;  // the oldest job in flight
+  next_job_ = (next_job_ + 1) % kReconcileDepth;
+  std::future<void>& pending = pending_[static_cast<size_t>(j)];
+  OnlineEstimator::ReconcileJob& job = jobs_[static_cast<size_t>(j)];
+  if (pending.valid()) {
+    if (pending.wait_for(std::chrono::seconds(0)) != std::future_status::ready) {
+      const auto t0 = std::chrono::steady_clock::now();
+      pending.wait();
+      ++reconcile_waits_;
+      const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      reconcile_wait_s_ += waited;
+      reconcile_wait_max_s_ = std::max(reconcile_wait_max_s_, waited);
+    }
+    pending.get();
+  }
+  if (job_begun_[static_cast<size_t>(j)]) est_.finishReconcile(job);  // phi_c from the next publication on
+  job_begun_[static_cast<size_t>(j)] = est_.beginReconcile(job);
+  if (!job_begun_[static_cast<size_t>(j)]) return;
+  if (opt_.reconcile_async) pending = std::async(std::launch::async, [this, &job] { est_.solveReconcile(job); });
+  else est_.solveReconcile(job);
+}
+
+void EstimatorNode::publish() {
   est_.fillOutput(out_);
   // Consistent standard parameters at a lower rate (allocates, ~10 ms: docs/estimator.md), off the receive
-  // path on a worker: a finished solve is adopted here and used from the next publication.
-  if (pending_.valid() && pending_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-    pending_.get();
-    est_.finishReconcile(job_);
-  }
-  if (est_.reconcileDue()) {
-    if (!opt_.reconcile_async) est_.reconcile(out_);
-    else if (!pending_.valid() && est_.beginReconcile(job_))
-      pending_ = std::async(std::launch::async, [this] { est_.solveReconcile(job_); });
-  }
+  // path: begun at one due publication, adopted at the next whatever the worker's timing.
+  if (est_.reconcileDue()) cycleReconcile();
   out_.utime = out_.tick * 1000;  // the simulated (or hardware) time of the tick the estimate reached
   // Messages the gate refused never reached the estimator: their counts join the estimator's own.
   out_.rejected_nonfinite += static_cast<int32_t>(gate_.rejected(RejectReason::NonFinite) +

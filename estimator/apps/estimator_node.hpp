@@ -1,9 +1,13 @@
 #pragma once
 // exo_estimator's loop over LCM (the thin main parses options; this is what tests drive over memq://):
 // EXO_STATE and EXO_PLATE_RIGHT/LEFT through a MessageGate (undecodable, non-finite, duplicate and out-of-order
-// messages rejected and counted per reason) into the OnlineEstimator; EXO_ESTIMATE every `publish_every`
-// folded samples (inside the receive callback: allocation-free); the checkpoint written between receive calls
-// (never inside the per-sample path), every checkpoint_every_s of wall time and on demand.
+// messages rejected and counted per reason) into the OnlineEstimator; EXO_ESTIMATE at tick-aligned rows (the
+// first folded row at or after each row r with (r + 1) % publish_every == 0; inside the receive callback:
+// allocation-free); the checkpoint written between receive calls (never inside the per-sample path), every
+// checkpoint_every_s of wall time and on demand. What it publishes is a function of the messages it received
+// only, never of timing: the consistent solve begun at one due publication is adopted at the second due one
+// after (waited for), and a checkpoint only reads the estimator (docs/estimator.md "Determinism").
+#include <array>
 #include <future>
 #include <chrono>
 #include <csignal>
@@ -21,12 +25,14 @@
 namespace exoid::estimator {
 
 struct NodeOptions {
-  int publish_every = 10;           ///< folded samples per EXO_ESTIMATE (10: 100 Hz at 1 kHz)
+  int publish_every = 10;           ///< rows per EXO_ESTIMATE, tick-aligned (10: 100 Hz at 1 kHz)
   std::string checkpoint;           ///< path; empty: none
   double checkpoint_every_s = 5.0;  ///< wall seconds between checkpoints (<= 0: only on demand / exit)
-  /// The consistent-parameter solve (OnlineEstimator::reconcile, ~10 ms) on a worker thread, its result used from
-  /// the first publication after it ends (so samples keep being received meanwhile); false: in the publishing
-  /// call, deterministic (tests comparing the node with an estimator fed directly).
+  /// The consistent-parameter solve (OnlineEstimator::reconcile's three steps, ~10 ms), begun at every due
+  /// publication (OnlineEstimator::reconcileDue) and adopted at the second due one after (used from the
+  /// publication after that): on worker threads (samples keep being received meanwhile; the adopting
+  /// publication waits for the solve if it is not done), or, false, in the publishing call. Either way the same
+  /// publications, bit for bit.
   bool reconcile_async = true;
   /// On a udpm:// endpoint, receive from the node's own socket (lcmwire::UdpmReceiver: the kernel buffer holds
   /// bursts while the process is descheduled; LCM 1.3.1's lcm_handle ring drops them: 7-28 % of the samples in
@@ -59,6 +65,10 @@ class EstimatorNode {
   Outcome run(int64_t idle_timeout_ms, const volatile std::sig_atomic_t* stop);
 
   long publications() const { return publications_; }
+  /// Due publications that had to wait for the worker's consistent solve (reconcile_async).
+  long reconcileWaits() const { return reconcile_waits_; }
+  double reconcileWaitMax() const { return reconcile_wait_max_s_; }  ///< s, the longest of those waits
+  double reconcileWaitTotal() const { return reconcile_wait_s_; }    ///< s, all of them
   long publishErrors() const { return publish_errors_; }
   long validPublications() const { return valid_publications_; }  ///< estimates published with valid = 1
   long checkpointsWritten() const { return checkpoints_; }
@@ -71,6 +81,10 @@ class EstimatorNode {
 
  private:
   void maybePublish();
+  void publish();
+  /// At a due publication: adopts the consistent solve begun kReconcileDepth due publications ago (waiting for
+  /// its worker), begins the next.
+  void cycleReconcile();
   void onState(const void* data, int size);
   void onPlate(int i, const void* data, int size);
   LcmEndpoint& lcm_;
@@ -80,8 +94,15 @@ class EstimatorNode {
   const Model& model_;
   OnlineEstimator& est_;
   NodeOptions opt_;
-  OnlineEstimator::ReconcileJob job_;
-  std::future<void> pending_;  ///< the worker's solve of job_, when one runs
+  // The consistent solves in flight, begun at the last kReconcileDepth due publications (ring, oldest next_job_).
+  static constexpr int kReconcileDepth = 2;
+  std::array<OnlineEstimator::ReconcileJob, kReconcileDepth> jobs_;
+  std::array<std::future<void>, kReconcileDepth> pending_;  ///< the worker's solve of each job, when one runs
+  std::array<bool, kReconcileDepth> job_begun_{};           ///< begun, not yet adopted
+  int next_job_ = 0;
+  long next_row_ = -1;         ///< publish at the first row >= this (aligned); -1 before the first row
+  long reconcile_waits_ = 0;
+  double reconcile_wait_max_s_ = 0.0, reconcile_wait_s_ = 0.0;
   MessageGate gate_;
   int ch_state_ = 0, ch_plate_[2] = {0, 0};
   std::vector<std::string> joint_names_, param_names_, coord_names_;

@@ -277,7 +277,7 @@ void printSummary(const char* outcome, const exoid::estimator::OnlineEstimator& 
   const MessageGate& gate = node.gate();
   std::printf("exo_estimator: %s: samples %lld, rejected %llu (non-finite %llu, malformed %llu, duplicate %llu, "
               "out of order %llu), missing %lld, publications %ld, publish errors %ld, checkpoints %ld (errors %ld), "
-              "valid publications %ld, consistent solves %ld, last: tick %lld valid %d consistent %d excitation %.2f "
+              "valid publications %ld, consistent solves %ld (waited for %ld: %.2f s, longest %.1f ms), last: tick %lld valid %d consistent %d excitation %.2f "
               "misfit ratio %.4g, changes detected %ld (last at tick %ld, largest statistic %.3g)\n",
               outcome, static_cast<long long>(est.rlsData().accepted),
               static_cast<unsigned long long>(gate.rejectedTotal() + est.rejected(InputStatus::NonFinite) +
@@ -288,7 +288,7 @@ void printSummary(const char* outcome, const exoid::estimator::OnlineEstimator& 
               static_cast<unsigned long long>(gate.rejected(RejectReason::Duplicate) + est.rejected(InputStatus::Duplicate)),
               static_cast<unsigned long long>(gate.rejected(RejectReason::OutOfOrder) + est.rejected(InputStatus::OutOfOrder)),
               static_cast<long long>(est.rlsData().missing), node.publications(), node.publishErrors(),
-              node.checkpointsWritten(), node.checkpointErrors(), node.validPublications(), est.reconciles(),
+              node.checkpointsWritten(), node.checkpointErrors(), node.validPublications(), est.reconciles(), node.reconcileWaits(), node.reconcileWaitTotal(), 1e3 * node.reconcileWaitMax(),
               static_cast<long long>(last.tick), last.valid ? 1 : 0, last.consistent ? 1 : 0, last.excitation,
               est.misfitRatio(), est.changesDetected(), est.lastChangeTick(),
               est.largestChangeStatistic());

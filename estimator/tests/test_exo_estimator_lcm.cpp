@@ -80,6 +80,9 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
   EstimatorOutputSample expected;
   ref.sizeOutput(expected);
   std::vector<EstimatorOutputSample> expected_all;
+  OnlineEstimator::ReconcileJob jobs[2];
+  bool begun[2] = {false, false};
+  int due = 0;
 
   testing::SensorTick t = testing::makeSensorTick(model);
   std::mt19937_64 rng(3);
@@ -118,14 +121,21 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
     ref.addState(t.state);
     ref.addPlate(t.plate[0]);
     ref.addPlate(t.plate[1]);
-    if (ref.samplesSincePublication() >= nopt.publish_every) {
+    // Published at the rows r with (r + 1) % publish_every == 0; the consistent solve begun at a due publication
+    // is adopted at the second due one after (used from the publication after that).
+    if (ref.samplesSincePublication() > 0 && (ref.lastRowTick() + 1) % nopt.publish_every == 0) {
       ref.fillOutput(expected);
-      if (ref.reconcileDue()) ref.reconcile(expected);  // as the node does
+      if (ref.reconcileDue()) {
+        const int j = due++ % 2;
+        if (begun[j]) ref.finishReconcile(jobs[j]);
+        begun[j] = ref.beginReconcile(jobs[j]);
+        if (begun[j]) ref.solveReconcile(jobs[j]);
+      }
       expected_all.push_back(expected);
     }
   }
   ASSERT_EQ(received.size(), expected_all.size());
-  ASSERT_EQ(received.size(), 20u);  // 400 folded samples / 20
+  ASSERT_EQ(received.size(), 20u);  // rows 30..429 folded, published at rows 39, 59, ..., 419
   EXPECT_EQ(refused, 0);
   for (size_t i = 0; i < received.size(); ++i) {
     EXPECT_EQ(received[i].params, expected_all[i].params) << i;
@@ -138,10 +148,71 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
   EXPECT_EQ(last.rejected_duplicate, 1);
   EXPECT_EQ(last.rejected_out_of_order, 1);
   EXPECT_EQ(last.samples_rejected, 4);
-  EXPECT_EQ(last.samples_used, 400);
+  EXPECT_EQ(last.tick, 419);
+  EXPECT_EQ(last.samples_used, 390);
   EXPECT_EQ(last.samples_missing, 0);
   EXPECT_EQ(node.publications(), 20);
   EXPECT_EQ(node.publishErrors(), 0);
+}
+
+// What the node publishes depends on the messages alone: at the tick-aligned rows (after a lost tick, the first
+// row past the aligned one it skipped), and the consistent solve on a worker thread gives the same publications
+// bit for bit as the solve in the publishing call, whenever the worker finishes.
+TEST(ExoEstimatorLcm, PublicationsAreTickAlignedAndIndependentOfTheWorkersTiming) {
+  const ExoSetup& s = setup();
+  const Model& model = s.model;
+  OnlineEstimatorOptions opt;
+  const long L = opt.derivative_half_window;
+  const long lost = 300, ticks = 700;  // every message of tick 300 lost
+  std::vector<EstimatorOutputSample> runs[2];
+  long waits = 0;
+  for (int async = 0; async < 2; ++async) {
+    LcmEndpoint lcm("memq://");
+    OnlineEstimator est(model, s.base, model.phi, opt);
+    NodeOptions nopt;
+    nopt.reconcile_async = async == 1;
+    EstimatorNode node(lcm, model, est, nopt);
+    const std::vector<std::string> params = model.paramNames(), coords = model.coordinateNames();
+    lcm.subscribe<exoid_lcm::estimator_output_t>(channels::kEstimate, [&](const char*, const exoid_lcm::estimator_output_t& m) {
+      EstimatorOutputSample o;
+      std::string why;
+      if (fromLcm(m, params, static_cast<size_t>(s.base.rank), coords, o, &why)) runs[async].push_back(o);
+      else ADD_FAILURE() << why;
+    });
+    testing::SensorTick t = testing::makeSensorTick(model);
+    std::mt19937_64 rng(5);
+    exoid_lcm::robot_state_t sm;
+    exoid_lcm::force_plate_t pm;
+    for (long k = 0; k < ticks; ++k) {
+      testing::fillSensorTick(model, k, 0.3, 1.0, rng, t);
+      if (k == lost) continue;
+      toLcm(t.state, model.joint_names, sm);
+      lcm.publish(channels::kState, sm);
+      for (int i = 0; i < 2; ++i) {
+        toLcm(t.plate[i], pm);
+        lcm.publish(i == 0 ? channels::kPlateRight : channels::kPlateLeft, pm);
+      }
+      drain(node);
+    }
+    if (async == 1) waits = node.reconcileWaits();
+    EXPECT_GE(est.reconciles(), 4);  // solves begun at publications 1, 11, ..., adopted twenty later
+  }
+  // Rows L .. lost - 1 - L, then, the fit's window refilled after the gap, lost + 1 + L .. ticks - 1 - L.
+  std::vector<long> rows;
+  for (long r = 39; r <= lost - 1 - L; r += 10) rows.push_back(r);
+  rows.push_back(lost + 1 + L);  // 331: the first row past the skipped aligned rows 279 .. 329
+  for (long r = 339; r <= ticks - 1 - L; r += 10) rows.push_back(r);
+  ASSERT_EQ(runs[0].size(), rows.size());
+  ASSERT_EQ(runs[1].size(), rows.size());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(runs[0][i].tick, rows[i]) << i;
+    EXPECT_EQ(runs[1][i].tick, rows[i]) << i;
+    EXPECT_EQ(runs[1][i].params, runs[0][i].params) << "publication " << i;
+    EXPECT_EQ(runs[1][i].tau_correction, runs[0][i].tau_correction) << i;
+    EXPECT_EQ(runs[1][i].valid, runs[0][i].valid) << i;
+    EXPECT_EQ(runs[1][i].consistent, runs[0][i].consistent) << i;
+  }
+  std::printf("consistent solves the async node waited for: %ld\n", waits);
 }
 
 TEST(ExoEstimatorLcm, CheckpointIsWrittenAndResumed) {

@@ -168,6 +168,17 @@ void addPluginOptions(CLI::App& app, Args& a) {
   app.add_option("--plugin-hold-ticks", a.plugin.hold_ticks,
                  "plugin fallback: controller ticks on the last good torque before damping")
       ->transform(common::strictInteger(0, 1000000000))->type_name("N");
+  app.add_option("--estimate-lag-ticks", a.opt.estimate_lag_ticks,
+                 "lockstep, with a plugin taking EXO_ESTIMATE: before the plugin's tick k, wait until an\n"
+                 "estimate with tick >= k - L has arrived, so that the estimates it applies (those with\n"
+                 "tick <= k - L: its configuration's estimate.lag_ticks, which L must equal) do not\n"
+                 "depend on scheduling; the run is then reproducible bit for bit (docs/sim.md).\n"
+                 "Default: no wait")
+      ->transform(common::strictInteger(0, 1000000))->type_name("L");
+  app.add_option("--estimate-timeout-ms", a.opt.estimate_timeout_ms,
+                 "the longest of those waits (--start-timeout-s before the first estimate); after a\n"
+                 "timeout the loop stops waiting and says so: the run is no longer reproducible")
+      ->transform(common::strictInteger(1, 3600000))->type_name("MS");
   app.add_flag("--no-estimate", a.no_estimate,
                "with a plugin: do not subscribe to EXO_ESTIMATE (no estimator running: the loop then\n"
                "reads nothing back from LCM, which saves a receive per published message)");

@@ -1,10 +1,16 @@
 #include "plugin_link.hpp"
 
+#include <algorithm>
+#include <cstdio>
+
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
 
 namespace exoid::sim {
+namespace {
+constexpr size_t kRawBufferBytes = size_t{64} << 20;  // the estimator's and the logger's: bursts wait there
+}  // namespace
 
 PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vector<std::string>& joint_names)
     : plugin_(plugin), ep_(ep), joint_names_(joint_names), gate_({channels::kEstimate}) {
@@ -21,12 +27,35 @@ PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vec
     coord_names_ = model.coordinateNames();
     estimate_.tau_correction = Eigen::VectorXd::Zero(model.nv);
     estimate_.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
+    if (ep_.url().rfind("udpm://", 0) == 0) {
+      std::string why;
+      receiver_ = lcmwire::UdpmReceiver::open(ep_.url(), kRawBufferBytes, &why);
+      if (receiver_) {
+        raw_handler_ = [this](const std::string& channel, const uint8_t* data, size_t size, int64_t) {
+          if (channel == channels::kEstimate) onEstimate(data, static_cast<int>(size));
+        };
+        return;
+      }
+      std::fprintf(stderr, "exo_sim: %s: own socket refused (%s): receiving it through LCM\n", channels::kEstimate,
+                   why.c_str());
+    }
     subscription_ = ep_.subscribeRaw(channels::kEstimate, [this](const char*, const void* data, int size, int64_t) {
-      if (gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase,
-                             coord_names_))
-        plugin_.setEstimate(estimate_);  // every decoded estimate, as exo_controller: the plugin judges it
+      onEstimate(data, size);
     });
   }
+}
+
+void PluginLink::onEstimate(const void* data, int size) {
+  if (!gate_.admitEncoded(0, data, size, estimate_msg_, estimate_, nullptr, param_names_, kAnyNumBase, coord_names_))
+    return;
+  plugin_.setEstimate(estimate_);  // every decoded estimate, as exo_controller: the plugin judges it
+  newest_estimate_tick_ = std::max(newest_estimate_tick_, estimate_.tick);
+}
+
+bool PluginLink::drain(std::string* err) {
+  if (!receiver_ || receiver_->drain(raw_handler_) >= 0) return true;
+  if (err) *err = "EXO_ESTIMATE: receive failed";
+  return false;
 }
 
 PluginLink::~PluginLink() {

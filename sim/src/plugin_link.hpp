@@ -2,11 +2,17 @@
 // The LCM side of the plugin stage inside runSim (private to exoid_sim_runner): after each simStep it runs
 // the plugin (state, then force plates), publishes its command (EXO_COMMAND) and status (EXO_CONTROLLER_STATUS) on the controller's
 // ticks, and hands the command to the arbiter; EXO_ESTIMATE (through a MessageGate, names checked against
-// the plugin's URDF) goes to the plugin's set_estimate. Allocation-free per tick once constructed.
+// the plugin's URDF) goes to the plugin's set_estimate. Allocation-free per tick once constructed (a fragmented
+// EXO_ESTIMATE reassembled from the raw socket allocates, at the estimator's rate).
+// On udpm:// the estimates come from the link's own socket (lcmwire::UdpmReceiver, 64 MiB kernel buffer), not
+// through LCM's receive path: the loop's LCM socket, with the default buffer, lost bursts of estimates in lockstep
+// (4 in a row), which the lockstep wait for the estimate cannot tell from estimates that never came.
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "exoid/lcm/lcm_endpoint.hpp"
+#include "lcm_wire.hpp"
 #include "exoid/lcm/message_gate.hpp"
 #include "exoid/sim/command.hpp"
 #include "exoid/sim/controller_plugin.hpp"
@@ -25,8 +31,16 @@ class PluginLink {
   /// publishing, arbiterOffer(command for k + 1). False on an LCM failure (*err).
   bool afterStep(const RobotStateSample& state, const ForcePlateSample* plates, CommandArbiter& arb,
                  std::string* err);
-  /// Subscribed to EXO_ESTIMATE (else the loop has nothing to receive).
+  /// Subscribed to EXO_ESTIMATE through the endpoint (else the loop has nothing to receive from LCM).
   bool listening() const { return subscription_ > 0; }
+  /// Takes EXO_ESTIMATE at all (through the endpoint or its own socket).
+  bool takesEstimates() const { return subscription_ > 0 || receiver_ != nullptr; }
+  /// The own socket's descriptor (-1: none), and handing over what it holds. drain: false on a poll failure.
+  int rawFd() const { return receiver_ ? receiver_->fd() : -1; }
+  bool drain(std::string* err);
+  /// The newest tick of the estimates received (decoded, names checked; -1 before the first): LCM on one host
+  /// keeps the order, so every estimate up to it has been received (the lockstep wait, runner.cpp).
+  int64_t newestEstimateTick() const { return newest_estimate_tick_; }
 
  private:
   ControllerPlugin& plugin_;
@@ -35,6 +49,10 @@ class PluginLink {
   std::vector<std::string> param_names_, coord_names_;
   MessageGate gate_;
   int subscription_ = 0;
+  int64_t newest_estimate_tick_ = -1;
+  std::unique_ptr<lcmwire::UdpmReceiver> receiver_;
+  lcmwire::UdpmReceiver::Handler raw_handler_;
+  void onEstimate(const void* data, int size);
   EstimatorOutputSample estimate_;
   exoid_lcm::estimator_output_t estimate_msg_;
   exoid_lcm::joint_command_t command_msg_;

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cinttypes>
 #include <cmath>
+#include <cstring>
 #include <type_traits>
 
 #include <nlohmann/json.hpp>
@@ -78,8 +79,7 @@ class SimLoop {
   /// otherwise whatever LCM has. False on an LCM failure.
   bool receive(int64_t k) {
     if (opt_.mode == SimMode::Lockstep && !opt_.plugin) return k < 1 || arbiterHasFresh(arb_, k) || awaitCommand(k);
-    // (a plugin loop that listens to nothing never touches LCM's receive side: no receive thread)
-    return !((!plugin_link_ || plugin_link_->listening()) && ep_.handleAvailable(1000, err_) < 0);
+    return receiveEstimates();
   }
 
   /// True when the controller, once heard, missed give_up consecutive commands up to tick k.
@@ -101,7 +101,8 @@ class SimLoop {
       summary.fell = true;
       summary.fall_tick = k;
     }
-    return publishAll() && !(plugin_link_ && !plugin_link_->afterStep(sd_.state, sd_.plates.data(), arb_, err_));
+    return publishAll() && awaitEstimate(k) &&
+           !(plugin_link_ && !plugin_link_->afterStep(sd_.state, sd_.plates.data(), arb_, err_));
   }
 
   /// One progress line per simulated second (unless quiet).
@@ -205,6 +206,62 @@ class SimLoop {
     return r >= 0;
   }
 
+  // Lockstep with the plugin taking EXO_ESTIMATE (opt.estimate_lag_ticks >= 0), before its tick k: every estimate
+  // with tick <= k - L must be in, as they are once one with tick >= k - L is (LCM keeps the order). Waits
+  // estimate_timeout_ms (start_timeout_s before the first estimate); after a timeout no more waiting, said once.
+  // State k is already published: the estimator needs it. False on an LCM failure.
+  bool awaitEstimate(int64_t k) {
+    if (opt_.estimate_lag_ticks < 0 || opt_.mode != SimMode::Lockstep || !plugin_link_ ||
+        !plugin_link_->takesEstimates() || summary.estimate_timeouts > 0)
+      return true;
+    const int64_t need = k - opt_.estimate_lag_ticks;
+    const auto arrived = [&] { return plugin_link_->newestEstimateTick() >= need; };
+    if (need < 0 || arrived()) return true;
+    ++summary.estimate_waits;
+    const bool first = plugin_link_->newestEstimateTick() < 0;
+    const int64_t wait_ns = first ? static_cast<int64_t>(opt_.start_timeout_s * 1e9)
+                                  : int64_t{opt_.estimate_timeout_ms} * 1000000;
+    const int64_t t0 = monoNs();
+    const int r = receiveEstimatesUntil(t0 + wait_ns, arrived);
+    summary.estimate_wait_s += (monoNs() - t0) * 1e-9;
+    if (r < 0) return false;
+    if (r == 0 && !(stop_ && *stop_)) {
+      ++summary.estimate_timeouts;
+      summary.estimate_wait_stopped_tick = k;
+      std::fprintf(opt_.log,
+                   "exo_sim: no EXO_ESTIMATE with tick >= %" PRId64 " within %.3f s at tick %" PRId64
+                   " (%s): the loop goes on without waiting; from here the run depends on scheduling\n",
+                   need, wait_ns * 1e-9, k, first ? "none received yet" : "the estimator stopped answering");
+    }
+    return true;
+  }
+
+  // The plugin loop's intake: LCM when something is subscribed there (a plugin loop that listens to nothing
+  // never touches LCM's receive side: no receive thread), and the plugin link's own socket. False on a failure.
+  bool receiveEstimates() {
+    return !((!plugin_link_ || plugin_link_->listening()) && ep_.handleAvailable(1000, err_) < 0) &&
+           !(plugin_link_ && !plugin_link_->drain(err_));
+  }
+
+  // serviceUntil for the estimates (receiveEstimates' two sources). -1 on a failure, 1 when arrived() became
+  // true, 0 at the deadline or a stop request.
+  template <class Done>
+  int receiveEstimatesUntil(int64_t deadline_ns, Done arrived) {
+    const int raw = plugin_link_->rawFd();
+    while (!arrived()) {
+      const int64_t left = deadline_ns - monoNs();
+      if (left <= 0 || (stop_ && *stop_)) return 0;
+      pollfd pfd[2] = {{raw, POLLIN, 0}, {plugin_link_->listening() ? ep_.fileno() : -1, POLLIN, 0}};
+      const timespec ts{static_cast<time_t>(left / 1000000000), static_cast<long>(left % 1000000000)};
+      if (ppoll(pfd, 2, &ts, nullptr) < 0 && errno != EINTR) {
+        if (err_) *err_ = "poll failed while waiting for EXO_ESTIMATE";
+        return -1;
+      }
+      if (!receiveEstimates()) return -1;
+    }
+    return 1;
+  }
+
   const SimModel& sm_;
   SimData& sd_;
   LcmEndpoint& ep_;
@@ -300,6 +357,12 @@ std::string formatSummary(const RunSummary& s) {
                 s.fallbackTicks(), s.held_ticks, s.zero_ticks, s.timeouts, s.clamped, s.overruns, s.mujoco_warnings,
                 s.fell ? "yes" : "no", s.interrupted ? ", interrupted" : "",
                 s.plugin_finished ? ", ended by the plugin (task finished)" : "");
+  if (s.estimate_waits > 0 || s.estimate_timeouts > 0) {
+    const size_t used = std::strlen(buf);
+    std::snprintf(buf + used, sizeof buf - used, ", estimate waits %" PRId64 " (%.3f s, timeouts %" PRId64 "%s)",
+                  s.estimate_waits, s.estimate_wait_s, s.estimate_timeouts,
+                  s.estimate_timeouts > 0 ? ": not reproducible" : "");
+  }
   return buf;
 }
 
@@ -332,6 +395,10 @@ void eachField(Json& j, Summary& s, F f) {
   f(j, "missing_commands", s.missing_commands);
   f(j, "interrupted", s.interrupted);
   f(j, "plugin_finished", s.plugin_finished);
+  f(j, "estimate_waits", s.estimate_waits);
+  f(j, "estimate_wait_s", s.estimate_wait_s);
+  f(j, "estimate_timeouts", s.estimate_timeouts);
+  f(j, "estimate_wait_stopped_tick", s.estimate_wait_stopped_tick);
 }
 }  // namespace
 

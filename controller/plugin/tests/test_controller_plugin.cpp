@@ -297,15 +297,15 @@ TEST(EstimateThroughTheAbi, EntersTheBalanceControllerBitForBitAndIsRefusedWhenU
     plugin->step(s);
     ref.tick(s, ref_cmd, ref_status);
     differ += plugin->command().tau == ref_cmd.tau && plugin->command().tau_ff == ref_cmd.tau_ff ? 0 : 1;
-    // Reported as part of the command's feedforward (with the disturbance observer's estimate), blended in while
-    // fresh, then out (max_age_ticks = 80).
+    // Reported as part of the command's feedforward (with the disturbance observer's estimate), blended in from
+    // tick 250 + lag_ticks while fresh (until 250 + max_age_ticks), then out.
     const double from_estimate =
         plugin->command().tau_ff[2] - ref.disturbanceObserver().estimate()[model.jointRow(2)];
     if (std::abs(from_estimate) > 1e-12) ++with_ff;
     max_ff = std::max(max_ff, from_estimate);
   });
   EXPECT_EQ(differ, 0);
-  EXPECT_GT(with_ff, cfg.estimate.max_age_ticks);
+  EXPECT_GT(with_ff, cfg.estimate.max_age_ticks - cfg.estimate.lag_ticks);
   EXPECT_GT(max_ff, 0.0);
   EXPECT_LT(max_ff, 1.5);  // blended (blend_time 1 s): never the full value within 81 ticks
   EXPECT_NEAR(plugin->command().tau_ff[2], ref.disturbanceObserver().estimate()[model.jointRow(2)], 1e-12);  // withdrawn
@@ -569,6 +569,31 @@ TEST(PluginCli, WithoutDurationTheRunEndsWhenThePluginFinishes) {
   // The task ends within a controller tick or two of the planned duration (the latch tick is counted once).
   EXPECT_NEAR(static_cast<double>(s.ticks), static_cast<double>(planned), 2.0) << "planned " << planned;
   EXPECT_LT(s.ticks, s.ticks_planned);  // the 3600 s cap was not what ended it
+}
+// Lockstep waiting for the estimate (exo_sim --estimate-lag-ticks L) with no estimator: before the plugin's tick L
+// the loop waits for the first estimate (--start-timeout-s), gives up once, says the run is no longer
+// reproducible, and completes without waiting again.
+TEST(PluginCli, AnEstimateThatNeverComesEndsTheWaitOnceAndIsReported) {
+  test::TempDir dir("plugin_estimate_wait");
+  const std::string result = dir.file("result.json");
+  const auto r = test::runCommand(std::string(EXOID_BIN_DIR) + "/exo_sim --quiet --lcm-url memq:// --duration 0.1 " +
+                                      "--controller-plugin " + pluginLib("exoid_controller_plugin") +
+                                      " --estimate-lag-ticks 5 --start-timeout-s 0.2 --result " + result,
+                                  dir.path);
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  EXPECT_NE(r.out.find("no EXO_ESTIMATE with tick >= 0 within 0.200 s at tick 5 (none received yet)"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("estimate waits 1 ("), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("timeouts 1: not reproducible"), std::string::npos) << r.out;
+  sim::RunSummary s;
+  std::string err;
+  ASSERT_TRUE(sim::parseRunSummaryJson(test::slurp(result), &s, &err)) << err;
+  EXPECT_EQ(s.ticks, 100);
+  EXPECT_EQ(s.estimate_waits, 1);
+  EXPECT_EQ(s.estimate_timeouts, 1);
+  EXPECT_EQ(s.estimate_wait_stopped_tick, 5);
+  EXPECT_GE(s.estimate_wait_s, 0.2);
 }
 }  // namespace
 }  // namespace exoid

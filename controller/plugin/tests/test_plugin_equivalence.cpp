@@ -1,10 +1,13 @@
-// Plugin mode = process mode, end to end: `exoid experiment --controller process` (exo_controller over LCM)
-// and `--controller plugin` (the same controller inside exo_sim's loop) on the same scenario and move seed
-// log the same commands tick by tick, bit for bit (every input is a double copied exactly, on both paths),
-// hence the same simulated robot, controller status and summary. Also under an undeclared payload, where the
-// balance controller's disturbance observer reads the force plates (plugin ABI version 2 passes them).
-// --no-estimator: the estimate's arrival depends on scheduling (docs/estimator.md), so only runs without it
-// can be bit-identical.
+// Plugin mode = process mode, end to end, with the online estimator running and its estimate fed back:
+// `exoid experiment --estimate-feedback --controller process` (exo_controller over LCM) and `--controller plugin`
+// (the same controller inside exo_sim's loop) on the same scenario and move seed log the same commands tick by
+// tick, bit for bit (every input is a double copied exactly, on both paths; each estimate is applied
+// estimate.lag_ticks after its tick and lockstep waits for it, so nothing depends on scheduling), hence the same
+// simulated robot, controller status and summary. The two shapes schedule everything differently (one process
+// or two, each waiting on different sockets), so their bit-identity is the run-to-run check too
+// (scripts/compare-modes.sh --repeat repeats a shape as well). Also under an undeclared payload, where the
+// balance controller's disturbance observer reads the force plates (plugin ABI version 2 passes them) and the
+// estimate moves the controller's CoM.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -21,6 +24,25 @@ bool sameBits(const Eigen::Ref<const Eigen::VectorXd>& a, const Eigen::Ref<const
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
 }
 
+// The run (exoid experiment) in `mode` into dir/name: its log and summary. The loop waited for every estimate it
+// applied (no wait timed out: that would make the run depend on scheduling, and it says so).
+void runExperiment(const test::TempDir& dir, const std::string& scenario, const char* mode, const std::string& name,
+                   const Model& model, intake::RunLog& log, std::string& summary) {
+  std::string err;
+  const std::string out = dir.file(name);
+  const auto r = test::runCommand(test::exoidBinary() + " experiment --moves 1 --seed 7 --estimate-feedback --controller " +
+                                      mode + " --scenario " + test::configPath("scenarios/" + scenario + ".yaml") +
+                                      " --out " + out,
+                                  dir.path);
+  ASSERT_EQ(r.exit_code, 0) << name << "\n" << r.out << r.err;
+  ASSERT_TRUE(intake::readRunLog(out + "/run.lcmlog", model.joint_names, log, &err)) << err;
+  summary = test::slurp(out + "/summary.json");
+  EXPECT_EQ(log.rejected, 0) << log.first_rejection;
+  const std::string waiter = test::slurp(out + (std::string(mode) == "plugin" ? "/sim.log" : "/controller.log"));
+  EXPECT_EQ(waiter.find("not reproducible"), std::string::npos) << name << ": a wait for the estimate timed out";
+  EXPECT_NE(waiter.find("estimate waits"), std::string::npos) << name << ": the loop never waited\n" << waiter;
+}
+
 void sameInBothModes(const std::string& scenario) {
   Model model;
   std::string err;
@@ -30,16 +52,15 @@ void sameInBothModes(const std::string& scenario) {
   std::string summaries[2];
   const char* modes[2] = {"process", "plugin"};
   for (int m = 0; m < 2; ++m) {
-    const std::string out = dir.file(modes[m]);
-    const auto r = test::runCommand(test::exoidBinary() + " experiment --moves 1 --seed 7 --no-estimator --controller " + modes[m] +
-                                        " --scenario " + test::configPath("scenarios/" + scenario + ".yaml") + " --out " + out,
-                                    dir.path);
-    ASSERT_EQ(r.exit_code, 0) << modes[m] << "\n" << r.out << r.err;
-    ASSERT_TRUE(intake::readRunLog(out + "/run.lcmlog", model.joint_names, logs[m], &err)) << err;
-    summaries[m] = test::slurp(out + "/summary.json");
-    EXPECT_EQ(logs[m].rejected, 0) << logs[m].first_rejection;
+    runExperiment(dir, scenario, modes[m], modes[m], model, logs[m], summaries[m]);
+    if (::testing::Test::HasFatalFailure()) return;
   }
   const intake::RunLog &proc = logs[0], &plug = logs[1];
+  // The estimate was in the loop: published, and its feedforward in the commands.
+  ASSERT_GT(plug.estimates.size(), 100u);
+  long with_ff = 0;
+  for (const JointCommandSample& c : plug.commands) with_ff += c.tau_ff.cwiseAbs().maxCoeff() > 0.0;
+  EXPECT_GT(with_ff, 1000);
   // 5.2 s planned (latch, hold, one move, holds): one command per state.
   ASSERT_GT(plug.commands.size(), 5000u);
   ASSERT_EQ(proc.commands.size(), plug.commands.size());
@@ -71,11 +92,12 @@ void sameInBothModes(const std::string& scenario) {
     const size_t p = json.find("\"" + key + "\": ");
     return p == std::string::npos ? std::string("?") : json.substr(p, json.find_first_of(",\n}", p) - p);
   };
-  for (const char* key : {"com_rmse_m", "com_max_error_m", "max_foot_slip_m", "eom_residual_max_rel"})
+  for (const char* key : {"com_rmse_m", "true_com_rmse_m", "com_max_error_m", "max_foot_slip_m", "eom_residual_max_rel",
+                          "estimate_in_use_ticks"})
     EXPECT_EQ(field(summaries[0], key), field(summaries[1], key));
 }
 
-TEST(PluginVsProcess, SameCommandsTickByTick) { sameInBothModes("nominal"); }
+TEST(PluginVsProcess, SameCommandsTickByTickWithTheEstimateFedBack) { sameInBothModes("nominal"); }
 
 // An undeclared payload on both legs: the disturbance observer leans on the force plates here (docs/controller.md
 // "Model error"), so this holds only if the plugin gets the same plates at the same tick as exo_controller.

@@ -141,7 +141,7 @@ bool OnlineEstimator::setUpRecursiveLs(const BaseParameters& base, const Eigen::
   }
   Eigen::MatrixXd& Lambda0 = prior.Lambda0;
   Lambda0 = sx.solve(Eigen::MatrixXd::Identity(m, m));
-  Lambda0 = 0.5 * (Lambda0 + Lambda0.transpose());
+  Lambda0 = (0.5 * (Lambda0 + Lambda0.transpose())).eval();  // eval: the transpose must not read what is written
   RecursiveLsOptions ro;
   ro.forgetting = opt_.forgetting == Forgetting::Stabilised ? opt_.lambda : 1.0;
   ro.row_weight = opt_.row_weight;

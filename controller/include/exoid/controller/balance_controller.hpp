@@ -51,6 +51,10 @@ struct EstimateUse {
   int32_t withdrawn_stale = 0;    ///< switched off because the latest estimate grew older than max_age_ticks
   int32_t withdrawn_refused = 0;  ///< switched off because a newer estimate was refused
   double mass = 0.0;              ///< kg, total mass of the latest accepted estimate
+  // The fixed lag (estimate.lag_ticks): what did not go by the rule. All 0 in a reproducible run.
+  int32_t late = 0;          ///< applied after its tick + lag_ticks (it arrived after that tick had been ticked)
+  int32_t out_of_order = 0;  ///< dropped: older than the estimate applied last
+  int32_t overflow = 0;      ///< dropped: the queue was full (the oldest pending one goes)
 };
 
 /// One line "<who>: estimate: accepted N, refused N (reason N, ...), withdrawn N (stale N, refused N), weight W,
@@ -89,16 +93,21 @@ class BalanceController {
 
   /// Sizes a command sample for this model (setup).
   void sizeCommand(JointCommandSample& command) const;
-  /// The online estimator's output (EXO_ESTIMATE as a plain sample; base_params etc. are not read). Accepted
-  /// when config.estimate.enabled, params [nparams] and tau_correction [nv] finite, flagged valid and consistent, every
-  /// body's parameters consistent (model/inertial.hpp) and the total mass within max_relative_mass_change of the
-  /// model's. While the accepted estimate is younger than estimate.max_age_ticks (from its tick), tau_correction
-  /// (bounded by max_abs) enters the QP's dynamics and params give the momentum task's CoM and momentum,
-  /// blended in and out over estimate.blend_time. A refused estimate withdraws the current one (counted by
-  /// reason) and returns false. Allocation-free.
+  /// The online estimator's output (EXO_ESTIMATE as a plain sample; base_params etc. are not read). Judged
+  /// here: accepted when config.estimate.enabled, params [nparams] and tau_correction [nv] finite, flagged valid
+  /// and consistent, every body's parameters consistent (model/inertial.hpp) and the total mass within
+  /// max_relative_mass_change of the model's; false when refused (or dropped: older than the one applied last,
+  /// EstimateUse::out_of_order). Only queued: the tick of state k applies, in tick order, every queued estimate
+  /// whose tick e <= k - estimate.lag_ticks (a fixed lag, so that what the controller uses does not depend on
+  /// when the estimate arrived; docs/controller.md "The fixed lag"). An applied refusal withdraws the current
+  /// estimate (counted by reason); an applied accepted one, while younger than estimate.max_age_ticks (from its
+  /// tick), gives tau_correction (bounded by max_abs) to the QP's dynamics and params to the momentum task's CoM
+  /// and momentum, blended in and out over estimate.blend_time. Allocation-free.
   bool setEstimate(const EstimatorOutputSample& estimate);
-  /// Withdraws the estimate (blended out), e.g. when the estimator is known to have stopped.
+  /// Withdraws the estimate (blended out) and empties the queue, e.g. when the estimator is known to have stopped.
   void clearEstimate();
+  /// Estimates queued, not yet due.
+  int pendingEstimates() const { return pending_count_; }
   /// A force plate sample (plate 0 right, 1 left: the load cell's wrench ON the plate about its sensor origin,
   /// plate frame, with the plate's world pose). The disturbance observer compares it with the wrench the QP
   /// planned for the same tick when config.disturbance.force_plates. False (ignored) on a wrong plate index or
@@ -133,6 +142,11 @@ class BalanceController {
   /// k = estimate.trust_sigmas (1 when k is 0). Zero within k sigma; -> 1 as the change stands out.
   double trustWeight(double change, double stddev) const;
   void advanceEstimateBlend(int64_t tick);
+  // The estimate's fixed lag (setEstimate queues, the tick applies):
+  /// The verdict on an estimate (None: usable) and its total mass; the checks of setEstimate.
+  EstimateRejection judgeEstimate(const EstimatorOutputSample& e, double& mass) const;
+  /// Applies, in tick order, every queued estimate whose tick e <= tick - estimate.lag_ticks.
+  void applyDueEstimates(int64_t tick);
   void fallbackTorque(JointCommandSample& out);
   // The stages of tick(), in order:
   /// Validates the state sample and feeds the observer; `fresh` when it was taken. Returns why the tick
@@ -204,6 +218,24 @@ class BalanceController {
   double blend_ramp_ = 0.0;
   EstimateRejection last_refusal_ = EstimateRejection::None;
   EstimateUse estimate_use_;
+  // The queue of judged estimates not yet due (fixed capacity, sized in the constructor): slots, and their
+  // indices sorted by tick (arrival order among equal ticks).
+  struct PendingEstimate {
+    int64_t tick = 0;
+    EstimateRejection verdict = EstimateRejection::None;  // None: accepted
+    bool late = false;      // its due tick had already been ticked when it arrived
+    double mass = 0.0;      // kg, accepted only
+    Eigen::VectorXd params;  // [nparams], accepted only
+    Eigen::VectorXd ff;      // [nv] tau_correction as far as trusted, bounded by max_abs, accepted only
+    Eigen::Vector3d com_stddev = Eigen::Vector3d::Zero();  // m, world axes: its CoM's uncertainty
+    double mass_stddev = 0.0;  // kg
+  };
+  static constexpr int kEstimateQueue = 16;
+  std::array<PendingEstimate, kEstimateQueue> pending_;
+  std::array<int, kEstimateQueue> pending_order_{};
+  int pending_count_ = 0;
+  bool has_applied_estimate_ = false;
+  int64_t applied_estimate_tick_ = 0;  // tick of the estimate applied last (accepted or refused)
   double vertical_shift_ = 0.0, vertical_shift_rate_ = 0.0;  // m, m/s: reference height follows the estimate
   int bad_streak_ = 0;
   int good_streak_ = 0;

@@ -102,6 +102,9 @@ struct EstimateConfig {
   bool use_com_height = true;
   double max_abs = 0.0;          ///< N, N m: bound of each feedforward component
   int max_age_ticks = 0;         ///< an estimate older than this many ticks is withdrawn
+  /// The estimate of tick e is applied at the state of tick e + lag_ticks (the newest one with e <= k - lag_ticks
+  /// at tick k), whenever it arrived before: runs do not depend on scheduling (docs/controller.md "The fixed lag").
+  int lag_ticks = 0;
   double blend_time = 0.0;       ///< s, switching in and out blends over this time (0: at once)
   double max_relative_mass_change = 0.0;  ///< refuse an estimate whose total mass differs more from the model's
   /// Each quantity the estimate changes (every tau_correction entry, the mass, each world axis of the CoM) is

@@ -38,6 +38,14 @@ struct RunOptions {
   /// With a plugin: end the run (Completed) at the first tick after which the plugin's status says its task
   /// is finished (balance: moves and final hold done), instead of running all of duration_s.
   bool end_when_plugin_finished = false;
+  /// Lockstep with a plugin that takes EXO_ESTIMATE: >= 0 waits, before the plugin's tick k, until an estimate
+  /// with tick >= k - estimate_lag_ticks has arrived (LCM keeps the order: then every estimate the controller
+  /// applies at tick k, those with tick <= k - lag_ticks, is in), so that the run does not depend on scheduling.
+  /// Must be the plugin's controller configuration's estimate.lag_ticks. -1: no wait.
+  int estimate_lag_ticks = -1;
+  /// The longest wait for it (start_timeout_s before the first estimate); after one timeout the loop stops
+  /// waiting for the rest of the run (counted and said: the run is no longer reproducible).
+  int estimate_timeout_ms = 1000;
 };
 
 /// How a run ended (exo_sim's exit code follows it, docs/sim.md).
@@ -66,6 +74,11 @@ struct RunSummary {
   int64_t missing_commands = 0;    ///< consecutive missing commands when the run ended
   bool interrupted = false;        ///< stopped early by the stop flag (SIGINT/SIGTERM)
   bool plugin_finished = false;    ///< the run ended because the plugin reported its task finished
+  // The lockstep wait for the estimate (RunOptions::estimate_lag_ticks).
+  int64_t estimate_waits = 0;      ///< ticks whose estimate had not arrived yet (the loop waited)
+  double estimate_wait_s = 0.0;    ///< wall seconds spent in those waits
+  int64_t estimate_timeouts = 0;   ///< waits that ended without it (the loop stopped waiting: not reproducible)
+  int64_t estimate_wait_stopped_tick = -1;  ///< tick of that timeout (-1: none)
   int64_t fallbackTicks() const { return held_ticks + zero_ticks; }
 };
 

@@ -73,6 +73,7 @@ bool checkController(ExperimentPlan& plan, std::string* error) {
   // The sim runs exactly as long as the controller plans to (start-up latch, moves, holds): a sim that
   // outlives the controller would apply zero torque at the end.
   plan.duration_s = controller::plannedRunDuration(cc);
+  plan.estimate_lag_ticks = cc.estimate.lag_ticks;
   if (!buildModelFromUrdfFile(o.model, true, plan.model, error) ||
       !buildModelFromUrdfFile(o.controller_model, true, plan.controller_model, error))
     return false;

@@ -28,6 +28,12 @@ constexpr char kNetnsEnv[] = "EXOID_IN_PRIVATE_NETNS";
 /// loads MuJoCo and the plugin within ~1 s and prints a line per simulated second, at >= 1x real time).
 constexpr double kSimStallS = 10.0;
 
+/// Lockstep with the estimate fed back: the longest wait for an estimate (exo_sim --estimate-timeout-ms,
+/// exo_controller --wait-estimate-ms). 80 ms timed out on this 2-core machine at load 7-9 (the estimator
+/// descheduled or finishing its consistent solve); a timeout only ends the waiting (the run is then no longer
+/// reproducible, and says so), so a long bound costs nothing unless the estimator died.
+constexpr int kEstimateWaitMs = 2000;
+
 std::string selfPath() { return common::selfExecutablePath("exoid"); }
 
 std::string slurp(const std::string& path) {
@@ -108,13 +114,17 @@ bool startListeners(Run& run, std::string* error) {
                                      o.controller_config, "--seed", std::to_string(o.seed), "--moves",
                                      std::to_string(o.moves), "--lcm-url", run.url};
     if (!o.estimate_feedback) args.push_back("--no-estimate");
+    // Lockstep with the estimate fed back: each state's estimate waited for (reproducible runs), at most
+    // kEstimateWaitMs; the sim's command timeout is raised above it (startSim).
+    if (o.estimate_feedback && run.plan.lockstep)
+      args.insert(args.end(), {"--wait-estimate-ms", std::to_string(kEstimateWaitMs)});
     run.ctrl.pid = spawn(args, (run.out / "controller.log").string(), error, run.loop_cpu);
     if (run.ctrl.pid < 0) return stop(run.logger.pid, SIGINT, 2000), false;
     run.ctrl.running = true;
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
   }
   // The estimator with its defaults (the summary replays the same OnlineEstimatorOptions), free on any CPU: the
-  // lockstep loop never waits for it. Its checkpoint every 0.5 s of wall time (~1 s simulated at lockstep speed).
+  // lockstep loop waits for it only when its estimate is fed back (its estimates then arrive 31+ ticks early). Its checkpoint every 0.5 s of wall time (~1 s simulated at lockstep speed).
   // The estimator's prior and tau_correction reference is the controller's model (the correction is to that model).
   run.est_args = {run.bin + "/exo_estimator", "--model", o.controller_model, "--lcm-url", run.url,
                   "--checkpoint", (run.out / "estimator.ckpt").string(), "--checkpoint-every-s", "0.5",
@@ -147,6 +157,13 @@ bool startSim(Run& run, std::string* error) {
                              "--controller-config", o.controller_config, "--controller-seed", std::to_string(o.seed),
                              "--controller-moves", std::to_string(o.moves)});
   if (run.plan.use_plugin && !o.estimate_feedback) args.push_back("--no-estimate");  // the loop need not receive at all
+  if (o.estimate_feedback && run.plan.lockstep) {
+    if (run.plan.use_plugin)  // the plugin's estimates waited for (exo_sim's own --estimate-timeout-ms)
+      args.insert(args.end(), {"--estimate-lag-ticks", std::to_string(run.plan.estimate_lag_ticks),
+                               "--estimate-timeout-ms", std::to_string(kEstimateWaitMs)});
+    else  // exo_controller's answer may wait for the estimate: the sim waits longer than that for it
+      args.insert(args.end(), {"--command-timeout-ms", std::to_string(kEstimateWaitMs + 1000)});
+  }
   if (o.view) args.push_back("--view");  // without a display exo_sim says so in one line (shown with its output)
   run.sim.pid = spawn(args, run.sim_log, error, run.loop_cpu);
   if (run.sim.pid < 0) {

@@ -48,6 +48,7 @@ struct ExperimentPlan {
   Model model;                       ///< --model: the summary's
   Model controller_model;            ///< the controller's and the estimator's prior
   double duration_s = 0.0;           ///< the controller's planned run (start-up latch, moves, holds)
+  int estimate_lag_ticks = 0;        ///< the controller configuration's estimate.lag_ticks (the lockstep wait)
   bool use_plugin = true, lockstep = true;
   Injection inject;
   std::vector<std::string> estimator_words;  ///< exo_estimator's extra arguments (--effects made absolute)
