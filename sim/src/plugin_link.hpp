@@ -3,6 +3,7 @@
 // the plugin (state, then force plates), publishes its command (EXO_COMMAND) and status (EXO_CONTROLLER_STATUS) on the controller's
 // ticks, and hands the command to the arbiter; EXO_ESTIMATE (through a MessageGate, names checked against
 // the plugin's URDF) goes to the plugin's set_estimate. Allocation-free per tick once constructed.
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ class PluginLink {
                  std::string* err);
   /// Subscribed to EXO_ESTIMATE (else the loop has nothing to receive).
   bool listening() const { return subscription_ > 0; }
+  /// The most CPU time (the loop thread's) one plugin call took, host stage included, us: against its wall time
+  /// (PluginStats::call_us_max) it tells a slow call from a preempted one.
+  double callCpuUsMax() const { return call_cpu_ns_max_ * 1e-3; }
 
  private:
   ControllerPlugin& plugin_;
@@ -39,6 +43,7 @@ class PluginLink {
   exoid_lcm::estimator_output_t estimate_msg_;
   exoid_lcm::joint_command_t command_msg_;
   exoid_lcm::controller_status_t status_msg_;
+  int64_t call_cpu_ns_max_ = 0;
 };
 
 }  // namespace exoid::sim

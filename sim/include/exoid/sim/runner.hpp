@@ -14,6 +14,7 @@
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/sim/command.hpp"
 #include "exoid/sim/controller_plugin.hpp"
+#include "exoid/sim/loop_timing.hpp"
 #include "exoid/sim/sim.hpp"
 
 namespace exoid::sim {
@@ -58,7 +59,6 @@ struct RunSummary {
   int64_t timeouts = 0;            ///< lockstep waits that ended without the command
   int64_t refused = 0;             ///< commands simStep refused (cannot happen after the gate; kept as a check)
   int64_t clamped = 0;             ///< commands with a torque clamped to the actuator range
-  int64_t overruns = 0;            ///< realtime: ticks that missed their 1 ms deadline
   int64_t mujoco_warnings = 0;
   bool fell = false;               ///< base dropped more than kFallDrop at some tick
   int64_t fall_tick = -1;          ///< first tick after which the base was more than kFallDrop down
@@ -66,6 +66,7 @@ struct RunSummary {
   int64_t missing_commands = 0;    ///< consecutive missing commands when the run ended
   bool interrupted = false;        ///< stopped early by the stop flag (SIGINT/SIGTERM)
   bool plugin_finished = false;    ///< the run ended because the plugin reported its task finished
+  LoopTiming timing;               ///< overruns, deadline misses, worst tick, the plugin's calls (docs/sim.md)
   int64_t fallbackTicks() const { return held_ticks + zero_ticks; }
 };
 
@@ -78,7 +79,7 @@ bool runSim(const SimModel& model, SimData& data, LcmEndpoint& endpoint, const R
 std::string formatSummary(const RunSummary& s);
 
 /// The summary as JSON (exo_sim --result FILE; read back by `exoid experiment`), and back. Every field of
-/// RunSummary, outcome by name.
+/// RunSummary, outcome by name, the timing's fields at the top level.
 std::string runSummaryJson(const RunSummary& s);
 bool parseRunSummaryJson(const std::string& text, RunSummary* s, std::string* error);
 
