@@ -468,7 +468,7 @@ TEST_F(RunLogTest, TheSimsLoopTimingReachesTheSummary) {
   facts.sim_timing.overruns = 1;
   facts.sim_timing.tick_ms_mean = 0.125;
   table = tools::summaryTable(tools::summarizeExperiment(model_, log, facts));
-  EXPECT_NE(table.find("| 1 / n/a (lockstep) | 0 / 0 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| 1 / n/a (lockstep) | |"), std::string::npos) << table;  // no real-time target
   EXPECT_NE(table.find("/ 0.125 ms; n/a (lockstep) |"), std::string::npos) << table;  // the defaults: lockstep's
   EXPECT_NE(table.find("no plugin (controller process: its tick above)"), std::string::npos) << table;
 }

@@ -180,11 +180,12 @@ std::string loopTimingRows(const ExperimentSummary& s) {
                   static_cast<long long>(t.plugin_fallback_ticks));
   char buf[1024];
   std::snprintf(buf, sizeof buf,
-                "| loop overruns (tick work > 1 ms) / deadline misses (work ended after its 1 ms slot) | %lld / %s | 0 / 0 |\n"
-                "| loop worst tick, wall (cpu) / mean; latest start after its slot | %.3f ms (%.3f ms) / %.3f ms; %s | <= 1 ms |\n"
+                "| loop overruns (tick work > 1 ms) / deadline misses (work ended after its 1 ms slot) | %lld / %s |%s|\n"
+                "| loop worst tick, wall (cpu) / mean; latest start after its slot | %.3f ms (%.3f ms) / %.3f ms; %s |%s|\n"
                 "| loop thread preemptions / page faults during the run | %lld / %lld | |\n"
                 "| plugin call mean / max (cpu max); over budget; host fallback ticks | %s | |\n",
-                static_cast<long long>(t.overruns), misses, t.tick_ms_max, t.tick_cpu_ms_max, t.tick_ms_mean, delay,
+                static_cast<long long>(t.overruns), misses, s.lockstep ? " " : " 0 / 0 ", t.tick_ms_max, t.tick_cpu_ms_max,
+                t.tick_ms_mean, delay, s.lockstep ? " " : " <= 1 ms ",  // lockstep is not paced: no real-time target
                 static_cast<long long>(t.preemptions), static_cast<long long>(t.page_faults), plugin);
   return buf;
 }
