@@ -1,5 +1,6 @@
 // exo_sim: the simulated exoskeleton on two force plates, as an LCM process (docs/sim.md). Thin: options -> the
 // inputs loaded (simLoad, the plugin) -> runSim (sim/runner.hpp) -> the summary lines and --result.
+#include <malloc.h>
 #include <sched.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
@@ -55,7 +56,9 @@ constexpr char kFooter[] =
     "\n"
     "output: a progress line per simulated second (unless --quiet), then one summary line: ticks, realtime\n"
     "factor, accepted/rejected commands by reason, fallback ticks (held, zero, timeouts), clamped commands,\n"
-    "realtime overruns, MuJoCo warnings, fell yes/no (base dropped more than 0.25 m). A fall ends the run at\n"
+    "MuJoCo warnings, fell yes/no (base dropped more than 0.25 m), the loop timing (overruns: tick work over\n"
+    "1 ms; realtime deadline misses: work ended after its 1 ms slot; worst tick, wall and CPU; latest start;\n"
+    "preemptions, page faults; docs/sim.md \"Loop timing\"). A fall ends the run at\n"
     "the fall tick (nothing after it is worth simulating; docs/sim.md). With a plugin a second line: calls,\n"
     "good answers, failures by kind, over-budget calls, fallback ticks, call time. Last, the process's CPU\n"
     "time (user, system) and simulated seconds per CPU second (the real-time factor with a core of its own).\n"
@@ -203,13 +206,26 @@ bool loadInputs(Args& a, exoid::sim::Scenario& scenario, exoid::sim::SensorConfi
   return true;
 }
 
+/// Touches kStackPrefault bytes of stack below the caller, so the loop's deeper calls find their pages mapped.
+constexpr size_t kStackPrefault = 512 * 1024;
+__attribute__((noinline)) void prefaultStack() {
+  char stack[kStackPrefault];
+  std::memset(stack, 0, sizeof stack);
+  asm volatile("" : : "r"(stack) : "memory");  // the writes happen
+}
+
 /// --rt-priority: no page faults and no time-sharing preemption inside the 1 kHz loop (a warning if refused).
+/// Every page mapped now and later is locked and populated (mlockall), the heap is never given back to the system
+/// (a later allocation would fault it in again), and the stack the loop needs is touched once here.
 void lockMemoryAndPriority(int rt_priority) {
+  mallopt(M_TRIM_THRESHOLD, -1);
+  mallopt(M_MMAP_MAX, 0);
   sched_param sp{};
   sp.sched_priority = rt_priority;
   if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0 || sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
     std::fprintf(stderr, "exo_sim: warning: --rt-priority %d: %s (running with normal scheduling)\n", rt_priority,
                  std::strerror(errno));
+  prefaultStack();
 }
 
 void printStart(const Args& a, const exoid::sim::Scenario& scenario, const exoid::sim::SensorConfig& noise,

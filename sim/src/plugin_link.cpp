@@ -1,5 +1,7 @@
 #include "plugin_link.hpp"
 
+#include <time.h>
+
 #include <algorithm>
 #include <cstdio>
 
@@ -10,6 +12,12 @@
 namespace exoid::sim {
 namespace {
 constexpr size_t kRawBufferBytes = size_t{64} << 20;  // the estimator's and the logger's: bursts wait there
+
+int64_t threadCpuNs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
+}
 }  // namespace
 
 PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vector<std::string>& joint_names)
@@ -64,7 +72,9 @@ PluginLink::~PluginLink() {
 
 bool PluginLink::afterStep(const RobotStateSample& state, const ForcePlateSample* plates, CommandArbiter& arb,
                            std::string* err) {
+  const int64_t cpu0 = threadCpuNs();
   const bool ran = plugin_.step(state);
+  if (ran) call_cpu_ns_max_ = std::max(call_cpu_ns_max_, threadCpuNs() - cpu0);
   plugin_.setForcePlates(plates, EXOID_PLUGIN_NUM_PLATES);  // after the state, as exo_controller receives them
   arbiterOffer(arb, plugin_.command());
   if (!ran) return true;

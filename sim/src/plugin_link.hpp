@@ -7,6 +7,7 @@
 // On udpm:// the estimates come from the link's own socket (lcmwire::UdpmReceiver, 64 MiB kernel buffer), not
 // through LCM's receive path: the loop's LCM socket, with the default buffer, lost bursts of estimates in lockstep
 // (4 in a row), which the lockstep wait for the estimate cannot tell from estimates that never came.
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -41,6 +42,9 @@ class PluginLink {
   /// The newest tick of the estimates received (decoded, names checked; -1 before the first): LCM on one host
   /// keeps the order, so every estimate up to it has been received (the lockstep wait, runner.cpp).
   int64_t newestEstimateTick() const { return newest_estimate_tick_; }
+  /// The most CPU time (the loop thread's) one plugin call took, host stage included, us: against its wall time
+  /// (PluginStats::call_us_max) it tells a slow call from a preempted one.
+  double callCpuUsMax() const { return call_cpu_ns_max_ * 1e-3; }
 
  private:
   ControllerPlugin& plugin_;
@@ -57,6 +61,7 @@ class PluginLink {
   exoid_lcm::estimator_output_t estimate_msg_;
   exoid_lcm::joint_command_t command_msg_;
   exoid_lcm::controller_status_t status_msg_;
+  int64_t call_cpu_ns_max_ = 0;
 };
 
 }  // namespace exoid::sim

@@ -2,6 +2,7 @@
 #include "exoid/sim/runner.hpp"
 
 #include <poll.h>
+#include <sys/resource.h>
 #include <time.h>
 
 #include <algorithm>
@@ -21,10 +22,24 @@
 namespace exoid::sim {
 namespace {
 
-int64_t monoNs() {
+constexpr int64_t kPeriodNs = 1000000;  // the loop's 1 kHz
+
+int64_t clockNs(clockid_t clock) {
   timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
+  clock_gettime(clock, &ts);
   return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
+}
+int64_t monoNs() { return clockNs(CLOCK_MONOTONIC); }
+/// CPU time of the calling thread: wall time minus this is time it was not running (preempted, or the
+/// hypervisor ran something else on its CPU).
+int64_t threadCpuNs() { return clockNs(CLOCK_THREAD_CPUTIME_ID); }
+
+/// The loop thread's preemptions and page faults so far (getrusage, RUSAGE_THREAD).
+void threadCounts(int64_t* preemptions, int64_t* page_faults) {
+  rusage ru{};
+  getrusage(RUSAGE_THREAD, &ru);
+  *preemptions = ru.ru_nivcsw;
+  *page_faults = ru.ru_minflt + ru.ru_majflt;
 }
 
 // Dispatches LCM messages until done() or the monotonic deadline (ns) or a stop request. Returns -1 on an
@@ -70,6 +85,7 @@ class SimLoop {
                : opt.mode == SimMode::Lockstep
                    ? opt.max_missing_commands
                    : int64_t{opt.max_missing_commands} * std::max(1, opt.command_timeout_ms);
+    threadCounts(&preemptions0_, &page_faults0_);
     t0_ = monoNs();
   }
 
@@ -117,11 +133,29 @@ class SimLoop {
     std::fflush(opt_.log);
   }
 
+  /// Tick k's work begins (realtime: its slot began at t0 + k ms).
+  void beginTick(int64_t k) {
+    tick_start_ = monoNs();
+    tick_cpu_start_ = threadCpuNs();
+    if (opt_.mode == SimMode::Realtime) start_delay_max_ = std::max(start_delay_max_, tick_start_ - t0_ - k * kPeriodNs);
+  }
+
+  /// Tick k's work is done: overrun (longer than the period), deadline (realtime: after its slot's end), worst tick.
+  void endTick(int64_t k) {
+    const int64_t end = monoNs(), work = end - tick_start_;
+    tick_cpu_max_ = std::max(tick_cpu_max_, threadCpuNs() - tick_cpu_start_);
+    tick_max_ = std::max(tick_max_, work);
+    tick_sum_ += work;
+    ++ticks_timed_;
+    if (work > kPeriodNs) ++summary.timing.overruns;
+    if (opt_.mode == SimMode::Realtime && end > t0_ + (k + 1) * kPeriodNs) ++deadline_misses_;
+  }
+
   /// Realtime: 1 kHz wall clock, serving LCM until the next tick's slot starts. False on an LCM failure.
   bool pace(int64_t k) {
-    const int64_t next = t0_ + (k + 1) * 1000000;
+    const int64_t next = t0_ + (k + 1) * kPeriodNs;
     if (monoNs() > next) {
-      ++summary.overruns;
+      // late already: the next tick starts at once (its deadline stays on the wall clock)
     } else if (plugin_link_ && !plugin_link_->listening()) {  // nothing to receive: sleep to the deadline
       const timespec ts{static_cast<time_t>(next / 1000000000), static_cast<long>(next % 1000000000)};
       clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
@@ -135,6 +169,7 @@ class SimLoop {
   /// and the outcome of summary.
   void finish(bool ok) {
     if (subscription_ > 0) ep_.unsubscribe(subscription_);
+    if (plugin_link_) plugin_cpu_us_max_ = plugin_link_->callCpuUsMax();
     plugin_link_.reset();
     RunSummary& s = summary;
     s.wall_time_s = (monoNs() - t0_) * 1e-9;
@@ -151,6 +186,7 @@ class SimLoop {
     s.clamped = sd_.stats.clamped_commands;
     s.mujoco_warnings = sd_.stats.mujoco_warnings;
     s.missing_commands = missing_;
+    fillTiming(s.timing);
     if (stop_ && *stop_) s.interrupted = true;
     if (!ok) {
       s.outcome = RunOutcome::LcmFailure;
@@ -162,6 +198,28 @@ class SimLoop {
   }
 
  private:
+  /// finish's timing figures: the ticks' (beginTick/endTick), the loop thread's counts, the plugin's calls.
+  void fillTiming(LoopTiming& t) const {
+    const bool realtime = opt_.mode == SimMode::Realtime;
+    t.deadline_misses = realtime ? deadline_misses_ : -1;
+    t.start_delay_ms_max = realtime ? std::max<int64_t>(start_delay_max_, 0) * 1e-6 : -1.0;
+    t.tick_ms_max = tick_max_ * 1e-6;
+    t.tick_ms_mean = ticks_timed_ > 0 ? static_cast<double>(tick_sum_) / static_cast<double>(ticks_timed_) * 1e-6 : 0.0;
+    t.tick_cpu_ms_max = tick_cpu_max_ * 1e-6;
+    int64_t preemptions = 0, page_faults = 0;
+    threadCounts(&preemptions, &page_faults);
+    t.preemptions = preemptions - preemptions0_;
+    t.page_faults = page_faults - page_faults0_;
+    if (!opt_.plugin) return;
+    const PluginStats& ps = opt_.plugin->stats();
+    t.plugin_calls = ps.calls;
+    t.plugin_call_us_max = ps.call_us_max;
+    t.plugin_call_us_mean = ps.calls > 0 ? ps.call_us_sum / static_cast<double>(ps.calls) : 0.0;
+    t.plugin_call_cpu_us_max = plugin_cpu_us_max_;
+    t.plugin_budget_overruns = ps.overruns;
+    t.plugin_fallback_ticks = ps.fallbackTicks();
+  }
+
   void onCommand(const void* bytes, int size) {
     if (gate_.admitEncoded(0, bytes, size, scratch_, incoming_, &why_, sm_.joint_names)) {
       arbiterOffer(arb_, incoming_);
@@ -282,6 +340,10 @@ class SimLoop {
   int64_t t0_ = 0;
   int64_t missing_ = 0;
   int64_t give_up_ = 0;
+  // Loop timing (fillTiming), ns
+  int64_t tick_start_ = 0, tick_cpu_start_ = 0, tick_max_ = 0, tick_sum_ = 0, tick_cpu_max_ = 0, ticks_timed_ = 0;
+  int64_t start_delay_max_ = 0, deadline_misses_ = 0, preemptions0_ = 0, page_faults0_ = 0;
+  double plugin_cpu_us_max_ = 0.0;
 };
 
 }  // namespace
@@ -296,10 +358,13 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       s.interrupted = true;
       break;
     }
+    const bool waits = opt.mode == SimMode::Lockstep && !opt.plugin;  // for the controller process's command
+    if (!waits) loop.beginTick(k);
     if (!loop.receive(k)) {
       ok = false;
       break;
     }
+    if (waits) loop.beginTick(k);
     if (loop.controllerLost(k)) {
       s.outcome = RunOutcome::ControllerLost;
       break;
@@ -319,6 +384,7 @@ bool runSim(const SimModel& sm, SimData& sd, LcmEndpoint& ep, const RunOptions& 
       break;
     }
     loop.progress(k);
+    loop.endTick(k);
     if (opt.mode == SimMode::Realtime) ok = loop.pace(k);
   }
   loop.finish(ok);
@@ -337,8 +403,23 @@ const char* outcomeName(RunOutcome o) {
   return "unknown";
 }
 
+namespace {
+/// formatSummary's timing part (docs/sim.md, "Loop timing").
+std::string formatTiming(const LoopTiming& t) {
+  char misses[32] = "n/a (lockstep)", delay[32] = "n/a (lockstep)", buf[320];
+  if (t.deadline_misses >= 0) std::snprintf(misses, sizeof misses, "%" PRId64, t.deadline_misses);
+  if (t.start_delay_ms_max >= 0) std::snprintf(delay, sizeof delay, "%.3f ms", t.start_delay_ms_max);
+  std::snprintf(buf, sizeof buf,
+                "; timing: overruns %" PRId64 " (tick work > 1 ms), deadline misses %s, tick max %.3f ms (cpu %.3f ms) "
+                "mean %.3f ms, start delay max %s, preemptions %" PRId64 ", page faults %" PRId64,
+                t.overruns, misses, t.tick_ms_max, t.tick_cpu_ms_max, t.tick_ms_mean, delay, t.preemptions,
+                t.page_faults);
+  return buf;
+}
+}  // namespace
+
 std::string formatSummary(const RunSummary& s) {
-  char buf[1280];
+  char buf[1536];
   int n = std::snprintf(buf, sizeof buf, "exo_sim: summary: %s", outcomeName(s.outcome));
   if (s.fall_tick >= 0)
     n += std::snprintf(buf + n, sizeof buf - n, " (fall at tick %" PRId64 ", t %.3f s)", s.fall_tick, s.fall_tick * 1e-3);
@@ -347,23 +428,23 @@ std::string formatSummary(const RunSummary& s) {
                        " (%" PRId64 " consecutive commands missing; last fresh command at tick %" PRId64 ")",
                        s.missing_commands, s.last_fresh_tick);
   std::snprintf(buf + n, sizeof buf - n,
-                ", ticks %" PRId64 " of %" PRId64 ", simulated %.3f s, wall %.3f s, realtime factor %.2f, commands "
-                "accepted %" PRIu64 " rejected %" PRIu64 " (duplicate %" PRIu64 ", out_of_order %" PRIu64
-                ", non_finite %" PRIu64 ", malformed %" PRIu64 "), fallback ticks %" PRId64 " (held %" PRId64
-                ", zero %" PRId64 ", timeouts %" PRId64 "), clamped %" PRId64 ", overruns %" PRId64
-                ", mujoco warnings %" PRId64 ", fell %s%s%s",
-                s.ticks, s.ticks_planned, s.sim_time_s, s.wall_time_s, s.realtime_factor, s.accepted, s.rejected,
-                s.rejected_by_reason[0], s.rejected_by_reason[1], s.rejected_by_reason[2], s.rejected_by_reason[3],
-                s.fallbackTicks(), s.held_ticks, s.zero_ticks, s.timeouts, s.clamped, s.overruns, s.mujoco_warnings,
-                s.fell ? "yes" : "no", s.interrupted ? ", interrupted" : "",
-                s.plugin_finished ? ", ended by the plugin (task finished)" : "");
+                     ", ticks %" PRId64 " of %" PRId64 ", simulated %.3f s, wall %.3f s, realtime factor %.2f, commands "
+                     "accepted %" PRIu64 " rejected %" PRIu64 " (duplicate %" PRIu64 ", out_of_order %" PRIu64
+                     ", non_finite %" PRIu64 ", malformed %" PRIu64 "), fallback ticks %" PRId64 " (held %" PRId64
+                     ", zero %" PRId64 ", timeouts %" PRId64 "), clamped %" PRId64 ", mujoco warnings %" PRId64
+                     ", fell %s%s%s",
+                     s.ticks, s.ticks_planned, s.sim_time_s, s.wall_time_s, s.realtime_factor, s.accepted, s.rejected,
+                     s.rejected_by_reason[0], s.rejected_by_reason[1], s.rejected_by_reason[2], s.rejected_by_reason[3],
+                     s.fallbackTicks(), s.held_ticks, s.zero_ticks, s.timeouts, s.clamped, s.mujoco_warnings,
+                     s.fell ? "yes" : "no", s.interrupted ? ", interrupted" : "",
+                     s.plugin_finished ? ", ended by the plugin (task finished)" : "");
   if (s.estimate_waits > 0 || s.estimate_timeouts > 0) {
     const size_t used = std::strlen(buf);
     std::snprintf(buf + used, sizeof buf - used, ", estimate waits %" PRId64 " (%.3f s, timeouts %" PRId64 "%s)",
                   s.estimate_waits, s.estimate_wait_s, s.estimate_timeouts,
                   s.estimate_timeouts > 0 ? ": not reproducible" : "");
   }
-  return buf;
+  return buf + formatTiming(s.timing);
 }
 
 namespace {
@@ -387,7 +468,6 @@ void eachField(Json& j, Summary& s, F f) {
   f(j, "timeouts", s.timeouts);
   f(j, "refused", s.refused);
   f(j, "clamped", s.clamped);
-  f(j, "overruns", s.overruns);
   f(j, "mujoco_warnings", s.mujoco_warnings);
   f(j, "fell", s.fell);
   f(j, "fall_tick", s.fall_tick);
@@ -399,6 +479,7 @@ void eachField(Json& j, Summary& s, F f) {
   f(j, "estimate_wait_s", s.estimate_wait_s);
   f(j, "estimate_timeouts", s.estimate_timeouts);
   f(j, "estimate_wait_stopped_tick", s.estimate_wait_stopped_tick);
+  forEachTimingField(s.timing, [&](const char* key, auto& v) { f(j, key, v); });  // docs/sim.md, "Loop timing"
 }
 }  // namespace
 

@@ -134,6 +134,69 @@ TEST(ExoSimLoop, RealtimeRunsAtWallClockAndCountsStaleTicks) {
   EXPECT_EQ(s.fresh_ticks, 0);            // no controller: every tick after 0 is stale, zero torque
   EXPECT_EQ(s.zero_ticks, 199);
   EXPECT_EQ(s.timeouts, 0);               // realtime never waits for a command
+  // The loop's timing is filled (docs/sim.md, "Loop timing"), not judged: the figures of a timed unit test say
+  // what the machine did, not what the code does (scripts/bench-realtime.sh measures them).
+  const LoopTiming& t = s.timing;
+  EXPECT_GT(t.tick_ms_max, 0.0);
+  EXPECT_GT(t.tick_ms_mean, 0.0);
+  EXPECT_LE(t.tick_ms_mean, t.tick_ms_max);
+  EXPECT_LE(t.tick_ms_mean * 1e-3 * static_cast<double>(s.ticks - 1), s.wall_time_s);  // work fits in the run
+  EXPECT_GT(t.tick_cpu_ms_max, 0.0);
+  EXPECT_GE(t.start_delay_ms_max, 0.0);  // realtime: every tick has a slot
+  EXPECT_GE(t.deadline_misses, 0);
+  EXPECT_LE(t.deadline_misses, s.ticks);
+  EXPECT_LE(t.overruns, s.ticks);
+  EXPECT_GE(t.preemptions, 0);
+  EXPECT_GE(t.page_faults, 0);
+  EXPECT_EQ(t.plugin_calls, 0);  // no plugin
+  EXPECT_EQ(t.plugin_call_us_max, 0.0);
+}
+
+// Every field of the summary, the loop timing's included, survives exo_sim --result -> exoid experiment; a
+// result without one of the timing fields is refused (naming it), and lockstep reports no slot figures.
+TEST(ExoSimLoop, TheTimingFiguresRoundTripAndLockstepHasNoSlots) {
+  std::string err;
+  Scenario sc;
+  SimModel sm;
+  SimData sd;
+  ASSERT_TRUE(simLoad(cfg("exo.xml"), SensorConfig(), sc, sm, &err)) << err;
+  ASSERT_TRUE(simMakeData(sm, sd, &err)) << err;
+  LcmEndpoint ep("memq://");
+  RunOptions opt;
+  opt.duration_s = 0.05;
+  opt.start_timeout_s = 0.0;  // open loop at once
+  opt.quiet = true;
+  RunSummary s;
+  ASSERT_TRUE(runSim(sm, sd, ep, opt, &s, &err)) << err;
+  EXPECT_EQ(s.timing.deadline_misses, -1);  // lockstep: no wall-clock slot
+  EXPECT_EQ(s.timing.start_delay_ms_max, -1.0);
+  EXPECT_GT(s.timing.tick_ms_max, 0.0);
+  EXPECT_GT(s.timing.tick_cpu_ms_max, 0.0);
+
+  LoopTiming& t = s.timing;  // distinct values, so that a field read into another one shows
+  t = {3, 5, 7.25, 0.5, 6.75, 1.125, 11, 13, 17, 19.5, 2.25, 23.5, 29, 31};
+  RunSummary back;
+  ASSERT_TRUE(parseRunSummaryJson(runSummaryJson(s), &back, &err)) << err;
+  int fields = 0;
+  forEachTimingField(t, [&](const char* key, const auto& v) {
+    ++fields;
+    forEachTimingField(back.timing, [&](const char* key2, const auto& w) {
+      if (std::string(key) == key2) {
+        EXPECT_EQ(static_cast<double>(v), static_cast<double>(w)) << key;
+      }
+    });
+  });
+  EXPECT_EQ(fields, 14);
+  const std::string json = runSummaryJson(s);
+  for (const char* key : {"\"overruns\"", "\"deadline_misses\"", "\"tick_ms_max\"", "\"plugin_call_us_max\"",
+                          "\"plugin_call_us_mean\"", "\"plugin_fallback_ticks\""}) {
+    std::string cut = json;
+    const size_t at = cut.find(key);
+    ASSERT_NE(at, std::string::npos) << key;
+    cut.replace(at, std::string(key).size(), "\"renamed\"");
+    EXPECT_FALSE(parseRunSummaryJson(cut, &back, &err)) << key;
+    EXPECT_NE(err.find(std::string(key).substr(1, std::string(key).size() - 2)), std::string::npos) << err;
+  }
 }
 
 // A fall ends the run at the fall tick (the floor does not collide: without this the robot dropped to

@@ -423,6 +423,54 @@ TEST_F(RunLogTest, SummaryFiguresAreMeasuredAgainstTheSimulatedRunNotTheLog) {
   EXPECT_EQ(j["mode"], "realtime");
   EXPECT_EQ(j["outcome"], "failed");  // the incomplete log is a failure on its own
   EXPECT_EQ(j["fall_tick"], 80);
+  EXPECT_TRUE(j["loop_timing"].is_null());  // the sim's timing is unknown without its report
+  EXPECT_NE(table.find("| loop timing | unknown (no sim report) | |"), std::string::npos) << table;
+}
+
+// The sim's loop timing (docs/sim.md, "Loop timing") reaches summary.json as the sim reported it, and summary.md
+// says which figures a lockstep run has no slot for and which shape had no plugin.
+TEST_F(RunLogTest, TheSimsLoopTimingReachesTheSummary) {
+  intake::RunLog log;
+  tools::RunFacts facts;
+  facts.sim_reported = true;
+  facts.lockstep = false;
+  sim::LoopTiming& ft = facts.sim_timing;
+  ft.overruns = 2;
+  ft.deadline_misses = 7;
+  ft.tick_ms_max = 1.25;
+  ft.tick_ms_mean = 0.25;
+  ft.tick_cpu_ms_max = 0.875;
+  ft.start_delay_ms_max = 0.5;
+  ft.plugin_calls = 62200;
+  ft.plugin_call_us_mean = 85.5;
+  ft.plugin_call_us_max = 1650.25;
+  ft.plugin_call_cpu_us_max = 400.5;
+  ft.plugin_budget_overruns = 9;
+  ft.plugin_fallback_ticks = 11;
+  tools::ExperimentSummary s = tools::summarizeExperiment(model_, log, facts);
+  const auto j = nlohmann::json::parse(tools::summaryJson(s));
+  const auto& t = j["loop_timing"];
+  ASSERT_TRUE(t.is_object()) << j.dump();
+  EXPECT_EQ(t.size(), 14u);
+  EXPECT_EQ(t["overruns"], 2);
+  EXPECT_EQ(t["deadline_misses"], 7);
+  EXPECT_EQ(t["tick_ms_max"], 1.25);
+  EXPECT_EQ(t["start_delay_ms_max"], 0.5);
+  EXPECT_EQ(t["plugin_call_us_mean"], 85.5);
+  EXPECT_EQ(t["plugin_call_us_max"], 1650.25);
+  EXPECT_EQ(t["plugin_fallback_ticks"], 11);
+  std::string table = tools::summaryTable(s);
+  EXPECT_NE(table.find("| 2 / 7 | 0 / 0 |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| 1.250 ms (0.875 ms) / 0.250 ms; 0.500 ms |"), std::string::npos) << table;
+  EXPECT_NE(table.find("| 85.5 / 1650.2 us (cpu 400.5 us); 9; 11 |"), std::string::npos) << table;
+  facts.lockstep = true;  // lockstep, controller process: no slot, no plugin
+  facts.sim_timing = sim::LoopTiming{};
+  facts.sim_timing.overruns = 1;
+  facts.sim_timing.tick_ms_mean = 0.125;
+  table = tools::summaryTable(tools::summarizeExperiment(model_, log, facts));
+  EXPECT_NE(table.find("| 1 / n/a (lockstep) | |"), std::string::npos) << table;  // no real-time target
+  EXPECT_NE(table.find("/ 0.125 ms; n/a (lockstep) |"), std::string::npos) << table;  // the defaults: lockstep's
+  EXPECT_NE(table.find("no plugin (controller process: its tick above)"), std::string::npos) << table;
 }
 
 TEST_F(RunLogTest, NotALogIsAnError) {

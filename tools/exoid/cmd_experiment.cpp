@@ -25,7 +25,8 @@ constexpr char kDescription[] =
     "  DIR/run.lcmlog       every message of every channel (lcm-logger format, recorded by exoid_logger);\n"
     "                       kept, as far as it got, when a run fails\n"
     "  DIR/summary.json     outcome, failures, moves_done, fell (tick, time, move), com_rmse_m,\n"
-    "                       max_foot_slip_m, fallbacks of controller and sim, realtime_factor, ticks planned /\n"
+    "                       max_foot_slip_m, fallbacks of controller and sim, loop_timing (overruns,\n"
+    "                       deadline misses, worst tick, plugin calls), realtime_factor, ticks planned /\n"
     "                       simulated / logged, missing_ticks, log_complete, eom_residual_max_rel, ...\n"
     "  DIR/summary.md       the same as a table (also printed)\n"
     "  DIR/sim.log, DIR/sim_result.json, DIR/controller.log, DIR/logger.log   process output (the sim's\n"
@@ -93,11 +94,13 @@ void addRunOptions(CLI::App& app, tools::ExperimentOptions& o) {
 void addSupervisionOptions(CLI::App& app, tools::ExperimentOptions& o) {
   app.add_flag("--realtime", o.realtime,
                "run the sim at wall-clock 1 kHz instead of lockstep (exo_sim --rt-priority 50:\n"
-               "SCHED_FIFO and locked memory where allowed)");
+               "SCHED_FIFO and locked memory where allowed; exo_controller under SCHED_FIFO 50 too)");
   app.add_flag("--view", o.view, "exo_sim --view: a live window of the run where a display exists (docs/render.md)");
   app.add_flag("--no-pin", o.no_pin,
-               "do not pin processes to CPUs (by default, in lockstep on 2+ CPUs, sim and\n"
-               "controller share the first allowed CPU; the logger is never pinned)");
+               "do not pin processes to CPUs (by default on 2+ CPUs: in lockstep sim and\n"
+               "controller share the first allowed CPU; in realtime the loop has the last one\n"
+               "to itself, the estimator and this supervisor the others; the logger is never\n"
+               "pinned; docs/sim.md \"Loop timing\")");
   app.add_option("--max-missing-commands", o.max_missing,
                  "the sim ends the run when N consecutive commands are missing (1 s at its\n"
                  "100 ms command timeout; exo_sim --help)")

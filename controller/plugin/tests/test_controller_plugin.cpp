@@ -569,6 +569,14 @@ TEST(PluginCli, WithoutDurationTheRunEndsWhenThePluginFinishes) {
   // The task ends within a controller tick or two of the planned duration (the latch tick is counted once).
   EXPECT_NEAR(static_cast<double>(s.ticks), static_cast<double>(planned), 2.0) << "planned " << planned;
   EXPECT_LT(s.ticks, s.ticks_planned);  // the 3600 s cap was not what ended it
+  // The plugin's calls in the loop timing (docs/sim.md, "Loop timing"): one per tick at 1 kHz, no budget in lockstep.
+  EXPECT_EQ(s.timing.plugin_calls, s.ticks);
+  EXPECT_GT(s.timing.plugin_call_us_mean, 0.0);
+  EXPECT_GE(s.timing.plugin_call_us_max, s.timing.plugin_call_us_mean);
+  EXPECT_GT(s.timing.plugin_call_cpu_us_max, 0.0);
+  EXPECT_EQ(s.timing.plugin_budget_overruns, 0);
+  EXPECT_EQ(s.timing.plugin_fallback_ticks, 0);
+  EXPECT_EQ(s.timing.deadline_misses, -1);
 }
 // Lockstep waiting for the estimate (exo_sim --estimate-lag-ticks L) with no estimator: before the plugin's tick L
 // the loop waits for the first estimate (--start-timeout-s), gives up once, says the run is no longer

@@ -14,6 +14,7 @@
 #include "exoid/lcm/lcm_endpoint.hpp"
 #include "exoid/sim/command.hpp"
 #include "exoid/sim/controller_plugin.hpp"
+#include "exoid/sim/loop_timing.hpp"
 #include "exoid/sim/sim.hpp"
 
 namespace exoid::sim {
@@ -66,7 +67,6 @@ struct RunSummary {
   int64_t timeouts = 0;            ///< lockstep waits that ended without the command
   int64_t refused = 0;             ///< commands simStep refused (cannot happen after the gate; kept as a check)
   int64_t clamped = 0;             ///< commands with a torque clamped to the actuator range
-  int64_t overruns = 0;            ///< realtime: ticks that missed their 1 ms deadline
   int64_t mujoco_warnings = 0;
   bool fell = false;               ///< base dropped more than kFallDrop at some tick
   int64_t fall_tick = -1;          ///< first tick after which the base was more than kFallDrop down
@@ -79,6 +79,7 @@ struct RunSummary {
   double estimate_wait_s = 0.0;    ///< wall seconds spent in those waits
   int64_t estimate_timeouts = 0;   ///< waits that ended without it (the loop stopped waiting: not reproducible)
   int64_t estimate_wait_stopped_tick = -1;  ///< tick of that timeout (-1: none)
+  LoopTiming timing;               ///< overruns, deadline misses, worst tick, the plugin's calls (docs/sim.md)
   int64_t fallbackTicks() const { return held_ticks + zero_ticks; }
 };
 
@@ -91,7 +92,7 @@ bool runSim(const SimModel& model, SimData& data, LcmEndpoint& endpoint, const R
 std::string formatSummary(const RunSummary& s);
 
 /// The summary as JSON (exo_sim --result FILE; read back by `exoid experiment`), and back. Every field of
-/// RunSummary, outcome by name.
+/// RunSummary, outcome by name, the timing's fields at the top level.
 std::string runSummaryJson(const RunSummary& s);
 bool parseRunSummaryJson(const std::string& text, RunSummary* s, std::string* error);
 

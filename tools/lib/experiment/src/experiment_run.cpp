@@ -43,6 +43,9 @@ std::string slurp(const std::string& path) {
   return ss.str();
 }
 
+/// Realtime: the loop's SCHED_FIFO priority (exo_sim --rt-priority; exo_controller in process mode).
+constexpr int kLoopPriority = 50;
+
 /// A child of the run and how it ended.
 struct Child {
   const char* name;
@@ -57,7 +60,7 @@ struct Run {
   const ExperimentPlan& plan;
   std::filesystem::path out;
   std::string url = channels::kDefaultUrl, bin, log_path, sim_log, sim_result, est_log;
-  int loop_cpu = -1;
+  Placement loop, ctrl_place, beside, logger_place;  ///< the sim's, the controller process's, the estimator's, the logger's
   Child logger{"exoid_logger"}, ctrl{"exo_controller"}, sim{"exo_sim"}, est{"exo_estimator"};
   std::vector<std::string> est_args;
   std::string est_log_text;  ///< output of an estimator that was restarted (its log is rewritten by the new one)
@@ -105,7 +108,7 @@ bool startListeners(Run& run, std::string* error) {
   // exoid_logger, not Debian's lcm-logger: the latter drops bursts in LCM's user-space receive ring at the
   // lockstep rate (~30k messages/s) although the kernel delivers every datagram (docs/lcm.md).
   run.logger.pid = spawn({run.bin + "/exoid_logger", "--lcm-url", run.url, "--force", "--out", run.log_path},
-                         (run.out / "logger.log").string(), error);
+                         (run.out / "logger.log").string(), error, run.logger_place);
   if (run.logger.pid < 0) return false;
   run.logger.running = true;
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -118,7 +121,7 @@ bool startListeners(Run& run, std::string* error) {
     // kEstimateWaitMs; the sim's command timeout is raised above it (startSim).
     if (o.estimate_feedback && run.plan.lockstep)
       args.insert(args.end(), {"--wait-estimate-ms", std::to_string(kEstimateWaitMs)});
-    run.ctrl.pid = spawn(args, (run.out / "controller.log").string(), error, run.loop_cpu);
+    run.ctrl.pid = spawn(args, (run.out / "controller.log").string(), error, run.ctrl_place);
     if (run.ctrl.pid < 0) return stop(run.logger.pid, SIGINT, 2000), false;
     run.ctrl.running = true;
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -131,7 +134,7 @@ bool startListeners(Run& run, std::string* error) {
                   "--final", (run.out / "online_estimate.csv").string()};
   run.est_args.insert(run.est_args.end(), run.plan.estimator_words.begin(), run.plan.estimator_words.end());
   if (o.no_estimator) return true;
-  run.est.pid = spawn(run.est_args, run.est_log, error);
+  run.est.pid = spawn(run.est_args, run.est_log, error, run.beside);
   if (run.est.pid < 0) {
     if (run.ctrl.running) stop(run.ctrl.pid, SIGTERM, 2000);
     stop(run.logger.pid, SIGINT, 2000);
@@ -151,7 +154,7 @@ bool startSim(Run& run, std::string* error) {
                                    o.scenario, "--mode", run.plan.lockstep ? "lockstep" : "realtime", "--duration", dur,
                                    "--max-missing-commands", std::to_string(o.max_missing), "--result", run.sim_result,
                                    "--lcm-url", run.url};
-  if (!run.plan.lockstep) args.insert(args.end(), {"--rt-priority", "50"});  // SCHED_FIFO where allowed
+  if (!run.plan.lockstep) args.insert(args.end(), {"--rt-priority", std::to_string(kLoopPriority)});
   if (run.plan.use_plugin)  // the controller inside the sim's loop, given what exo_controller would get
     args.insert(args.end(), {"--controller-plugin", o.plugin_lib, "--controller-model", o.controller_model,
                              "--controller-config", o.controller_config, "--controller-seed", std::to_string(o.seed),
@@ -165,7 +168,7 @@ bool startSim(Run& run, std::string* error) {
       args.insert(args.end(), {"--command-timeout-ms", std::to_string(kEstimateWaitMs + 1000)});
   }
   if (o.view) args.push_back("--view");  // without a display exo_sim says so in one line (shown with its output)
-  run.sim.pid = spawn(args, run.sim_log, error, run.loop_cpu);
+  run.sim.pid = spawn(args, run.sim_log, error, run.loop);
   if (run.sim.pid < 0) {
     if (run.ctrl.running) stop(run.ctrl.pid, SIGTERM, 2000);
     if (run.est.running) stop(run.est.pid, SIGTERM, 2000);
@@ -188,7 +191,7 @@ void injectFault(Run& run, RunFacts& facts) {
     waitFor(target.pid, 5000, &target.code);
     run.est_log_text += slurp(run.est_log) + "(killed by --inject restart)\n";
     std::string err;
-    target.pid = spawn(run.est_args, run.est_log, &err);
+    target.pid = spawn(run.est_args, run.est_log, &err, run.beside);
     target.running = target.pid > 0;
     if (!target.running) facts.failures.push_back("exo_estimator could not be restarted: " + err);
   }
@@ -296,6 +299,7 @@ void readSimReport(const Run& run, bool sim_finished, RunFacts& facts) {
     facts.sim_timeouts = sr.timeouts;
     facts.sim_realtime_factor = sr.realtime_factor;
     facts.sim_wall_s = sr.wall_time_s;
+    facts.sim_timing = sr.timing;
     if (sr.outcome == sim::RunOutcome::ControllerLost)
       facts.failures.push_back("exo_controller stopped answering: exo_sim ended the run after " +
                                std::to_string(sr.missing_commands) + " consecutive missing commands (last command for tick " +
@@ -307,6 +311,29 @@ void readSimReport(const Run& run, bool sim_finished, RunFacts& facts) {
   } else if (sim_finished) {
     facts.failures.push_back("exo_sim " + describeExit(run.sim.code) + " without a result (see " + run.sim_log + ")");
   }
+}
+
+/// Where the run's processes go (docs/sim.md, "Loop timing"), on 2+ CPUs unless --no-pin.
+/// Lockstep: sim and controller take turns, so they share the first CPU (cheap hand-overs: 6x real time against
+/// 4.5x unpinned on 2 cores); the estimator and the logger are free to use every CPU.
+/// Realtime: the loop (sim, controller process: woken on its CPU, they take turns within the 1 ms) alone on the last
+/// CPU under SCHED_FIFO; the estimator (its reconcile worker too) and this supervisor on the others at normal
+/// priority, so the estimator's heavy work (consistent solves, covariance) never runs on the loop's CPU; the logger
+/// anywhere (it must keep every message: confined beside the estimator it lost some when others' work crowded
+/// that CPU; at normal priority it cannot preempt the loop).
+void placeProcesses(Run& run) {
+  const std::vector<int> cpus = allowedCpus();
+  const bool pin = !run.plan.options.no_pin && cpus.size() >= 2;
+  if (run.plan.lockstep) {
+    if (pin) run.loop.cpus = run.ctrl_place.cpus = {cpus.front()};
+    return;
+  }
+  run.ctrl_place.fifo_priority = kLoopPriority;  // exo_sim sets its own (--rt-priority: mlockall too)
+  if (!pin) return;
+  run.loop.cpus = run.ctrl_place.cpus = {cpus.back()};
+  run.beside.cpus.assign(cpus.begin(), cpus.end() - 1);
+  run.logger_place.cpus = cpus;  // not inherited from this supervisor
+  pinTo(run.beside.cpus);        // this supervisor: its polling and log reading stay off the loop's CPU
 }
 
 }  // namespace
@@ -341,10 +368,7 @@ bool runExperiment(const ExperimentPlan& plan, RunFacts* facts, double* wall_s, 
                         "estimator.log", "estimator.ckpt", "estimator.ckpt.tmp", "online_estimate.csv"})
     std::filesystem::remove(run.out / f, ec);
   ::setenv("LCM_DEFAULT_URL", run.url.c_str(), 1);
-  // Lockstep sim and controller take turns, so they share one CPU (cheap hand-overs: 6x real time against
-  // 4.5x unpinned on 2 cores); the logger stays free to use every CPU.
-  const std::vector<int> cpus = allowedCpus();
-  run.loop_cpu = (!o.no_pin && cpus.size() >= 2 && plan.lockstep) ? cpus.front() : -1;
+  placeProcesses(run);
   common::installStopSignals();
   if (!startListeners(run, error)) return false;
   std::printf("exoid experiment: %ld CoM moves, %.1f s simulated, scenario %s, controller %s -> %s (watchdog %.0f s)\n",

@@ -154,6 +154,41 @@ void estimateFigures(const Model& model, const intake::RunLog& log, const RunFac
       break;
     }
 }
+
+// What the sim reported of itself (its ticks, fallbacks, real-time factor, loop timing); unknown without its report.
+void simFigures(const RunFacts& f, ExperimentSummary& s) {
+  s.sim_reported = f.sim_reported;
+  s.ticks_simulated = f.sim_reported ? f.sim_ticks : f.ticks_planned;
+  s.sim_seconds = s.ticks_simulated * 1e-3;
+  s.realtime_factor = f.sim_reported ? f.sim_realtime_factor : 0.0;
+  s.sim_held_ticks = f.sim_reported ? f.sim_held_ticks : -1;
+  s.sim_zero_ticks = f.sim_reported ? f.sim_zero_ticks : -1;
+  s.sim_timeouts = f.sim_reported ? f.sim_timeouts : -1;
+  s.timing = f.sim_timing;
+}
+
+/// summaryTable's rows of the sim's loop timing (docs/sim.md, "Loop timing").
+std::string loopTimingRows(const ExperimentSummary& s) {
+  if (!s.sim_reported) return "| loop timing | unknown (no sim report) | |\n";
+  const sim::LoopTiming& t = s.timing;
+  char misses[48] = "n/a (lockstep)", delay[48] = "n/a (lockstep)", plugin[200] = "no plugin (controller process: its tick above)";
+  if (t.deadline_misses >= 0) std::snprintf(misses, sizeof misses, "%lld", static_cast<long long>(t.deadline_misses));
+  if (t.start_delay_ms_max >= 0) std::snprintf(delay, sizeof delay, "%.3f ms", t.start_delay_ms_max);
+  if (t.plugin_calls > 0)
+    std::snprintf(plugin, sizeof plugin, "%.1f / %.1f us (cpu %.1f us); %lld; %lld", t.plugin_call_us_mean,
+                  t.plugin_call_us_max, t.plugin_call_cpu_us_max, static_cast<long long>(t.plugin_budget_overruns),
+                  static_cast<long long>(t.plugin_fallback_ticks));
+  char buf[1024];
+  std::snprintf(buf, sizeof buf,
+                "| loop overruns (tick work > 1 ms) / deadline misses (work ended after its 1 ms slot) | %lld / %s |%s|\n"
+                "| loop worst tick, wall (cpu) / mean; latest start after its slot | %.3f ms (%.3f ms) / %.3f ms; %s |%s|\n"
+                "| loop thread preemptions / page faults during the run | %lld / %lld | |\n"
+                "| plugin call mean / max (cpu max); over budget; host fallback ticks | %s | |\n",
+                static_cast<long long>(t.overruns), misses, s.lockstep ? " " : " 0 / 0 ", t.tick_ms_max, t.tick_cpu_ms_max,
+                t.tick_ms_mean, delay, s.lockstep ? " " : " <= 1 ms ",  // lockstep is not paced: no real-time target
+                static_cast<long long>(t.preemptions), static_cast<long long>(t.page_faults), plugin);
+  return buf;
+}
 }  // namespace
 
 ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& log, const RunFacts& f) {
@@ -162,13 +197,7 @@ ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& 
   s.lockstep = f.lockstep;
   s.estimate_feedback = f.estimate_feedback;
   s.ticks_planned = f.ticks_planned;
-  s.sim_reported = f.sim_reported;
-  s.ticks_simulated = f.sim_reported ? f.sim_ticks : f.ticks_planned;
-  s.sim_seconds = s.ticks_simulated * 1e-3;
-  s.realtime_factor = f.sim_reported ? f.sim_realtime_factor : 0.0;
-  s.sim_held_ticks = f.sim_reported ? f.sim_held_ticks : -1;
-  s.sim_zero_ticks = f.sim_reported ? f.sim_zero_ticks : -1;
-  s.sim_timeouts = f.sim_reported ? f.sim_timeouts : -1;
+  simFigures(f, s);
   s.failures = f.failures;
 
   int64_t first_drop_tick = -1;
@@ -190,6 +219,7 @@ ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& 
   s.qp_solve_us_p99 = percentile(qp, 0.99);
   s.tick_us_p50 = percentile(tick, 0.5);
   s.tick_us_p99 = percentile(tick, 0.99);
+  s.tick_us_max = tick.empty() ? 0.0 : *std::max_element(tick.begin(), tick.end());
   if (at_end) {
     s.moves_done = at_end->moves_done;
     if (s.fell) s.fall_during_move = at_end->move_index >= s.moves_planned ? s.moves_planned : at_end->move_index;
@@ -259,12 +289,20 @@ std::string summaryJson(const ExperimentSummary& s) {
   j["qp_solve_us_p99"] = s.qp_solve_us_p99;
   j["tick_us_p50"] = s.tick_us_p50;
   j["tick_us_p99"] = s.tick_us_p99;
+  j["tick_us_max"] = s.tick_us_max;
   j["controller_fallbacks"] = s.controller_fallbacks;
   j["sim_held_ticks"] = s.sim_held_ticks;
   j["sim_zero_ticks"] = s.sim_zero_ticks;
   j["sim_timeouts"] = s.sim_timeouts;
   j["controller_rejected_inputs"] = s.controller_rejected;
   j["realtime_factor"] = s.realtime_factor;
+  if (s.sim_reported) {  // the sim's loop timing (docs/sim.md, "Loop timing"), as in its sim_result.json
+    nlohmann::ordered_json t;
+    sim::forEachTimingField(s.timing, [&](const char* key, const auto& v) { t[key] = v; });
+    j["loop_timing"] = t;
+  } else {
+    j["loop_timing"] = nullptr;
+  }
   j["mode"] = s.lockstep ? "lockstep" : "realtime";
   j["sim_seconds"] = s.sim_seconds;
   j["ticks_planned"] = s.ticks_planned;
@@ -321,7 +359,7 @@ std::string summaryTable(const ExperimentSummary& s) {
                 "| moves done | %d / %d | all |\n| fell | %s | no |\n"
                 "| CoM tracking RMSE (model CoM) | %.2f mm (max %.2f mm) | <= 5 mm |\n"
                 "| true CoM vs reference RMSE | %.2f mm (max %.2f mm; horizontal RMSE %.2f mm; height relative to the start %.2f mm) | |\n| max foot slip | %.3f mm | <= 1 mm |\n"
-                "| QP solve p50 / p99 | %.1f / %.1f us | |\n| controller tick p50 / p99 | %.1f / %.1f us | p99 <= 250 us |\n"
+                "| QP solve p50 / p99 | %.1f / %.1f us | |\n| controller tick p50 / p99 / max | %.1f / %.1f / %.1f us | p99 <= 250 us |\n"
                 "| fallback ticks (controller) | %ld | 0 |\n| fallback ticks (sim) | %s | 0 |\n"
                 "| rejected inputs (controller) | %ld | 0 |\n"
                 "| real-time factor | %s | %s |\n"
@@ -330,13 +368,13 @@ std::string summaryTable(const ExperimentSummary& s) {
                 "| log | %s | complete |\n"
                 "| EoM residual max rel (W phi_model - y) | %.2g | <= 1e-8 without noise/effects |\n",
                 s.outcome.c_str(), s.moves_done, s.moves_planned, fall, 1e3 * s.com_rmse_m, 1e3 * s.com_max_error_m,
-                1e3 * s.true_com_rmse_m, 1e3 * s.true_com_max_error_m, 1e3 * s.true_com_rmse_xy_m, 1e3 * s.true_com_rmse_rel_m, 1e3 * s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99,
+                1e3 * s.true_com_rmse_m, 1e3 * s.true_com_max_error_m, 1e3 * s.true_com_rmse_xy_m, 1e3 * s.true_com_rmse_rel_m, 1e3 * s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99, s.tick_us_max,
                 s.controller_fallbacks, sim_fb, s.controller_rejected, rtf, s.lockstep ? ">= 5x (lockstep)" : "",
                 s.sim_reported ? std::to_string(s.ticks_simulated).c_str() : "unknown (no sim report)",
                 static_cast<long long>(s.ticks_planned), s.missing_ticks,
                 s.log_complete ? "complete" : ("INCOMPLETE" + (s.log_damage.empty() ? "" : ": " + s.log_damage)).c_str(),
                 s.eom_residual_max_rel);
-  std::string out = buf;
+  std::string out = buf + loopTimingRows(s);
   if (s.joint_torque_prediction_rmse_nm >= 0.0) {
     std::snprintf(buf, sizeof buf,
                   "| joint-torque prediction error (controller's model + all it fed forward; model alone) | "

@@ -25,7 +25,16 @@ std::vector<int> allowedCpus() {
   return cpus;
 }
 
-pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error, int cpu) {
+bool pinTo(const std::vector<int>& cpus) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (int c : cpus)
+    if (c >= 0 && c < CPU_SETSIZE) CPU_SET(c, &set);
+  return !cpus.empty() && ::sched_setaffinity(0, sizeof(set), &set) == 0;
+}
+
+pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error,
+            const Placement& placement) {
   std::vector<char*> args;
   for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
@@ -48,11 +57,11 @@ pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, s
     ::setpgid(0, 0);
     ::prctl(PR_SET_PDEATHSIG, SIGTERM);
     if (::getppid() != parent) ::_exit(127);  // the supervisor died before prctl took effect
-    if (cpu >= 0) {
-      cpu_set_t set;
-      CPU_ZERO(&set);
-      CPU_SET(cpu, &set);
-      ::sched_setaffinity(0, sizeof(set), &set);  // best effort: a failure only costs speed
+    if (!placement.cpus.empty()) pinTo(placement.cpus);  // best effort: a failure only costs speed
+    if (placement.fifo_priority > 0) {
+      sched_param sp{};
+      sp.sched_priority = placement.fifo_priority;
+      ::sched_setscheduler(0, SCHED_FIFO, &sp);
     }
     if (fd >= 0) {
       ::dup2(fd, STDOUT_FILENO);

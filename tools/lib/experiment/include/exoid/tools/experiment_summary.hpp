@@ -9,6 +9,7 @@
 
 #include "exoid/model/model.hpp"
 #include "exoid/intake/run_log.hpp"
+#include "exoid/sim/loop_timing.hpp"
 
 namespace exoid::tools {
 
@@ -24,6 +25,7 @@ struct RunFacts {
   int64_t sim_fall_tick = -1;
   int64_t sim_held_ticks = 0, sim_zero_ticks = 0, sim_timeouts = 0;  ///< the sim's own fallbacks
   double sim_realtime_factor = 0.0, sim_wall_s = 0.0;
+  sim::LoopTiming sim_timing;       ///< the sim's loop timing (overruns, deadline misses, worst tick, plugin calls)
   std::vector<std::string> failures;  ///< what went wrong, one line each (a process died, the watchdog, ...)
   bool interrupted = false;           ///< SIGINT/SIGTERM stopped the run
   bool log_readable = true;           ///< false: the log could not be read at all (log_error says why)
@@ -56,7 +58,8 @@ struct ExperimentSummary {
   double true_com_rmse_rel_m = 0.0;
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
   double qp_solve_us_p50 = 0.0, qp_solve_us_p99 = 0.0;
-  double tick_us_p50 = 0.0, tick_us_p99 = 0.0;
+  double tick_us_p50 = 0.0, tick_us_p99 = 0.0, tick_us_max = 0.0;  ///< the controller's tick (its status)
+  sim::LoopTiming timing;          ///< the sim's loop timing (docs/sim.md, "Loop timing"; valid when sim_reported)
   long controller_fallbacks = 0;   ///< controller ticks on a fallback command (its last status)
   long sim_held_ticks = 0, sim_zero_ticks = 0, sim_timeouts = 0;  ///< the sim's fallback ticks (-1: unknown)
   long controller_rejected = 0;    ///< input messages the controller rejected

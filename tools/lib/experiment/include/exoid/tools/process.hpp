@@ -9,9 +9,20 @@
 
 namespace exoid::tools {
 
+/// Where and how a child runs (set in the child before exec, so it holds from the program's first instruction and
+/// for every thread it starts). Best effort: a refusal (no CAP_SYS_NICE, a CPU not allowed) only costs timing.
+struct Placement {
+  std::vector<int> cpus;  ///< pinned to these CPUs (empty: wherever the parent may run)
+  int fifo_priority = 0;  ///< > 0: SCHED_FIFO at this priority (real time); 0: normal scheduling
+};
+
 /// Starts argv[0] (searched in PATH) with the given arguments. Output goes to log_path (appended) if not
-/// empty, otherwise it is inherited. cpu >= 0 pins the child to that CPU. Returns the pid, or -1 with *error.
-pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error, int cpu = -1);
+/// empty, otherwise it is inherited. Returns the pid, or -1 with *error.
+pid_t spawn(const std::vector<std::string>& argv, const std::string& log_path, std::string* error,
+            const Placement& placement = {});
+
+/// Pins the calling process (its threads started later too) to `cpus`; false if refused.
+bool pinTo(const std::vector<int>& cpus);
 
 /// CPUs this process may run on, in increasing order.
 std::vector<int> allowedCpus();
