@@ -428,13 +428,7 @@ void OnlineEstimator::process() {
   } else {
     filter_.filter(rls_model_, kin_.K, y_, Kf_, yf_);
   }
-  if (Kf_.allFinite() && yf_.allFinite()) {
-    // Innovation of this sample against the last published estimate (before the sample is folded in).
-    predictRecursiveLs(rls_model_, rls_, Kf_, innovation_);
-    innovation_ = yf_ - innovation_;
-    trackResidualCorrelation();
-    if (opt_.change_threshold > 0.0) detectChange(r1.tick);
-  }
+  if (Kf_.allFinite() && yf_.allFinite()) observeInnovation(r1.tick);
   if (updateRecursiveLs(rls_model_, rls_, r1.tick, Kf_, yf_) == SampleStatus::Accepted) {
     row_tick_ = r1.tick;
     ++since_publication_;
@@ -442,6 +436,15 @@ void OnlineEstimator::process() {
   } else {
     ++rejected_[static_cast<int>(InputStatus::NonFinite)];  // e.g. a kinematic singularity made K non-finite
   }
+}
+
+void OnlineEstimator::observeInnovation(long tick) {
+  // Innovation of this sample against the last published estimate (before the sample is folded in): the
+  // residuals' correlation time (the trust's uncertainty) and the change detector both read it.
+  predictRecursiveLs(rls_model_, rls_, Kf_, innovation_);
+  innovation_ = yf_ - innovation_;
+  trackResidualCorrelation();
+  if (opt_.change_threshold > 0.0) detectChange(tick);
 }
 
 void OnlineEstimator::detectChange(long tick) {

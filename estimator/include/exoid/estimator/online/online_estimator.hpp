@@ -184,6 +184,10 @@ class OnlineEstimator {
   long lastChangeTick() const { return last_change_tick_; }  ///< tick of the last one (-1: none)
   double largestChangeStatistic() const { return z_max_; }   ///< largest max_c |mean_c| / rms_c while armed
   long rejected(InputStatus why) const;
+  /// Correlation time of the residuals (samples per independent one; the largest coordinate's), last publication.
+  double residualCorrelation() const { return correlation_; }
+  /// Covariance of the published CoM (world axes), last uncertainty publication.
+  const Eigen::Matrix3d& comCovariance() const { return com_cov_; }
 
  private:
   struct Raw {  // one tick's sensor values, ready for differencing
@@ -313,6 +317,8 @@ class OnlineEstimator {
   // Change detection (options change_*): per-coordinate innovation mean over the window and mean square over the
   // baseline, samples since the detector was (re)armed, detections.
   void detectChange(long tick);
+  /// The innovation of the filtered sample of `tick` against the last publication, then its consumers.
+  void observeInnovation(long tick);
   Eigen::VectorXd innovation_, innovation_mean_, innovation_ms_;  ///< [nv]
   long change_samples_ = 0, changes_ = 0, last_change_tick_ = -1;
   double z_max_ = 0.0;
@@ -335,11 +341,6 @@ class OnlineEstimator {
   Eigen::VectorXd tau_stddev_;  ///< [nv]
   bool have_trust_ = false;
 
- public:
-  /// Correlation time of the residuals (samples per independent one; the largest coordinate's), last publication.
-  double residualCorrelation() const { return correlation_; }
-  /// Covariance of the published CoM (world axes), last uncertainty publication.
-  const Eigen::Matrix3d& comCovariance() const { return com_cov_; }
 };
 
 }  // namespace exoid::estimator
