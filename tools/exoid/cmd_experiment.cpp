@@ -119,9 +119,11 @@ void addSupervisionOptions(CLI::App& app, tools::ExperimentOptions& o) {
                "the controller uses EXO_ESTIMATE while it is valid (on by default; off with\n"
                "--no-estimate-feedback or --no-estimator): its correction in the dynamics, its mass\n"
                "and CoM in the momentum task, each only as far as it stands out of the estimate's own\n"
-               "uncertainty (controller estimate.trust_sigmas; docs/controller.md, \"Trust\"). On an\n"
-               "exact model it changes nothing measurable; with a wrong model it removes most of the\n"
-               "CoM error (docs/estimator.md, \"Closing the loop\")");
+               "uncertainty (controller estimate.trust_sigmas; docs/controller.md, \"Trust\"). Nominal\n"
+               "(exact model): true-CoM RMSE 0.38 vs 0.37 mm; payloads and a +-25 % prior: 3-8.5x lower;\n"
+               "effects the rigid model lacks can bias it (docs/estimator.md, \"Closing the loop\"). In\n"
+               "lockstep the loop waits for each estimate (applied estimate.lag_ticks after its tick):\n"
+               "runs are reproducible bit for bit");
   app.add_option("--estimator-args", o.estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
                  "the experiment's defaults, \"--forgetting none\". --effects FILE (a\n"
