@@ -58,9 +58,9 @@ int main(int argc, char** argv) {
     est.fillOutput(out);
     if (est.reconcileDue()) est.reconcile(out);  // exo_estimator's consistent parameters (synchronously here)
     if (!out.valid || out.com_stddev.maxCoeff() <= 0.0) continue;  // the controller takes valid ones only
-    const long i = static_cast<long>(out.tick) - first_tick;
-    if (i < 0 || i >= static_cast<long>(run.ticks.size()) || run.ticks[i].truth->tick != out.tick) continue;
-    const GroundTruthSample& tr = *run.ticks[i].truth;
+    const long at = static_cast<long>(out.tick) - first_tick;  // the truth of the estimate's tick
+    if (at < 0 || at >= static_cast<long>(run.ticks.size()) || run.ticks[at].truth->tick != out.tick) continue;
+    const GroundTruthSample& tr = *run.ticks[at].truth;
     s.q = tr.q;
     s.base_orientation = tr.base_orientation;
     s.base_position = tr.base_position;
@@ -79,12 +79,14 @@ int main(int argc, char** argv) {
     const long slot = static_cast<long>(1e-3 * static_cast<double>(out.tick) / period);
     if (slot != printed) {
       printed = slot;
-      std::printf("t %6.2f s  model %7.2f %7.2f %7.2f  error %7.3f %7.3f %7.3f mm  sigma %7.3f %7.3f %7.3f mm  z %6.2f %6.2f %6.2f  T %.0f\n",
-                  1e-3 * static_cast<double>(out.tick), e0.x(), e0.y(), e0.z(), e.x(), e.y(), e.z(), sd.x(), sd.y(), sd.z(), e.x() / sd.x(),
-                  e.y() / sd.y(), e.z() / sd.z(), est.residualCorrelation());
-      std::printf("          mass change %.3f kg (sigma %.4f); tau_correction / sigma:", out.params[0] * 0.0 +
-                  [&] { double m = 0; for (int b = 0; b < model.nbodies; ++b) m += out.params[model.bodyParamIndex(b)] - model.phi[model.bodyParamIndex(b)]; return m; }(),
-                  out.mass_stddev);
+      std::printf("t %6.2f s  model %7.2f %7.2f %7.2f  error %7.3f %7.3f %7.3f mm  sigma %7.3f %7.3f %7.3f mm  "
+                  "z %6.2f %6.2f %6.2f  T %.0f\n",
+                  1e-3 * static_cast<double>(out.tick), e0.x(), e0.y(), e0.z(), e.x(), e.y(), e.z(), sd.x(), sd.y(),
+                  sd.z(), e.x() / sd.x(), e.y() / sd.y(), e.z() / sd.z(), est.residualCorrelation());
+      double mass_change = 0.0;
+      for (int b = 0; b < model.nbodies; ++b)
+        mass_change += out.params[model.bodyParamIndex(b)] - model.phi[model.bodyParamIndex(b)];
+      std::printf("          mass change %.3f kg (sigma %.4f); tau_correction / sigma:", mass_change, out.mass_stddev);
       for (int r = 0; r < model.nv; ++r) std::printf(" %.2f/%.3f", out.tau_correction[r], out.tau_correction_stddev[r]);
       std::printf("\n");
     }
