@@ -138,11 +138,13 @@ BENCHMARK(BM_CovarianceFormReference)->Unit(benchmark::kMicrosecond);
 
 // The whole per-sample path of exo_estimator's loop (OnlineEstimator): the state and both plates of a tick in,
 // tick assembly, input checks, central differences, leg-kinematics base position, regressor, measured
-// generalized forces, causal filter of K and y, update. Publications are not part of it (below).
+// generalized forces, causal filter of K and y, update. Publications are not part of it (below). Arg 0: the
+// default row weighting (wls-r-corr: the innovation against the full-information fit too), 1: wls-r.
 void BM_EstimatorTick(benchmark::State& state) {
   const Setup& s = setup();
   const Model& model = s.model;
   OnlineEstimatorOptions opt;
+  if (state.range(0) == 1) opt.row_weighting = RowWeighting::WlsR;
   OnlineEstimator est(model, s.base, model.phi, opt);
   std::vector<estimator::testing::SensorTick> ticks(1000, estimator::testing::makeSensorTick(model));
   std::mt19937_64 rng(1);
@@ -165,16 +167,18 @@ void BM_EstimatorTick(benchmark::State& state) {
   }
   reportPercentiles(state, times);
 }
-BENCHMARK(BM_EstimatorTick)->UseManualTime()->MinTime(2.0);
+BENCHMARK(BM_EstimatorTick)->Arg(0)->Arg(1)->UseManualTime()->MinTime(2.0);
 
 // One publication of the loop (solve, standard parameters, consistency, excitation, tau_ff); arg 0: forgetting
-// none (the covariance every 10th publication, as exo_estimator runs), 1: selective (plus its block step every
-// 100 samples). Each iteration folds 10 ticks first (not timed).
+// none (the covariance every 10th publication, as exo_estimator runs; the default row weighting solves twice),
+// 1: selective (fixed weights; plus its block step every 100 samples), 2: forgetting none with wls-r (one solve).
+// Each iteration folds 10 ticks first (not timed).
 void BM_EstimatorPublish(benchmark::State& state) {
   const Setup& s = setup();
   const Model& model = s.model;
   OnlineEstimatorOptions opt;
-  opt.forgetting = state.range(0) == 0 ? Forgetting::None : Forgetting::Selective;
+  opt.forgetting = state.range(0) == 1 ? Forgetting::Selective : Forgetting::None;
+  if (state.range(0) == 2) opt.row_weighting = RowWeighting::WlsR;
   OnlineEstimator est(model, s.base, model.phi, opt);
   EstimatorOutputSample out;
   est.sizeOutput(out);
@@ -194,6 +198,6 @@ void BM_EstimatorPublish(benchmark::State& state) {
   }
   benchmark::DoNotOptimize(out.tau_correction.data());
 }
-BENCHMARK(BM_EstimatorPublish)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EstimatorPublish)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

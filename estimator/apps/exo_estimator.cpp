@@ -56,10 +56,10 @@ constexpr char kFooter[] =
 struct Args {
   using Defaults = exoid::estimator::OnlineEstimatorOptions;
   std::string model_path = exoid::common::configPath("exo.urdf"), prior_path, url = exoid::LcmEndpoint::defaultUrl(),
-              forgetting_name = "none", row_weights_text, checkpoint, final_path, effects_path;
+              forgetting_name = "none", row_weighting_name, row_weights_text, checkpoint, final_path, effects_path;
   double change_threshold = Defaults{}.change_threshold, change_keep = Defaults{}.change_keep;
   double prior_relative = 0.25, cutoff = Defaults{}.cutoff_hz, lambda = 0.9999, block_threshold = 1e-3, excited_gain = 3.0,
-         min_excitation = 0.2, publish_hz = 100.0, checkpoint_every_s = 5.0;
+         min_excitation = Defaults{}.min_excitation, publish_hz = 100.0, checkpoint_every_s = 5.0;
   int64_t derivative_half_window = Defaults{}.derivative_half_window, gyro_half_window = Defaults{}.gyro_half_window;
   std::string base_rate = "legs";
   int64_t filter_order = Defaults{}.filter_order, forget_every = 100, idle_timeout_ms = 0, consistent_every = 10,
@@ -129,15 +129,27 @@ void addEstimatorOptions(CLI::App& app, Args& a) {
                  "selective: a block informs an axis when it adds at least this fraction of the\n"
                  "prior's information on it (and at least what forgetting removes)")
       ->transform(common::strictNumber(1e-12, 1e6))->type_name("F");
+  app.add_option("--row-weighting", a.row_weighting_name,
+                 "wls-r-corr: each row weighted 1 / (sigma_c sqrt(T_c)), the residual RMS and correlation\n"
+                 "time of a first, full-weight (WLS-R) fit of the same data, re-estimated at every\n"
+                 "publication (the data count as their independent samples);\n"
+                 "wls-r: the thesis's 1 / sigma_c (every 1 kHz row counts; where the residual is model\n"
+                 "error it biases the CoM height, docs/estimator.md \"Row weights\"); fixed: --row-weights\n"
+                 "throughout (what --forgetting selective always does). Default: wls-r-corr")
+      ->check(CLI::IsMember({"wls-r-corr", "wls-r", "fixed"}))->type_name("wls-r-corr|wls-r|fixed");
   app.add_option("--row-weights", a.row_weights_text,
-                 "WLS-R weights 1/sigma, one per generalized coordinate (base_nx..base_fz, then joints),\n"
-                 "separated by spaces, e.g. from `exoid identify`'s summary.json row_weight (default: ones)")
+                 "row weights 1/sigma, one per generalized coordinate (base_nx..base_fz, then joints),\n"
+                 "separated by spaces, e.g. from `exoid identify`'s summary.json row_weight: fixed\n"
+                 "(--row-weighting fixed is implied), or where --row-weighting wls-r / wls-r-corr starts\n"
+                 "(default: ones)")
       ->type_name("\"W1 W2 ...\"");
   app.add_option("--excited-gain", a.excited_gain,
                  "a base parameter counts as excited when the data cut its variance to 1 / (1 + G) of\n"
                  "the prior's")
       ->transform(common::strictNumber(1e-6, 1e12))->type_name("G");
-  app.add_option("--min-excitation", a.min_excitation, "`valid` needs the excited fraction >= this")
+  app.add_option("--min-excitation", a.min_excitation,
+                 "`valid` needs the excited fraction >= this (0: no such gate; the controller's trust rule\n"
+                 "weighs each quantity it uses by its own uncertainty). `valid` always needs 2 s of data")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("F");
   app.add_option("--consistent-every", a.consistent_every,
                  "publications between two solves for physically consistent standard parameters that reproduce\n"
@@ -217,6 +229,12 @@ bool estimatorOptions(const Args& a, const exoid::Model& model, exoid::estimator
   opt.consistent_every = static_cast<int>(a.consistent_every);
   opt.consistent_iterations = static_cast<int>(a.consistent_iterations);
   opt.consistent_tolerance = a.consistent_tolerance;
+  if (a.row_weighting_name.empty() && !a.row_weights_text.empty()) opt.row_weighting = RowWeighting::Fixed;
+  if (!a.row_weighting_name.empty()) {
+    parseRowWeighting(a.row_weighting_name, opt.row_weighting);
+    if (opt.forgetting == Forgetting::Selective && opt.row_weighting != RowWeighting::Fixed)
+      return *err = "--row-weighting " + a.row_weighting_name + ": selective forgetting keeps the weights fixed", false;
+  }
   if (!a.row_weights_text.empty()) {
     if (!exoid::common::parseDoubleList(a.row_weights_text, model.nv, opt.row_weight, err))
       return *err = "--row-weights: " + *err + " (" + std::to_string(model.nv) + " numbers expected)", false;
@@ -336,12 +354,15 @@ int main(int argc, char** argv) {
   EstimatorNode node(*lcm, model, est, nopt);
   if (!node.ok()) return std::fprintf(stderr, "exo_estimator: LCM: %s\n", node.error().c_str()), kExitRuntime;
   const volatile std::sig_atomic_t* stop = common::installStopSignals();
+  using exoid::estimator::RowWeighting;  // selective forgetting keeps the weights fixed, whatever was asked
+  const RowWeighting weighting =
+      opt.forgetting == exoid::estimator::Forgetting::Selective ? RowWeighting::Fixed : opt.row_weighting;
   if (!a.quiet)
-    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, state fit over %d ticks (base rate from the %s), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
+    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, row weighting %s, state fit over %d ticks (base rate from the %s), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
                  base.rank,
                  a.effects_path.empty() ? ""
                                         : (" + " + std::to_string(est.effectColumnCount()) + " effect columns of " + a.effects_path).c_str(),
-                 forgettingName(opt.forgetting), 2 * opt.derivative_half_window + 1, a.base_rate.c_str(),
+                 forgettingName(opt.forgetting), rowWeightingName(weighting), 2 * opt.derivative_half_window + 1, a.base_rate.c_str(),
                  a.cutoff, opt.filter_order, nopt.publish_every,
                  resumed ? (", resumed from " + a.checkpoint + " at tick " + std::to_string(est.rlsData().last_tick)).c_str() : "",
                  lcm->url().c_str());

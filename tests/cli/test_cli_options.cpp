@@ -38,7 +38,8 @@ TEST_F(CliOptions, EveryBinaryHasGeneratedHelp) {
       {bin("exo_sim"), {"--duration", "--mode", "--hold-ticks", "INTEGER in [0, 3600000]", "exit codes"}},
       {bin("exo_controller"), {"--moves", "--seed", "--idle-timeout-ms", "--print-duration", "exit codes"}},
       {bin("exo_estimator"),
-       {"--forgetting", "--checkpoint", "--row-weights", "--publish-hz", "--effects", "--effect-prior-factor",
+       {"--forgetting", "--checkpoint", "--row-weights", "--row-weighting", "--publish-hz", "--effects",
+        "--effect-prior-factor",
         "NUMBER in [0.5, 1]", "exit codes"}},
       // The logger's default URL is the project's, ttl=0 included (it used to print it without).
       {bin("exoid_lcm_demo_publisher"), {"--count", "--rate", "--start-tick", "--url", "--channel", "exit codes"}},
@@ -83,6 +84,9 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   }
   expectError(bin("exo_estimator") + " --lambda 1.5", "--lambda: '1.5': out of range");
   expectError(bin("exo_estimator") + " --forgetting sometimes", "--forgetting");
+  expectError(bin("exo_estimator") + " --row-weighting ols", "--row-weighting");
+  expectError(bin("exo_estimator") + " --forgetting selective --row-weighting wls-r-corr",
+              "--row-weighting wls-r-corr: selective forgetting keeps the weights fixed");
   expectError(bin("exo_estimator") + " --consistent-every -1", "--consistent-every: '-1': out of range");
   expectError(bin("exo_estimator") + " --consistent-tolerance x", "--consistent-tolerance");
   expectError(bin("exo_estimator") + " --row-weights '1 2 x'", "--row-weights: ");

@@ -247,8 +247,10 @@ TEST(OnlineEffects, SidecarInTheEstimatorNodeCompensatesUndeclaredDryFriction) {
 }
 
 // Undeclared viscous damping (5 N m s/rad, right knee): the rigid model already carries a viscous column per joint
-// (fv, prior 0 +- 0.25), so the data recover the value with or without the sidecar; its column (the same signal v)
-// takes the value over (its prior is 10 x wider) and the held-out prediction stays as good.
+// (fv, prior 0 +- 0.25), and the sidecar's column (the same signal v) takes the value over (its prior is 10 x
+// wider) and predicts the held-out run better. Without the sidecar the 3 moves, counted per independent sample
+// (the default row weighting), inform fv about as much as its prior, which puts it 20 sigma off: fv moves more
+// than 40 % of the way (measured 2.84 of 5; with WLS-R weights, which count every 1 kHz row, all the way).
 TEST(OnlineEffects, SidecarViscousColumnTakesOverTheRigidModelsOwn) {
   const ExoSetup& s = setup();
   const Model& model = s.model;
@@ -267,9 +269,10 @@ TEST(OnlineEffects, SidecarViscousColumnTakesOverTheRigidModelsOwn) {
               "held-out right-knee RMSE: online + sidecar %.4f, online rigid %.4f N m\n",
               kSeeded, c.effect, c.with.base_params[fv], c.without.base_params[fv], c.knee_with, c.knee_without);
   EXPECT_NEAR(c.effect + c.with.base_params[fv], kSeeded, 0.15 * kSeeded);
-  EXPECT_NEAR(c.without.base_params[fv], kSeeded, 0.15 * kSeeded);
+  EXPECT_GT(c.without.base_params[fv], 0.4 * kSeeded);
+  EXPECT_LT(c.without.base_params[fv], 1.15 * kSeeded);
   EXPECT_GT(c.effect, 0.9 * (c.effect + c.with.base_params[fv]));
-  EXPECT_LT(c.knee_with, 1.02 * c.knee_without);
+  EXPECT_LT(c.knee_with, 0.7 * c.knee_without);  // measured 0.0548 against 0.1007 N m
 }
 
 TEST(OnlineEffects, BadSidecarsAreRefusedWithTheReason) {

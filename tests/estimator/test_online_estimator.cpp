@@ -110,6 +110,7 @@ TEST(OnlineEstimator, NoForgettingEqualsTheBatchRegularisedSolutionOnSimulatedDa
   const int m = f.base.rank;
   OnlineEstimatorOptions opt;
   for (int c = 0; c < model.nv; ++c) opt.row_weight.push_back(c < 3 ? 1.0 / 2.0 : c < 6 ? 1.0 / 5.0 : 1.0 / 0.5);
+  opt.row_weighting = RowWeighting::Fixed;
   OnlineEstimator est(model, f.base, f.prior, opt);
   ASSERT_TRUE(est.ok()) << est.error();
   AccumulatorOptions ao;
@@ -194,6 +195,7 @@ TEST(OnlineEstimator, HeldOutJointTorqueRmseWithinTwoPercentOfBatchWlsRc) {
   // Online, no forgetting, the batch's WLS-R weights.
   OnlineEstimatorOptions opt;
   opt.row_weight = batch.row_weight;
+  opt.row_weighting = RowWeighting::Fixed;
   OnlineEstimator est(model, f.base, f.prior, opt);
   ASSERT_TRUE(est.ok()) << est.error();
   feed(est, f.train, 0, f.train.states.size());
@@ -211,7 +213,8 @@ TEST(OnlineEstimator, HeldOutJointTorqueRmseWithinTwoPercentOfBatchWlsRc) {
   EXPECT_LE(rmse_online, 1.02 * rmse_batch);
   EXPECT_LT(rmse_online, rmse_prior);
 
-  // As exo_estimator runs by default: WLS-R weights estimated online, a publication every 10 samples.
+  // As exo_estimator runs by default: weights per independent sample estimated online (wls-r-corr), a publication
+  // every 10 samples.
   OnlineEstimator wlsr(model, f.base, f.prior, OnlineEstimatorOptions{});
   EstimatorOutputSample o;
   wlsr.sizeOutput(o);
@@ -221,7 +224,8 @@ TEST(OnlineEstimator, HeldOutJointTorqueRmseWithinTwoPercentOfBatchWlsRc) {
   }
   wlsr.fillOutput(o);
   const double rmse_wlsr = jointRmse(model, held, wlsr.baseEstimate(), rows);
-  std::printf("online with its own WLS-R weights: %.4f N m (online / batch %.4f)\n", rmse_wlsr, rmse_wlsr / rmse_batch);
+  std::printf("online with its own (wls-r-corr) weights: %.4f N m (online / batch %.4f)\n", rmse_wlsr,
+              rmse_wlsr / rmse_batch);
   const auto links = checkConsistency(model, o.params);
   for (int b = 0; b < model.nbodies; ++b)
     if (!links[b].consistent)
@@ -672,7 +676,12 @@ double comErrorMm(const Fixture& f, const OnlineEstimatorOptions& opt, Eigen::Ve
 
 TEST(OnlineEstimator, TheDefaultStateFitAndFilterKeepTheNoiseFromBiasingTheComHeight) {
   const Fixture& f = fixture();
+  // The state pipeline's noise mechanisms are shown under the thesis's WLS-R weights, which count every 1 kHz row
+  // as independent and so let the noise's bias into the weakly informed height; with the default weighting (per
+  // independent sample) the prior holds the height against it (asserted at the end).
   OnlineEstimatorOptions def, central, old;
+  def.row_weighting = RowWeighting::WlsR;
+  central = def;
   central.derivative_half_window = central.gyro_half_window = 1;  // central differences, the 4th-order 2 Hz filter
   central.base_rate_from_legs = false;                             // and the gyro
   old = central;
@@ -692,7 +701,7 @@ TEST(OnlineEstimator, TheDefaultStateFitAndFilterKeepTheNoiseFromBiasingTheComHe
               1e3 * (dd.com - c_true).x(), 1e3 * (dd.com - c_true).y(), 1e3 * (dd.com - c_true).z(),
               def.derivative_half_window, e_def.x(), e_def.y(), e_def.z(), e_central.x(), e_central.y(), e_central.z(),
               e_old.x(), e_old.y(), e_old.z());
-  // Measured (4 moves, +-25 % prior 30.9 mm off, almost all height): fit 20 + 4th order 2 Hz 6.5 mm, central
+  // Measured (4 moves, +-25 % prior 30.9 mm off, almost all height; WLS-R): fit 30 + 4th order 2 Hz 3.7 mm, central
   // differences + 4th order 2 Hz 8.1 mm, central differences + 2nd order 5 Hz 16.5 mm (what is left is the
   // prior's error that 4 moves do not inform).
   EXPECT_EQ(def.filter_order, 4);
@@ -740,6 +749,14 @@ TEST(OnlineEstimator, TheDefaultStateFitAndFilterKeepTheNoiseFromBiasingTheComHe
   std::printf("from the exact parameters (mm): base rate from the legs %.2f %.2f %.2f (%.2f); from the gyro %.2f\n",
               x_legs.x(), x_legs.y(), x_legs.z(), l0, d0);
   EXPECT_LT(l0, 0.7 * d0);  // measured 3.43 against 6.11 (this 4-move run; the 20-move replays: docs)
+  // The default weighting (RowWeighting::WlsRCorrelated) from the +-25 % prior: measured 1.99 mm against WLS-R's 3.68.
+  const OnlineEstimatorOptions standard;
+  Eigen::Vector3d e_standard;
+  const double s0 = comErrorMm(f, standard, &e_standard);
+  std::printf("default weighting (%s) from the prior: %.2f %.2f %.2f mm (%.2f; WLS-R %.2f)\n",
+              rowWeightingName(standard.row_weighting), e_standard.x(), e_standard.y(), e_standard.z(), s0, d);
+  EXPECT_EQ(standard.row_weighting, RowWeighting::WlsRCorrelated);
+  EXPECT_LT(s0, 0.7 * d);
 }
 
 // Issue 20's trust rule rests on the published uncertainty (com_stddev, mass_stddev): the sandwich covariance with
@@ -830,7 +847,7 @@ TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAla
   // Residual-triggered forgetting (docs/estimator.md, "Change detection"), default options (no forgetting,
   // threshold 12): config/scenarios/payload_mid_run.yaml's 3 kg attached at 8 s of a 4-move run. Nothing is
   // detected before the attachment, one change within 0.2 s after it, and the estimated total mass (sum of the
-  // published link masses) reaches 95 % of the change within 3 s (issue 8: within 5 s); the fixture's run
+  // published link masses) reaches 95 % of the change within 4 s (issue 8: within 5 s); the fixture's run
   // (no change, +-25 % prior) gives no detection.
   const Fixture& f = fixture();
   const double attach_s = 8.0;
@@ -866,7 +883,7 @@ TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAla
   EXPECT_LE(est.lastChangeTick(), attach_tick + 200);
   EXPECT_GT(mass_before, 0.9 * f.model.phi[f.model.bodyParamIndex(0)]);
   EXPECT_GT(reached_s, 0.0);
-  EXPECT_LE(reached_s, 3.0);
+  EXPECT_LE(reached_s, 4.0);  // measured 3.50 s with the default weighting
   std::printf("change detected %ld ms after the attachment, largest statistic %.1f; 95 %% of the 3 kg after %.2f s\n",
               est.lastChangeTick() - attach_tick, est.largestChangeStatistic(), reached_s);
 

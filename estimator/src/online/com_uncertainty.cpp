@@ -26,16 +26,16 @@ double filterCorrelationTime(double cutoff_hz, double sample_hz, int order) {
   return sum2 > 0.0 ? std::max(1.0, sum * sum / sum2) : 1.0;
 }
 
-void OnlineEstimator::trackResidualCorrelation() {
+void OnlineEstimator::trackResidualCorrelation(const Eigen::VectorXd& e) {
   // Batch means over a long window: for a stationary residual e with variance s^2 and integrated autocorrelation
   // time T (samples), the mean of a window of W >> T samples has variance s^2 T / W_eff. With the exponential
-  // window of weight a (W_eff = (2 - a) / a), T = E[mean^2] / (E[e^2] a / (2 - a)). The innovations are those of
-  // the change detector (against the last publication's estimate).
+  // window of weight a (W_eff = (2 - a) / a), T = E[mean^2] / (E[e^2] a / (2 - a)). e: the innovation against the
+  // full-information fit (RowWeighting::WlsRCorrelated), else the change detector's (the last publication's).
   const double a = std::min(1.0, 1.0 / (kCorrelationWindowS * opt_.sample_hz));
   const double b = std::min(1.0, 1.0 / (opt_.change_baseline_s * opt_.sample_hz));
-  corr_mean_ += a * (innovation_ - corr_mean_);
+  corr_mean_ += a * (e - corr_mean_);
   corr_ms_ += b * (corr_mean_.cwiseAbs2() - corr_ms_);
-  corr_var_ += b * (innovation_.cwiseAbs2() - corr_var_);
+  corr_var_ += b * (e.cwiseAbs2() - corr_var_);
 }
 
 void OnlineEstimator::rowCorrelationTimes() {

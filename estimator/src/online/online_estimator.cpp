@@ -35,6 +35,24 @@ bool parseForgetting(const std::string& name, Forgetting& f) {
   return false;
 }
 
+const char* rowWeightingName(RowWeighting w) {
+  switch (w) {
+    case RowWeighting::Fixed: return "fixed";
+    case RowWeighting::WlsR: return "wls-r";
+    case RowWeighting::WlsRCorrelated: return "wls-r-corr";
+  }
+  return "?";
+}
+
+bool parseRowWeighting(const std::string& name, RowWeighting& w) {
+  for (RowWeighting g : {RowWeighting::Fixed, RowWeighting::WlsR, RowWeighting::WlsRCorrelated})
+    if (name == rowWeightingName(g)) {
+      w = g;
+      return true;
+    }
+  return false;
+}
+
 namespace {
 enum Channel { kStateChannel = kTickState, kRightPlate = kTickPlateRight, kLeftPlate = kTickPlateLeft };
 
@@ -66,7 +84,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   std::vector<double> effect_sigma;
   if (!opt_.effects.effects.empty() && !addEffectColumns(effect_sigma)) return;
   rls_ = RecursiveLsData(rls_model_);
-  adaptive_weights_ = opt_.row_weight.empty() && opt_.forgetting != Forgetting::Selective;
+  adaptive_weights_ = opt_.row_weighting != RowWeighting::Fixed && opt_.forgetting != Forgetting::Selective;
   initial_weights_ = rls_model_.row_weight;
   filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
   filter_correlation_ = filterCorrelationTime(opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
@@ -263,6 +281,9 @@ void OnlineEstimator::sizeWorkspace() {
   innovation_ = innovation_mean_ = innovation_ms_ = Eigen::VectorXd::Zero(nv);
   corr_mean_ = corr_ms_ = corr_var_ = tau_stddev_ = Eigen::VectorXd::Zero(nv);
   row_correlation_ = Eigen::VectorXd::Constant(nv, filter_correlation_);
+  full_weight_ = rls_model_.row_weight;
+  full_rms_ = full_innovation_ = Eigen::VectorXd::Zero(nv);
+  x_full_ = rls_.x;
   V_ = AV_ = Eigen::MatrixXd::Zero(mx, 4 + nv);
   AT_ = Eigen::MatrixXd::Zero(mx, mx);
   Kf_ = Eigen::MatrixXd::Zero(nv, p + ne_);
@@ -443,7 +464,13 @@ void OnlineEstimator::observeInnovation(long tick) {
   // residuals' correlation time (the trust's uncertainty) and the change detector both read it.
   predictRecursiveLs(rls_model_, rls_, Kf_, innovation_);
   innovation_ = yf_ - innovation_;
-  trackResidualCorrelation();
+  if (opt_.row_weighting == RowWeighting::WlsRCorrelated && adaptive_weights_) {
+    predictRecursiveLs(rls_model_, x_full_, Kf_, full_innovation_);
+    full_innovation_ = yf_ - full_innovation_;
+    trackResidualCorrelation(full_innovation_);
+  } else {
+    trackResidualCorrelation(innovation_);
+  }
   if (opt_.change_threshold > 0.0) detectChange(tick);
 }
 
@@ -544,6 +571,7 @@ void OnlineEstimator::sizeOutput(EstimatorOutputSample& out) const {
 
 void OnlineEstimator::fillOutput(EstimatorOutputSample& out) {
   const bool selective = opt_.forgetting == Forgetting::Selective;
+  fitFullInformation();
   updateRowWeights();
   // The covariance costs m^3 (most of a publication): every uncertainty_every-th one, the stddevs kept between.
   const bool uncertainty = publications_++ % opt_.uncertainty_every == 0;
@@ -574,18 +602,41 @@ void OnlineEstimator::fillOutput(EstimatorOutputSample& out) {
   out.samples_missing = rls_.missing;
   const bool finite = solved && out.params.allFinite() && out.param_stddev.allFinite() && out.tau_correction.allFinite() &&
                       out.residual_rms.allFinite() && out.base_stddev.allFinite();
-  valid_rest_ = finite && rls_.accepted > 0 && out.excitation >= opt_.min_excitation;
+  // The stated uncertainty rests on the residuals' correlation time, measured over kCorrelationWindowS: before
+  // one window of data it is not yet honest, so nothing is valid (docs/estimator.md, "Publication").
+  const double warm_up = kCorrelationWindowS * opt_.sample_hz;
+  valid_rest_ = finite && static_cast<double>(rls_.accepted) >= warm_up && out.excitation >= opt_.min_excitation;
   out.valid = valid_rest_ && consistent;
   since_publication_ = 0;
   if (selective && block_samples_ >= opt_.forget_every) fold();
 }
 
+void OnlineEstimator::fitFullInformation() {
+  if (!adaptive_weights_ || opt_.row_weighting != RowWeighting::WlsRCorrelated || rls_.effective_samples <= 0.0)
+    return;
+  rls_model_.row_weight = full_weight_;
+  if (!solveRecursiveLs(rls_model_, rls_, false)) return;
+  x_full_ = rls_.x;
+  full_rms_ = rls_.residual_rms;
+  for (int c = 0; c < model_.nv; ++c) {
+    const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
+    full_weight_[c] = 1.0 / std::max(full_rms_[c], 1e-6 * y_rms + 1e-12);
+  }
+}
+
 void OnlineEstimator::updateRowWeights() {
   const int nv = model_.nv;
   // WLS-R (thesis eqs. 29-32) online: sigma_c from the previous solve's residuals over the whole memory. The
-  // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history.
+  // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history. The
+  // correlated variant divides by sqrt(T_c) (the previous publication's correlation time, >= the filter's):
+  // one independent residual per T_c rows.
   if (adaptive_weights_ && rls_.solves > 0 && rls_.effective_samples > 0.0) {
+    const bool per_independent = opt_.row_weighting == RowWeighting::WlsRCorrelated;
     for (int c = 0; c < nv; ++c) {
+      if (per_independent) {  // fitFullInformation has just solved: full_weight_ = 1 / its sigma_c
+        rls_model_.row_weight[c] = full_weight_[c] / std::sqrt(row_correlation_[c]);
+        continue;
+      }
       const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
       rls_model_.row_weight[c] = 1.0 / std::max(rls_.residual_rms[c], 1e-6 * y_rms + 1e-12);
     }
@@ -781,6 +832,9 @@ bool OnlineEstimator::saveCheckpoint(const std::string& path, std::string* error
   for (long v : rejected_) extra.push_back(double(v));
   extra.push_back(double(assembly_.counts().incomplete));
   extra.insert(extra.end(), rls_model_.row_weight.data(), rls_model_.row_weight.data() + rls_model_.nv);
+  // The residuals' correlation statistics: the correlated row weights are made from them.
+  for (const Eigen::VectorXd* v : {&corr_mean_, &corr_ms_, &corr_var_, &row_correlation_, &full_weight_, &x_full_})
+    extra.insert(extra.end(), v->data(), v->data() + v->size());
   const std::vector<double> sig = effectSignature();
   extra.insert(extra.end(), sig.begin(), sig.end());
   RecursiveLsModel structure = rls_model_;  // checked against the weights the estimator was built with
@@ -823,7 +877,7 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
     return false;
   }
   const int m = rls_model_.m, nv = rls_model_.nv;
-  const size_t want = 11 + size_t(m) * m + m + nv + 5 + 1 + nv;
+  const size_t want = 11 + size_t(m) * m + m + nv + 5 + 1 + nv + 5 * size_t(nv) + m;
   // The sidecar first: a checkpoint of an estimator with other effects is refused by name.
   const std::vector<double> sig = effectSignature();
   const std::vector<double> file_sig(extra.begin() + std::ptrdiff_t(std::min(extra.size(), want)), extra.end());
@@ -859,6 +913,8 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   TickAssemblyCounts counts;
   counts.incomplete = long(extra[i++]);
   for (int c = 0; c < nv; ++c) rls_model_.row_weight[c] = extra[i++];
+  for (Eigen::VectorXd* v : {&corr_mean_, &corr_ms_, &corr_var_, &row_correlation_, &full_weight_, &x_full_})
+    for (Eigen::Index c = 0; c < v->size(); ++c) (*v)[c] = extra[i++];
   rls_ = std::move(restored);
   // The channels resume after the checkpoint's last tick; the differencing history and the filter restart.
   assembly_.restart(rls_.has_tick ? rls_.last_tick + 1 : -1, counts);

@@ -245,9 +245,14 @@ bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool
 
 void predictRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data,
                         const Eigen::Ref<const Eigen::MatrixXd>& K, Eigen::Ref<Eigen::VectorXd> tau) {
+  predictRecursiveLs(model, data.x, K, tau);
+}
+
+void predictRecursiveLs(const RecursiveLsModel& model, const Eigen::VectorXd& x,
+                        const Eigen::Ref<const Eigen::MatrixXd>& K, Eigen::Ref<Eigen::VectorXd> tau) {
   for (int c = 0; c < model.nv; ++c) {
     double sum = 0.0;
-    for (int j : model.active[c]) sum += K(c, model.independent[j]) * data.x[j];
+    for (int j : model.active[c]) sum += K(c, model.independent[j]) * x[j];
     tau[c] = sum;
   }
 }

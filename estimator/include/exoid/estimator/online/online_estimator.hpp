@@ -48,6 +48,20 @@ enum class Forgetting {
 const char* forgettingName(Forgetting f);          ///< "none", "stabilised", "selective"
 bool parseForgetting(const std::string& name, Forgetting& f);
 
+/// How the rows (generalized coordinates) are weighted (docs/estimator.md, "Row weights").
+enum class RowWeighting {
+  Fixed,  ///< g_c = row_weight (ones when empty) throughout
+  WlsR,   ///< the thesis's WLS-R (eqs. 29-32) online: g_c = 1 / sigma_c, sigma_c the residual RMS of row c
+  /// WLS-R per independent sample: g_c = 1 / (sigma_c sqrt(T_c)), sigma_c and T_c the residual RMS and correlation
+  /// time of row c (the samples one independent residual spans: the 2 Hz filter alone makes it ~244, model error
+  /// up to ~4000) against a first, full-information (WLS-R) solve of the same sums. The data then carry the
+  /// information of their independent samples, not of every 1 kHz row, so the prior keeps its weight against them
+  /// where they inform little (the CoM height while standing), and the covariance A^-1 is the sandwich's.
+  WlsRCorrelated,
+};
+const char* rowWeightingName(RowWeighting w);  ///< "fixed", "wls-r", "wls-r-corr"
+bool parseRowWeighting(const std::string& name, RowWeighting& w);
+
 struct OnlineEstimatorOptions {
   double sample_hz = 1000.0;     ///< tick rate of the samples
   double cutoff_hz = 2.0;        ///< causal Butterworth on K rows and y; <= 0: none (docs/estimator.md, "Filter")
@@ -64,14 +78,24 @@ struct OnlineEstimatorOptions {
   /// A foot that rolls on its plate breaks the assumption (docs/estimator.md, "State").
   bool base_rate_from_legs = true;
   double prior_relative = 0.25;  ///< prior within +-this (relative) of each standard parameter (1 sigma)
-  std::vector<double> row_weight;  ///< [nv] fixed row weights 1 / sigma_c; empty: WLS-R estimated online
-                                   ///< (none / stabilised forgetting; ones with selective forgetting)
+  std::vector<double> row_weight;  ///< [nv] row weights g_c, fixed or the reweighting's start; empty: ones
+  /// WLS-R weights 1 / sigma_c from the residuals let every row count as an independent sample: on runs whose
+  /// residuals are model error (soft contacts, undeclared joint effects) the data then outweigh the prior
+  /// ~1000x too much and their misfit biases the CoM height by 2-13 mm, beyond its stated uncertainty. The
+  /// correlated variant weights each row by its independent samples (docs/estimator.md, "Row weights").
+  /// Selective forgetting always keeps row_weight fixed (its carried information holds the weights it was folded
+  /// with).
+  RowWeighting row_weighting = RowWeighting::WlsRCorrelated;
   Forgetting forgetting = Forgetting::None;
   double lambda = 0.9995;        ///< per-sample forgetting factor (Stabilised, Selective); memory 1 / (1 - lambda)
   int forget_every = 100;        ///< Selective: samples per block (forgetting step at the first publication after)
   double block_threshold = 1e-3; ///< Selective: axis j excited by a block when its information >= this x Lambda0_jj
   double excited_gain = 3.0;     ///< base parameter j counts as excited when prior var / posterior var >= 1 + this
-  double min_excitation = 0.2;   ///< `valid` needs excitation >= this
+  /// `valid` needs excitation >= this. 0: no such gate, the controller's trust rule weighs every quantity it uses
+  /// by its own uncertainty; with information counted per independent sample (RowWeighting::WlsRCorrelated) a
+  /// run with large model error informs few axes 4x beyond the prior (combined_worst: 17 %) while its payloads'
+  /// mass and CoM stand far out of their sigma (docs/estimator.md, "Publication").
+  double min_excitation = 0.0;
   int uncertainty_every = 10;    ///< covariance (m^3) and the stddevs at every N-th publication (kept between)
   /// Consistent standard parameters (reconcile()): a solve every N-th publication (<= 0: never; the published
   /// parameters are then the prior's conditional mean and `consistent` stays false).
@@ -213,8 +237,14 @@ class OnlineEstimator {
                               const std::vector<double>& effect_sigma);
   void sizeWorkspace();  ///< every per-sample buffer, so that the loop does not allocate
   // fillOutput()'s stages, in order:
-  /// WLS-R online: each row's weight 1 / sigma_c from the previous solve's residuals over the whole memory.
+  /// WLS-R online: each row's weight 1 / sigma_c from the previous solve's residuals over the whole memory;
+  /// per independent sample: 1 / (sigma_c sqrt(T_c)) from the full-information fit's.
   void updateRowWeights();
+  /// RowWeighting::WlsRCorrelated: the data at full weight (WLS-R weights from its own previous residuals) solved
+  /// first; its residuals, what no parameter explains, give sigma_c and T_c. Measured against the published
+  /// estimate instead, a parameter the data have not yet moved (an undeclared viscous damping) makes the
+  /// residual correlated, which lowers its rows' weight, which keeps it from moving.
+  void fitFullInformation();
   /// Residual RMS and effective samples over the estimate's memory (selective: earlier blocks carried).
   void reportResidualRms(bool selective, EstimatorOutputSample& out) const;
   /// phi and its stddev (recomputed when `uncertainty`) into out.params, param_stddev, base_params, base_stddev.
@@ -228,8 +258,8 @@ class OnlineEstimator {
   /// out.com_stddev, mass_stddev, tau_correction_stddev: the uncertainty of what the controller uses, computed
   /// when `uncertainty` (kept between), after feedforwardTorque (its kinematics and K) (com_uncertainty.cpp).
   void controllerUncertainty(bool uncertainty, EstimatorOutputSample& out);
-  /// Per-sample: the innovations' long batch means, for the residuals' correlation time.
-  void trackResidualCorrelation();
+  /// Per-sample: the innovations' long batch means, for the residuals' correlation time. e [nv].
+  void trackResidualCorrelation(const Eigen::VectorXd& e);
   /// row_correlation_ [nv] and correlation_ from the batch means (floor: the row filter's).
   void rowCorrelationTimes();
   /// AT_ = Lambda0 + sum_c T_c g_c^4 sigma_c^2 D_c (upper): the data's information scaled by the correlation.
@@ -259,7 +289,7 @@ class OnlineEstimator {
   Eigen::VectorXd tau_sensor_;  ///< [nv] the torque sensors' part of y (gain correction)
   CausalRowFilter filter_;
   Eigen::VectorXd phi_;         ///< [p] standard parameters of the last publication
-  bool adaptive_weights_ = false;  ///< WLS-R: g_c = 1 / sigma_c from the previous solve's residuals
+  bool adaptive_weights_ = false;  ///< WLS-R (either variant): g_c from the previous solve's residuals
   Eigen::VectorXd initial_weights_;  ///< [nv] the weights the estimator was built with (checkpoint structure)
   Eigen::VectorXd x_model_;     ///< [m] B phi_model: tau_correction = K_B (x - x_model)
   Eigen::VectorXd phi_prior_;   ///< [p]
@@ -331,6 +361,10 @@ class OnlineEstimator {
   static constexpr double kMinWeightedVariance = 1e-12;  ///< floor of g_c^2 sigma_c^2 (a noise-free row)
   Eigen::VectorXd corr_mean_, corr_ms_, corr_var_;  ///< [nv]
   Eigen::VectorXd row_correlation_;  ///< [nv] T_c, samples per independent residual (>= 1)
+  // The full-information fit (fitFullInformation): its estimate, WLS-R weights and residual RMS, and the
+  // innovation of each sample against it.
+  Eigen::VectorXd x_full_;                                          ///< [m]
+  Eigen::VectorXd full_weight_, full_rms_, full_innovation_;        ///< [nv]
   double correlation_ = 1.0;         ///< max_c T_c of the last publication
   double filter_correlation_ = 1.0;  ///< the row filter's, for white residuals (filterCorrelationTime)
   Eigen::MatrixXd V_, AV_;  ///< [mx x (4 + nv)] A^-1 F and A_T A^-1 F

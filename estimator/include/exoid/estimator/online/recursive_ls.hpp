@@ -153,6 +153,9 @@ void recursiveLsInformation(const RecursiveLsModel& model, const RecursiveLsData
 /// the desired motion: the feedforward torque). tau [nv]. Allocation-free.
 void predictRecursiveLs(const RecursiveLsModel& model, const RecursiveLsData& data,
                         const Eigen::Ref<const Eigen::MatrixXd>& K, Eigen::Ref<Eigen::VectorXd> tau);
+/// The same for any estimate x [m] (e.g. another solve of the same sums). Allocation-free.
+void predictRecursiveLs(const RecursiveLsModel& model, const Eigen::VectorXd& x,
+                        const Eigen::Ref<const Eigen::MatrixXd>& K, Eigen::Ref<Eigen::VectorXd> tau);
 
 /// Checkpoint for a restarted estimator: writes the accumulated state (D_c, d_c, yy, scale, effective samples,
 /// tick and counters) with the model's structure (nv, m, active sets, forgetting, prior, row weights) to
