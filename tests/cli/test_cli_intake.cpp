@@ -2,7 +2,8 @@
 //  - damaged run logs (issue 18: a data length or channel length set to 0x7fffffff, 32 payload bytes
 //    flipped, the file cut in half): `exoid identify` and `exoid diagnose` never crash, refuse the log
 //    (exit 3) with the damage report (count, first bad byte, where the readable part ends), and with
-//    --allow-partial read exactly the samples of the readable part, reported in summary.json;
+//    --allow-partial read exactly the samples of the readable part, reported in summary.json; `exoid study`
+//    refuses them with exit 3 too;
 //  - measured CSVs: a wild time (2.68e154) costs its own row, not the rest of the file; a real gap in the
 //    recording is kept; a time that goes back for real is refused naming its line; errors name file:line
 //    and the column; `exoid diagnose` reports skipped rows on stdout, in summary.json and report.md.
@@ -180,15 +181,37 @@ TEST_F(DamagedLogCommands, DiagnoseRefusesWithTheReportOrReadsTheReadablePart) {
   }
 }
 
+// exoid study reads the validation run first: a damaged one is refused with exit 3 and the report; the intact
+// log (no EXO_TRUTH: not a simulator run) is refused too, but as bad input (2), so 3 means the damage.
+TEST_F(DamagedLogCommands, StudyRefusesADamagedLogWithExitThree) {
+  const test::TempDir out("intake_study");
+  auto study = [&](const std::string& log, const std::string& name) {
+    return test::runCommand(test::exoidBinary() + " study --train " + log + " --validation " + log +
+                                " --priors 1 --cutoffs 0 --pipelines thesis --no-keyframes --out " + out.file(name),
+                            out.path);
+  };
+  const auto intact = study(path_, "intact");
+  EXPECT_EQ(intact.exit_code, 2) << intact.err;
+  EXPECT_NE(intact.err.find("no EXO_TRUTH samples"), std::string::npos) << intact.err;
+  for (const Case& c : cases()) {
+    SCOPED_TRACE(c.name);
+    const auto r = study(c.path, c.name);
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_NE(r.err.find(c.path + ": damaged log: "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("readable part ends at byte"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out.file(c.name + "/table2.md")));
+  }
+}
+
 TEST(IntakeHelp, EveryCommandReadingLogsDocumentsAllowPartial) {
   const test::TempDir dir("intake_help");
   for (const char* command : {"export", "identify", "diagnose", "study"}) {
     const auto r = test::runCommand(test::exoidBinary() + " " + command + " --help", dir.path);
     EXPECT_EQ(r.exit_code, 0) << command;
     EXPECT_NE(r.out.find("--allow-partial"), std::string::npos) << command;
-    if (std::string(command) != "study") {
-      EXPECT_NE(r.out.find("3 the log is damaged"), std::string::npos) << command << r.out;
-    }
+    EXPECT_NE(r.out.find(std::string(command) == "study" ? "3 a run log is damaged" : "3 the log is damaged"),
+              std::string::npos)
+        << command << r.out;
   }
 }
 

@@ -35,7 +35,9 @@ constexpr char kDescription[] =
     "or give recorded logs with --train, --validation (and --test).\n"
     "Writes results.csv, table_c1.{csv,md}, table2.{csv,md} (thesis numbers beside), singular_values.csv and\n"
     "link_error.csv into --out; scripts/plot_study.py DIR draws the figures.\n\n"
-    "exit codes: 0 success, 2 bad input (one-line message on stderr).";
+    "exit codes: 0 success (with --allow-partial also from a damaged log), 2 bad input (one-line message on\n"
+    "            stderr), 3 a run log is damaged (damaged stretches, a cut-off tail, rejected events; nothing\n"
+    "            written; see --allow-partial).";
 
 int fail(const std::string& msg) { return common::badInput("exoid study", msg); }
 
@@ -197,7 +199,8 @@ int cmdStudy(int argc, char** argv) {
         !ensureRun(a.runs, "test", "nominal.yaml", 13, a.moves, o.test, &err))
       return fail(err);
   }
-  if (!tools::runStudy(o, &err)) return fail(err);
+  bool damaged = false;
+  if (!tools::runStudy(o, &err, &damaged)) return damaged ? (fail(err), 3) : fail(err);
   if (!a.no_keyframes && !appendRunKeyframes(o, a.scene, &err)) return fail(err);
   return 0;
 }

@@ -75,13 +75,22 @@ struct ScoredSample {
   double t = 0.0;
 };
 
+/// A damaged log is refused unless allow_partial: false with *error naming the damage and *refused set
+/// (runStudy's *damaged, the command's exit 3).
+bool acceptLog(const std::string& path, const intake::RunLog& log, bool allow_partial, bool* refused,
+               std::string* error) {
+  if (log.intact() || allow_partial) return true;
+  *refused = true;
+  return fail(error, path + ": damaged log: " + log.damageReport() + " (--allow-partial reads the readable part)");
+}
+
 bool metricsFromRun(const Model& model, const std::string& path, int stride, bool allow_partial, std::string* damage,
-                    estimator::MetricAccumulator& acc, std::string* error, std::vector<ScoredSample>* keep = nullptr) {
+                    bool* refused, estimator::MetricAccumulator& acc, std::string* error,
+                    std::vector<ScoredSample>* keep = nullptr) {
   intake::RunLog log;
   std::string err;
   if (!intake::readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
-  if (!log.intact() && !allow_partial)
-    return fail(error, path + ": damaged log: " + log.damageReport() + " (--allow-partial reads the readable part)");
+  if (!acceptLog(path, log, allow_partial, refused, error)) return false;
   *damage = log.damageReport();  // "" when intact
   if (log.truth.empty()) return fail(error, path + ": no EXO_TRUTH samples (needed for validation)");
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
@@ -109,12 +118,12 @@ bool metricsFromRun(const Model& model, const std::string& path, int stride, boo
 /// and gyro, the ideal (simulator) accelerations as the desired ones, the torque sensors of the previous tick
 /// for the ground reaction forces and of this tick as the measurement. Every stride-th tick is scored.
 bool realisticFromRun(const Model& model, const std::string& path, int stride, double cutoff_hz, bool allow_partial,
-                      estimator::MetricAccumulator& acc, std::string* error) {  // damage: reported by metricsFromRun
+                      bool* refused, estimator::MetricAccumulator& acc,
+                      std::string* error) {  // damage: reported by metricsFromRun
   intake::RunLog log;
   std::string err;
   if (!intake::readRunLog(path, model.joint_names, log, &err)) return fail(error, path + ": " + err);
-  if (!log.intact() && !allow_partial)
-    return fail(error, path + ": damaged log: " + log.damageReport() + " (--allow-partial reads the readable part)");
+  if (!acceptLog(path, log, allow_partial, refused, error)) return false;
   std::map<int64_t, const GroundTruthSample*> truth;
   for (const GroundTruthSample& t : log.truth) truth.emplace(t.tick, &t);
   int soles[2] = {model.frameIndex("right_sole"), model.frameIndex("left_sole")};
@@ -216,6 +225,7 @@ struct Study {
   estimator::LsqFactor vfac;                              ///< the validation factor (the thesis's rank choice)
   /// Logs read in part (--allow-partial): path -> damage report, said once and written into both tables' reports.
   std::map<std::string, std::string> partial;
+  bool refused_damaged = false;  ///< a log was refused as damaged (runStudy's *damaged)
   std::vector<std::vector<Eigen::VectorXd>> priors;       ///< per range, the random priors
   std::map<std::string, std::vector<estimator::MeasuredSample>> samples;  ///< the training run's, per pipeline
   std::vector<Row> rows;
@@ -273,14 +283,17 @@ bool readValidationAndTest(Study& st, std::string* error) {
   st.say("reading the validation run " + o.validation);
   st.vm = std::make_unique<estimator::MetricAccumulator>(model, model.phi, st.actuated);
   std::string damage, err;
-  if (!metricsFromRun(model, o.validation, o.stride, o.allow_partial, &damage, *st.vm, error, &st.vsamples)) return false;
+  bool* refused = &st.refused_damaged;
+  if (!metricsFromRun(model, o.validation, o.stride, o.allow_partial, &damage, refused, *st.vm, error, &st.vsamples))
+    return false;
   st.notePartial(o.validation, damage);
   if (!o.test.empty()) {
     st.say("reading the test run " + o.test);
     st.tm = std::make_unique<estimator::MetricAccumulator>(model, model.phi, st.actuated);
-    if (!metricsFromRun(model, o.test, o.stride, o.allow_partial, &damage, *st.tm, error)) return false;
+    if (!metricsFromRun(model, o.test, o.stride, o.allow_partial, &damage, refused, *st.tm, error)) return false;
     st.notePartial(o.test, damage);
-    if (!realisticFromRun(model, o.test, o.stride, o.realistic_cutoff_hz, o.allow_partial, *st.tm, error)) return false;
+    if (!realisticFromRun(model, o.test, o.stride, o.realistic_cutoff_hz, o.allow_partial, refused, *st.tm, error))
+      return false;
   }
   SourceOptions vo;
   vo.pipeline = intake::LogPipeline::Truth;
@@ -289,7 +302,8 @@ bool readValidationAndTest(Study& st, std::string* error) {
   va.folds = 1;
   estimator::LsqAccumulator vacc(model, st.base, va);
   intake::InputStats vst;
-  if (!accumulateFile(o.validation, model, vo, vacc, vst, &err)) return fail(error, err);
+  if (!accumulateFile(o.validation, model, vo, vacc, vst, &err))
+    return st.refused_damaged = vst.refused_damaged, fail(error, err);
   st.notePartial(o.validation, vst.damage_report);
   vacc.flush();
   st.vfac = estimator::toStandard(vacc.mergedBase(), st.base.base_map);
@@ -330,7 +344,8 @@ bool readTraining(Study& st, std::string* error) {
     intake::InputStats stats;
     std::string err;
     const auto tr = std::chrono::steady_clock::now();
-    if (!readSamples(st.o.train, st.model, so, st.samples[pipe], stats, &err)) return fail(error, err);
+    if (!readSamples(st.o.train, st.model, so, st.samples[pipe], stats, &err))
+      return st.refused_damaged = stats.refused_damaged, fail(error, err);
     st.notePartial(st.o.train, stats.damage_report);
     st.seconds["reading the training run"] += since(tr);
   }
@@ -743,11 +758,15 @@ void writeSeries(const Study& st, const AggTable& c1) {
 
 }  // namespace
 
-bool runStudy(const StudyOptions& o, std::string* error) {
+bool runStudy(const StudyOptions& o, std::string* error, bool* damaged) {
   Study st(o);
-  if (!checkStudyInputs(st, error) || !readValidationAndTest(st, error)) return false;
-  drawPriors(st);
-  if (!readTraining(st, error) || !runJobs(st, error)) return false;
+  bool read = checkStudyInputs(st, error) && readValidationAndTest(st, error);
+  if (read) {
+    drawPriors(st);
+    read = readTraining(st, error);
+  }
+  if (damaged) *damaged = st.refused_damaged;
+  if (!read || !runJobs(st, error)) return false;
   writeResults(st);
   const AggTable c1 = aggregate(st.rows);
   std::string partial_note;  // the logs read in part, first in each report

@@ -36,9 +36,9 @@ struct StudyOptions {
   int threads = 2;             ///< workers over the (pipeline, cutoff) jobs
   std::vector<std::string> pipelines{"thesis", "sensors"};     ///< thesis protocol / sensors only
   std::vector<PriorRange> ranges{{"12.5%", 0.125, false}, {"25%", 0.25, false}, {"abs0.125", 0.125, true}};
-  bool parallel_filter = false;
+  bool parallel_filter = false;  ///< sensors pipeline: parallel filtering (W and y) instead of filtering the inputs
   bool orientation_from_legs = true;  ///< sensors pipeline: base orientation fused from legs and IMU (dataset.hpp)
-  double orientation_cutoff_hz = 5.0;  ///< its complementary cut (IMU below, legs above)  ///< sensors pipeline: parallel filtering (W and y) instead of filtering the inputs
+  double orientation_cutoff_hz = 5.0;  ///< its complementary cut (IMU below, legs above)
   int stride = 10;             ///< validation/test metric samples: every stride-th tick (thesis figures: 0.02 s)
   int pc_iterations = 100;     ///< Newton iterations of WLS-RC-PC per estimate
   double pc_nullspace = 3e-2;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
@@ -47,7 +47,8 @@ struct StudyOptions {
   bool allow_partial = false;  ///< use the readable part of a damaged log instead of refusing it (reported on progress)
 };
 
-/// Runs the study. False with *error (file, reason) when an input cannot be read or is unusable.
-bool runStudy(const StudyOptions& options, std::string* error);
+/// Runs the study. False with *error (file, reason) when an input cannot be read or is unusable; *damaged (when
+/// given) tells whether that was a run log refused as damaged (not --allow-partial: the command's exit 3).
+bool runStudy(const StudyOptions& options, std::string* error, bool* damaged = nullptr);
 
 }  // namespace exoid::tools
