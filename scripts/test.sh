@@ -5,6 +5,9 @@
 #      SANITIZED or ALSO_SANITIZED there (scripts/test-sanitize.sh): every test runs at least once,
 #   3. runs every libFuzzer target for a bounded time (scripts/fuzz.sh),
 # and prints the time each step took. docs/testing.md describes the steps, labels and variables.
+# Steps 2 and 3 build in build-sanitize/, which does not depend on step 1: that build starts beside step 1's ctest at
+# the lowest priority (nice 19; its output in build-sanitize.log, printed after the ctest) and takes the CPU the
+# serialized system tests leave idle (docs/testing.md, "CI time").
 #   EXOID_SANITIZE_TESTS=0   skip step 2 (step 1 then builds and runs every test)
 #   EXOID_FUZZ_SECONDS=N     seconds per fuzz target in step 3 (default 10; 0 skips step 3)
 #   arguments                passed to the ctest of step 1 (e.g. -L model, -R Regressor)
@@ -23,15 +26,38 @@ report() {
   local t
   for t in "${times[@]}"; do echo "[test] $t"; done
 }
-trap report EXIT
+early=""  # pid of the early sanitizer build
+finish() {
+  if [ -n "$early" ]; then kill -- "-$early" 2>/dev/null || true; fi
+  report
+}
+trap finish EXIT
 
 # Every test runs once: the Release build leaves out the tests the sanitizer build runs (cmake/ExoidTest.cmake),
 # unless step 2 is skipped.
 if [ "${EXOID_SANITIZE_TESTS:-1}" != 0 ]; then export EXOID_TEST_SET=unsanitized; else export EXOID_TEST_SET=all; fi
 step "build (GCC, Release)" bash "$here/scripts/build.sh"
+early_targets=()
+if [ "${EXOID_SANITIZE_TESTS:-1}" != 0 ]; then early_targets+=(exoid_sanitized); fi
+if [ "${EXOID_FUZZ_SECONDS:-10}" != 0 ]; then early_targets+=(exoid_fuzzers); fi
+if ((${#early_targets[@]})); then
+  # its own session, so that a failed step 1 can stop the whole build (compilers included) on the way out
+  setsid nice -n 19 bash "$here/scripts/build-sanitize.sh" "${early_targets[@]}" >"$here/build-sanitize.log" 2>&1 &
+  early=$!
+fi
 step "ctest (build/)" bash -c 'cd "$1/build" && shift && ctest --output-on-failure -j "$(nproc)" "$@"' _ "$here" "$@"
+if [ -n "$early" ]; then
+  early_wait() {  # the sanitizer build begun beside the ctest: its result, its log
+    local rc=0
+    wait "$early" || rc=$?
+    early=""
+    cat "$here/build-sanitize.log"
+    return "$rc"
+  }
+  step "sanitizer build (rest of it)" early_wait
+fi
 if [ "${EXOID_SANITIZE_TESTS:-1}" != 0 ]; then
-  step "sanitizer build + tests" bash "$here/scripts/test-sanitize.sh"
+  step "sanitizer tests" bash "$here/scripts/test-sanitize.sh"
 fi
 if [ "${EXOID_FUZZ_SECONDS:-10}" != 0 ]; then
   step "fuzzing" bash "$here/scripts/fuzz.sh"
