@@ -6,7 +6,7 @@
 #   3. runs every libFuzzer target for a bounded time (scripts/fuzz.sh),
 # and prints the time each step took. docs/testing.md describes the steps, labels and variables.
 # Steps 2 and 3 build in build-sanitize/, which does not depend on step 1: that build starts beside step 1's ctest
-# at the lowest priority (SCHED_IDLE, nice 19; its output in build-sanitize.log, printed after the ctest) and takes
+# at the lowest priority (nice 19; its output in build-sanitize.log, printed after the ctest) and takes
 # the CPU the serialized system tests leave idle (docs/testing.md, "CI time").
 #   EXOID_SANITIZE_TESTS=0   skip step 2 (step 1 then builds and runs every test)
 #   EXOID_FUZZ_SECONDS=N     seconds per fuzz target in step 3 (default 10; 0 skips step 3)
@@ -42,7 +42,7 @@ if [ "${EXOID_SANITIZE_TESTS:-1}" != 0 ]; then early_targets+=(exoid_sanitized);
 if [ "${EXOID_FUZZ_SECONDS:-10}" != 0 ]; then early_targets+=(exoid_fuzzers); fi
 if ((${#early_targets[@]})); then
   # its own session, so that a failed step 1 can stop the whole build (compilers included) on the way out
-  setsid chrt --idle 0 nice -n 19 bash "$here/scripts/build-sanitize.sh" "${early_targets[@]}" \
+  setsid nice -n 19 bash "$here/scripts/build-sanitize.sh" "${early_targets[@]}" \
     >"$here/build-sanitize.log" 2>&1 &
   early=$!
 fi
