@@ -354,15 +354,12 @@ int main(int argc, char** argv) {
   EstimatorNode node(*lcm, model, est, nopt);
   if (!node.ok()) return std::fprintf(stderr, "exo_estimator: LCM: %s\n", node.error().c_str()), kExitRuntime;
   const volatile std::sig_atomic_t* stop = common::installStopSignals();
-  using exoid::estimator::RowWeighting;  // selective forgetting keeps the weights fixed, whatever was asked
-  const RowWeighting weighting =
-      opt.forgetting == exoid::estimator::Forgetting::Selective ? RowWeighting::Fixed : opt.row_weighting;
   if (!a.quiet)
     std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, row weighting %s, state fit over %d ticks (base rate from the %s), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
                  base.rank,
                  a.effects_path.empty() ? ""
                                         : (" + " + std::to_string(est.effectColumnCount()) + " effect columns of " + a.effects_path).c_str(),
-                 forgettingName(opt.forgetting), rowWeightingName(weighting), 2 * opt.derivative_half_window + 1, a.base_rate.c_str(),
+                 forgettingName(opt.forgetting), rowWeightingName(est.rowWeighting()), 2 * opt.derivative_half_window + 1, a.base_rate.c_str(),
                  a.cutoff, opt.filter_order, nopt.publish_every,
                  resumed ? (", resumed from " + a.checkpoint + " at tick " + std::to_string(est.rlsData().last_tick)).c_str() : "",
                  lcm->url().c_str());

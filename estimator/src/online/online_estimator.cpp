@@ -84,7 +84,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   std::vector<double> effect_sigma;
   if (!opt_.effects.effects.empty() && !addEffectColumns(effect_sigma)) return;
   rls_ = RecursiveLsData(rls_model_);
-  adaptive_weights_ = opt_.row_weighting != RowWeighting::Fixed && opt_.forgetting != Forgetting::Selective;
+  weighting_ = opt_.forgetting == Forgetting::Selective ? RowWeighting::Fixed : opt_.row_weighting;
   initial_weights_ = rls_model_.row_weight;
   filter_.configure(rls_model_, opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
   filter_correlation_ = filterCorrelationTime(opt_.cutoff_hz, opt_.sample_hz, opt_.filter_order);
@@ -282,7 +282,7 @@ void OnlineEstimator::sizeWorkspace() {
   corr_mean_ = corr_ms_ = corr_var_ = tau_stddev_ = Eigen::VectorXd::Zero(nv);
   row_correlation_ = Eigen::VectorXd::Constant(nv, filter_correlation_);
   full_weight_ = rls_model_.row_weight;
-  full_rms_ = full_innovation_ = Eigen::VectorXd::Zero(nv);
+  full_innovation_ = Eigen::VectorXd::Zero(nv);
   x_full_ = rls_.x;
   V_ = AV_ = Eigen::MatrixXd::Zero(mx, 4 + nv);
   AT_ = Eigen::MatrixXd::Zero(mx, mx);
@@ -464,7 +464,7 @@ void OnlineEstimator::observeInnovation(long tick) {
   // residuals' correlation time (the trust's uncertainty) and the change detector both read it.
   predictRecursiveLs(rls_model_, rls_, Kf_, innovation_);
   innovation_ = yf_ - innovation_;
-  if (opt_.row_weighting == RowWeighting::WlsRCorrelated && adaptive_weights_) {
+  if (weighting_ == RowWeighting::WlsRCorrelated) {
     predictRecursiveLs(rls_model_, x_full_, Kf_, full_innovation_);
     full_innovation_ = yf_ - full_innovation_;
     trackResidualCorrelation(full_innovation_);
@@ -611,17 +611,17 @@ void OnlineEstimator::fillOutput(EstimatorOutputSample& out) {
   if (selective && block_samples_ >= opt_.forget_every) fold();
 }
 
+double OnlineEstimator::wlsRWeight(int c) const {
+  const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
+  return 1.0 / std::max(rls_.residual_rms[c], 1e-6 * y_rms + 1e-12);
+}
+
 void OnlineEstimator::fitFullInformation() {
-  if (!adaptive_weights_ || opt_.row_weighting != RowWeighting::WlsRCorrelated || rls_.effective_samples <= 0.0)
-    return;
+  if (weighting_ != RowWeighting::WlsRCorrelated || rls_.effective_samples <= 0.0) return;
   rls_model_.row_weight = full_weight_;
   if (!solveRecursiveLs(rls_model_, rls_, false)) return;
   x_full_ = rls_.x;
-  full_rms_ = rls_.residual_rms;
-  for (int c = 0; c < model_.nv; ++c) {
-    const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
-    full_weight_[c] = 1.0 / std::max(full_rms_[c], 1e-6 * y_rms + 1e-12);
-  }
+  for (int c = 0; c < model_.nv; ++c) full_weight_[c] = wlsRWeight(c);
 }
 
 void OnlineEstimator::updateRowWeights() {
@@ -630,16 +630,10 @@ void OnlineEstimator::updateRowWeights() {
   // sums are stored unweighted and weighted only here, so this is the exact WLS-R cost over the history. The
   // correlated variant divides by sqrt(T_c) (the previous publication's correlation time, >= the filter's):
   // one independent residual per T_c rows.
-  if (adaptive_weights_ && rls_.solves > 0 && rls_.effective_samples > 0.0) {
-    const bool per_independent = opt_.row_weighting == RowWeighting::WlsRCorrelated;
-    for (int c = 0; c < nv; ++c) {
-      if (per_independent) {  // fitFullInformation has just solved: full_weight_ = 1 / its sigma_c
-        rls_model_.row_weight[c] = full_weight_[c] / std::sqrt(row_correlation_[c]);
-        continue;
-      }
-      const double y_rms = std::sqrt(std::max(0.0, rls_.scale * rls_.yy[c] / rls_.effective_samples));
-      rls_model_.row_weight[c] = 1.0 / std::max(rls_.residual_rms[c], 1e-6 * y_rms + 1e-12);
-    }
+  if (weighting_ != RowWeighting::Fixed && rls_.solves > 0 && rls_.effective_samples > 0.0) {
+    const bool per_independent = weighting_ == RowWeighting::WlsRCorrelated;
+    for (int c = 0; c < nv; ++c)  // per independent sample: fitFullInformation has just solved (1 / its sigma_c)
+      rls_model_.row_weight[c] = per_independent ? full_weight_[c] / std::sqrt(row_correlation_[c]) : wlsRWeight(c);
   }
 }
 

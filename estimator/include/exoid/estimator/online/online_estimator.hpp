@@ -189,6 +189,8 @@ class OnlineEstimator {
   // Inspection (tests, tools).
   const RecursiveLsModel& rlsModel() const { return rls_model_; }
   const RecursiveLsData& rlsData() const { return rls_; }
+  /// The row weighting in effect (options.row_weighting; Fixed under selective forgetting).
+  RowWeighting rowWeighting() const { return weighting_; }
   const Eigen::VectorXd& baseEstimate() const { return rls_.x; }    ///< [m + ne] after publish (effects last)
   int baseParameterCount() const { return m_base_; }   ///< m: the rigid model's base parameters
   int effectColumnCount() const { return ne_; }        ///< ne: the sidecar's extra columns (0 without one)
@@ -245,6 +247,8 @@ class OnlineEstimator {
   /// estimate instead, a parameter the data have not yet moved (an undeclared viscous damping) makes the
   /// residual correlated, which lowers its rows' weight, which keeps it from moving.
   void fitFullInformation();
+  /// WLS-R's weight of row c, 1 / sigma_c, from the last solve's residual RMS (floored at 1e-6 of y_c's RMS).
+  double wlsRWeight(int c) const;
   /// Residual RMS and effective samples over the estimate's memory (selective: earlier blocks carried).
   void reportResidualRms(bool selective, EstimatorOutputSample& out) const;
   /// phi and its stddev (recomputed when `uncertainty`) into out.params, param_stddev, base_params, base_stddev.
@@ -289,7 +293,8 @@ class OnlineEstimator {
   Eigen::VectorXd tau_sensor_;  ///< [nv] the torque sensors' part of y (gain correction)
   CausalRowFilter filter_;
   Eigen::VectorXd phi_;         ///< [p] standard parameters of the last publication
-  bool adaptive_weights_ = false;  ///< WLS-R (either variant): g_c from the previous solve's residuals
+  /// The row weighting in effect: opt_.row_weighting, but Fixed under selective forgetting (row_weighting's doc).
+  RowWeighting weighting_ = RowWeighting::Fixed;
   Eigen::VectorXd initial_weights_;  ///< [nv] the weights the estimator was built with (checkpoint structure)
   Eigen::VectorXd x_model_;     ///< [m] B phi_model: tau_correction = K_B (x - x_model)
   Eigen::VectorXd phi_prior_;   ///< [p]
@@ -361,10 +366,10 @@ class OnlineEstimator {
   static constexpr double kMinWeightedVariance = 1e-12;  ///< floor of g_c^2 sigma_c^2 (a noise-free row)
   Eigen::VectorXd corr_mean_, corr_ms_, corr_var_;  ///< [nv]
   Eigen::VectorXd row_correlation_;  ///< [nv] T_c, samples per independent residual (>= 1)
-  // The full-information fit (fitFullInformation): its estimate, WLS-R weights and residual RMS, and the
+  // The full-information fit (fitFullInformation): its estimate and WLS-R weights, and the
   // innovation of each sample against it.
   Eigen::VectorXd x_full_;                                          ///< [m]
-  Eigen::VectorXd full_weight_, full_rms_, full_innovation_;        ///< [nv]
+  Eigen::VectorXd full_weight_, full_innovation_;                   ///< [nv]
   double correlation_ = 1.0;         ///< max_c T_c of the last publication
   double filter_correlation_ = 1.0;  ///< the row filter's, for white residuals (filterCorrelationTime)
   Eigen::MatrixXd V_, AV_;  ///< [mx x (4 + nv)] A^-1 F and A_T A^-1 F
