@@ -6,7 +6,8 @@
 // RMS over the run near 1 means the trust rule's threshold (controller estimate.trust_sigmas) means what it says.
 // An evaluation tool: it reads the ground truth, the estimator never does.
 //
-// usage: exoid_com_trust LOG [PERIOD_S [K]]   (K: the trust threshold in sigmas, default 3)
+// usage: exoid_com_trust LOG [PERIOD_S [K [URDF]]]   (K: the trust threshold in sigmas, default 3; URDF: the
+// estimator's prior and the model, default config/exo.urdf, e.g. `exoid model wearer`'s for a wearer run)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -22,11 +23,11 @@
 int main(int argc, char** argv) {
   using namespace exoid;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: exoid_com_trust LOG [PERIOD_S [K]] (see the source's header)\n");
+    std::fprintf(stderr, "usage: exoid_com_trust LOG [PERIOD_S [K [URDF]]] (see the source's header)\n");
     return 2;
   }
   bench::TruthRun run;
-  if (!bench::loadTruthRun(argv[1], run)) return 2;
+  if (!bench::loadTruthRun(argv[1], run, argc > 4 ? argv[4] : nullptr)) return 2;
   const Model& model = run.model;
   const double period = argc > 2 ? std::atof(argv[2]) : 1.0;
   const BaseParameters base = computeBaseParameters(model);

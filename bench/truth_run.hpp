@@ -12,15 +12,17 @@
 namespace exoid::bench {
 
 struct TruthRun {
-  Model model;                                  ///< config/exo.urdf, floating base
+  Model model;                                  ///< config/exo.urdf (or the URDF given), floating base
   intake::RunLog log;                            ///< the messages (the ticks point into it)
   std::vector<estimator::AlignedTick> ticks;    ///< ticks with a state, both plates and the truth
 };
 
-/// Loads the model and the log; false (message on stderr) when either is unreadable or no tick has everything.
-inline bool loadTruthRun(const char* log_path, TruthRun& run) {
+/// Loads the model (urdf: nullptr = config/exo.urdf) and the log; false (message on stderr) when either is
+/// unreadable or no tick has everything.
+inline bool loadTruthRun(const char* log_path, TruthRun& run, const char* urdf = nullptr) {
   std::string err;
-  if (!buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, run.model, &err) ||
+  const std::string model_path = urdf ? std::string(urdf) : std::string(EXOID_CONFIG_DIR) + "/exo.urdf";
+  if (!buildModelFromUrdfFile(model_path, true, run.model, &err) ||
       !intake::readRunLog(log_path, run.model.joint_names, run.log, &err)) {
     std::fprintf(stderr, "%s\n", err.c_str());
     return false;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "exoid/controller/move_reach.hpp"
 #include "exoid/controller/proxqp_solver.hpp"
 #include "exoid/model/inertial.hpp"
 
@@ -347,7 +348,8 @@ void BalanceController::startTrajectory(int64_t tick) {
       observer_->solePosition(0).head<2>(), yaw(observer_->soleRotation(0)), observer_->solePosition(1).head<2>(),
       yaw(observer_->soleRotation(1)), cfg_.contact.sole_half_length, cfg_.contact.sole_half_width);
   const Eigen::Vector3d start = dyn_.com - Eigen::Vector3d(0.0, 0.0, vertical_shift_);
-  trajectory_.generate(cfg_.trajectory, seed_, start, polygon);  // not ready() on failure: holds the start
+  move_reach_ = staticMomentReach(model_, dyn_.dyn.kin, dyn_.R, dyn_.base_position, soles_, cfg_.trajectory.torque_budget);
+  trajectory_.generate(cfg_.trajectory, seed_, start, polygon, move_reach_);  // not ready() on failure: holds the start
   trajectory_start_tick_ = tick;
 }
 

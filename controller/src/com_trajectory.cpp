@@ -88,7 +88,8 @@ double SplitMix64::uniform() { return static_cast<double>(next() >> 11) * 0x1.0p
 CoMTrajectory::CoMTrajectory(int max_moves) { targets_.reserve(static_cast<size_t>(std::max(0, max_moves))); }
 
 CoMTrajectory::Status CoMTrajectory::generate(const TrajectoryConfig& cfg, uint64_t seed,
-                                              const Eigen::Vector3d& start, const SupportPolygon& polygon) {
+                                              const Eigen::Vector3d& start, const SupportPolygon& polygon,
+                                              const MoveReach& reach) {
   ready_ = false;
   targets_.clear();
   seed_ = seed;
@@ -107,7 +108,8 @@ CoMTrajectory::Status CoMTrajectory::generate(const TrajectoryConfig& cfg, uint6
     for (int attempt = 0; attempt < cfg.max_sampling_attempts && !found; ++attempt) {
       const Eigen::Vector2d p(rng.uniform(lo.x(), hi.x()), rng.uniform(lo.y(), hi.y()));
       const double dist = (p - previous).norm();
-      if (!polygon.contains(p, cfg.polygon_margin) || dist < cfg.min_move_distance || dist > cfg.max_move_distance)
+      if (!polygon.contains(p, cfg.polygon_margin) || dist < cfg.min_move_distance || dist > cfg.max_move_distance ||
+          !reach.admits(p))
         continue;
       const double dz = rng.uniform(cfg.vertical_min, cfg.vertical_max);
       targets_.emplace_back(p.x(), p.y(), start.z() + dz);

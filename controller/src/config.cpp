@@ -173,7 +173,7 @@ void readTrajectorySection(Reader& r, const YAML::Node& root, ControllerConfig& 
   const char* n = "trajectory";
   const auto s = r.section(root, n,
                            {"moves", "move_duration", "hold_duration", "initial_hold", "final_hold",
-                            "polygon_margin", "min_move_distance", "max_move_distance", "vertical_min",
+                            "polygon_margin", "min_move_distance", "max_move_distance", "torque_budget", "vertical_min",
                             "vertical_max", "max_sampling_attempts"});
   auto& t = c.trajectory;
   r.integer(s, n, "moves", t.moves);
@@ -184,6 +184,7 @@ void readTrajectorySection(Reader& r, const YAML::Node& root, ControllerConfig& 
   r.number(s, n, "polygon_margin", t.polygon_margin);
   r.number(s, n, "min_move_distance", t.min_move_distance);
   r.number(s, n, "max_move_distance", t.max_move_distance);
+  r.number(s, n, "torque_budget", t.torque_budget);
   r.number(s, n, "vertical_min", t.vertical_min);
   r.number(s, n, "vertical_max", t.vertical_max);
   r.integer(s, n, "max_sampling_attempts", t.max_sampling_attempts);
@@ -374,6 +375,9 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
          positive(t.move_duration, "trajectory.move_duration") && nonneg(t.hold_duration, "trajectory.hold_duration") &&
          nonneg(t.initial_hold, "trajectory.initial_hold") && nonneg(t.final_hold, "trajectory.final_hold") &&
          nonneg(t.polygon_margin, "trajectory.polygon_margin") &&
+         (t.torque_budget >= 0.0 && t.torque_budget <= 1.0
+              ? true
+              : failWith(error, "trajectory.torque_budget: must be in [0, 1]")) &&
          nonneg(t.min_move_distance, "trajectory.min_move_distance") &&
          (t.max_move_distance > t.min_move_distance
               ? true

@@ -64,7 +64,8 @@ struct Args {
   std::string base_rate = "legs";
   int64_t filter_order = Defaults{}.filter_order, forget_every = 100, idle_timeout_ms = 0, consistent_every = 10,
           consistent_iterations = 30;
-  double consistent_tolerance = 2.0, effect_prior_factor = 10.0;
+  double consistent_tolerance = 2.0, effect_prior_factor = 10.0, sensor_offset_sigma = Defaults{}.sensor_offset_sigma,
+         sensor_gain_sigma = Defaults{}.sensor_gain_sigma;
   bool quiet = false;
 };
 
@@ -172,6 +173,14 @@ void addEstimatorOptions(CLI::App& app, Args& a) {
   app.add_option("--effect-prior-factor", a.effect_prior_factor,
                  "one-sigma prior of each --effects column = this x |the sidecar's value| (prior mean 0)")
       ->transform(common::strictNumber(1e-3, 1e6))->type_name("F");
+  app.add_option("--sensor-offset-sigma", a.sensor_offset_sigma,
+                 "one estimated offset per joint torque sensor (prior 0, this one-sigma, N m; never fed forward):\n"
+                 "an offset the model lacks would otherwise bias the CoM the estimate claims; 0: none")
+      ->capture_default_str()->transform(common::strictNumber(0.0, 1e6))->type_name("NM");
+  app.add_option("--sensor-gain-sigma", a.sensor_gain_sigma,
+                 "one estimated gain error per joint torque sensor (its column: the measured torque; prior 0, this\n"
+                 "one-sigma, relative; never fed forward); 0: none")
+      ->capture_default_str()->transform(common::strictNumber(0.0, 10.0))->type_name("REL");
 }
 
 /// Publication, checkpoint, final estimate, LCM, idle timeout.
@@ -241,6 +250,8 @@ bool estimatorOptions(const Args& a, const exoid::Model& model, exoid::estimator
     for (double w : opt.row_weight)
       if (!(w > 0.0)) return *err = "--row-weights: every weight must be > 0", false;
   }
+  opt.sensor_offset_sigma = a.sensor_offset_sigma;
+  opt.sensor_gain_sigma = a.sensor_gain_sigma;
   if (!a.effects_path.empty()) {
     if (!readEffects(a.effects_path, model, opt.effects, err)) return *err = "--effects " + *err, false;
     opt.effect_prior_factor = a.effect_prior_factor;
@@ -355,10 +366,11 @@ int main(int argc, char** argv) {
   if (!node.ok()) return std::fprintf(stderr, "exo_estimator: LCM: %s\n", node.error().c_str()), kExitRuntime;
   const volatile std::sig_atomic_t* stop = common::installStopSignals();
   if (!a.quiet)
-    std::fprintf(stderr, "exo_estimator: %d base parameters%s, forgetting %s, row weighting %s, state fit over %d ticks (base rate from the %s), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
+    std::fprintf(stderr, "exo_estimator: %d base parameters%s + %d torque-sensor columns (offsets, gains), forgetting %s, row weighting %s, state fit over %d ticks (base rate from the %s), cutoff %.1f Hz (order %d), EXO_ESTIMATE every %d samples%s, on %s\n",
                  base.rank,
                  a.effects_path.empty() ? ""
                                         : (" + " + std::to_string(est.effectColumnCount()) + " effect columns of " + a.effects_path).c_str(),
+                 est.sensorOffsetColumnCount(),
                  forgettingName(opt.forgetting), rowWeightingName(est.rowWeighting()), 2 * opt.derivative_half_window + 1, a.base_rate.c_str(),
                  a.cutoff, opt.filter_order, nopt.publish_every,
                  resumed ? (", resumed from " + a.checkpoint + " at tick " + std::to_string(est.rlsData().last_tick)).c_str() : "",

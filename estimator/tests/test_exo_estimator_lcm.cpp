@@ -74,7 +74,9 @@ TEST(ExoEstimatorLcm, PublishesWhatTheEstimatorComputesAndCountsBadMessages) {
   lcm.subscribe<exoid_lcm::estimator_output_t>(channels::kEstimate, [&](const char*, const exoid_lcm::estimator_output_t& m) {
     EstimatorOutputSample o;
     std::string why;
-    if (fromLcm(m, params, static_cast<size_t>(s.base.rank), coords, o, &why)) received.push_back(o);
+    // base_params: the base parameters, then the sensor columns (one offset and one gain per joint)
+    if (fromLcm(m, params, static_cast<size_t>(s.base.rank + est.sensorOffsetColumnCount()), coords, o, &why))
+      received.push_back(o);
     else ADD_FAILURE() << why, ++refused;
   });
   EstimatorOutputSample expected;
@@ -176,7 +178,8 @@ TEST(ExoEstimatorLcm, PublicationsAreTickAlignedAndIndependentOfTheWorkersTiming
     lcm.subscribe<exoid_lcm::estimator_output_t>(channels::kEstimate, [&](const char*, const exoid_lcm::estimator_output_t& m) {
       EstimatorOutputSample o;
       std::string why;
-      if (fromLcm(m, params, static_cast<size_t>(s.base.rank), coords, o, &why)) runs[async].push_back(o);
+      if (fromLcm(m, params, static_cast<size_t>(s.base.rank + est.sensorOffsetColumnCount()), coords, o, &why))
+        runs[async].push_back(o);
       else ADD_FAILURE() << why;
     });
     testing::SensorTick t = testing::makeSensorTick(model);
@@ -289,7 +292,7 @@ TEST(ExoEstimatorLcm, CheckpointRecordsTheSidecarsEffects) {
     x = out.base_params;
     ASSERT_TRUE(node.writeCheckpoint(&err)) << err;
   }
-  ASSERT_EQ(x.size(), s.base.rank + 1);
+  ASSERT_EQ(x.size(), s.base.rank + 1 + 2 * model.njoints);  // base, the sidecar's column, the sensor columns
   {  // the same sidecar: resumed (its load solves), the same estimate, effect column included
     OnlineEstimator est(model, s.base, model.phi, opt);
     ASSERT_TRUE(est.loadCheckpoint(path, &err)) << err;
@@ -304,7 +307,8 @@ TEST(ExoEstimatorLcm, CheckpointRecordsTheSidecarsEffects) {
   EXPECT_NE(err.find("other effects"), std::string::npos) << err;
   EXPECT_NE(err.find("right_knee gain 0.1"), std::string::npos) << err;
   EXPECT_FALSE(b.loadCheckpoint(path, &err));
-  EXPECT_NE(err.find("estimates " + std::to_string(s.base.rank + 1) + " parameters"), std::string::npos) << err;
+  EXPECT_NE(err.find("estimates " + std::to_string(s.base.rank + 1 + 2 * model.njoints) + " parameters"),
+            std::string::npos) << err;
   EXPECT_NE(err.find("2 effect column(s)"), std::string::npos) << err;
   EXPECT_FALSE(c.loadCheckpoint(path, &err));  // an estimator without the sidecar
   EXPECT_NE(err.find("different estimator"), std::string::npos) << err;

@@ -133,7 +133,9 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     EXPECT_EQ(out.rejected_nonfinite, (warm + 599) / 97 - (warm - 1) / 97);  // the multiples of 97 among the ticks
     EXPECT_EQ(est.reconciles(), 1);
     EXPECT_TRUE(out.params.allFinite() && out.tau_correction.allFinite());
-    EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 : 0));
+    // Base parameters, the sidecar's columns, then one offset and one gain per joint torque sensor (defaults).
+    EXPECT_EQ(est.sensorOffsetColumnCount(), 2 * model.njoints);
+    EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 : 0) + 2 * model.njoints);
   }
 }
 

@@ -145,7 +145,12 @@ Compared compare(const Log& train, const Log& held, const Effect& sidecar_effect
   found.model = "exo.urdf";
   found.effects.push_back(sidecar_effect);
   EXPECT_TRUE(writeEffects(path, model, found, &err)) << err;
+  // Without the torque sensors' offset and gain columns (the batch diagnosis compared with has none; with them,
+  // the default, the knee's held-out RMSE is 0.296 N m against the batch's 0.226: their columns take part of the
+  // knee row's signal).
   OnlineEstimatorOptions with, without;
+  with.sensor_offset_sigma = without.sensor_offset_sigma = 0.0;
+  with.sensor_gain_sigma = without.sensor_gain_sigma = 0.0;
   EXPECT_TRUE(readEffects(path, model, with.effects, &err)) << err;
   std::filesystem::remove(path);
   *keep = std::make_unique<OnlineEstimator>(model, s.base, model.phi, with);

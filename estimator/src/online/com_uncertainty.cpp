@@ -58,7 +58,7 @@ void OnlineEstimator::sandwichInformation() {
   const int nv = model_.nv;
   AT_.setZero();
   AT_.topLeftCorner(rls_model_.m, rls_model_.m).triangularView<Eigen::Upper>() = rls_model_.prior_information;
-  if (opt_.forgetting == Forgetting::Selective) AT_.triangularView<Eigen::Upper>() += R_;
+  AT_.triangularView<Eigen::Upper>() += R_;  // carried information (selective blocks, sensor columns): once
   for (int c = 0; c < nv; ++c) {
     const std::vector<int>& cols = rls_model_.active[c];
     const double g = rls_model_.row_weight[c], sd = rls_.residual_rms[c];

@@ -83,6 +83,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   // so the filter runs on E's entries too and the checkpoint structure holds the columns.
   std::vector<double> effect_sigma;
   if (!opt_.effects.effects.empty() && !addEffectColumns(effect_sigma)) return;
+  if ((opt_.sensor_offset_sigma > 0.0 || opt_.sensor_gain_sigma > 0.0) && !addSensorOffsetColumns(effect_sigma)) return;
   rls_ = RecursiveLsData(rls_model_);
   weighting_ = opt_.forgetting == Forgetting::Selective ? RowWeighting::Fixed : opt_.row_weighting;
   initial_weights_ = rls_model_.row_weight;
@@ -215,6 +216,37 @@ bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
   return true;
 }
 
+bool OnlineEstimator::addSensorOffsetColumns(std::vector<double>& effect_sigma) {
+  std::string err;
+  if (!std::isfinite(opt_.sensor_offset_sigma) || !std::isfinite(opt_.sensor_gain_sigma)) {
+    setError("sensor offset and gain sigmas must be finite");
+    return false;
+  }
+  // Offsets (a 1 on the joint's row), then gains (the joint's measured torque): process() fills them.
+  std::vector<int> rows;
+  std::vector<double> s;
+  for (double sigma : {opt_.sensor_offset_sigma, opt_.sensor_gain_sigma}) {
+    if (!(sigma > 0.0)) continue;
+    for (int j = 0; j < model_.njoints; ++j) {
+      rows.push_back(model_.jointRow(j));
+      s.push_back(sigma);
+    }
+  }
+  const Eigen::VectorXd sigma = Eigen::Map<const Eigen::VectorXd>(s.data(), static_cast<Eigen::Index>(s.size()));
+  if (!addExtraColumns(rls_model_, rows, sigma, &err)) {
+    setError(err);
+    return false;
+  }
+  for (size_t j = 0; j < rows.size(); ++j) {
+    effect_sigma.push_back(sigma[j]);
+    ff_effect_.push_back(0);  // a sensor's error, not a torque on the robot
+    effect_row_.push_back(rows[j]);
+  }
+  n_offset_ = static_cast<int>(rows.size());
+  ne_ += n_offset_;
+  return true;
+}
+
 void OnlineEstimator::initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi,
                                              const BasePrior& prior, const std::vector<double>& effect_sigma) {
   const Model& model = model_;
@@ -260,6 +292,7 @@ void OnlineEstimator::sizeWorkspace() {
   R_ = Eigen::MatrixXd::Zero(mx, mx);
   dD_ = R1_ = Y_ = M_ = R_;
   r_ = dd_ = u_ = mask_ = Eigen::VectorXd::Zero(mx);
+  sensor_U_ = sensor_S_ = Eigen::MatrixXd::Zero(n_offset_, n_offset_);
   mllt_ = Eigen::LLT<Eigen::MatrixXd>(mx);
   rss_carry_ = Eigen::VectorXd::Zero(nv);
 
@@ -275,7 +308,7 @@ void OnlineEstimator::sizeWorkspace() {
     if (gyro) sg_gyro_ = savitzkyGolayWeights(opt_.gyro_half_window, L);
     raw_.resize(2 * L + 1);
   }
-  for (Raw& r : raw_) r.q = r.tau = Eigen::VectorXd::Zero(model.njoints);
+  for (Raw& r : raw_) r.q = r.tau = r.sensed = Eigen::VectorXd::Zero(model.njoints);
   state_ = ff_state_ = fk_state_ = State::zero(model);
   y_ = yf_ = tau_sensor_ = Eigen::VectorXd::Zero(nv);
   innovation_ = innovation_mean_ = innovation_ms_ = Eigen::VectorXd::Zero(nv);
@@ -357,7 +390,10 @@ void OnlineEstimator::assemble(int held, long tick) {
   const RobotStateSample& s = slot_state_[held];
   r.tick = tick;
   r.q = s.q;
-  for (int j = 0; j < model_.njoints; ++j) r.tau[j] = s.has_tau[j] ? s.tau[j] : 0.0;
+  for (int j = 0; j < model_.njoints; ++j) {
+    r.tau[j] = s.has_tau[j] ? s.tau[j] : 0.0;
+    r.sensed[j] = s.has_tau[j] ? 1.0 : 0.0;
+  }
   r.orientation = s.imu_orientation.normalized();
   r.gyro = s.imu_gyro;
   // Accelerometer = R^T (a - g): the classical base acceleration is accel + R^T g (IMU frame = base frame).
@@ -429,13 +465,21 @@ void OnlineEstimator::process() {
     correctMeasurement(model_, opt_.effects, y_, tau_sensor_);
   }
   if (ne_ > 0) {
-    Kx_.leftCols(model_.nparams()) = kin_.K;
-    effectColumns(model_, opt_.effects, st.v, st.a, Kx_.rightCols(ne_));
+    const int p = model_.nparams(), ns = ne_ - n_offset_;
+    Kx_.leftCols(p) = kin_.K;
+    if (ns > 0) effectColumns(model_, opt_.effects, st.v, st.a, Kx_.middleCols(p, ns));
+    // The sensor columns: offsets (1 where the joint has a sensor), then gains (its measured torque).
+    const int nj = model_.njoints;
+    const bool offsets = opt_.sensor_offset_sigma > 0.0;
+    for (int j = 0; j < n_offset_; ++j) {
+      const int jj = j % nj;
+      const bool gain = !offsets || j >= nj;
+      Kx_(model_.jointRow(jj), p + ns + j) = gain ? r1.sensed[jj] * r1.tau[jj] : r1.sensed[jj];
+    }
     filter_.filter(rls_model_, Kx_, y_, Kf_, yf_);
     // Dry friction as the diagnosis builds its column (and fits the sidecar's width for it): the tanh of the
     // filtered velocity (K's viscous column as filtered), not the filtered tanh of the raw differenced velocity,
     // whose shape at the same width differs (the knee's 3 N m: 4.0 N m online against 3.4 in the batch).
-    const int p = model_.nparams();
     int col = 0;
     for (const Effect& e : opt_.effects.effects) {
       if (isMeasurementEffect(e.kind)) continue;
@@ -493,10 +537,9 @@ void OnlineEstimator::detectChange(long tick) {
   z_max_ = std::max(z_max_, z);
   if (!(z > opt_.change_threshold)) return;
   // The robot changed (a payload, a tool): keep change_keep of what the data said, the prior untouched.
+  carrySensorInformation();  // the torque sensors did not change: what the data said of them stays
   discountRecursiveLs(rls_model_, rls_, opt_.change_keep);
   if (opt_.forgetting == Forgetting::Selective) {
-    R_ *= opt_.change_keep;
-    r_ *= opt_.change_keep;
     rss_carry_ *= opt_.change_keep;
     n_carry_ *= opt_.change_keep;
   }
@@ -575,8 +618,7 @@ void OnlineEstimator::fillOutput(EstimatorOutputSample& out) {
   updateRowWeights();
   // The covariance costs m^3 (most of a publication): every uncertainty_every-th one, the stddevs kept between.
   const bool uncertainty = publications_++ % opt_.uncertainty_every == 0;
-  const bool solved = selective ? solveRecursiveLs(rls_model_, rls_, uncertainty, &R_, &r_)
-                                : solveRecursiveLs(rls_model_, rls_, uncertainty);
+  const bool solved = solveRecursiveLs(rls_model_, rls_, uncertainty, &R_, &r_);
   reportResidualRms(selective, out);
   standardParameters(uncertainty, out);
   out.excitation = excitation();
@@ -619,9 +661,27 @@ double OnlineEstimator::wlsRWeight(int c) const {
 void OnlineEstimator::fitFullInformation() {
   if (weighting_ != RowWeighting::WlsRCorrelated || rls_.effective_samples <= 0.0) return;
   rls_model_.row_weight = full_weight_;
-  if (!solveRecursiveLs(rls_model_, rls_, false)) return;
+  if (!solveRecursiveLs(rls_model_, rls_, false, &R_, &r_)) return;
   x_full_ = rls_.x;
   for (int c = 0; c < model_.nv; ++c) full_weight_[c] = wlsRWeight(c);
+}
+
+void OnlineEstimator::carrySensorInformation() {
+  // Carried information R_ (selective forgetting's blocks, and this) is discounted like the data; the sensor
+  // columns' then get back the marginal information the whole estimate held on them, centred on their estimate:
+  // with the sensor block last in A = U^T U (upper Cholesky of the last solve), the Schur complement of the
+  // rest is U_ss^T U_ss; less their prior's diagonal (which stays) it is what data and carried blocks said.
+  const double keep = opt_.change_keep;
+  R_ *= keep;
+  r_ *= keep;
+  const int n = n_offset_, mx = m_base_ + ne_;
+  if (n == 0 || rls_.solves == 0) return;
+  sensor_U_ = rls_.llt.matrixLLT().bottomRightCorner(n, n);
+  sensor_U_.triangularView<Eigen::StrictlyLower>().setZero();
+  sensor_S_.noalias() = sensor_U_.transpose() * sensor_U_;
+  for (int j = 0; j < n; ++j) sensor_S_(j, j) -= rls_model_.prior_information(mx - n + j, mx - n + j);
+  R_.bottomRightCorner(n, n) += (1.0 - keep) * sensor_S_;
+  r_.tail(n).noalias() += (1.0 - keep) * sensor_S_ * rls_.x.tail(n);
 }
 
 void OnlineEstimator::updateRowWeights() {
@@ -867,7 +927,8 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   RecursiveLsModel structure = rls_model_;
   structure.row_weight = initial_weights_;
   if (!loadRecursiveLs(structure, restored, path, error, &extra)) {
-    if (error && ne_ > 0) *error += " (this estimator has " + std::to_string(ne_) + " effect column(s) from its sidecar)";
+    if (error && effectColumnCount() > 0)
+      *error += " (this estimator has " + std::to_string(effectColumnCount()) + " effect column(s) from its sidecar)";
     return false;
   }
   const int m = rls_model_.m, nv = rls_model_.nv;
@@ -916,8 +977,7 @@ bool OnlineEstimator::loadCheckpoint(const std::string& path, std::string* error
   raw_head_ = 0;
   filter_.reset();
   since_publication_ = 0;
-  const bool selective = opt_.forgetting == Forgetting::Selective;
-  if (!solveRecursiveLs(rls_model_, rls_, true, selective ? &R_ : nullptr, selective ? &r_ : nullptr)) {
+  if (!solveRecursiveLs(rls_model_, rls_, true, &R_, &r_)) {
     if (error) *error = path + ": restored information is not positive definite";
     return false;
   }

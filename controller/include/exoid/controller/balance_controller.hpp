@@ -121,6 +121,8 @@ class BalanceController {
   const Model& model() const { return model_; }
   const ControllerConfig& config() const { return cfg_; }
   const CoMTrajectory& trajectory() const { return trajectory_; }
+  /// Where the moves' targets may go (staticMomentReach), set when the feet are latched.
+  const MoveReach& moveReach() const { return move_reach_; }
   const BaseStateObserver& observer() const { return *observer_; }
   const RobotDynamicsData& dynamics() const { return dyn_; }
   const BalanceFormulation& formulation() const { return formulation_; }
@@ -172,6 +174,7 @@ class BalanceController {
   SoleFrame imu_{};
   std::unique_ptr<BaseStateObserver> observer_;
   CoMTrajectory trajectory_;
+  MoveReach move_reach_;  ///< where the moves' targets may go (set at the last trajectory start)
   MomentumTask momentum_;
   PostureRegularization posture_;
   ContactSixD contact_right_, contact_left_;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "exoid/controller/config.hpp"
+#include "exoid/controller/move_reach.hpp"
 
 namespace exoid::controller {
 
@@ -65,9 +66,11 @@ class CoMTrajectory {
   /// Draws cfg.moves targets (needs cfg.moves <= the reserved count to stay allocation-free) from `seed`,
   /// starting at `start` (the current CoM, world), inside `polygon` shrunk by cfg.polygon_margin, each
   /// between cfg.min_move_distance and cfg.max_move_distance (horizontally) from the previous one, with a
-  /// height offset from start.z() in [cfg.vertical_min, cfg.vertical_max]. Deterministic in `seed`.
+  /// height offset from start.z() in [cfg.vertical_min, cfg.vertical_max], and admitted by `reach`
+  /// (staticMomentReach). Deterministic in `seed`; a target the reach refuses costs one draw, like any other
+  /// refused one (a reach beyond the polygon changes nothing).
   Status generate(const TrajectoryConfig& cfg, uint64_t seed, const Eigen::Vector3d& start,
-                  const SupportPolygon& polygon);
+                  const SupportPolygon& polygon, const MoveReach& reach = MoveReach{});
 
   /// Reference at time t (s) since the trajectory start (t < 0 reads as 0). Allocation-free.
   void sample(double t, CoMReference& out) const;

@@ -23,6 +23,8 @@ struct TrajectoryConfig {
   double polygon_margin = 0.0;    ///< m, inward offset of the support polygon edges for the targets
   double min_move_distance = 0.0; ///< m, minimum horizontal distance between consecutive targets
   double max_move_distance = 0.0; ///< m, maximum horizontal distance between consecutive targets
+  /// Fraction of the carrying joints' effort limits a target's static moment may ask (move_reach.hpp); 0: none
+  double torque_budget = 0.0;
   double vertical_min = 0.0;      ///< m, lower bound of the target height offset from the start-up CoM
   double vertical_max = 0.0;      ///< m, upper bound of the target height offset from the start-up CoM
   int max_sampling_attempts = 0;  ///< rejection-sampling attempts per target before giving up

@@ -122,6 +122,19 @@ struct OnlineEstimatorOptions {
   /// (correctMeasurement); a delay is refused (it needs the torque's future). Empty: the rigid model alone.
   EffectSet effects;
   double effect_prior_factor = 10.0;
+  /// The torque sensors' calibration as nuisance parameters (docs/estimator.md, "Sensor offsets and gains"): per
+  /// joint an offset column (1 on the joint's row; prior 0, one-sigma sensor_offset_sigma N m) and a gain column
+  /// (the joint's measured torque; prior 0, one-sigma sensor_gain_sigma, relative), after the sidecar's columns;
+  /// <= 0: that group is left out. Without them a sensor's offset and gain error go into the inertial parameters,
+  /// whose estimate then claims a CoM height it does not know (torque_sensor_bias: the controller's k = 3 trust
+  /// rule let 0.65 mm RMS of height error through, 0.05 with them). Standing still, an offset, a gain and a link's
+  /// gravity torque are nearly the same column: with them the CoM directions they share keep the uncertainty the
+  /// data leave them. A sensor's error is not a torque on the robot: never fed forward. A joint whose sample has
+  /// has_tau false gets zero columns (their parameters stay at the prior). At a detected change their information
+  /// is kept (the sensors did not change). Assumed: a strain-gauge joint sensor calibrated to a few % whose zero
+  /// drifts by up to ~1 N m (0.7 % of the 150 N m drives' range) between calibrations.
+  double sensor_offset_sigma = 1.0;
+  double sensor_gain_sigma = 0.05;
 };
 
 /// What happened to one input message.
@@ -191,9 +204,12 @@ class OnlineEstimator {
   const RecursiveLsData& rlsData() const { return rls_; }
   /// The row weighting in effect (options.row_weighting; Fixed under selective forgetting).
   RowWeighting rowWeighting() const { return weighting_; }
-  const Eigen::VectorXd& baseEstimate() const { return rls_.x; }    ///< [m + ne] after publish (effects last)
+  /// [m + ne] after publish: base parameters, the sidecar's effects, the sensor offsets and gains (per joint)
+  const Eigen::VectorXd& baseEstimate() const { return rls_.x; }
   int baseParameterCount() const { return m_base_; }   ///< m: the rigid model's base parameters
-  int effectColumnCount() const { return ne_; }        ///< ne: the sidecar's extra columns (0 without one)
+  int effectColumnCount() const { return ne_ - n_offset_; }  ///< the sidecar's extra columns (0 without one)
+  /// The sensor columns: njoints offsets (sensor_offset_sigma > 0), then njoints gains (sensor_gain_sigma > 0).
+  int sensorOffsetColumnCount() const { return n_offset_; }
   const Eigen::VectorXd& params() const { return phi_; }           ///< [p] after publish
   const Eigen::VectorXd& baseStddev() const { return rls_.sigma; } ///< [m] after publish
   const Eigen::VectorXd& priorBaseStddev() const { return prior_sigma_; }  ///< [m + ne] sqrt(diag Lambda0^-1)
@@ -219,6 +235,7 @@ class OnlineEstimator {
   struct Raw {  // one tick's sensor values, ready for differencing
     long tick = 0;
     Eigen::VectorXd q, tau;
+    Eigen::VectorXd sensed;  ///< [njoints] 1 where the joint has a torque sensor (has_tau), else 0
     Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
     Eigen::Vector3d gyro = Eigen::Vector3d::Zero(), acceleration = Eigen::Vector3d::Zero();
     ExternalWrench contact[2];
@@ -234,6 +251,8 @@ class OnlineEstimator {
   bool setUpRecursiveLs(const BaseParameters& base, const Eigen::VectorXd& prior_phi, BasePrior& prior);
   /// The sidecar's dynamics effects as extra columns (prior 0, sigma = factor x |value| + 1e-6).
   bool addEffectColumns(std::vector<double>& effect_sigma);
+  /// The sensor columns after them: an offset per joint, then a gain per joint (never fed forward).
+  bool addSensorOffsetColumns(std::vector<double>& effect_sigma);
   /// phi = phi_prior + G (x - x0) with G = Sigma B^T Lambda0, its variance floor, and reconcile()'s prior rows.
   void initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi, const BasePrior& prior,
                               const std::vector<double>& effect_sigma);
@@ -242,6 +261,9 @@ class OnlineEstimator {
   /// WLS-R online: each row's weight 1 / sigma_c from the previous solve's residuals over the whole memory;
   /// per independent sample: 1 / (sigma_c sqrt(T_c)) from the full-information fit's.
   void updateRowWeights();
+  /// At a detected change (before the discount): R_, r_ scaled by change_keep like the data, then the sensor
+  /// columns' marginal information of the last solve added back (their offsets and gains did not change).
+  void carrySensorInformation();
   /// RowWeighting::WlsRCorrelated: the data at full weight (WLS-R weights from its own previous residuals) solved
   /// first; its residuals, what no parameter explains, give sigma_c and T_c. Measured against the published
   /// estimate instead, a parameter the data have not yet moved (an undeclared viscous damping) makes the
@@ -285,11 +307,12 @@ class OnlineEstimator {
 
   RecursiveLsModel rls_model_;
   RecursiveLsData rls_;
-  int m_base_ = 0, ne_ = 0;     ///< base parameters; extra (effect) columns after them
+  int m_base_ = 0, ne_ = 0;     ///< base parameters; extra columns after them (the sidecar's, then the offsets)
+  int n_offset_ = 0;            ///< the sensor columns (offsets, then gains), the last n_offset_ of the ne_
   bool effects_ = false;        ///< a sidecar is applied (columns and/or gains)
   std::vector<unsigned char> ff_effect_;  ///< [ne] the column enters tau_correction (all but armature)
   std::vector<int> effect_row_;           ///< [ne] the coordinate (joint row) column e touches
-  Eigen::MatrixXd Kx_;          ///< [nv x (p + ne)] [K | E] of the sample (only with effect columns)
+  Eigen::MatrixXd Kx_;          ///< [nv x (p + ne)] [K | E] of the sample (only with extra columns)
   Eigen::VectorXd tau_sensor_;  ///< [nv] the torque sensors' part of y (gain correction)
   CausalRowFilter filter_;
   Eigen::VectorXd phi_;         ///< [p] standard parameters of the last publication
@@ -317,8 +340,12 @@ class OnlineEstimator {
   /// residual cost over the memory from the residual RMS `rms` [nv]; true when within the tolerance. Allocation-free.
   bool misfit(const Eigen::VectorXd& rms, double effective_samples);
 
-  // Selective forgetting: information carried from earlier blocks.
+  // Selective forgetting: information carried from earlier blocks (R_ and r_ also hold the sensor columns' kept
+  // information after a detected change).
+  // Carried information [mx x mx], [mx] (added to every solve): selective forgetting's earlier blocks, and the
+  // sensor columns' information kept through a detected change (carrySensorInformation).
   Eigen::MatrixXd R_, dD_, R1_, Y_, M_;
+  Eigen::MatrixXd sensor_U_, sensor_S_;  ///< [n_offset x n_offset] workspaces of carrySensorInformation
   Eigen::VectorXd r_, dd_, u_, mask_;
   Eigen::LLT<Eigen::MatrixXd> mllt_;
   Eigen::VectorXd rss_carry_;   ///< [nv] forgotten-weighted residual sum of squares of earlier blocks
