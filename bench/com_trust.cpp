@@ -4,10 +4,13 @@
 // CoM, payloads included; the estimate's CoM at the true state of the estimate's tick, world axes), and of the
 // model's, the stated one-sigma and their ratio, and the correlation time. The ratio's
 // RMS over the run near 1 means the trust rule's threshold (controller estimate.trust_sigmas) means what it says.
+// Each period also prints the mass change and tau_correction against their sigmas, and how much of the estimate's
+// CoM height change from the model each body carries.
 // An evaluation tool: it reads the ground truth, the estimator never does.
 //
-// usage: exoid_com_trust LOG [PERIOD_S [K [URDF]]]   (K: the trust threshold in sigmas, default 3; URDF: the
-// estimator's prior and the model, default config/exo.urdf, e.g. `exoid model wearer`'s for a wearer run)
+// usage: exoid_com_trust LOG [PERIOD_S [K [URDF [moving]]]]   (K: the trust threshold in sigmas, default 3; URDF:
+// the estimator's prior and the model, default config/exo.urdf, e.g. `exoid model wearer`'s for a wearer run;
+// "moving": OnlineEstimatorOptions::base_body_moves, as `exoid experiment` sets it for a wearer)
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -23,7 +26,7 @@
 int main(int argc, char** argv) {
   using namespace exoid;
   if (argc < 2) {
-    std::fprintf(stderr, "usage: exoid_com_trust LOG [PERIOD_S [K [URDF]]] (see the source's header)\n");
+    std::fprintf(stderr, "usage: exoid_com_trust LOG [PERIOD_S [K [URDF [moving]]]] (see the source's header)\n");
     return 2;
   }
   bench::TruthRun run;
@@ -32,6 +35,7 @@ int main(int argc, char** argv) {
   const double period = argc > 2 ? std::atof(argv[2]) : 1.0;
   const BaseParameters base = computeBaseParameters(model);
   estimator::OnlineEstimatorOptions opt;
+  opt.base_body_moves = argc > 5 && std::string(argv[5]) == "moving";
   estimator::OnlineEstimator est(model, base, model.phi, opt);
   if (!est.ok()) {
     std::fprintf(stderr, "%s\n", est.error().c_str());
@@ -90,6 +94,23 @@ int main(int argc, char** argv) {
       std::printf("          mass change %.3f kg (sigma %.4f); tau_correction / sigma:", mass_change, out.mass_stddev);
       for (int r = 0; r < model.nv; ++r) std::printf(" %.2f/%.3f", out.tau_correction[r], out.tau_correction_stddev[r]);
       std::printf("\n");
+      {  // where the height error sits: per body (m z_com)_estimate - (m z_com)_model, world, over the model's mass
+
+        forwardKinematics(model, dd.kin, s);
+        const Eigen::Matrix3d R = s.base_orientation.toRotationMatrix();
+        double M = 0.0;
+        for (int b = 0; b < model.nbodies; ++b) M += model.phi[model.bodyParamIndex(b)];
+        std::printf("          CoM height change per body, mm:");
+        for (int b = 0; b < model.nbodies; ++b) {
+          auto h = [&](const Eigen::VectorXd& phi) {
+            const int i = model.bodyParamIndex(b);
+            const Eigen::Vector3d mc(phi[i + 1], phi[i + 2], phi[i + 3]);
+            return (R * (dd.kin.p[b] * phi[i] + dd.kin.R[b] * mc)).z();
+          };
+          std::printf(" %s %.2f", model.body_names[b].c_str(), 1e3 * (h(out.params) - h(model.phi)) / M);
+        }
+        std::printf("\n");
+      }
     }
   }
   if (n > 0)

@@ -66,7 +66,7 @@ struct Args {
           consistent_iterations = 30;
   double consistent_tolerance = 2.0, effect_prior_factor = 10.0, sensor_offset_sigma = Defaults{}.sensor_offset_sigma,
          sensor_gain_sigma = Defaults{}.sensor_gain_sigma;
-  bool quiet = false;
+  bool quiet = false, base_body_moves = false;
 };
 
 /// The model, the prior and the state pipeline (filter, derivatives, base rate).
@@ -181,6 +181,11 @@ void addEstimatorOptions(CLI::App& app, Args& a) {
                  "one estimated gain error per joint torque sensor (its column: the measured torque; prior 0, this\n"
                  "one-sigma, relative; never fed forward); 0: none")
       ->capture_default_str()->transform(common::strictNumber(0.0, 10.0))->type_name("REL");
+  app.add_flag("--base-body-moves", a.base_body_moves,
+               "a body moves on the base link on its own (a wearer's trunk on the pelvis): the base link's\n"
+               "first-moment-z column gets a nuisance twin on each base row (prior 0 +- |its prior|), so the\n"
+               "base rows, which that body's lag biases, do not tell the CoM height (exoid experiment sets it\n"
+               "for a scenario with a wearer)");
 }
 
 /// Publication, checkpoint, final estimate, LCM, idle timeout.
@@ -252,6 +257,7 @@ bool estimatorOptions(const Args& a, const exoid::Model& model, exoid::estimator
   }
   opt.sensor_offset_sigma = a.sensor_offset_sigma;
   opt.sensor_gain_sigma = a.sensor_gain_sigma;
+  opt.base_body_moves = a.base_body_moves;
   if (!a.effects_path.empty()) {
     if (!readEffects(a.effects_path, model, opt.effects, err)) return *err = "--effects " + *err, false;
     opt.effect_prior_factor = a.effect_prior_factor;

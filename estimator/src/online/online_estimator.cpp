@@ -83,6 +83,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   // so the filter runs on E's entries too and the checkpoint structure holds the columns.
   std::vector<double> effect_sigma;
   if (!opt_.effects.effects.empty() && !addEffectColumns(effect_sigma)) return;
+  if (opt_.base_body_moves && !addMovingBodyColumns(prior_phi, effect_sigma)) return;
   if ((opt_.sensor_offset_sigma > 0.0 || opt_.sensor_gain_sigma > 0.0) && !addSensorOffsetColumns(effect_sigma)) return;
   rls_ = RecursiveLsData(rls_model_);
   weighting_ = opt_.forgetting == Forgetting::Selective ? RowWeighting::Fixed : opt_.row_weighting;
@@ -213,6 +214,24 @@ bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
   ne_ = static_cast<int>(rows.size());
   effect_row_ = rows;
   effects_ = true;
+  return true;
+}
+
+bool OnlineEstimator::addMovingBodyColumns(const Eigen::VectorXd& prior_phi, std::vector<double>& effect_sigma) {
+  std::string err;
+  const double sigma = std::fabs(prior_phi[model_.bodyParamIndex(0) + 3]) + 1e-3;  // |mcz| of the base, kg m
+  const std::vector<int> rows = {0, 1, 2, 3, 4, 5};  // the base rows (moment, force; docs/conventions.md)
+  if (!addExtraColumns(rls_model_, rows, Eigen::VectorXd::Constant(rows.size(), sigma), &err)) {
+    setError(err);
+    return false;
+  }
+  for (int r : rows) {
+    effect_sigma.push_back(sigma);
+    ff_effect_.push_back(0);  // what the moving body does is not the robot's to feed forward
+    effect_row_.push_back(r);
+  }
+  n_moving_ = static_cast<int>(rows.size());
+  ne_ += n_moving_;
   return true;
 }
 
@@ -465,9 +484,14 @@ void OnlineEstimator::process() {
     correctMeasurement(model_, opt_.effects, y_, tau_sensor_);
   }
   if (ne_ > 0) {
-    const int p = model_.nparams(), ns = ne_ - n_offset_;
+    const int p = model_.nparams(), nd = effectColumnCount(), ns = ne_ - n_offset_;
     Kx_.leftCols(p) = kin_.K;
-    if (ns > 0) effectColumns(model_, opt_.effects, st.v, st.a, Kx_.middleCols(p, ns));
+    if (nd > 0) effectColumns(model_, opt_.effects, st.v, st.a, Kx_.middleCols(p, nd));
+    // base_body_moves: the base link's own mcz column, one nuisance parameter per base row.
+    for (int e = 0; e < n_moving_; ++e) {
+      const int r = effect_row_[static_cast<size_t>(nd + e)];
+      Kx_(r, p + nd + e) = kin_.K(r, model_.bodyParamIndex(0) + 3);
+    }
     // The sensor columns: offsets (1 where the joint has a sensor), then gains (its measured torque).
     const int nj = model_.njoints;
     const bool offsets = opt_.sensor_offset_sigma > 0.0;

@@ -1,5 +1,6 @@
 // planExperiment: every input of `exoid experiment` checked before any process starts, so that an error names
 // the option or file (a refused controller once left the sim running open loop for minutes).
+#include <algorithm>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -138,6 +139,14 @@ bool checkSimInputs(ExperimentPlan& plan, std::string* error) {
   }
   for (const sim::Payload& p : scenario.effects.payloads)
     if (p.attach_at_s > 0.0) plan.payload_attach_s = p.attach_at_s, plan.payload_mass_kg = p.mass;
+  // A person is strapped in: their trunk moves on the pelvis on its own, which the estimator has to be told
+  // (exo_estimator --base-body-moves; the summary's replay alike). What a clinic knows, not the person's parameters.
+  if (scenario.wearer.enabled) {
+    plan.replay_options.base_body_moves = true;
+    if (std::find(plan.estimator_words.begin(), plan.estimator_words.end(), "--base-body-moves") ==
+        plan.estimator_words.end())
+      plan.estimator_words.push_back("--base-body-moves");
+  }
   return true;
 }
 

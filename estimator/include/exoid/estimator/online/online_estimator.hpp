@@ -135,6 +135,15 @@ struct OnlineEstimatorOptions {
   /// drifts by up to ~1 N m (0.7 % of the 150 N m drives' range) between calibrations.
   double sensor_offset_sigma = 1.0;
   double sensor_gain_sigma = 0.05;
+  /// A body moves on the base link on its own: a wearer's trunk on its compliant lumbar joint (docs/estimator.md,
+  /// "A body that moves on the base"). The rigid model lumps it into the base link, and when the pelvis rotates or
+  /// accelerates the body lags; the base rows then misread the base link's first moment along its z (the CoM
+  /// height: +27 mm at 20 sigma on a 75 kg wearer) while the covariance claims to know it. true: six nuisance
+  /// columns, the base link's own mcz column on each base row, prior 0 with one-sigma |the prior's base mcz| +
+  /// 1e-3 kg m, so that those rows no longer tell the height. Off for a robot without such a body (the empty
+  /// exoskeleton: its payloads' heights come from those rows); `exoid experiment` turns it on for a scenario
+  /// with a wearer.
+  bool base_body_moves = false;
 };
 
 /// What happened to one input message.
@@ -204,10 +213,12 @@ class OnlineEstimator {
   const RecursiveLsData& rlsData() const { return rls_; }
   /// The row weighting in effect (options.row_weighting; Fixed under selective forgetting).
   RowWeighting rowWeighting() const { return weighting_; }
-  /// [m + ne] after publish: base parameters, the sidecar's effects, the sensor offsets and gains (per joint)
+  /// [m + ne] after publish: base parameters, the sidecar's effects, base_body_moves' six, the sensor offsets and
+  /// gains (per joint)
   const Eigen::VectorXd& baseEstimate() const { return rls_.x; }
   int baseParameterCount() const { return m_base_; }   ///< m: the rigid model's base parameters
-  int effectColumnCount() const { return ne_ - n_offset_; }  ///< the sidecar's extra columns (0 without one)
+  int effectColumnCount() const { return ne_ - n_offset_ - n_moving_; }  ///< the sidecar's columns (0 without one)
+  int movingBodyColumnCount() const { return n_moving_; }  ///< 6 with base_body_moves, else 0
   /// The sensor columns: njoints offsets (sensor_offset_sigma > 0), then njoints gains (sensor_gain_sigma > 0).
   int sensorOffsetColumnCount() const { return n_offset_; }
   const Eigen::VectorXd& params() const { return phi_; }           ///< [p] after publish
@@ -253,6 +264,8 @@ class OnlineEstimator {
   bool addEffectColumns(std::vector<double>& effect_sigma);
   /// The sensor columns after them: an offset per joint, then a gain per joint (never fed forward).
   bool addSensorOffsetColumns(std::vector<double>& effect_sigma);
+  /// base_body_moves: the base's mcz column on each base row (after the sidecar's, before the sensor columns).
+  bool addMovingBodyColumns(const Eigen::VectorXd& prior_phi, std::vector<double>& effect_sigma);
   /// phi = phi_prior + G (x - x0) with G = Sigma B^T Lambda0, its variance floor, and reconcile()'s prior rows.
   void initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi, const BasePrior& prior,
                               const std::vector<double>& effect_sigma);
@@ -309,6 +322,7 @@ class OnlineEstimator {
   RecursiveLsData rls_;
   int m_base_ = 0, ne_ = 0;     ///< base parameters; extra columns after them (the sidecar's, then the offsets)
   int n_offset_ = 0;            ///< the sensor columns (offsets, then gains), the last n_offset_ of the ne_
+  int n_moving_ = 0;            ///< base_body_moves' six columns, just before the sensor columns
   bool effects_ = false;        ///< a sidecar is applied (columns and/or gains)
   std::vector<unsigned char> ff_effect_;  ///< [ne] the column enters tau_correction (all but armature)
   std::vector<int> effect_row_;           ///< [ne] the coordinate (joint row) column e touches
