@@ -90,6 +90,30 @@ void feed(OnlineEstimator& est, const Log& log, size_t from, size_t to) {
 }
 
 // The batch pipeline's accumulator over a log (sensors only, like `exoid identify --pipeline sensors`).
+// Replays `log` through an estimator on `model` from `prior` and calls each(est, out) at every valid publication,
+// with the consistent parameters exo_estimator would publish (made synchronously here).
+template <class Each>
+void replayValid(const Model& model, const BaseParameters& base, const Eigen::VectorXd& prior,
+                 const OnlineEstimatorOptions& opt, const Log& log, Each&& each) {
+  OnlineEstimator est(model, base, prior, opt);
+  EXPECT_TRUE(est.ok()) << est.error();
+  EstimatorOutputSample out;
+  est.sizeOutput(out);
+  for (size_t i = 0; i < log.states.size(); ++i) {
+    feed(est, log, i, i + 1);
+    if (est.samplesSincePublication() < 10) continue;
+    est.fillOutput(out);
+    if (est.reconcileDue()) est.reconcile(out);
+    if (out.valid) each(est, out);
+  }
+}
+
+// The controller's weight for a change d from its model with one-sigma s at k = 3 (docs/controller.md "Trust").
+double trustWeight3(double d, double s) {
+  const double z = std::abs(d) / s;
+  return z > 3.0 ? 1.0 - 9.0 / (z * z) : 0.0;
+}
+
 long batchAccumulate(const Model& model, const Log& log, const DatasetOptions& dopt, LsqAccumulator& acc) {
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
   long rows = 0;
@@ -792,17 +816,7 @@ TEST(OnlineEstimator, TheStatedComUncertaintyIsHonestAndAPriorsErrorStandsOut) {
     return Eigen::Vector3d(st.base_orientation.toRotationMatrix() * dd.com);
   };
   auto replay = [&](const Eigen::VectorXd& prior, auto&& each) {
-    OnlineEstimator est(f.model, f.base, prior, OnlineEstimatorOptions{});
-    EXPECT_TRUE(est.ok()) << est.error();
-    EstimatorOutputSample out;
-    est.sizeOutput(out);
-    for (size_t i = 0; i < f.train.states.size(); ++i) {
-      feed(est, f.train, i, i + 1);
-      if (est.samplesSincePublication() < 10) continue;
-      est.fillOutput(out);
-      if (est.reconcileDue()) est.reconcile(out);
-      if (out.valid) each(est, out);
-    }
+    replayValid(f.model, f.base, prior, OnlineEstimatorOptions{}, f.train, each);
   };
   double sum_z2[3] = {0, 0, 0};
   long n = 0, beyond[3] = {0, 0, 0};
@@ -815,7 +829,7 @@ TEST(OnlineEstimator, TheStatedComUncertaintyIsHonestAndAPriorsErrorStandsOut) {
       sum_z2[a] += z * z;
       beyond[a] += std::abs(z) > 3.0 ? 1 : 0;
       z_max[a] = std::max(z_max[a], std::abs(z));
-      const double w = std::abs(z) > 3.0 ? 1.0 - 9.0 / (z * z) : 0.0;  // the controller's weight at k = 3
+      const double w = trustWeight3(e[a], out.com_stddev[a]);  // the controller's weight at k = 3
       leak2[a] += w * e[a] * w * e[a];
     }
     double dm = 0.0;
@@ -877,25 +891,15 @@ TEST(OnlineEstimator, TheSensorColumnsKeepATorqueSensorsBiasOutOfWhatTheControll
   // RMS over the valid publications of the height error the controller's k = 3 weight lets through, and of the
   // height error itself.
   auto letThrough = [&](const OnlineEstimatorOptions& opt, double* rms_error) {
-    OnlineEstimator est(f.model, f.base, f.model.phi, opt);
-    EXPECT_TRUE(est.ok()) << est.error();
-    EstimatorOutputSample out;
-    est.sizeOutput(out);
     double leak2 = 0.0, e2 = 0.0;
     long n = 0;
-    for (size_t i = 0; i < log.states.size(); ++i) {
-      feed(est, log, i, i + 1);
-      if (est.samplesSincePublication() < 10) continue;
-      est.fillOutput(out);
-      if (est.reconcileDue()) est.reconcile(out);
-      if (!out.valid) continue;
+    replayValid(f.model, f.base, f.model.phi, opt, log, [&](const OnlineEstimator& est, const EstimatorOutputSample& out) {
       const double e = (worldCom(out.params, est.lastState()) - worldCom(f.model.phi, est.lastState())).z();
-      const double z = e / out.com_stddev.z();
-      const double w = std::abs(z) > 3.0 ? 1.0 - 9.0 / (z * z) : 0.0;
+      const double w = trustWeight3(e, out.com_stddev.z());
       leak2 += w * e * w * e;
       e2 += e * e;
       ++n;
-    }
+    });
     EXPECT_GT(n, 100);
     *rms_error = std::sqrt(e2 / std::max(n, 1L));
     return std::sqrt(leak2 / std::max(n, 1L));
@@ -933,26 +937,16 @@ TEST(OnlineEstimator, ABodyMovingOnTheBaseKeepsItsLagOutOfTheTrustedComHeight) {
   };
   // RMS over the valid publications of the CoM height change from the prior that the k = 3 rule lets through.
   auto taken = [&](const OnlineEstimatorOptions& opt, double* largest_z) {
-    OnlineEstimator est(prior, base, prior.phi, opt);
-    EXPECT_TRUE(est.ok()) << est.error();
-    EstimatorOutputSample out;
-    est.sizeOutput(out);
     double sum2 = 0.0;
     long n = 0;
     *largest_z = 0.0;
-    for (size_t i = 0; i < log.states.size(); ++i) {
-      feed(est, log, i, i + 1);
-      if (est.samplesSincePublication() < 10) continue;
-      est.fillOutput(out);
-      if (est.reconcileDue()) est.reconcile(out);
-      if (!out.valid) continue;
+    replayValid(prior, base, prior.phi, opt, log, [&](const OnlineEstimator& est, const EstimatorOutputSample& out) {
       const double d = height(out.params, est.lastState()) - height(prior.phi, est.lastState());
-      const double z = std::abs(d) / out.com_stddev.z();
-      const double w = z > 3.0 ? 1.0 - 9.0 / (z * z) : 0.0;
+      const double w = trustWeight3(d, out.com_stddev.z());
       sum2 += w * d * w * d;
-      *largest_z = std::max(*largest_z, z);
+      *largest_z = std::max(*largest_z, std::abs(d) / out.com_stddev.z());
       ++n;
-    }
+    });
     EXPECT_GT(n, 100);
     return std::sqrt(sum2 / std::max(n, 1L));
   };
