@@ -69,7 +69,8 @@ TEST(OnlineNoAllocation, UpdateSolveAndPredictAllocateNothing) {
 
 // The whole loop of exo_estimator: tick assembly, state reconstruction, regressor, filter, update, rejected
 // inputs, and publication (solve, covariance, standard parameters, consistency, tau_correction) with selective
-// forgetting's block step, which runs inside the counted loop too.
+// forgetting's block step and detected changes (the discount, the sensor columns' carried information), which run
+// inside the counted loop too.
 TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
   Model model;
   std::string err;
@@ -88,7 +89,14 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     opt.forgetting = f;
     opt.lambda = 0.999;
     opt.forget_every = 50;
-    if (effects) opt.effects = sidecar;
+    if (effects) {
+      opt.effects = sidecar;
+      opt.base_body_moves = true;  // its six columns too
+      // A detected change inside the counted loop (every time it is armed: the threshold is out of the way), so
+      // that the discount and the sensor columns' carried information run there too.
+      opt.change_threshold = 1e-9;
+      opt.change_hold_s = 0.1;
+    }
     OnlineEstimator est(model, base, model.phi, opt);
     ASSERT_TRUE(est.ok()) << est.error();
     ASSERT_EQ(est.effectColumnCount(), effects ? 5 : 0);
@@ -133,9 +141,12 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     EXPECT_EQ(out.rejected_nonfinite, (warm + 599) / 97 - (warm - 1) / 97);  // the multiples of 97 among the ticks
     EXPECT_EQ(est.reconciles(), 1);
     EXPECT_TRUE(out.params.allFinite() && out.tau_correction.allFinite());
-    // Base parameters, the sidecar's columns, then one offset and one gain per joint torque sensor (defaults).
+    // Base parameters, the sidecar's columns, base_body_moves' six, then one offset and one gain per joint torque
+    // sensor (defaults).
     EXPECT_EQ(est.sensorOffsetColumnCount(), 2 * model.njoints);
-    EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 : 0) + 2 * model.njoints);
+    EXPECT_EQ(est.movingBodyColumnCount(), effects ? 6 : 0);
+    EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 + 6 : 0) + 2 * model.njoints);
+    if (effects) EXPECT_GE(est.changesDetected(), 2) << forgettingName(f);
   }
 }
 

@@ -311,7 +311,7 @@ void OnlineEstimator::sizeWorkspace() {
   R_ = Eigen::MatrixXd::Zero(mx, mx);
   dD_ = R1_ = Y_ = M_ = R_;
   r_ = dd_ = u_ = mask_ = Eigen::VectorXd::Zero(mx);
-  sensor_U_ = sensor_S_ = Eigen::MatrixXd::Zero(n_offset_, n_offset_);
+  sensor_S_ = Eigen::MatrixXd::Zero(n_offset_, n_offset_);
   mllt_ = Eigen::LLT<Eigen::MatrixXd>(mx);
   rss_carry_ = Eigen::VectorXd::Zero(nv);
 
@@ -602,11 +602,13 @@ void OnlineEstimator::fold() {
     for (int j = 0; j < m; ++j) M_(j, j) += mask_[j] > 0.0 ? 1e-10 * (R_(j, j) + L0(j, j)) : 1.0;
     mllt_.compute(M_);
     // Y = M^-1 P R and u = M^-1 P r vanish outside S, so R P Y = R Y and R P u = R u.
+    // A column at a time: the blocked matrix solve and product need workspaces beyond Eigen's stack limit
+    // (128 KiB) once m passes ~128 (extra columns), and this may not allocate.
     Y_ = mask_.asDiagonal() * R_;
-    mllt_.solveInPlace(Y_);
+    for (int j = 0; j < m; ++j) mllt_.solveInPlace(Y_.col(j));
     u_ = mask_.cwiseProduct(r_);
     mllt_.solveInPlace(u_);
-    R1_.noalias() = R_ * Y_;
+    for (int j = 0; j < m; ++j) R1_.col(j).noalias() = R_ * Y_.col(j);
     dd_.noalias() -= (1.0 - lb) * R_ * u_;
     R_.noalias() -= (1.0 - lb) * R1_;
     for (int j = 0; j < m; ++j)
@@ -700,12 +702,24 @@ void OnlineEstimator::carrySensorInformation() {
   r_ *= keep;
   const int n = n_offset_, mx = m_base_ + ne_;
   if (n == 0 || rls_.solves == 0) return;
-  sensor_U_ = rls_.llt.matrixLLT().bottomRightCorner(n, n);
-  sensor_U_.triangularView<Eigen::StrictlyLower>().setZero();
-  sensor_S_.noalias() = sensor_U_.transpose() * sensor_U_;
-  for (int j = 0; j < n; ++j) sensor_S_(j, j) -= rls_model_.prior_information(mx - n + j, mx - n + j);
-  R_.bottomRightCorner(n, n) += (1.0 - keep) * sensor_S_;
-  r_.tail(n).noalias() += (1.0 - keep) * sensor_S_ * rls_.x.tail(n);
+  // Explicit loops (n = 2 njoints, 20 here): this runs in the per-sample path, where no product may allocate.
+  const Eigen::MatrixXd& U = rls_.llt.matrixLLT();  // upper triangle: U
+  const int o = mx - n;
+  for (int i = 0; i < n; ++i)
+    for (int j = i; j < n; ++j) {
+      double sum = 0.0;
+      for (int k = 0; k <= i; ++k) sum += U(o + k, o + i) * U(o + k, o + j);
+      sensor_S_(i, j) = sensor_S_(j, i) = sum;
+    }
+  for (int j = 0; j < n; ++j) sensor_S_(j, j) -= rls_model_.prior_information(o + j, o + j);
+  for (int i = 0; i < n; ++i) {
+    double rhs = 0.0;
+    for (int j = 0; j < n; ++j) {
+      R_(o + i, o + j) += (1.0 - keep) * sensor_S_(i, j);
+      rhs += sensor_S_(i, j) * rls_.x[o + j];
+    }
+    r_[o + i] += (1.0 - keep) * rhs;
+  }
 }
 
 void OnlineEstimator::updateRowWeights() {

@@ -224,8 +224,11 @@ bool solveRecursiveLs(const RecursiveLsModel& model, RecursiveLsData& data, bool
   data.llt.solveInPlace(data.x);
   ++data.solves;
   if (uncertainty) {
+    // A^-1 a column at a time (triangular vector solves): the blocked matrix solve needs a workspace beyond Eigen's
+    // stack limit (128 KiB) once m passes ~128 (100 base parameters, 20 sensor columns, 6 for a wearer's trunk and a
+    // sidecar's), and the publication path may not allocate.
     data.covariance.setIdentity();
-    data.llt.solveInPlace(data.covariance);
+    for (Eigen::Index j = 0; j < data.covariance.cols(); ++j) data.llt.solveInPlace(data.covariance.col(j));
     data.sigma = data.covariance.diagonal().cwiseSqrt();
   }
   // rss_c(x) = s (x_c^T D_c x_c - 2 d_c^T x_c + yy_c), unweighted.

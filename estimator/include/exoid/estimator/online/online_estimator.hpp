@@ -359,7 +359,7 @@ class OnlineEstimator {
   // Carried information [mx x mx], [mx] (added to every solve): selective forgetting's earlier blocks, and the
   // sensor columns' information kept through a detected change (carrySensorInformation).
   Eigen::MatrixXd R_, dD_, R1_, Y_, M_;
-  Eigen::MatrixXd sensor_U_, sensor_S_;  ///< [n_offset x n_offset] workspaces of carrySensorInformation
+  Eigen::MatrixXd sensor_S_;  ///< [n_offset x n_offset] workspace of carrySensorInformation
   Eigen::VectorXd r_, dd_, u_, mask_;
   Eigen::LLT<Eigen::MatrixXd> mllt_;
   Eigen::VectorXd rss_carry_;   ///< [nv] forgotten-weighted residual sum of squares of earlier blocks
