@@ -183,13 +183,29 @@ bool OnlineEstimator::setUpRecursiveLs(const BaseParameters& base, const Eigen::
   return true;
 }
 
-bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
+int OnlineEstimator::appendColumns(const std::vector<int>& rows, const std::vector<double>& sigma,
+                                   const std::vector<unsigned char>& feedforward, std::vector<double>& effect_sigma) {
   std::string err;
+  const Eigen::Map<const Eigen::VectorXd> s(sigma.data(), static_cast<Eigen::Index>(sigma.size()));
+  if (!addExtraColumns(rls_model_, rows, s, &err)) {
+    setError(err);
+    return -1;
+  }
+  effect_sigma.insert(effect_sigma.end(), sigma.begin(), sigma.end());
+  ff_effect_.insert(ff_effect_.end(), feedforward.begin(), feedforward.end());
+  effect_row_.insert(effect_row_.end(), rows.begin(), rows.end());
+  ne_ += static_cast<int>(rows.size());
+  return static_cast<int>(rows.size());
+}
+
+bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
   if (!(opt_.effect_prior_factor > 0.0 && std::isfinite(opt_.effect_prior_factor))) {
     setError("effect prior factor must be > 0");
     return false;
   }
   std::vector<int> rows;
+  std::vector<double> sigma;
+  std::vector<unsigned char> ff;
   for (const Effect& e : opt_.effects.effects) {
     if (e.joint < 0 || e.joint >= model_.njoints || !std::isfinite(e.value)) {
       setError("effects: a joint index outside the model or a non-finite value");
@@ -202,41 +218,25 @@ bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
     }
     if (isMeasurementEffect(e.kind)) continue;
     rows.push_back(model_.jointRow(e.joint));
-    effect_sigma.push_back(opt_.effect_prior_factor * std::fabs(e.value) + 1e-6);
+    sigma.push_back(opt_.effect_prior_factor * std::fabs(e.value) + 1e-6);
     // Armature multiplies the acceleration, which tau_correction leaves out of the rigid part too (below).
-    ff_effect_.push_back(e.kind == EffectKind::Armature ? 0 : 1);
+    ff.push_back(e.kind == EffectKind::Armature ? 0 : 1);
   }
-  if (!addExtraColumns(rls_model_, rows, Eigen::Map<const Eigen::VectorXd>(effect_sigma.data(), effect_sigma.size()),
-                       &err)) {
-    setError(err);
-    return false;
-  }
-  ne_ = static_cast<int>(rows.size());
-  effect_row_ = rows;
+  if (appendColumns(rows, sigma, ff, effect_sigma) < 0) return false;
   effects_ = true;
   return true;
 }
 
 bool OnlineEstimator::addMovingBodyColumns(const Eigen::VectorXd& prior_phi, std::vector<double>& effect_sigma) {
-  std::string err;
   const double sigma = std::fabs(prior_phi[model_.bodyParamIndex(0) + 3]) + 1e-3;  // |mcz| of the base, kg m
   const std::vector<int> rows = {0, 1, 2, 3, 4, 5};  // the base rows (moment, force; docs/conventions.md)
-  if (!addExtraColumns(rls_model_, rows, Eigen::VectorXd::Constant(rows.size(), sigma), &err)) {
-    setError(err);
-    return false;
-  }
-  for (int r : rows) {
-    effect_sigma.push_back(sigma);
-    ff_effect_.push_back(0);  // what the moving body does is not the robot's to feed forward
-    effect_row_.push_back(r);
-  }
-  n_moving_ = static_cast<int>(rows.size());
-  ne_ += n_moving_;
-  return true;
+  // What the moving body does is not the robot's to feed forward.
+  n_moving_ = appendColumns(rows, std::vector<double>(rows.size(), sigma), std::vector<unsigned char>(rows.size(), 0),
+                            effect_sigma);
+  return n_moving_ >= 0;
 }
 
 bool OnlineEstimator::addSensorOffsetColumns(std::vector<double>& effect_sigma) {
-  std::string err;
   if (!std::isfinite(opt_.sensor_offset_sigma) || !std::isfinite(opt_.sensor_gain_sigma)) {
     setError("sensor offset and gain sigmas must be finite");
     return false;
@@ -251,19 +251,9 @@ bool OnlineEstimator::addSensorOffsetColumns(std::vector<double>& effect_sigma) 
       s.push_back(sigma);
     }
   }
-  const Eigen::VectorXd sigma = Eigen::Map<const Eigen::VectorXd>(s.data(), static_cast<Eigen::Index>(s.size()));
-  if (!addExtraColumns(rls_model_, rows, sigma, &err)) {
-    setError(err);
-    return false;
-  }
-  for (size_t j = 0; j < rows.size(); ++j) {
-    effect_sigma.push_back(sigma[j]);
-    ff_effect_.push_back(0);  // a sensor's error, not a torque on the robot
-    effect_row_.push_back(rows[j]);
-  }
-  n_offset_ = static_cast<int>(rows.size());
-  ne_ += n_offset_;
-  return true;
+  // A sensor's error is not a torque on the robot: never fed forward.
+  n_offset_ = appendColumns(rows, s, std::vector<unsigned char>(rows.size(), 0), effect_sigma);
+  return n_offset_ >= 0;
 }
 
 void OnlineEstimator::initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi,

@@ -260,6 +260,10 @@ class OnlineEstimator {
   bool checkModelAndOptions();
   /// The prior on the base parameters, Lambda0 = (B Sigma B^T)^-1, and the recursive LS model on it.
   bool setUpRecursiveLs(const BaseParameters& base, const Eigen::VectorXd& prior_phi, BasePrior& prior);
+  /// Appends extra columns (per column: the row it touches, its prior sigma, whether tau_correction adds it) to the
+  /// recursive LS and to effect_sigma, ff_effect_, effect_row_, ne_; their count, or -1 (error set).
+  int appendColumns(const std::vector<int>& rows, const std::vector<double>& sigma,
+                    const std::vector<unsigned char>& feedforward, std::vector<double>& effect_sigma);
   /// The sidecar's dynamics effects as extra columns (prior 0, sigma = factor x |value| + 1e-6).
   bool addEffectColumns(std::vector<double>& effect_sigma);
   /// The sensor columns after them: an offset per joint, then a gain per joint (never fed forward).
