@@ -159,8 +159,8 @@ struct WalkItem {
   Eigen::Vector3d p;
 };
 
-/// Adds a link's inertial, moved into its body's frame (R, p), to the body's parameters.
-bool lumpInertial(const urdf::Link& link, const WalkItem& it, WalkedTree& tree, std::string* error) {
+/// Adds a link's inertial, moved into its body's frame (R, p), to the body's parameters; *own: that share.
+bool lumpInertial(const urdf::Link& link, const WalkItem& it, WalkedTree& tree, Vector10d* own, std::string* error) {
   const urdf::Inertial& in = *link.inertial;
   const double vals[] = {in.mass, in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz};
   for (double v : vals)
@@ -170,7 +170,8 @@ bool lumpInertial(const urdf::Link& link, const WalkItem& it, WalkedTree& tree, 
   Eigen::Matrix3d Ic;
   Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
   const Vector10d local = paramsFromInertial(in.mass, vector(in.origin.position), rotation(in.origin.rotation), Ic);
-  tree.phis[it.body] += transformParams(local, it.R, it.p);
+  *own = transformParams(local, it.R, it.p);
+  tree.phis[it.body] += *own;
   return true;
 }
 
@@ -240,8 +241,8 @@ bool walkLinks(const urdf::ModelInterface& urdf_model, std::map<std::string, int
     frame.body = it.body;
     frame.rotation = it.R;
     frame.position = it.p;
+    if (link.inertial && it.body >= 0 && !lumpInertial(link, it, tree, &frame.phi, error)) return false;
     m.frames.push_back(frame);
-    if (link.inertial && it.body >= 0 && !lumpInertial(link, it, tree, error)) return false;
     // Children in document order; pushed in reverse so that the first is visited first.
     std::vector<urdf::JointSharedPtr> joints(link.child_joints.begin(), link.child_joints.end());
     std::sort(joints.begin(), joints.end(), [&](const urdf::JointSharedPtr& a, const urdf::JointSharedPtr& b) {

@@ -13,6 +13,7 @@
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/identify_run.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
+#include "identify_hold_report.hpp"
 
 namespace exoid::cli {
 
@@ -77,6 +78,29 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
                  "the joints' friction stays free), every other link held at the prior (the --model URDF's or --prior's "
                  "values): the standard payload identification, e.g. --model identified.urdf --only-links lwr_7_link on "
                  "runs with a load on the KUKA's flange (docs/identification.md)")->type_name("LINK");
+  app.add_option("--hold", o.hold_path, "a URDF of the same robot without what is to be identified, e.g. the empty "
+                 "exoskeleton's identified.urdf: its links are held at its inertials, and the links that --model adds "
+                 "to it (fixed-joint links with an inertial it lacks: `exoid model wearer`'s wearer_* segments, a "
+                 "payload) are identified, per carrying link, from --model's values of them as the prior (the "
+                 "carrying links are identified whole, the change credited to the added bodies); with --rows base and "
+                 "--com-height prior by default; prints them and writes wearer.csv and wearer.png (docs/wearer.md)")
+      ->type_name("URDF");
+  app.add_option("--rows", o.rows, "training rows: 'all', or 'base': only the floating base's 6 rows (the base-link "
+                 "dynamics: the force plates and the base's motion; no joint torque enters them, so joint effects the "
+                 "model lacks, such as a wearer's passive joint moments, cannot bias the inertials; joint friction is "
+                 "then not identified, left at the prior; floating base only). Default 'base' with --hold, 'all' "
+                 "otherwise; validation uses every row")
+      ->check(CLI::IsMember({"all", "base"}));
+  app.add_option("--com-height", o.com_height, "'prior': the whole system's CoM height (its vertical first moment in "
+                 "the base frame at the standing pose, q = 0) is held at the prior's, the base link's own vertical "
+                 "first moment taking up what the other parameters change; 'data': identified. Default 'prior' with "
+                 "--hold: standing balance barely excites the height, and what a rigid model lacks (a wearer's moving "
+                 "trunk, passive joint moments) moved it by 30-140 mm in our runs (docs/wearer.md); 'data' otherwise")
+      ->check(CLI::IsMember({"prior", "data"}));
+  app.add_option("--truth-model", o.truth_model_path, "the true system's URDF (a simulated run's, e.g. `exoid model "
+                 "wearer` with the scenario's seed and variation): with --hold, the added bodies' truth in the report; "
+                 "with validation logs, its CoM error against the truth channel beside the prior's and the estimate's")
+      ->type_name("URDF");
   app.add_option("--prior-perturb", o.prior_perturb, "scale each URDF parameter by a uniform random factor in [1-F, 1+F] for the prior")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("F");
   app.add_option("--prior-seed", o.prior_seed, "seed of --prior-perturb")->transform(common::strictInteger(0, INT64_MAX));
@@ -91,8 +115,15 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
   app.add_option("--effects", o.effects_path, "sidecar effects.yaml of `exoid diagnose` (docs/diagnose.md): its effects are "
                  "applied to the training data as known corrections before identification (friction, offset, armature "
                  "torques subtracted; torque-sensor gains divided out; a time delay is refused)");
-  app.add_option("--out", *out_dir, "directory for summary.json, estimate.csv and (all links consistent) identified.urdf");
+  app.add_option("--out", *out_dir, "directory for summary.json, estimate.csv and (all links consistent) identified.urdf; "
+                 "with --hold also wearer.csv, plot_wearer.py and wearer.png");
 }
+
+/// The plots.
+struct PlotOptions {
+  bool no_plots = false;
+  std::string python = "python3";
+};
 
 /// The report on stdout: method and rank, training and validation RMSE, consistency, excitation, a data-differ
 /// warning (returned, for summary.json; empty if none).
@@ -129,6 +160,9 @@ std::string printReport(const tools::IdentifyRun& run) {
     differ = b;
     std::printf("warning: %s\n", differ.c_str());
   }
+  if (run.com_height_held)
+    std::printf("system CoM height held at the prior's: %.4f m above the base origin at the standing pose "
+                "(--com-height prior)\n", run.com_height_m);
   std::fprintf(stderr, "exoid identify: read + filter + factor %.3f s, solve + rank choice %.3f s\n", run.read_s, run.solve_s);
   return differ;
 }
@@ -200,18 +234,24 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
                   {"base_orientation", o.orientation}, {"orientation_cutoff_hz", o.orientation_cutoff_hz},
                   {"folds", o.folds}, {"chunk_seconds", o.chunk_s}, {"prior_perturb", o.prior_perturb}};
   if (!o.only_links.empty()) j["options"]["only_links"] = o.only_links;  // the other links held at the prior
+  if (!o.hold_path.empty()) j["options"]["hold"] = o.hold_path;
+  j["options"]["rows"] = o.rows.empty() ? (o.hold_path.empty() ? "all" : "base") : o.rows;
+  j["com_height_held_m"] = run.com_height_held ? nlohmann::json(run.com_height_m) : nlohmann::json(nullptr);
+  if (!o.truth_model_path.empty()) j["options"]["truth_model"] = o.truth_model_path;
   j["timing_s"] = {{"read_filter_factor", run.read_s}, {"solve", run.solve_s}};
   return j;
 }
 
 /// --out DIR: estimate.csv, summary.json and, only when every link is physically consistent, identified.urdf.
 bool writeOutputs(const tools::IdentifyRun& run, const tools::IdentifyRunOptions& o, const std::string& differ,
-                  const std::string& out_dir, std::string* err) {
+                  const std::string& out_dir, const PlotOptions& plots, std::string* err) {
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   if (ec) return *err = "cannot create '" + out_dir + "': " + ec.message(), false;
   if (!writeEstimateCsv(run, out_dir + "/estimate.csv", err)) return false;
   nlohmann::json j = summaryJson(run, o, differ);
+  holdJson(run, j);
+  if (!writeHoldOutputs(run, out_dir, !plots.no_plots, plots.python, err)) return false;
   int consistent = 0;
   for (const auto& l : run.result.links) consistent += l.consistent;
   if (consistent == static_cast<int>(run.result.links.size())) {
@@ -234,13 +274,17 @@ int cmdIdentify(int argc, char** argv) {
   std::string out_dir;
   addDataOptions(app, o);
   addMethodOptions(app, o, &out_dir);
+  PlotOptions plots;
+  app.add_flag("--no-plots", plots.no_plots, "--hold: write plot_wearer.py but do not run it");
+  app.add_option("--python", plots.python, "python interpreter for the plots (default python3; needs matplotlib)");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   o.rank_given = app.get_option("--rank")->count() > 0;
   std::string err;
   tools::IdentifyRun run;
   if (!tools::runIdentify(o, run, &err)) return run.damaged ? (fail(err), 3) : fail(err);
   const std::string differ = printReport(run);
-  if (!out_dir.empty() && !writeOutputs(run, o, differ, out_dir, &err)) return fail(err);
+  printHoldReport(run);
+  if (!out_dir.empty() && !writeOutputs(run, o, differ, out_dir, plots, &err)) return fail(err);
   return 0;
 }
 

@@ -510,7 +510,7 @@ bool writePlotScript(const std::string& out_dir, const std::string& name, const 
   if (!run) return true;
   const std::string cmd = python + " '" + (out / name).string() + "'" + args;
   *plotted = std::system(cmd.c_str()) == 0;
-  if (!*plotted) std::fprintf(stderr, "exoid diagnose: warning: the plot script failed (%s); the CSVs are written\n", cmd.c_str());
+  if (!*plotted) std::fprintf(stderr, "exoid: warning: the plot script failed (%s); the CSVs are written\n", cmd.c_str());
   return true;
 }
 

@@ -94,6 +94,27 @@ void makePhysicallyConsistent(const Model& model, const ScaledProblem& sp, const
     out.consistent_iterations = pc.iterations;
     out.phi = pc.phi;
   }
+  // The held function's parameter (its column is zero in the data: the solve left it at the prior) from the others.
+  // It moves a first moment, which can put that body's CoM outside its inertia: its second moments are then raised
+  // by the least isotropic amount that makes it consistent, which leaves every mass and first moment (and so the
+  // held function, the total mass and the CoM) as they are. Carried instead as a heavy row of the consistent solve,
+  // the function stalled Levenberg-Marquardt and traded mass between a wearer's links (docs/identification.md).
+  if (o.held_function.j >= 0) {
+    o.held_function.apply(out.phi);
+    for (int b = 0; b < model.nbodies; ++b) {
+      auto p = out.phi.segment<kParamsPerBody>(model.bodyParamIndex(b));
+      if (checkConsistency(Vector10d(p)).consistent) continue;
+      Eigen::Matrix4d J = pseudoInertia(p);
+      const double m = J(3, 3);
+      if (!(m > 0.0)) continue;  // no mass to hang the moments on: reported as inconsistent
+      const Eigen::Vector3d h = J.topRightCorner<3, 1>();
+      const Eigen::Matrix3d S = J.topLeftCorner<3, 3>() - h * h.transpose() / m;  // second moments about the CoM
+      const Eigen::Vector3d eig = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(S).eigenvalues();  // ascending
+      const double lift = 1e-6 * std::max({std::abs(eig[0]), std::abs(eig[2]), 1e-9});
+      J.topLeftCorner<3, 3>() += (lift - eig[0]) * Eigen::Matrix3d::Identity();
+      p = paramsFromPseudoInertia(J);
+    }
+  }
 }
 
 /// Left at the prior: the estimate is the prior's value (the fill and WLS-RC-PC move parameters the kept
@@ -166,6 +187,11 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
   if (!chooseRank(train, model, prior, o, validation, sp, vfactor, out, why)) return fail(why);
   out.rank = std::min(out.rank, out.numerical_rank);
   out.phi = solveAtRank(sp, out.rank);
+  if (o.held_function.j >= 0) {
+    if (o.held_function.c.size() != p || o.held_function.j >= p || o.held_function.c[o.held_function.j] != 1.0)
+      return fail("the held function does not match the model (c of size p, c_j = 1)");
+    o.held_function.apply(out.phi);
+  }
   if (o.physically_consistent) makePhysicallyConsistent(model, sp, o, out);
   out.phi_base = train.base().base_map * out.phi;
   out.condition = out.rank > 0 ? sp.s[0] / sp.s[out.rank - 1] : 1.0;

@@ -59,6 +59,9 @@ struct Model {
     int body = -1;  ///< body the frame is attached to (-1: the fixed root / world)
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< body <- frame
     Eigen::Vector3d position = Eigen::Vector3d::Zero();      ///< frame origin in body coordinates
+    /// This link's own URDF inertial as standard parameters in its body's coordinates: its share of the body's
+    /// lumped parameters (zero without an inertial or on the fixed root), e.g. one wearer segment of a link.
+    Vector10d phi = Vector10d::Zero();
     EIGEN_MAKE_ALIGNED_OPERATOR_NEW
   };
   AlignedVector<Frame> frames;

@@ -66,23 +66,39 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
   int feet[2];
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
+  if (options.base_rows_only && !model.floating_base) {
+    if (error) *error = path + ": base rows only needs a floating-base model";
+    return false;
+  }
   if (options.held_base && !model.floating_base) {
     if (error) *error = path + ": a held base needs a floating-base model";
     return false;
   }
   if (options.held_base) dopt.orientation_from_legs = false;  // the feet swing: they say nothing of the base
+  if (options.held_function && (options.held_function->c.size() != model.nparams() || options.held_function->j < 0 ||
+                                 options.held_function->j >= model.nparams())) {
+    if (error) *error = path + ": the held function does not match the model's size";
+    return false;
+  }
   if (options.held_phi && options.held_phi->size() != model.nparams()) {
     if (error) *error = path + ": the held parameters do not match the model's size";
     return false;
   }
   const estimator::DatasetBuilder* self = nullptr;
   Eigen::MatrixXd Kh;  // held base: the rows with the unmeasured ones (heldBaseRowMeasured) zeroed
-  Eigen::VectorXd yh;
+  Eigen::VectorXd yh, kj;
   const estimator::RowSink direct = [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
-    if (!options.held_base && !options.held_phi) return rows(*self, t, K, y);
+    if (!options.held_base && !options.held_phi && !options.base_rows_only && !options.held_function)
+      return rows(*self, t, K, y);
     Kh = K, yh = y;
+    if (const estimator::HeldFunction* h = options.held_function) {
+      kj = Kh.col(h->j);  // a copy: the rank-1 update below rewrites column j (to zero: c_j = 1)
+      yh.noalias() -= kj * h->value;
+      Kh.noalias() -= kj * h->c.transpose();
+    }
     for (int r = 0; options.held_base && r < model.nv; ++r)
       if (!estimator::heldBaseRowMeasured(model, r)) Kh.row(r).setZero(), yh[r] = 0.0;
+    if (options.base_rows_only) Kh.bottomRows(model.njoints).setZero(), yh.tail(model.njoints).setZero();
     if (options.held_phi) yh.noalias() -= Kh * *options.held_phi;  // what the held parameters leave
     rows(*self, t, Kh, yh);
   };
@@ -165,7 +181,7 @@ bool readSamples(const std::string& path, const Model& model, const SourceOption
 bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
                        const SourceOptions& options, estimator::LsqAccumulator& acc, intake::InputStats& stats,
                        std::string* error) {
-  if (options.effects || options.held_base || options.held_phi) {  // the study's path; these go through streamFileRows
+  if (options.effects || options.held_base || options.held_phi || options.base_rows_only || options.held_function) {  // the study's path; these go through streamFileRows
     if (error) *error = "accumulateSamples: sidecar corrections and held-base runs are not supported here";
     return false;
   }

@@ -26,6 +26,17 @@ bool parseRankRule(const std::string& name, RankRule& r);
 /// "OLS", ..., "WLS-RC", and the method's name with "-PC" when made physically consistent ("WLS-RC-PC").
 std::string methodLabel(Method m, bool physically_consistent);
 
+/// One linear function of the parameters held at a value, c^T phi = value with c_j = 1, that the caller has
+/// eliminated from the data through parameter j: every row's K became K - K_j c^T (column j zero, so j must be
+/// held in the base parameters) and y became y - K_j value (tools::SourceOptions::held_function).
+struct HeldFunction {
+  int j = -1;          ///< < 0: none
+  Eigen::VectorXd c;   ///< [p]
+  double value = 0.0;
+  /// phi_j = value - sum_(k != j) c_k phi_k.
+  void apply(Eigen::VectorXd& phi) const { phi[j] = value - (c.dot(phi) - c[j] * phi[j]); }
+};
+
 struct IdentifyOptions {
   Method method = Method::WlsRC;
   /// WLS-RC-PC (consistent.hpp): the method's rank-z fit made physically consistent (every link's
@@ -42,6 +53,9 @@ struct IdentifyOptions {
   /// Held-out / training RMSE above this says the validation data differ from the training data (a load, a
   /// tool, another robot state): noise and an adequate model give ~1 (docs/identification.md, "Output").
   double data_differ_ratio = 2.0;
+  /// A held function (e.g. the system's CoM height, `exoid identify --com-height prior`): the estimate's phi_j is
+  /// set from it, and WLS-RC-PC keeps it in its target so that the link of parameter j stays consistent.
+  HeldFunction held_function;
 };
 
 /// Physical consistency of one body's 10 parameters (about the body origin): the pseudo-inertia

@@ -12,6 +12,7 @@
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/intake/measured_input.hpp"
+#include "exoid/estimator/batch/identify.hpp"
 #include "exoid/model/model.hpp"
 
 namespace exoid::tools {
@@ -32,6 +33,15 @@ struct SourceOptions {
   /// Parameters held at known values (`exoid diagnose --declared-model`, `exoid identify --only-links`): every row's y
   /// becomes y - K held_phi [Model::nparams()], so what is fitted to it is what those parameters leave. Not owned.
   const Eigen::VectorXd* held_phi = nullptr;
+  /// Only the floating base's 6 rows (`exoid identify --rows base`): the joints' rows are handed on as zero rows,
+  /// K and y both. The base-link dynamics of a legged robot identify the same base parameters as the whole
+  /// dynamics (Ayusawa, Venture and Nakamura, IJRR 33(3), 2014) and no joint torque enters them, so what the model
+  /// lacks at the joints (a wearer's passive moments, friction, torque-sensor errors) cannot bias the inertials.
+  bool base_rows_only = false;
+  /// A linear function of the parameters held at a value (`exoid identify --com-height prior`): parameter j is
+  /// eliminated, so every row's K becomes K - K_j c^T (column j zero) and y becomes y - K_j value, before held_phi
+  /// is taken off (estimator::HeldFunction). Not owned.
+  const estimator::HeldFunction* held_function = nullptr;
 };
 
 /// The measured samples of one file (the dataset pipeline's input: before noise, filtering and
