@@ -141,6 +141,36 @@ TEST_F(Experiment, UndeclaredFrictionShowsInTheResidual) {
   EXPECT_GT(eom.max_relative, 1e-3);
 }
 
+// A wearer scenario without --model / --controller-model runs on the clinic's prior: OUT/wearer_prior.urdf weighs
+// the exoskeleton's URDF plus the typed mass (52 kg for wearer_light_passive), and the run completes; given --model,
+// nothing is written (checked on a run refused after planning by a bad controller configuration).
+TEST_F(Experiment, AWearerScenarioWithoutAModelRunsOnTheTablePrior) {
+  test::TempDir dir("exp_wearer_prior");
+  const std::string scenario = test::configPath("scenarios/wearer_light_passive.yaml");
+  const auto r = test::runCommand(test::exoidBinary() + " experiment --moves 1 --no-estimator --scenario " + scenario +
+                                      " --out " + dir.file("run"),
+                                  dir.path);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.err.find("the table wearer at the typed mass"), std::string::npos) << r.err;
+  auto mass = [](const std::string& urdf) {
+    Model m;
+    std::string err;
+    EXPECT_TRUE(buildModelFromUrdfFile(urdf, true, m, &err)) << err;
+    double total = 0.0;
+    for (int b = 0; b < m.nbodies; ++b) total += m.phi[m.bodyParamIndex(b)];
+    return total;
+  };
+  EXPECT_NEAR(mass(dir.file("run/wearer_prior.urdf")), mass(test::configPath("exo.urdf")) + 52.0, 1e-9);
+  EXPECT_NE(test::slurp(dir.file("run/summary.json")).find("\"fell\": false"), std::string::npos);
+  std::ofstream(dir.file("bad.yaml")) << "not: a controller configuration\n";
+  const auto given = test::runCommand(test::exoidBinary() + " experiment --moves 1 --scenario " + scenario + " --model " +
+                                          test::configPath("exo.urdf") + " --controller-config " + dir.file("bad.yaml") +
+                                          " --out " + dir.file("given"),
+                                      dir.path);
+  EXPECT_EQ(given.exit_code, 2) << given.out << given.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("given/wearer_prior.urdf")));
+}
+
 TEST(ExperimentCli, BadInputIsRejectedWithOneLine) {
   test::TempDir dir("exp_bad");
   auto r = test::runCommand(test::exoidBinary() + " experiment --scenario " + dir.file("none.yaml") + " --out " + dir.file("o"), dir.path);

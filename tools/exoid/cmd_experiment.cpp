@@ -73,7 +73,10 @@ void addRunOptions(CLI::App& app, tools::ExperimentOptions& o) {
                  "controller's unless --controller-model")->type_name("URDF");
   app.add_option("--controller-model", o.controller_model,
                  "the URDF the controller runs on (both shapes; default --model), e.g. a wrong\n"
-                 "prior from exoid model perturb; same joints as --model")->type_name("URDF");
+                 "prior from exoid model perturb; same joints as --model. Neither this nor --model\n"
+                 "given and the scenario has a wearer: both are the clinic's prior, the exoskeleton\n"
+                 "plus the table wearer at the scenario's mass, height and sex (OUT/wearer_prior.urdf,\n"
+                 "as `exoid model wearer` writes it)")->type_name("URDF");
   app.add_option("--mjcf", o.mjcf, "simulated robot")->type_name("FILE");
   // exo_controller's own limits (controller/run_options.hpp): exoid refuses what the controller would, before
   // anything starts (a refused controller left the sim running open loop for minutes).
@@ -165,9 +168,14 @@ int cmdExperiment(int argc, char** argv) {
   addSupervisionOptions(app, o);
   app.footer(kFooter);
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
+  o.model_given = app.get_option("--model")->count() + app.get_option("--controller-model")->count() > 0;
   std::string err;
   tools::ExperimentPlan plan;
   if (!tools::planExperiment(o, plan, &err) || !tools::prepareOutDir(o.out_dir, &err)) return fail(err);
+  if (!plan.wearer_prior.empty() && tools::inPrivateNetns())  // said once (the command re-runs itself in a namespace)
+    std::fprintf(stderr, "exoid experiment: the scenario has a wearer: the controller's and the summary's model is the "
+                         "exoskeleton plus the table wearer at the typed mass, height and sex, %s (--model or "
+                         "--controller-model to choose another)\n", plan.wearer_prior.c_str());
   if (!tools::inPrivateNetns()) return tools::reexecInPrivateNetns(argc, argv, &err), fail(err);
   if (!tools::configurePrivateNetns(&err)) return fail(err);
   tools::RunFacts facts;

@@ -16,6 +16,7 @@
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/sim.hpp"
 #include "exoid/tools/experiment_run.hpp"
+#include "exoid/tools/wearer_urdf.hpp"
 
 namespace exoid::tools {
 namespace {
@@ -150,6 +151,24 @@ bool checkSimInputs(ExperimentPlan& plan, std::string* error) {
   return true;
 }
 
+/// ExperimentOptions::model_given false and a `wearer:` in the scenario: writes the table prior into the output
+/// directory (created) and makes it --model and --controller-model (plan.wearer_prior). Scenario errors are left to
+/// checkSimInputs.
+bool wearerPrior(ExperimentPlan& plan, std::string* error) {
+  ExperimentOptions& o = plan.options;
+  sim::Scenario scenario;
+  std::string ignored;
+  if (o.model_given || !sim::loadScenario(o.scenario, &scenario, &ignored) || !scenario.wearer.enabled) return true;
+  WearerSpec typed = scenario.wearer.spec;  // what a clinic types: mass, height, sex; not the person's variation
+  typed.variation = 0.0;
+  typed.seed = 1;
+  const std::string path = std::filesystem::absolute(std::filesystem::path(o.out_dir) / "wearer_prior.urdf").string();
+  if (!prepareOutDir(o.out_dir, error) || !writeWearerPrior(o.model, typed, path, nullptr, error))
+    return *error = "the wearer's prior (" + path + "): " + *error, false;
+  o.model = o.controller_model = plan.wearer_prior = path;
+  return true;
+}
+
 }  // namespace
 
 bool planExperiment(const ExperimentOptions& options, ExperimentPlan& plan, std::string* error) {
@@ -158,7 +177,7 @@ bool planExperiment(const ExperimentOptions& options, ExperimentPlan& plan, std:
   if (options.no_estimator) plan.options.estimate_feedback = false;  // nothing to feed back
   plan.use_plugin = options.controller_mode == "plugin";
   plan.lockstep = !options.realtime;
-  return checkOptions(plan.options, &plan.inject, error) && checkController(plan, error) &&
+  return checkOptions(plan.options, &plan.inject, error) && wearerPrior(plan, error) && checkController(plan, error) &&
          checkEstimatorArgs(plan, error) && checkSimInputs(plan, error);
 }
 

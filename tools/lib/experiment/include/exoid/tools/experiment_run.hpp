@@ -20,6 +20,10 @@ namespace exoid::tools {
 struct ExperimentOptions {
   std::string scenario, out_dir, controller_config, sensors, model, mjcf;
   std::string controller_model;        ///< empty: --model
+  /// --model or --controller-model was given. Neither, on a scenario with a `wearer:`: both are the clinic's prior,
+  /// the exoskeleton plus the table wearer at the scenario's typed mass, height and sex (OUT/wearer_prior.urdf,
+  /// `exoid model wearer`), since the exoskeleton's URDF alone is half the system's mass.
+  bool model_given = false;
   std::string controller_mode = "plugin";  ///< plugin | process
   std::string plugin_lib;
   std::string inject;                  ///< testing: ACTION:PROCESS:SECONDS (empty: none)
@@ -54,6 +58,7 @@ struct ExperimentPlan {
   std::vector<std::string> estimator_words;  ///< exo_estimator's extra arguments (--effects made absolute)
   estimator::OnlineEstimatorOptions replay_options;  ///< the summary's replay of the estimator
   double payload_attach_s = -1.0, payload_mass_kg = 0.0;  ///< a mid-run payload of the scenario (-1: none)
+  std::string wearer_prior;  ///< the table prior written for a wearer scenario (ExperimentOptions::model_given); "" none
 };
 
 /// Checks every input and fills *plan; false with a one-line *error naming the option or file.
