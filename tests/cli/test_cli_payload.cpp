@@ -144,6 +144,31 @@ TEST(PayloadCli, KukaSyntheticPayloadIsNamedByDiagnoseAndReidentifiedByOnlyLinks
       const double m_decl = decl.phi[decl.bodyParamIndex(o)];
       EXPECT_NEAR(id["estimate"][arm.body_names[o] + ".m"].get<double>(), m_decl, 1e-6 * std::max(1.0, m_decl));
     }
+
+  // The same with the payload as a body of its own (--hold): the unloaded identification plus a `tool` link on a fixed
+  // joint to the flange, typed as a guess (2 kg at (0.02, -0.02, 0.04) m, a 10 cm cube), held against the unloaded
+  // identification, all defaults: the added body is identified, the rest held.
+  std::string with_tool = test::slurp(declared);
+  with_tool.insert(with_tool.rfind("</robot>"),
+                   "  <link name=\"tool\"><inertial><origin xyz=\"0.02 -0.02 0.04\" rpy=\"0 0 0\"/><mass value=\"2.0\"/>"
+                   "<inertia ixx=\"0.0033\" ixy=\"0\" ixz=\"0\" iyy=\"0.0033\" iyz=\"0\" izz=\"0.0033\"/></inertial></link>\n"
+                   "  <joint name=\"tool_mount\" type=\"fixed\"><parent link=\"" + pl.link + "\"/><child link=\"tool\"/></joint>\n");
+  std::ofstream(dir.file("with_tool.urdf")) << with_tool;
+  r = test::runCommand(test::exoidBinary() + " identify --fixed-base --model " + dir.file("with_tool.urdf") + " --hold " +
+                           declared + " --no-plots --data " + dir.file("loaded_1.csv") + " --out " + dir.file("hold"),
+                       dir.path);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::printf("%s", r.out.c_str());
+  const nlohmann::json held = nlohmann::json::parse(test::slurp(dir.file("hold/summary.json")));
+  ASSERT_EQ(held["added_bodies"].size(), 1u);
+  const nlohmann::json& tool = held["added_bodies"][0];
+  EXPECT_EQ(tool["link"], pl.link);
+  EXPECT_NEAR(tool["identified"]["mass_kg"].get<double>(), pl.mass, 0.05 * pl.mass) << tool.dump(1);
+  const Eigen::Vector3d tc(tool["identified"]["com_m"][0].get<double>(), tool["identified"]["com_m"][1].get<double>(),
+                           tool["identified"]["com_m"][2].get<double>());
+  EXPECT_LT((tc - pl.com).norm(), 0.01) << tc.transpose();
+  EXPECT_EQ(held["options"]["rows"], "all");  // a fixed base: every row, the height not held
+  EXPECT_TRUE(held["com_height_held_m"].is_null());
 }
 
 TEST(PayloadCli, WithoutADeclaredModelThePayloadIsReportedAsAbsorbed) {

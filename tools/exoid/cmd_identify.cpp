@@ -88,13 +88,13 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
   app.add_option("--rows", o.rows, "training rows: 'all', or 'base': only the floating base's 6 rows (the base-link "
                  "dynamics: the force plates and the base's motion; no joint torque enters them, so joint effects the "
                  "model lacks, such as a wearer's passive joint moments, cannot bias the inertials; joint friction is "
-                 "then not identified, left at the prior; floating base only). Default 'base' with --hold, 'all' "
-                 "otherwise; validation uses every row")
+                 "then not identified, left at the prior; floating base only). Default 'base' with --hold on a "
+                 "floating base, 'all' otherwise; validation uses every row")
       ->check(CLI::IsMember({"all", "base"}));
   app.add_option("--com-height", o.com_height, "'prior': the whole system's CoM height (its vertical first moment in "
                  "the base frame at the standing pose, q = 0) is held at the prior's, the base link's own vertical "
                  "first moment taking up what the other parameters change; 'data': identified. Default 'prior' with "
-                 "--hold: standing balance barely excites the height, and what a rigid model lacks (a wearer's moving "
+                 "--hold on a floating base: standing balance barely excites the height, and what a rigid model lacks (a wearer's moving "
                  "trunk, passive joint moments) moved it by 30-140 mm in our runs (docs/wearer.md); 'data' otherwise")
       ->check(CLI::IsMember({"prior", "data"}));
   app.add_option("--truth-model", o.truth_model_path, "the true system's URDF (a simulated run's, e.g. `exoid model "
@@ -235,7 +235,7 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
                   {"folds", o.folds}, {"chunk_seconds", o.chunk_s}, {"prior_perturb", o.prior_perturb}};
   if (!o.only_links.empty()) j["options"]["only_links"] = o.only_links;  // the other links held at the prior
   if (!o.hold_path.empty()) j["options"]["hold"] = o.hold_path;
-  j["options"]["rows"] = o.rows.empty() ? (o.hold_path.empty() ? "all" : "base") : o.rows;
+  j["options"]["rows"] = o.rows.empty() ? (o.hold_path.empty() || o.fixed_base ? "all" : "base") : o.rows;
   j["com_height_held_m"] = run.com_height_held ? nlohmann::json(run.com_height_m) : nlohmann::json(nullptr);
   if (!o.truth_model_path.empty()) j["options"]["truth_model"] = o.truth_model_path;
   j["timing_s"] = {{"read_filter_factor", run.read_s}, {"solve", run.solve_s}};

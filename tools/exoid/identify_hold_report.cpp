@@ -97,7 +97,9 @@ void printHoldReport(const tools::IdentifyRun& run) {
   }
   std::printf("  total        %5.2f kg -> %6.2f kg", sum[0], sum[1]);
   if (!run.added.empty() && run.added.front().has_truth) std::printf(" (truth %5.2f)", sum[2]);
-  std::printf("\n  the split between links: standing balance data barely separate the pelvis's share from the legs' (a "
+  std::printf("\n");
+  if (run.model.floating_base && run.added.size() > 1)
+    std::printf("  the split between links: standing balance data barely separate the pelvis's share from the legs' (a "
               "mass moved up or down a nearly vertical chain changes little but the height); trust the total and the "
               "horizontal CoM, not one link's share (docs/wearer.md \"Identify the wearer\")\n");
 }

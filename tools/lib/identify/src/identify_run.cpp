@@ -127,7 +127,8 @@ bool holdSplit(const IdentifyRunOptions& o, IdentifyRun& run, std::vector<std::s
 bool comHeightFunction(const IdentifyRunOptions& o, IdentifyRun& run, BaseParameterOptions& bo,
                        estimator::HeldFunction& f, std::string* error) {
   const Model& model = run.model;
-  const bool hold = o.com_height == "prior" || (o.com_height.empty() && !o.hold_path.empty());
+  // The default holds it for a floating base only: a fixed base has no CoM to balance over.
+  const bool hold = o.com_height == "prior" || (o.com_height.empty() && !o.hold_path.empty() && model.floating_base);
   if (!hold) return true;
   if (!model.floating_base) return *error = "--com-height prior needs a floating-base model", false;
   f.j = model.bodyParamIndex(0) + 3;
@@ -206,7 +207,7 @@ SourceOptions trainingSource(const IdentifyRunOptions& o) {
   so.dataset.noise_seed = o.seed;
   so.skip_bad_rows = o.skip_bad_rows;
   so.allow_partial = o.allow_partial;
-  so.base_rows_only = o.rows == "base" || (o.rows.empty() && !o.hold_path.empty());
+  so.base_rows_only = o.rows == "base" || (o.rows.empty() && !o.hold_path.empty() && !o.fixed_base);
   return so;
 }
 
