@@ -161,8 +161,8 @@ std::string printReport(const tools::IdentifyRun& run) {
     std::printf("warning: %s\n", differ.c_str());
   }
   if (run.com_height_held)
-    std::printf("system CoM height held at the prior's: %.4f m above the base origin at the standing pose "
-                "(--com-height prior)\n", run.com_height_m);
+    std::printf("system CoM height held at the prior's: %.4f m along the base z axis from the base origin at the "
+                "standing pose (--com-height prior)\n", run.com_height_m);
   std::fprintf(stderr, "exoid identify: read + filter + factor %.3f s, solve + rank choice %.3f s\n", run.read_s, run.solve_s);
   return differ;
 }

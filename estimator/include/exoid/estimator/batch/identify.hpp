@@ -54,7 +54,8 @@ struct IdentifyOptions {
   /// tool, another robot state): noise and an adequate model give ~1 (docs/identification.md, "Output").
   double data_differ_ratio = 2.0;
   /// A held function (e.g. the system's CoM height, `exoid identify --com-height prior`): the estimate's phi_j is
-  /// set from it, and WLS-RC-PC keeps it in its target so that the link of parameter j stays consistent.
+  /// set from it; with WLS-RC-PC a body it makes inconsistent gets the least isotropic lift of its second moments
+  /// (masses and first moments, hence the function, unchanged).
   HeldFunction held_function;
 };
 
