@@ -2,7 +2,9 @@
 //  - the streamed per-coordinate, per-fold QR equals the QR of the stacked W (normal matrix, z, rss) for any
 //    block size, fold count and thread count;
 //  - every solver (OLS, WLS-R, WLS-C, WLS-RC) at every truncation rank equals the thesis's formulas
-//    (eqs. 20-23, 27, 29-32) evaluated with a dense SVD of the stacked, scaled 130-column W.
+//    (eqs. 20-23, 27, 29-32) evaluated with a dense SVD of the stacked, scaled 130-column W;
+//  - a held function (HeldFunction, eliminated from the rows) gives the equality-constrained least-squares fit of a
+//    dense nullspace solve, the function held exactly.
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -11,7 +13,9 @@
 
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/batch/accumulator.hpp"
+#include "exoid/estimator/batch/identify.hpp"
 #include "exoid/estimator/batch/solvers.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/random_state.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
@@ -244,6 +248,60 @@ TEST(BatchSolvers, RankChoiceCurvesAreConsistentWithTheirDefinitions) {
   const RankCurve cv = rankByCrossValidation(acc, pb.model, prior, Method::WlsRC);
   EXPECT_EQ(static_cast<int>(cv.score.size()), sp.s.size() + 1);
   EXPECT_GT(cv.best, 0);
+}
+
+// The system's vertical first moment at q = 0 held 0.5 kg m away from the truth's (`exoid identify --com-height
+// prior`'s function), eliminated through the base link's h_z as tools::SourceOptions::held_function does it row by row
+// (here on the stacked W): OLS at full rank with the held function predicts what the dense equality-constrained
+// least-squares solution predicts (min ||W phi - y|| s.t. c^T phi = v, by the nullspace of c^T), and c^T phi = v.
+TEST(BatchIdentify, AHeldFunctionGivesTheEqualityConstrainedLeastSquaresFit) {
+  const Problem pb = makeProblem(600, 3);
+  const Model& m = pb.model;
+  HeldFunction h;
+  h.j = m.bodyParamIndex(0) + 3;
+  Data kin(m);
+  forwardKinematics(m, kin, State::zero(m));
+  h.c = Eigen::VectorXd::Zero(m.nparams());
+  for (int b = 0; b < m.nbodies; ++b) {
+    h.c[m.bodyParamIndex(b)] = kin.p[b].z();
+    h.c.segment<3>(m.bodyParamIndex(b) + 1) = kin.R[b].row(2).transpose();
+  }
+  ASSERT_EQ(h.c[h.j], 1.0);
+  h.value = h.c.dot(m.phi) + 0.5;
+  // The elimination: W - W_j c^T, y - W_j v; parameter j held in the base parameters.
+  Problem el = pb;
+  el.y -= pb.W.col(h.j) * h.value;
+  el.W -= pb.W.col(h.j) * h.c.transpose();
+  BaseParameterOptions bo;
+  bo.held.assign(static_cast<size_t>(m.nparams()), false);
+  bo.held[static_cast<size_t>(h.j)] = true;
+  el.base = computeBaseParameters(m, bo);
+  const LsqAccumulator acc = accumulate(el, AccumulatorOptions{256, 5, 100, 2});
+  IdentifyOptions o;
+  o.method = Method::Ols;
+  o.rank_rule = RankRule::Full;
+  o.held_function = h;
+  IdentifyResult r;
+  std::string err;
+  ASSERT_TRUE(identify(acc, m, m.phi, o, nullptr, r, &err)) << err;
+  // Independent: phi = phi_p + N z with c^T phi_p = v and N a basis of null(c^T) (a full QR of c); z the minimum-norm
+  // solution (W N has W's structural nullspace: a pivoted QR's basic solution is huge there and loses c^T phi to
+  // rounding).
+  const int p = m.nparams();
+  const Eigen::VectorXd phi_p = h.c * (h.value / h.c.squaredNorm());
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(h.c);
+  const Eigen::MatrixXd N = (qr.householderQ() * Eigen::MatrixXd::Identity(p, p)).rightCols(p - 1);
+  const Eigen::VectorXd z = (pb.W * N).completeOrthogonalDecomposition().solve(pb.y - pb.W * phi_p);
+  const Eigen::VectorXd phi_kkt = phi_p + N * z;
+  EXPECT_NEAR(h.c.dot(phi_kkt), h.value, 1e-9 * std::abs(h.value));
+  const Eigen::VectorXd pred_kkt = pb.W * phi_kkt, pred = pb.W * r.phi;
+  std::printf("held function: predictions against the dense constrained solution, relative %.2e\n",
+              (pred - pred_kkt).norm() / pred_kkt.norm());
+  EXPECT_LT((pred - pred_kkt).norm(), 1e-8 * pred_kkt.norm());
+  EXPECT_NEAR(h.c.dot(r.phi), h.value, 1e-12 * std::abs(h.value));
+  // The constraint is active: the unconstrained fit's function is far from v.
+  const Eigen::VectorXd phi_free = pb.W.colPivHouseholderQr().solve(pb.y);
+  EXPECT_GT(std::abs(h.c.dot(phi_free) - h.value), 0.3);
 }
 
 }  // namespace

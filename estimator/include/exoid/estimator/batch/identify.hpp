@@ -28,7 +28,11 @@ std::string methodLabel(Method m, bool physically_consistent);
 
 /// One linear function of the parameters held at a value, c^T phi = value with c_j = 1, that the caller has
 /// eliminated from the data through parameter j: every row's K became K - K_j c^T (column j zero, so j must be
-/// held in the base parameters) and y became y - K_j value (tools::SourceOptions::held_function).
+/// held in the base parameters) and y became y - K_j value (tools::SourceOptions::held_function). c must be an
+/// identifiable function (in the regressor's row space, c orthogonal to its nullspace): then the eliminated rows have
+/// the structural base parameters of the model with j held, which the accumulator's column reduction assumes.
+/// `BatchIdentify.AHeldFunctionGivesTheEqualityConstrainedLeastSquaresFit` checks the fit against a dense
+/// equality-constrained solve.
 struct HeldFunction {
   int j = -1;          ///< < 0: none
   Eigen::VectorXd c;   ///< [p]
