@@ -20,16 +20,12 @@
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/kinematics.hpp"
 #include "exoid/model/urdf.hpp"
+#include "support/csv_rows.hpp"
 #include "support/paths.hpp"
 #include "support/run_command.hpp"
 
 namespace exoid {
 namespace {
-
-nlohmann::json readJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
 
 // The whole system's first moment along base z at q = 0 (mass x CoM height in the base frame), by centroidal().
 double verticalFirstMoment(const std::string& urdf) {
@@ -40,30 +36,6 @@ double verticalFirstMoment(const std::string& urdf) {
   forwardKinematics(model, dyn.kin, State::zero(model));
   centroidal(model, dyn);
   return dyn.mass * dyn.com.z();
-}
-
-// wearer.csv as rows of named cells.
-std::vector<std::map<std::string, std::string>> readCsv(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::vector<std::string> head;
-  std::vector<std::map<std::string, std::string>> rows;
-  auto split = [](const std::string& s) {
-    std::vector<std::string> out;
-    std::stringstream ss(s);
-    std::string cell;
-    while (std::getline(ss, cell, ',')) out.push_back(cell);
-    if (!s.empty() && s.back() == ',') out.emplace_back();
-    return out;
-  };
-  if (std::getline(in, line)) head = split(line);
-  while (std::getline(in, line)) {
-    const std::vector<std::string> cells = split(line);
-    std::map<std::string, std::string> row;
-    for (size_t i = 0; i < head.size() && i < cells.size(); ++i) row[head[i]] = cells[i];
-    rows.push_back(row);
-  }
-  return rows;
 }
 
 class IdentifyWearer : public ::testing::Test {
@@ -105,7 +77,7 @@ class IdentifyWearer : public ::testing::Test {
                                     dir_->path);
     EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
     std::printf("%s", r.out.c_str());
-    return readJson(dir_->file(out + "/summary.json"));
+    return nlohmann::json::parse(test::slurp(dir_->file(out + "/summary.json")));
   }
 
   static test::TempDir* dir_;
@@ -134,7 +106,7 @@ TEST_F(IdentifyWearer, MassAndHorizontalComIdentifiedHeightThePriorsAndWearerCsv
   const nlohmann::json d = identify("data", "--com-height data");
   EXPECT_GT(d["system_com"]["identified_rmse_m"].get<double>(), 2.0 * c["identified_rmse_m"].get<double>());
   // wearer.csv (one process: the runs are made once per process).
-  const auto rows = readCsv(dir_->file("held/wearer.csv"));
+  const auto rows = test::readCsvRows(dir_->file("held/wearer.csv"));
   ASSERT_EQ(rows.size(), 7u);  // body, and thigh, shank, foot per side
   // de Leva (1996) Table 4, male: thigh 14.16 %, shank 4.33 %, foot 1.37 %; the rest rides on the pelvis.
   const std::map<std::string, double> fraction = {{"right_thigh", 0.1416}, {"left_thigh", 0.1416},

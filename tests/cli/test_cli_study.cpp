@@ -15,6 +15,7 @@
 #include "exoid/model/urdf.hpp"
 
 #include "support/paths.hpp"
+#include "support/csv_rows.hpp"
 #include "support/run_command.hpp"
 
 namespace exoid {
@@ -56,29 +57,6 @@ TEST(StudyCli, BadInputExitsTwoWithOneLine) {
   }
 }
 
-// results.csv as rows of name -> cell.
-std::vector<std::map<std::string, std::string>> readCsv(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::vector<std::string> head;
-  std::vector<std::map<std::string, std::string>> rows;
-  auto split = [](const std::string& l) {
-    std::vector<std::string> c;
-    std::stringstream ss(l);
-    std::string x;
-    while (std::getline(ss, x, ',')) c.push_back(x);
-    return c;
-  };
-  if (std::getline(in, line)) head = split(line);
-  while (std::getline(in, line)) {
-    const auto c = split(line);
-    std::map<std::string, std::string> r;
-    for (size_t i = 0; i < head.size() && i < c.size(); ++i) r[head[i]] = c[i];
-    rows.push_back(r);
-  }
-  return rows;
-}
-
 TEST(StudyCli, TinyStudyEndToEnd) {
   test::TempDir dir("study_e2e");
   const std::string cmd = test::exoidBinary() + " study --runs " + dir.file("runs") +
@@ -89,9 +67,9 @@ TEST(StudyCli, TinyStudyEndToEnd) {
   Model model;
   std::string err;
   ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model, &err)) << err;
-  const auto priors = readCsv(dir.file("study/priors.csv"));
+  const auto priors = test::readCsvRows(dir.file("study/priors.csv"));
   ASSERT_EQ(priors.size(), 2u);
-  const auto rows = readCsv(dir.file("study/results.csv"));
+  const auto rows = test::readCsvRows(dir.file("study/results.csv"));
   const std::vector<std::string> names = model.paramNames();
   for (int i = 0; i < 2; ++i) {
     Eigen::VectorXd prior(model.nparams());

@@ -235,7 +235,7 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
                   {"folds", o.folds}, {"chunk_seconds", o.chunk_s}, {"prior_perturb", o.prior_perturb}};
   if (!o.only_links.empty()) j["options"]["only_links"] = o.only_links;  // the other links held at the prior
   if (!o.hold_path.empty()) j["options"]["hold"] = o.hold_path;
-  j["options"]["rows"] = o.rows.empty() ? (o.hold_path.empty() || o.fixed_base ? "all" : "base") : o.rows;
+  j["options"]["rows"] = tools::baseRowsOnly(o) ? "base" : "all";
   j["com_height_held_m"] = run.com_height_held ? nlohmann::json(run.com_height_m) : nlohmann::json(nullptr);
   if (!o.truth_model_path.empty()) j["options"]["truth_model"] = o.truth_model_path;
   j["timing_s"] = {{"read_filter_factor", run.read_s}, {"solve", run.solve_s}};

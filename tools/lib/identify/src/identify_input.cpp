@@ -181,8 +181,10 @@ bool readSamples(const std::string& path, const Model& model, const SourceOption
 bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
                        const SourceOptions& options, estimator::LsqAccumulator& acc, intake::InputStats& stats,
                        std::string* error) {
-  if (options.effects || options.held_base || options.held_phi || options.base_rows_only || options.held_function) {  // the study's path; these go through streamFileRows
-    if (error) *error = "accumulateSamples: sidecar corrections and held-base runs are not supported here";
+  // The study's path; these go through streamFileRows.
+  if (options.effects || options.held_base || options.held_phi || options.base_rows_only || options.held_function) {
+    if (error) *error = "accumulateSamples: sidecar corrections, held-base runs, held parameters and base rows only "
+                        "are not supported here";
     return false;
   }
   int feet[2];

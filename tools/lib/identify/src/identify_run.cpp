@@ -207,7 +207,7 @@ SourceOptions trainingSource(const IdentifyRunOptions& o) {
   so.dataset.noise_seed = o.seed;
   so.skip_bad_rows = o.skip_bad_rows;
   so.allow_partial = o.allow_partial;
-  so.base_rows_only = o.rows == "base" || (o.rows.empty() && !o.hold_path.empty() && !o.fixed_base);
+  so.base_rows_only = baseRowsOnly(o);
   return so;
 }
 
@@ -302,6 +302,10 @@ void systemComCheck(const IdentifyRunOptions& o, IdentifyRun& run) {
 }
 
 }  // namespace
+
+bool baseRowsOnly(const IdentifyRunOptions& o) {
+  return o.rows == "base" || (o.rows.empty() && !o.hold_path.empty() && !o.fixed_base);
+}
 
 bool readPrior(const std::string& path, const Model& model, Eigen::VectorXd& prior, std::string* error) {
   std::ifstream in(path);

@@ -77,6 +77,10 @@ struct IdentifyRun {
   double com_height_m = 0.0;                ///< that height above the base origin (standing pose), when held
 };
 
+/// Whether the training rows are the floating base's only (SourceOptions::base_rows_only): --rows base, or no --rows
+/// with --hold on a floating base.
+bool baseRowsOnly(const IdentifyRunOptions& options);
+
 /// Prior from a CSV with columns name,value (every parameter named once; '#' comments, optional header).
 bool readPrior(const std::string& path, const Model& model, Eigen::VectorXd& prior, std::string* error);
 
