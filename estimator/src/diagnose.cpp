@@ -8,11 +8,13 @@
 namespace exoid::estimator {
 
 namespace {
-constexpr const char* kNames[kEffectKinds] = {"viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay"};
+constexpr const char* kNames[kEffectKinds] = {"viscous", "coulomb", "stribeck", "offset",     "armature",
+                                              "gain",    "delay",   "elastic",  "elastic_exp"};
 constexpr const char* kWords[kEffectKinds] = {"viscous friction",     "Coulomb friction", "Stribeck friction (static excess)",
                                               "constant torque offset", "armature (rotor inertia)",
-                                              "torque-sensor gain error", "time delay of the torque"};
-constexpr const char* kUnits[kEffectKinds] = {"N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s"};
+                                              "torque-sensor gain error", "time delay of the torque",
+                                              "joint elasticity (linear spring)", "joint elasticity (exponential spring)"};
+constexpr const char* kUnits[kEffectKinds] = {"N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad"};
 }  // namespace
 
 const char* effectKindName(EffectKind k) { return kNames[static_cast<int>(k)]; }
@@ -25,12 +27,18 @@ bool parseEffectKind(const std::string& name, EffectKind& k) {
 }
 bool isMeasurementEffect(EffectKind k) { return k == EffectKind::GainError || k == EffectKind::Delay; }
 bool isDryFriction(EffectKind k) { return k == EffectKind::Coulomb || k == EffectKind::Stribeck; }
+bool isElastic(EffectKind k) { return k == EffectKind::Elastic || k == EffectKind::ElasticExp; }
+EffectKind refinedKind(EffectKind k) {
+  return k == EffectKind::Stribeck ? EffectKind::Coulomb : k == EffectKind::ElasticExp ? EffectKind::Elastic : k;
+}
 bool admissibleValue(EffectKind k, double value) {
   switch (k) {
     case EffectKind::Viscous:
     case EffectKind::Coulomb:
     case EffectKind::Stribeck:
     case EffectKind::Armature:
+    case EffectKind::Elastic:
+    case EffectKind::ElasticExp:
       return value >= 0.0;
     default:
       return true;
@@ -41,10 +49,13 @@ EffectShape effectShape(const EffectShape& shape, const Effect& effect) {
   EffectShape s = shape;
   if (effect.width > 0.0 && isDryFriction(effect.kind))
     s.coulomb_width = effect.width;
+  if (isElastic(effect.kind)) s.center = effect.center;
+  if (effect.kind == EffectKind::ElasticExp) s.elastic_scale = effect.width;
   return s;
 }
 
-double effectSignal(EffectKind k, const EffectShape& shape, double v, double a, double tau_model, double dtau_model) {
+double effectSignal(EffectKind k, const EffectShape& shape, double q, double v, double a, double tau_model,
+                    double dtau_model) {
   switch (k) {
     case EffectKind::Viscous: return v;
     case EffectKind::Coulomb: return std::tanh(v / shape.coulomb_width);
@@ -56,6 +67,11 @@ double effectSignal(EffectKind k, const EffectShape& shape, double v, double a, 
     case EffectKind::Armature: return a;
     case EffectKind::GainError: return tau_model;
     case EffectKind::Delay: return -dtau_model;
+    case EffectKind::Elastic: return q - shape.center;
+    case EffectKind::ElasticExp: {
+      const double sc = shape.elastic_scale, x = q - shape.center;
+      return sc != 0.0 ? sc * std::expm1(x / sc) : x;  // slope 1 at the center, the linear spring as |s| grows
+    }
   }
   return 0.0;
 }
@@ -92,6 +108,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   declaredColumns(model, opt, train, validate, data, out);
   if (!trainingPass(model, opt, data, out, error) || !declaredFit(data, out, error)) return false;
   profileCoulombWidths(data);
+  profileElasticScales(opt, data);
   if (!declaredPrediction(model, data, out, error)) return false;
   rowWeights(model, data);
   candidateSignals(model, opt, data, out);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/QR>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -50,15 +51,25 @@ Run makeRun(const Model& model, uint64_t seed) {
   return run;
 }
 
+// The run's rows, with q (Segment::stream_state): the elastic candidates are tested too.
 Segment segmentOf(const Model& model, const Run& run, const std::string& name) {
-  return {name, [&model, &run](const DiagnosisRowSink& sink, std::string*) {
-            Data data(model);
-            for (size_t i = 0; i < run.states.size(); ++i) {
-              computeJointTorqueRegressor(model, data, run.states[i]);
-              sink(run.t[i], data.K, run.y[i], run.y[i]);
-            }
-            return true;
-          }};
+  Segment sg{name, [&model, &run](const DiagnosisRowSink& sink, std::string*) {
+               Data data(model);
+               for (size_t i = 0; i < run.states.size(); ++i) {
+                 computeJointTorqueRegressor(model, data, run.states[i]);
+                 sink(run.t[i], data.K, run.y[i], run.y[i]);
+               }
+               return true;
+             }};
+  sg.stream_state = [&model, &run](const DiagnosisStateSink& sink, std::string*) {
+    Data data(model);
+    for (size_t i = 0; i < run.states.size(); ++i) {
+      computeJointTorqueRegressor(model, data, run.states[i]);
+      sink(run.t[i], data.K, run.y[i], run.y[i], run.states[i].q);
+    }
+    return true;
+  };
+  return sg;
 }
 
 // Stages up to the candidate columns on one training and one validation run.
@@ -78,6 +89,7 @@ struct Prepared {
     EXPECT_TRUE(trainingPass(model, opt, data, out, &err)) << err;
     EXPECT_TRUE(declaredFit(data, out, &err)) << err;
     profileCoulombWidths(data);
+    profileElasticScales(opt, data);
     EXPECT_TRUE(declaredPrediction(model, data, out, &err)) << err;
     rowWeights(model, data);
     candidateSignals(model, opt, data, out);
@@ -147,6 +159,7 @@ TEST(DiagnoseStages, CandidateSignalsAndTheirColumns) {
   for (int r = 0; r < 7; ++r) EXPECT_EQ(p.data.active[r].back(), p.data.iy);
   for (const DiagnosisCandidate& cd : p.data.cands) {
     const double v = p.train.states[100].v[cd.joint], a = p.data.caches[0].a(100, cd.joint);
+    const double x = p.train.states[100].q[cd.joint] - cd.center;
     const double tau = p.data.caches[0].tau(100, cd.coord), dtau = p.data.caches[0].dtau(100, cd.coord);
     const double expect = cd.kind == EffectKind::Viscous    ? v
                           : cd.kind == EffectKind::Offset   ? 1.0
@@ -154,8 +167,50 @@ TEST(DiagnoseStages, CandidateSignalsAndTheirColumns) {
                           : cd.kind == EffectKind::GainError ? tau  // fixed base: the sensor's part is all of y
                           : cd.kind == EffectKind::Delay    ? -dtau
                           : cd.kind == EffectKind::Coulomb  ? std::tanh(v / cd.width)
+                          : cd.kind == EffectKind::Elastic  ? x
+                          : cd.kind == EffectKind::ElasticExp ? cd.width * (std::exp(x / cd.width) - 1.0)
                                                             : std::tanh(v / cd.width) * std::exp(-std::pow(v / 0.1, 2));
     EXPECT_NEAR(candidateSignal(kuka(), p.opt, p.data, 0, 100, cd), expect, 1e-12) << effectKindName(cd.kind);
+  }
+  // The elastic kinds' center: the joint's mean training angle.
+  for (int j = 0; j < 7; ++j) {
+    double mean = 0.0;
+    for (const State& s : p.train.states) mean += s.q[j];
+    mean /= static_cast<double>(p.train.states.size());
+    EXPECT_NEAR(p.data.center_of[static_cast<size_t>(j)], mean, 1e-12) << j;
+  }
+}
+
+// The ElasticExp scale of each joint maximises, over the grid, the dense least-squares gain of the columns
+// [s (exp((q - c) / s) - 1), q - c, 1] on the joint's row added to the declared columns: ||P_[W Z] y||^2 - ||P_W y||^2.
+TEST(DiagnoseStages, ElasticScaleProfileMaximisesTheDenseGain) {
+  const Prepared p;
+  Eigen::MatrixXd W;
+  Eigen::VectorXd y;
+  p.dense(W, y);
+  const long n = static_cast<long>(p.train.states.size());
+  const auto explained = [&](const Eigen::MatrixXd& A) {
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+    return (A * qr.solve(y)).squaredNorm();
+  };
+  const double base = explained(W);
+  for (int j = 0; j < 7; ++j) {
+    std::vector<double> gain;
+    for (double sc : p.opt.elastic_scales) {
+      Eigen::MatrixXd A = Eigen::MatrixXd::Zero(W.rows(), W.cols() + 3);
+      A.leftCols(W.cols()) = W;
+      for (long i = 0; i < n; ++i) {
+        const double x = p.train.states[static_cast<size_t>(i)].q[j] - p.data.center_of[static_cast<size_t>(j)];
+        A(i * 7 + j, W.cols()) = sc * std::expm1(x / sc), A(i * 7 + j, W.cols() + 1) = x, A(i * 7 + j, W.cols() + 2) = 1.0;
+      }
+      gain.push_back(explained(A) - base);
+    }
+    const double best = *std::max_element(gain.begin(), gain.end());
+    const size_t chosen = static_cast<size_t>(
+        std::find(p.opt.elastic_scales.begin(), p.opt.elastic_scales.end(), p.data.scale_of[static_cast<size_t>(j)]) -
+        p.opt.elastic_scales.begin());
+    ASSERT_LT(chosen, gain.size()) << j;
+    EXPECT_GE(gain[chosen], best - 1e-6 * std::fabs(best)) << "joint " << j << ": scale " << p.data.scale_of[static_cast<size_t>(j)];
   }
 }
 

@@ -113,6 +113,11 @@ std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
     case est::EffectKind::Armature: return "dv/dt (rad/s^2)";
     case est::EffectKind::GainError: return "model torque (N m)";
     case est::EffectKind::Delay: return "-d/dt model torque (N m/s)";
+    case est::EffectKind::Elastic: std::snprintf(buf, sizeof buf, "q - %.3g (rad)", shape.center); return buf;
+    case est::EffectKind::ElasticExp:
+      std::snprintf(buf, sizeof buf, "%g (exp((q - %.3g)/%g) - 1) (rad)", shape.elastic_scale, shape.center,
+                    shape.elastic_scale);
+      return buf;
   }
   return "";
 }
@@ -129,7 +134,8 @@ PlotSignals plotSignals(const Model& model, const est::DiagnoseOptions& opt, con
   std::vector<bool> from_finding(nv, false);
   for (int r = 0; r < nv; ++r) {
     ps.kind[r] = res.coordinates[r].best_kind;
-    ps.shape[r] = est::effectShape(opt.shape, est::Effect{ps.kind[r], -1, 0.0, res.coordinates[r].best_width});
+    ps.shape[r] = est::effectShape(opt.shape, est::Effect{ps.kind[r], -1, 0.0, res.coordinates[r].best_width,
+                                                          res.coordinates[r].best_center});
   }
   for (const est::Finding& f : res.findings) {
     const int r = model.jointRow(f.effect.joint);
@@ -229,7 +235,8 @@ bool writeResidualCsvs(const fs::path& out, const Model& model, const est::Diagn
         const double dtau = (i > 0 && i + 1 < rs.t.size())
                                 ? (rs.tau_model(i + 1, r) - rs.tau_model(i - 1, r)) / (rs.t[i + 1] - rs.t[i - 1])
                                 : 0.0;
-        const double s = est::effectSignal(ps.kind[r], ps.shape[r], rs.v(i, j), rs.a(i, j), rs.tau_model(i, r), dtau);
+        const double q = rs.q.rows() > i ? rs.q(i, j) : 0.0;
+        const double s = est::effectSignal(ps.kind[r], ps.shape[r], q, rs.v(i, j), rs.a(i, j), rs.tau_model(i, r), dtau);
         std::snprintf(buf, sizeof buf, ",%.6g,%.6g,%.6g,%.6g", rs.before(i, r), rs.after(i, r), s, rs.v(i, j));
         f << buf;
       }

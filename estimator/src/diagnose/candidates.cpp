@@ -13,13 +13,17 @@ void candidateSignals(const Model& model, const DiagnoseOptions& opt, DiagnoseDa
     for (int j = 0; j < data.nj; ++j) {
       const int r = model.jointRow(j);
       if (opt.declared_friction && (k == EffectKind::Viscous || k == EffectKind::Coulomb)) continue;
+      if (isElastic(k) && (!data.has_q || (k == EffectKind::ElasticExp && opt.elastic_scales.empty()))) continue;
       bool measured = false;
       for (size_t s = 0; s < data.ntrain; ++s) measured = measured || data.caches[s].y.col(r).cwiseAbs().maxCoeff() > 0;
       // A gain error needs a torque sensor: a measured torque and an actuated joint (URDF effort > 0).
       const bool sensed = measured && (model.effort_limit.size() != data.nj || model.effort_limit[j] > 0);
       if (k == EffectKind::GainError && !sensed) continue;
-      data.cands.push_back(
-          {k, j, r, isDryFriction(k) ? data.width_of[static_cast<size_t>(2 * j + (k == EffectKind::Stribeck))] : 0.0});
+      const size_t js = static_cast<size_t>(j);
+      const double width = isDryFriction(k)                ? data.width_of[2 * js + (k == EffectKind::Stribeck)]
+                           : k == EffectKind::ElasticExp ? data.scale_of[js]
+                                                         : 0.0;
+      data.cands.push_back({k, j, r, width, isElastic(k) ? data.center_of[js] : 0.0});
     }
   const int nc = data.nc = static_cast<int>(data.cands.size());
   out.candidates = nc;
@@ -52,8 +56,8 @@ double candidateSignal(const Model& model, const DiagnoseOptions& opt, const Dia
   const SegmentSignals& c = data.caches[s];
   // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus what the
   // plates contribute; all of y for a fixed base).
-  return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width}), c.v(i, cd.joint),
-                      c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord), c.dtau(i, cd.coord) - c.dext(i, cd.coord));
+  return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width, cd.center}),
+                      c.q.rows() > i ? c.q(i, cd.joint) : 0.0, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord), c.dtau(i, cd.coord) - c.dext(i, cd.coord));
 }
 
 namespace {

@@ -35,6 +35,8 @@ void declaredColumns(const Model& model, const DiagnoseOptions& opt, const std::
   for (const Segment& s : validate) data.segments.push_back(&s);
   data.ntrain = train.size();
   data.caches.assign(data.segments.size(), SegmentSignals{});
+  data.has_q = true;
+  for (const Segment* s : data.segments) data.has_q = data.has_q && s->stream_state != nullptr;
   const BaseParameters base = computeBaseParameters(model);
   data.decl.clear();
   for (int c : base.independent)
@@ -64,8 +66,8 @@ void addWidthProfile(const Model& model, const DiagnoseOptions& opt, DiagnoseDat
     for (int w = 0; w < nw; ++w) {
       EffectShape sh = opt.shape;
       sh.coulomb_width = data.widths[w];
-      sig[w] = effectSignal(EffectKind::Coulomb, sh, v, 0.0, 0.0, 0.0);
-      sig[nw + w] = effectSignal(EffectKind::Stribeck, sh, v, 0.0, 0.0, 0.0);
+      sig[w] = effectSignal(EffectKind::Coulomb, sh, 0.0, v, 0.0, 0.0, 0.0);
+      sig[nw + w] = effectSignal(EffectKind::Stribeck, sh, 0.0, v, 0.0, 0.0, 0.0);
     }
     sig[ns2] = v;
     WidthProfileSums& pr = data.profile[static_cast<size_t>(j)];
@@ -74,6 +76,44 @@ void addWidthProfile(const Model& model, const DiagnoseOptions& opt, DiagnoseDat
     pr.cc += sig.cwiseAbs2();
     pr.cy += y[r] * sig;
     pr.cv += v * sig;
+  }
+}
+
+// The segment's rows through `sink`, with the joint positions appended to qs [n x nj, row-major] when it streams them
+// (Segment::stream_state); a q of the wrong size sets *size_error.
+bool streamWithPositions(const Segment& seg, int nj, std::vector<double>& qs, std::string& size_error,
+                         const DiagnosisRowSink& sink, std::string* error) {
+  if (!seg.stream_state) return seg.stream(sink, error);
+  return seg.stream_state(
+      [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor,
+          const Eigen::VectorXd& q) {
+        if (q.size() != nj) {
+          size_error = seg.name + ": a sample's joint positions do not match the model's joints";
+          return;
+        }
+        qs.insert(qs.end(), q.data(), q.data() + nj);
+        sink(t, K, y, tau_sensor);
+      },
+      error);
+}
+// One training sample's elastic-profile sums on every measured joint row (ElasticProfileSums).
+void addElasticProfile(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, size_t s, const Eigen::MatrixXd& K,
+                       const Eigen::VectorXd& y, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
+  const int ne = static_cast<int>(opt.elastic_scales.size());
+  if (data.q_ref.empty()) data.q_ref.assign(q.data(), q.data() + q.size());
+  for (int j = 0; j < data.nj; ++j) {
+    const int r = model.jointRow(j);
+    if (data.unmeasured(model, s, r)) continue;
+    const double x = q[j] - data.q_ref[static_cast<size_t>(j)];
+    for (int k = 0; k < ne; ++k) z[k] = opt.elastic_scales[k] * std::expm1(x / opt.elastic_scales[k]);
+    z[ne] = x, z[ne + 1] = 1.0;
+    ElasticProfileSums& pr = data.eprofile[static_cast<size_t>(j)];
+    for (int c = 0; c < data.md; ++c)
+      if (const double k = K(r, data.decl[c]); k != 0.0) pr.B.row(c) += k * z.transpose();
+    pr.G.selfadjointView<Eigen::Lower>().rankUpdate(z);
+    pr.zy += y[r] * z;
+    pr.qsum += q[j];
+    ++pr.n;
   }
 }
 
@@ -107,12 +147,23 @@ bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& 
     pr.cc = pr.cy = pr.cv = Eigen::VectorXd::Zero(ns2 + 1);
   }
   Eigen::VectorXd sig(ns2 + 1);
+  // The elastic profile (with q): signals z [ne + 2] per joint.
+  const int ne = static_cast<int>(opt.elastic_scales.size());
+  data.q_ref.clear();
+  data.eprofile.assign(data.has_q ? static_cast<size_t>(nj) : 0, ElasticProfileSums{});
+  for (ElasticProfileSums& pr : data.eprofile) {
+    pr.B = Eigen::MatrixXd::Zero(data.md, ne + 2);
+    pr.G = Eigen::MatrixXd::Zero(ne + 2, ne + 2);
+    pr.zy = Eigen::VectorXd::Zero(ne + 2);
+  }
+  Eigen::VectorXd z(ne + 2);
   std::string size_error;
   for (size_t s = 0; s < data.ntrain; ++s) {
     SegmentSignals& cache = data.caches[s];
     const Segment& seg = data.segment(s);
-    std::vector<double> vs, ys, es;
-    const bool ok = seg.stream(
+    std::vector<double> vs, ys, es, qs;
+    const bool ok = streamWithPositions(
+        seg, nj, qs, size_error,
         [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
           if (K.rows() != nv || K.cols() != data.p || y.size() != nv) {
             size_error = seg.name + ": a sample does not match the model's size";
@@ -121,6 +172,7 @@ bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& 
           cache.t.push_back(t);
           for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
           if (data.nw > 1) addWidthProfile(model, opt, data, s, K, y, sig);
+          if (data.has_q) addElasticProfile(model, opt, data, s, K, y, Eigen::Map<const Eigen::VectorXd>(qs.data() + qs.size() - nj, nj), z);
           for (int r = 0; r < nv; ++r) ys.push_back(y[r]), es.push_back(y[r] - tau_sensor[r]);
           addDeclaredRows(model, data, K, y);
         },
@@ -180,9 +232,10 @@ bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult&
     SegmentSignals& cache = data.caches[s];
     const Segment& seg = data.segment(s);
     const bool is_train = s < data.ntrain;
-    std::vector<double> vs, ys, es, taus;
+    std::vector<double> vs, ys, es, taus, qs;
     long i = 0;
-    const bool ok = seg.stream(
+    const bool ok = streamWithPositions(
+        seg, nj, qs, size_error,
         [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
           if (K.rows() != nv || K.cols() != data.p || y.size() != nv) {
             size_error = seg.name + ": a sample does not match the model's size";
@@ -215,6 +268,8 @@ bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult&
     }
     cache.tau = Eigen::Map<Eigen::MatrixXd>(taus.data(), nv, cache.n).transpose();
     cache.tau0 = cache.tau;
+    cache.q = qs.size() == static_cast<size_t>(cache.n * nj) ? Eigen::MatrixXd(Eigen::Map<Eigen::MatrixXd>(qs.data(), nj, cache.n).transpose())
+                                                             : Eigen::MatrixXd();
     cache.a = centralDifference(cache.t, cache.v);
     cache.dext = centralDifference(cache.t, cache.ext);
     cache.dtau = centralDifference(cache.t, cache.tau);

@@ -26,7 +26,8 @@ bool streamOnline(const Model& model, const EffectSet& set, const Segment& sg, c
       [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
         if (i >= rs.t.size()) return;
         Ka.leftCols(p) = K;
-        effectColumns(model, set, rs.v.row(i).transpose(), rs.a.row(i).transpose(), Ka.rightCols(ne));
+        const Eigen::VectorXd qi = rs.q.rows() > i ? Eigen::VectorXd(rs.q.row(i).transpose()) : Eigen::VectorXd::Zero(model.njoints);
+        effectColumns(model, set, qi, rs.v.row(i).transpose(), rs.a.row(i).transpose(), Ka.rightCols(ne));
         ya = y;
         correctMeasurement(model, set, ya, tau_sensor);
         if (!rs.validation) {

@@ -132,7 +132,8 @@ void summarizeCoordinates(const Model& model, const DiagnoseOptions& opt, const 
     cs.lag1_after = lag1(ha);
     for (const CandidateScore& sc : out.first_step)
       if (model.jointRow(sc.effect.joint) == r && std::fabs(sc.correlation) > std::fabs(cs.best_correlation))
-        cs.best_correlation = sc.correlation, cs.best_kind = sc.effect.kind, cs.best_width = sc.effect.width;
+        cs.best_correlation = sc.correlation, cs.best_kind = sc.effect.kind, cs.best_width = sc.effect.width,
+        cs.best_center = sc.effect.center;
     out.coordinates.push_back(cs);
   }
   out.pooled_before = std::sqrt(pb / std::max(nh, 1L));
@@ -161,10 +162,26 @@ void describeFindings(const Model& model, const DiagnoseOptions& opt, DiagnosisR
     pf.sentence = buf;
   }
   for (Finding& f : out.findings) {
-    char buf[256];
-    char width[64] = "";
+    char buf[512];
+    char width[192] = "";
     if (f.effect.width > 0.0 && isDryFriction(f.effect.kind))
       std::snprintf(width, sizeof width, ", tanh width %g rad/s", f.effect.width);
+    if (isElastic(f.effect.kind)) {
+      // k (q - q0) = k (q - c) + k (c - q0): the rest angle comes from an offset found on the same joint, if any.
+      const Finding* offset = nullptr;
+      for (const Finding& g : out.findings)
+        if (g.effect.kind == EffectKind::Offset && g.effect.joint == f.effect.joint) offset = &g;
+      char scale[64] = "";
+      if (f.effect.kind == EffectKind::ElasticExp)
+        std::snprintf(scale, sizeof scale, ", stiffening toward %s q with scale %g rad", f.effect.width > 0 ? "+" : "-",
+                      std::fabs(f.effect.width));
+      if (offset && f.effect.value > 0)
+        std::snprintf(width, sizeof width, " about the rest angle %.3f rad (with the offset found)%s",
+                      f.effect.center - offset->effect.value / f.effect.value, scale);
+      else
+        std::snprintf(width, sizeof width, " at the mean angle %.3f rad%s (rest angle: not separable from an offset here)",
+                      f.effect.center, scale);
+    }
     std::snprintf(buf, sizeof buf, "%s: %s %s%s, explains %.0f %% of its residual (held-out folds; p = %.2g, %d tested)",
                   model.joint_names[f.effect.joint].c_str(), effectKindWords(f.effect.kind),
                   formatValue(f.effect.kind, f.effect.value, f.std_error).c_str(), width, 100.0 * f.explained,

@@ -19,8 +19,9 @@ double correlation(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 // significant at the Bonferroni level: the false-alarm rate); the held-out gain decides which kind it is, among that
 // coordinate's admissible candidates significant on their own at alpha. (Requiring the kind itself to pass the test
 // let a noisier fold pattern lose to a worse kind: viscous 10 N m s/rad on a hip, gain 1076 at p = 1.7e-4, was named
-// Coulomb, gain 861 at p = 6e-5, with the level at 1.5e-4.) Stribeck's column is a refinement of Coulomb friction: it
-// is named only when it predicts the held-out data clearly better (stribeck_margin) than Coulomb on the same joint.
+// Coulomb, gain 861 at p = 6e-5, with the level at 1.5e-4.) A refinement (Stribeck's column of Coulomb friction, the
+// exponential spring of the linear one) is named only when it predicts the held-out data clearly better
+// (refinement_margin) than the kind it refines on the same joint.
 // A payload is its own test (Bonferroni level, usable like the others) and competes with the best effect by held-out
 // gain. best: candidate index (-1: none), pbest: index into pevals (-1: none; when >= 0, best is -1).
 struct StepChoice {
@@ -43,11 +44,13 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
   };
   for (const CandidateEval& ev : evals)
     if (competes(ev) && ev.gain > ch.best_gain) ch.best_gain = ev.gain, ch.best = ev.c, ch.best_finding = ev.f;
-  if (ch.best >= 0 && data.cands[ch.best].kind == EffectKind::Stribeck)
+  if (ch.best >= 0 && refinedKind(data.cands[ch.best].kind) != data.cands[ch.best].kind) {
+    const DiagnosisCandidate& refinement = data.cands[ch.best];
     for (const CandidateEval& ev : evals)
-      if (competes(ev) && data.cands[ev.c].kind == EffectKind::Coulomb && data.cands[ev.c].joint == data.cands[ch.best].joint &&
-          ev.gain * (1.0 + opt.stribeck_margin) >= ch.best_gain)
+      if (competes(ev) && data.cands[ev.c].kind == refinedKind(refinement.kind) && data.cands[ev.c].joint == refinement.joint &&
+          ev.gain * (1.0 + opt.refinement_margin) >= ch.best_gain)
         ch.best = ev.c, ch.best_finding = ev.f;
+  }
   const auto pusable = [&](const PayloadEval& pe) { return pe.admissible && pe.gain > 0 && pe.f.explained >= opt.min_explained; };
   for (size_t k = 0; k < pevals.size(); ++k)
     if (pusable(pevals[k]) && pevals[k].f.p_value < level &&

@@ -20,7 +20,8 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     f << "# Effects the rigid-body model lacks, found by `exoid diagnose` (format: docs/diagnose.md).\n"
          "# Dynamics effects add a column on their joint's row: viscous v, coulomb tanh(v / width),\n"
          "# stribeck tanh(v / width) exp(-(v / stribeck_velocity)^2) (width: the effect's, else coulomb_width),\n"
-         "# offset 1, armature dv/dt.\n"
+         "# offset 1, armature dv/dt, elastic q - center, elastic_exp width (exp((q - center) / width) - 1)\n"
+         "# (q in rad; the value of both elastic kinds is the stiffness at center, N m/rad).\n"
          "# Measurement effects correct the torque: gain g (measured = (1 + g) true), delay d (s, measured(t) =\n"
          "# true(t - d)).\n";
     f << "model: \"" << set.model << "\"\n";
@@ -33,6 +34,13 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
       if (e.width > 0.0 && isDryFriction(e.kind))
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
                       model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
+      else if (e.kind == EffectKind::Elastic)
+        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g}  # %s, rad\n",
+                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center, effectUnit(e.kind));
+      else if (e.kind == EffectKind::ElasticExp)
+        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g, width: %.17g}  # %s, rad, rad\n",
+                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center, e.width,
+                      effectUnit(e.kind));
       else
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g}  # %s\n", model.joint_names[e.joint].c_str(),
                       effectKindName(e.kind), e.value, effectUnit(e.kind));
@@ -77,12 +85,25 @@ std::string readEffect(const YAML::Node& e, const std::string& where, const Mode
   if (!std::isfinite(ef.value)) return where + ": value is not finite";
   for (auto kv = e.begin(); kv != e.end(); ++kv) {
     const std::string k = kv->first.as<std::string>();
-    if (k != "joint" && k != "kind" && k != "value" && k != "width") return where + ": unknown key '" + k + "'";
+    if (k != "joint" && k != "kind" && k != "value" && k != "width" && k != "center") return where + ": unknown key '" + k + "'";
+  }
+  if (e["center"]) {
+    if (!isElastic(ef.kind)) return where + ": a center belongs to elastic and elastic_exp effects only";
+    ef.center = e["center"].as<double>();
+    if (!std::isfinite(ef.center)) return where + ": center is not finite";
+  } else if (isElastic(ef.kind)) {
+    return where + ": an elastic effect needs its center (rad)";
+  }
+  if (ef.kind == EffectKind::ElasticExp) {
+    if (!e["width"]) return where + ": an elastic_exp effect needs its width (the exponential's scale, rad)";
+    ef.width = e["width"].as<double>();
+    if (ef.width == 0.0 || !std::isfinite(ef.width)) return where + ": width must be nonzero and finite";
+    return "";
   }
   if (!e["width"]) return "";
   ef.width = e["width"].as<double>();
   if (!(ef.width > 0) || !std::isfinite(ef.width)) return where + ": width must be positive and finite";
-  if (!isDryFriction(ef.kind)) return where + ": a width belongs to coulomb and stribeck effects only";
+  if (!isDryFriction(ef.kind)) return where + ": a width belongs to coulomb, stribeck and elastic_exp effects only";
   return "";
 }
 }  // namespace
@@ -123,13 +144,15 @@ int effectColumnCount(const EffectSet& set) {
   return n;
 }
 
-void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
-                   const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E) {
+void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& q,
+                   const Eigen::Ref<const Eigen::VectorXd>& v, const Eigen::Ref<const Eigen::VectorXd>& a,
+                   Eigen::Ref<Eigen::MatrixXd> E) {
   E.setZero();
   int col = 0;
   for (const Effect& e : set.effects) {
     if (isMeasurementEffect(e.kind)) continue;
-    E(model.jointRow(e.joint), col++) = effectSignal(e.kind, effectShape(set.shape, e), v[e.joint], a[e.joint], 0.0, 0.0);
+    E(model.jointRow(e.joint), col++) =
+        effectSignal(e.kind, effectShape(set.shape, e), q[e.joint], v[e.joint], a[e.joint], 0.0, 0.0);
   }
 }
 
@@ -156,15 +179,20 @@ bool correctMeasurement(const Model& model, const EffectSet& set, Eigen::Ref<Eig
 EffectCorrector::EffectCorrector(const Model& model, const EffectSet& set, RowSink sink)
     : model_(model), set_(set), sink_(std::move(sink)) {
   E_ = Eigen::MatrixXd::Zero(model.nv, effectColumnCount(set));
-  v_ = v_prev_ = a_ = Eigen::VectorXd::Zero(model.njoints);
+  q_ = v_ = v_prev_ = a_ = Eigen::VectorXd::Zero(model.njoints);
+  for (const Effect& e : set.effects) needs_q_ = needs_q_ || isElastic(e.kind);
 }
 
-void EffectCorrector::add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor) {
+bool EffectCorrector::add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor,
+                          const Eigen::VectorXd* q) {
+  if (needs_q_ && (!q || q->size() != model_.njoints)) return false;
   Eigen::VectorXd v(model_.njoints);
   for (int j = 0; j < model_.njoints; ++j) v[j] = K(model_.jointRow(j), model_.frictionParamIndex(j));
   if (pending_) emit(t, v);
   K_ = K, y_ = y, tau_ = tau_sensor ? *tau_sensor : y, v_ = v, t_ = t;
+  if (q) q_ = *q;
   pending_ = true;
+  return true;
 }
 
 void EffectCorrector::finish() {
@@ -177,7 +205,7 @@ void EffectCorrector::emit(double t_next, const Eigen::VectorXd& v_next) {
   const double t_lo = has_prev_ ? t_prev_ : t_;
   const Eigen::VectorXd& v_lo = has_prev_ ? v_prev_ : v_;
   a_ = t_next > t_lo ? Eigen::VectorXd((v_next - v_lo) / (t_next - t_lo)) : Eigen::VectorXd::Zero(model_.njoints);
-  effectColumns(model_, set_, v_, a_, E_);
+  effectColumns(model_, set_, q_, v_, a_, E_);
   int col = 0;
   for (const Effect& e : set_.effects)
     if (!isMeasurementEffect(e.kind)) y_ -= e.value * E_.col(col++);

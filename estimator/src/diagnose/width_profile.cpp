@@ -1,5 +1,8 @@
-// The Coulomb-width profile of the diagnosis (diagnose_stages.hpp, docs/diagnose.md).
+// The signal-shape profiles of the diagnosis (diagnose_stages.hpp, docs/diagnose.md): each joint's Coulomb width and
+// ElasticExp scale, chosen on the training data before the selection tests one candidate of each kind per joint.
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
+#include <cmath>
 
 #include "exoid/estimator/diagnose_stages.hpp"
 
@@ -41,6 +44,45 @@ void profileCoulombWidths(DiagnoseData& data) {
           score = se[s] * se[s] / ss;
         if (score > best) best = score, data.width_of[static_cast<size_t>(2 * j + kind)] = data.widths[w];
       }
+    }
+  }
+}
+
+void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data) {
+  const int nj = data.nj, ne = static_cast<int>(opt.elastic_scales.size());
+  data.center_of.assign(static_cast<size_t>(nj), 0.0);
+  data.scale_of.assign(static_cast<size_t>(nj), ne > 0 ? opt.elastic_scales[0] : 0.0);
+  if (!data.has_q || data.eprofile.empty()) return;
+  const int mk = static_cast<int>(data.keep.size());
+  const Eigen::MatrixXd R1 = mk > 0 ? Eigen::MatrixXd(data.A_keep.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>())
+                                    : Eigen::MatrixXd();
+  for (int j = 0; j < nj; ++j) {
+    const ElasticProfileSums& pr = data.eprofile[static_cast<size_t>(j)];
+    if (pr.n == 0) continue;
+    data.center_of[static_cast<size_t>(j)] = pr.qsum / static_cast<double>(pr.n);
+    Eigen::MatrixXd B(mk, ne + 2);
+    for (int a = 0; a < mk; ++a) B.row(a) = pr.B.row(data.keep[a]);
+    const Eigen::MatrixXd Z = mk > 0 ? Eigen::MatrixXd(R1.transpose().triangularView<Eigen::Lower>().solve(B))
+                                     : Eigen::MatrixXd::Zero(0, ne + 2);
+    // The Gram of z off the declared span, and z^T e.
+    const Eigen::MatrixXd M = Eigen::MatrixXd(pr.G.selfadjointView<Eigen::Lower>()) - Z.transpose() * Z;
+    const Eigen::VectorXd ze = mk > 0 ? Eigen::VectorXd(pr.zy - B.transpose() * data.x0) : pr.zy;
+    double best = -1.0;
+    for (int k = 0; k < ne; ++k) {
+      const int idx[3] = {k, ne, ne + 1};
+      Eigen::Matrix3d Ms;
+      Eigen::Vector3d g;
+      for (int a = 0; a < 3; ++a) {
+        g[a] = ze[idx[a]];
+        for (int b = 0; b < 3; ++b) Ms(a, b) = M(idx[a], idx[b]);
+      }
+      // g^T M^+ g over the directions M resolves (a column inside the declared span has none of its own).
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(Ms);
+      const double top = es.eigenvalues().cwiseAbs().maxCoeff();
+      double score = 0.0;
+      for (int a = 0; a < 3; ++a)
+        if (es.eigenvalues()[a] > 1e-10 * top) score += std::pow(es.eigenvectors().col(a).dot(g), 2) / es.eigenvalues()[a];
+      if (std::isfinite(score) && score > best) best = score, data.scale_of[static_cast<size_t>(j)] = opt.elastic_scales[k];
     }
   }
 }

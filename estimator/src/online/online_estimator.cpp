@@ -476,7 +476,7 @@ void OnlineEstimator::process() {
   if (ne_ > 0) {
     const int p = model_.nparams(), nd = effectColumnCount(), ns = ne_ - n_offset_;
     Kx_.leftCols(p) = kin_.K;
-    if (nd > 0) effectColumns(model_, opt_.effects, st.v, st.a, Kx_.middleCols(p, nd));
+    if (nd > 0) effectColumns(model_, opt_.effects, st.q, st.v, st.a, Kx_.middleCols(p, nd));
     // base_body_moves: the base link's own mcz column, one nuisance parameter per base row.
     for (int e = 0; e < n_moving_; ++e) {
       const int r = effect_row_[static_cast<size_t>(nd + e)];
@@ -500,7 +500,7 @@ void OnlineEstimator::process() {
       if (isDryFriction(e.kind)) {
         const int r = model_.jointRow(e.joint);
         Kf_(r, p + col) =
-            effectSignal(e.kind, effectShape(opt_.effects.shape, e), Kf_(r, model_.frictionParamIndex(e.joint)), 0.0, 0.0, 0.0);
+            effectSignal(e.kind, effectShape(opt_.effects.shape, e), 0.0, Kf_(r, model_.frictionParamIndex(e.joint)), 0.0, 0.0, 0.0);
       }
       ++col;
     }

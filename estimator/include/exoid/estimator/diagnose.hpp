@@ -30,38 +30,56 @@ enum class EffectKind {
   Armature,   ///< signal a (rad/s^2, dv/dt); value: rotor inertia reflected through the gear, kg m^2
   GainError,  ///< measured = (1 + g) model: signal = the declared model's torque-sensor part; value g (fraction)
   Delay,      ///< measured(t) = model(t - d): signal = -d/dt of that torque-sensor part; value d, s
+  /// signal q - center (rad; center: the effect's reference angle, the training data's mean posture); value k,
+  /// N m/rad (>= 0): a spring about a rest angle, k (q - q0) = k (q - center) + k (center - q0), the constant
+  /// part being an offset (separable from one because q varies)
+  Elastic,
+  /// signal s (exp((q - center) / s) - 1), s = width (rad, signed: > 0 stiffens toward +q, < 0 toward -q); value k,
+  /// N m/rad (>= 0), the stiffness at center: the exponential shape of passive tissue (Riener & Edrich 1999)
+  ElasticExp,
 };
-inline constexpr int kEffectKinds = 7;
-const char* effectKindName(EffectKind k);   ///< "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay"
-const char* effectKindWords(EffectKind k);  ///< "viscous friction", ..., "torque-sensor gain error", "time delay"
-const char* effectUnit(EffectKind k);       ///< "N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s"
+inline constexpr int kEffectKinds = 9;
+/// "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp"
+const char* effectKindName(EffectKind k);
+const char* effectKindWords(EffectKind k);  ///< "viscous friction", ..., "time delay", "joint elasticity", ...
+const char* effectUnit(EffectKind k);       ///< "N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad"
 bool parseEffectKind(const std::string& name, EffectKind& k);
 /// Gain error and delay act on the measurement (identify corrects y), the others add dynamics columns.
 bool isMeasurementEffect(EffectKind k);
 /// Coulomb and Stribeck: signals tanh(v / width) (...), the kinds an Effect's width applies to.
 bool isDryFriction(EffectKind k);
-/// Physically admissible value: friction and armature are >= 0, the others may have either sign.
+/// Elastic and ElasticExp: signals of the joint position about the effect's center.
+bool isElastic(EffectKind k);
+/// The kind a refinement kind refines (Stribeck: Coulomb; ElasticExp: Elastic); k itself otherwise. A refinement is
+/// named only when it predicts the held-out data clearly better than the kind it refines (DiagnoseOptions).
+EffectKind refinedKind(EffectKind k);
+/// Physically admissible value: friction, armature and stiffness are >= 0, the others may have either sign.
 bool admissibleValue(EffectKind k, double value);
 
 /// Shape constants of the smooth friction signals (documented in docs/diagnose.md and written to the sidecar).
 struct EffectShape {
   double coulomb_width = 0.03;      ///< rad/s: tanh(v / width) reaches 0.76 at |v| = width
   double stribeck_velocity = 0.1;   ///< rad/s: the static-friction excess decays as exp(-(v / vs)^2)
+  double center = 0.0;              ///< rad: the elastic kinds' reference angle (one effect's: effectShape)
+  double elastic_scale = 0.0;       ///< rad, signed: ElasticExp's s (one effect's: effectShape); 0: linear
 };
 
-/// Signal of an effect at one sample of its joint (see EffectKind). dtau_model: d/dt of the model torque.
-double effectSignal(EffectKind k, const EffectShape& shape, double v, double a, double tau_model, double dtau_model);
+/// Signal of an effect at one sample of its joint (see EffectKind): q, v, a the joint's position, velocity and
+/// acceleration, tau_model the model torque and dtau_model its d/dt.
+double effectSignal(EffectKind k, const EffectShape& shape, double q, double v, double a, double tau_model,
+                    double dtau_model);
 
 struct Effect {
   EffectKind kind = EffectKind::Offset;
   int joint = -1;      ///< model joint index
   double value = 0.0;  ///< in effectUnit(kind)
-  /// rad/s, Coulomb and Stribeck: this effect's tanh width (the diagnosis fits it per joint); 0: the set's
-  /// shape.coulomb_width.
+  /// Coulomb and Stribeck: this effect's tanh width, rad/s (the diagnosis fits it per joint; 0: the set's
+  /// shape.coulomb_width). ElasticExp: the exponential's signed scale s, rad (fitted per joint; never 0).
   double width = 0.0;
+  double center = 0.0;  ///< rad, Elastic and ElasticExp: the reference angle of the signal q - center
 };
 
-/// The shape an effect's signal uses: `shape` with the effect's own Coulomb width where it has one.
+/// The shape an effect's signal uses: `shape` with the effect's own Coulomb width, center and scale where it has them.
 EffectShape effectShape(const EffectShape& shape, const Effect& effect);
 
 /// Receives one sample: time (s), K [nv x p] (columns of Model::phi), y [nv], and tau_sensor [nv]: the joint
@@ -93,8 +111,10 @@ inline bool segmentRowMeasured(const Model& model, const Segment& segment, int r
 }
 
 struct DiagnoseOptions {
-  std::vector<EffectKind> kinds = {EffectKind::Viscous,  EffectKind::Coulomb,   EffectKind::Stribeck, EffectKind::Offset,
-                                   EffectKind::Armature, EffectKind::GainError, EffectKind::Delay};
+  /// The elastic kinds need the joint positions: they are tested only when every segment has Segment::stream_state.
+  std::vector<EffectKind> kinds = {EffectKind::Viscous,   EffectKind::Coulomb, EffectKind::Stribeck,
+                                   EffectKind::Offset,    EffectKind::Armature, EffectKind::GainError,
+                                   EffectKind::Delay,     EffectKind::Elastic,  EffectKind::ElasticExp};
   EffectShape shape;
   /// rad/s: the Coulomb widths tried per joint. Dry friction's apparent width differs from joint to joint (how
   /// slowly the joint moves, how long it sticks, how the filter smears the sign change): each joint's Coulomb and
@@ -108,10 +128,13 @@ struct DiagnoseOptions {
                                    ///< folds in turn (chunk i -> fold i mod folds), so every fold spans the run
   double alpha = 0.01;             ///< family-wise false-alarm rate per selection step (Bonferroni)
   double min_explained = 0.02;     ///< an effect must remove this fraction of its joint's held-out residual
-  /// Stribeck's static-excess column is named instead of Coulomb friction on a joint only when its held-out gain
-  /// exceeds Coulomb's by more than this fraction (it is a refinement of Coulomb friction; at the low speeds of
-  /// balancing the two columns nearly coincide).
-  double stribeck_margin = 0.1;
+  /// A refinement (refinedKind: Stribeck's static excess of Coulomb friction, the exponential spring of the linear
+  /// one) is named instead of the kind it refines on a joint only when its held-out gain exceeds that kind's by more
+  /// than this fraction (at the low speeds and small excursions of balancing the two columns nearly coincide).
+  double refinement_margin = 0.1;
+  /// rad, signed: the ElasticExp scales tried per joint (the one whose signal, beside q, explains the most of the
+  /// declared model's training residual on the joint's row is tested; docs/diagnose.md).
+  std::vector<double> elastic_scales = {-0.4, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.4};
   int max_effects = 30;
   double torque_noise = -1.0;      ///< known torque noise sigma (N m) for the size check; < 0: estimated
   /// The declared model's rigid-body parameters are held, not identified: the caller streams y - K phi_declared
@@ -190,7 +213,8 @@ struct CoordinateSummary {
   double lag1_before = 0.0, lag1_after = 0.0;  ///< lag-1 autocorrelation of the residual (white noise: ~0)
   double best_correlation = 0.0;               ///< largest |correlation| with a candidate signal, before
   EffectKind best_kind = EffectKind::Offset;   ///< which candidate signal that is
-  double best_width = 0.0;                     ///< its Coulomb width (Coulomb, Stribeck; 0: the shape's)
+  double best_width = 0.0;                     ///< its Coulomb width (Coulomb, Stribeck; 0: the shape's) or scale
+  double best_center = 0.0;                    ///< its reference angle (elastic kinds)
 };
 
 /// Per-sample residuals of one segment (for plots and reports).
@@ -246,10 +270,11 @@ bool readEffects(const std::string& path, const Model& model, EffectSet& set, st
 /// one per effect in the sidecar's order (measurement effects have none): the same effectSignal the diagnosis
 /// tested, on the effect's joint row, zero elsewhere. The coefficient of column e is effect e's value.
 int effectColumnCount(const EffectSet& set);
-/// E [nv x effectColumnCount(set)] at one sample: v, a [njoints] joint velocity and acceleration (the
+/// E [nv x effectColumnCount(set)] at one sample: q, v, a [njoints] joint position, velocity and acceleration (the
 /// dataset's, e.g. v from the regressor's fv column and a its time derivative). Allocation-free.
-void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& v,
-                   const Eigen::Ref<const Eigen::VectorXd>& a, Eigen::Ref<Eigen::MatrixXd> E);
+void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<const Eigen::VectorXd>& q,
+                   const Eigen::Ref<const Eigen::VectorXd>& v, const Eigen::Ref<const Eigen::VectorXd>& a,
+                   Eigen::Ref<Eigen::MatrixXd> E);
 /// A sidecar applied to streamed rows as known corrections (`exoid identify --effects`): every dynamics effect's
 /// torque value x signal is subtracted from its joint's row of y (v from K's fv column, a its central time
 /// difference, one-sided at the ends, as in the diagnosis), then correctMeasurement. Rows leave one sample late;
@@ -257,8 +282,11 @@ void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<co
 class EffectCorrector {
  public:
   EffectCorrector(const Model& model, const EffectSet& set, RowSink sink);
-  /// tau_sensor: the torque sensors' part of y (DatasetBuilder::sensorTorque()); y itself when omitted.
-  void add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor = nullptr);
+  /// tau_sensor: the torque sensors' part of y (DatasetBuilder::sensorTorque()); y itself when omitted. q: the joint
+  /// positions [njoints] behind the row (DatasetBuilder::jointPosition()), which the elastic kinds need: a set with
+  /// one refuses rows without q (add returns false); zeros otherwise.
+  bool add(double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd* tau_sensor = nullptr,
+           const Eigen::VectorXd* q = nullptr);
   void finish();
 
  private:
@@ -269,7 +297,8 @@ class EffectCorrector {
   bool pending_ = false, has_prev_ = false;
   double t_ = 0.0, t_prev_ = 0.0;
   Eigen::MatrixXd K_, E_;
-  Eigen::VectorXd y_, tau_, v_, v_prev_, a_;
+  Eigen::VectorXd y_, tau_, q_, v_, v_prev_, a_;
+  bool needs_q_ = false;
 };
 
 /// The online estimator with and without the sidecar's columns (issue 9 item 4), offline: the training rows fed sample

@@ -2,7 +2,8 @@
 // The stages of the diagnosis (diagnose.hpp, docs/diagnose.md), each on the constant model and options and one
 // scratch DiagnoseData (Pinocchio's f(const Model&, Data&, inputs)). diagnose() is the thin driver that calls them
 // in this order:
-//   declaredColumns -> trainingPass -> declaredFit -> profileCoulombWidths -> declaredPrediction -> rowWeights
+//   declaredColumns -> trainingPass -> declaredFit -> profileCoulombWidths -> profileElasticScales
+//   -> declaredPrediction -> rowWeights
 //   -> candidateSignals -> { foldFactors -> selectEffects [per step: currentFits -> screenCandidates ->
 //   screenPayloads -> selectStep] -> finalFit -> relinearise }* (Gauss-Newton on the gain and delay signals)
 //   -> residualSeries -> summarizeCoordinates -> residualPredictability -> describeFindings.
@@ -24,7 +25,8 @@ struct DiagnosisCandidate {
   EffectKind kind;
   int joint;
   int coord;
-  double width;  ///< Coulomb, Stribeck: the joint's profiled width (0: the shape's)
+  double width;   ///< Coulomb, Stribeck: the joint's profiled width (0: the shape's); ElasticExp: its profiled scale
+  double center;  ///< Elastic, ElasticExp: the joint's mean training angle (rad)
 };
 
 /// Per-sample signals of one segment, [n x nv] unless noted.
@@ -33,6 +35,7 @@ struct SegmentSignals {
   std::vector<double> t;       ///< [n] s
   Eigen::MatrixXd ext, dext;   ///< y minus the torque sensors' part (the plates' contribution), d/dt of it
   Eigen::MatrixXd v, a;        ///< [n x nj] joint velocity (K's fv column), acceleration (d/dt of v)
+  Eigen::MatrixXd q;           ///< [n x nj] joint position (segments with Segment::stream_state; else empty)
   Eigen::MatrixXd y, tau0;     ///< measured y, the declared model's prediction
   Eigen::MatrixXd tau, dtau;   ///< reference prediction of the gain/delay signals (Gauss-Newton), d/dt of it
 };
@@ -42,6 +45,16 @@ struct SegmentSignals {
 struct WidthProfileSums {
   Eigen::MatrixXd B;            ///< [md x (ns2 + 1)] K_j^T s
   Eigen::VectorXd cc, cy, cv;   ///< [ns2 + 1] s^T s, s^T y_j, s^T v
+};
+
+/// One joint's sums for the elastic-scale profile over the grid of ne scales: signals z = [s (exp((q - q_ref) / s) - 1)
+/// per scale, q - q_ref, 1] (ne + 2; q_ref: the joint's first training angle), K_j the joint's row of the declared columns.
+struct ElasticProfileSums {
+  Eigen::MatrixXd B;   ///< [md x (ne + 2)] K_j^T z
+  Eigen::MatrixXd G;   ///< [(ne + 2) x (ne + 2)] z^T z
+  Eigen::VectorXd zy;  ///< [ne + 2] z^T y_j
+  double qsum = 0.0;   ///< sum of q over the training samples (the center is its mean)
+  long n = 0;
 };
 
 /// The fits of the current model (columns S) on each training factor f = 0..F (F: all folds; f < F: all but f).
@@ -92,6 +105,10 @@ struct DiagnoseData {
   Eigen::MatrixXd A_keep;                  ///< [(md + 1) x m] their columns of the declared factor
   Eigen::VectorXd x0;                      ///< [m] the declared model's OLS fit
   std::vector<double> width_of;            ///< [2 nj] profiled width of each joint's Coulomb, Stribeck candidate
+  bool has_q = false;                      ///< every segment streams q (Segment::stream_state): elastic kinds testable
+  std::vector<double> q_ref;               ///< [nj] the first training sample's q (reference of the profile's signals)
+  std::vector<ElasticProfileSums> eprofile;  ///< [nj] (has_q only)
+  std::vector<double> center_of, scale_of; ///< [nj] each joint's mean training angle, profiled ElasticExp scale
   Eigen::VectorXd sigma, rows0;            ///< [nv] row weight 1/sigma's sigma, measured training rows
   long total_rows = 0;
   std::vector<DiagnosisCandidate> cands;
@@ -127,7 +144,7 @@ Eigen::MatrixXd centralDifference(const std::vector<double>& t, const Eigen::Mat
 void declaredColumns(const Model& model, const DiagnoseOptions& opt, const std::vector<Segment>& train,
                      const std::vector<Segment>& validate, DiagnoseData& data, DiagnosisResult& out);
 /// Pass A (training segments): the factor of [K_decl | y], the excitation of every (coordinate, column), t, v, y and
-/// y - tau_sensor per sample, and per joint the width-profile sums. False with *error on a stream error, a sample of
+/// y - tau_sensor per sample, and per joint the width-profile sums and (data.has_q) the elastic-profile sums. False with *error on a stream error, a sample of
 /// the wrong size or a segment of fewer than 3 samples.
 bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& out,
                   std::string* error);
@@ -138,14 +155,21 @@ bool declaredFit(DiagnoseData& data, DiagnosisResult& out, std::string* error);
 /// training residual e: max over w of g^T M^-1 g, M the Gram of [s_w v] orthogonal to the declared columns, g = their
 /// products with e (data.width_of; the one width without a grid).
 void profileCoulombWidths(DiagnoseData& data);
+/// Per joint, the ElasticExp scale (opt.elastic_scales) whose signal s, beside q and a constant, removes the most of the
+/// declared fit's training residual e (the same projected gain g^T M^+ g as the Coulomb widths', over [s, q, 1]: with
+/// the constant beside it the score does not depend on the signal's reference angle), and the joint's center, its mean
+/// training angle (data.center_of, data.scale_of; nothing without q).
+void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data);
 /// Pass B (every segment): the declared model's prediction tau0 = K_decl x0 and its d/dt; the validation segments'
-/// t, v, y. False on a stream error or data that changed between two reads.
+/// t, v, y; q where the segment streams it (data.has_q: every segment does). False on a stream error or data that
+/// changed between two reads.
 bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult& out, std::string* error);
 /// Row weights: sigma_c = sqrt(SSE_c / rows_c) of the declared model's training residual per coordinate (WLS-R,
 /// thesis eqs. 29-32), floored at 1e-9 max sigma.
 void rowWeights(const Model& model, DiagnoseData& data);
-/// The candidate columns (opt.kinds x joints; no gain without a torque sensor, no viscous/Coulomb when declared)
-/// and the active P-space columns of each coordinate.
+/// The candidate columns (opt.kinds x joints; no gain without a torque sensor, no viscous/Coulomb when declared, no
+/// elastic kind without q; the elastic ones with the joint's center and profiled scale) and the active P-space columns
+/// of each coordinate.
 void candidateSignals(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& out);
 /// Candidate cd's signal at sample i of segment s (effectSignal; gain and delay on the sensor's part of the
 /// reference prediction); 0 on an unmeasured row.
@@ -173,7 +197,7 @@ std::vector<PayloadEval> screenPayloads(const Model& model, const DiagnoseOption
 /// What one selection step did.
 enum class StepOutcome { Stop, Effect, Payload, PayloadRelinearise };
 /// The step's decision: the Bonferroni test (alpha / tested) decides whether a coordinate has an effect, the held-out
-/// gain which kind (Stribeck only by stribeck_margin over Coulomb); a significant payload with a larger gain wins.
+/// gain which kind (a refinement only by refinement_margin over the kind it refines); a significant payload with a larger gain wins.
 /// Records the first step's scores (step 0) and appends the accepted column(s) to data.S and out.
 StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data,
                        const std::vector<CandidateEval>& evals, const std::vector<PayloadEval>& pevals, int step,

@@ -78,7 +78,7 @@ long accumulateTicks(const Comparison& cmp, size_t from, size_t to, estimator::L
   if (effects) corrector = std::make_unique<EffectCorrector>(model, *effects, add);
   const DatasetBuilder* self = nullptr;
   DatasetBuilder builder(model, cmp.dopt, [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
-    if (corrector) corrector->add(t, K, y, &self->sensorTorque());
+    if (corrector) corrector->add(t, K, y, &self->sensorTorque(), &self->jointPosition());
     else add(t, K, y);
   });
   self = &builder;

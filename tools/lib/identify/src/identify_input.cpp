@@ -106,7 +106,7 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
   if (options.effects) corrector = std::make_unique<estimator::EffectCorrector>(model, *options.effects, direct);
   estimator::DatasetBuilder builder(model, dopt, corrector ? estimator::RowSink([&](double t, const Eigen::MatrixXd& K,
                                                                                      const Eigen::VectorXd& y) {
-                                                   corrector->add(t, K, y, &self->sensorTorque());
+                                                   corrector->add(t, K, y, &self->sensorTorque(), &self->jointPosition());
                                                  })
                                                            : direct);
   self = &builder;
