@@ -8,13 +8,14 @@
 namespace exoid::estimator {
 
 namespace {
-constexpr const char* kNames[kEffectKinds] = {"viscous", "coulomb", "stribeck", "offset",     "armature",
-                                              "gain",    "delay",   "elastic",  "elastic_exp"};
+constexpr const char* kNames[kEffectKinds] = {"viscous", "coulomb", "stribeck", "offset",      "armature",
+                                              "gain",    "delay",   "elastic",  "elastic_exp", "elastic_coupled"};
 constexpr const char* kWords[kEffectKinds] = {"viscous friction",     "Coulomb friction", "Stribeck friction (static excess)",
                                               "constant torque offset", "armature (rotor inertia)",
                                               "torque-sensor gain error", "time delay of the torque",
-                                              "joint elasticity (linear spring)", "joint elasticity (exponential spring)"};
-constexpr const char* kUnits[kEffectKinds] = {"N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad"};
+                                              "joint elasticity (linear spring)", "joint elasticity (exponential spring)",
+                                              "biarticular elasticity"};
+constexpr const char* kUnits[kEffectKinds] = {"N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad", "N m/rad"};
 }  // namespace
 
 const char* effectKindName(EffectKind k) { return kNames[static_cast<int>(k)]; }
@@ -27,7 +28,9 @@ bool parseEffectKind(const std::string& name, EffectKind& k) {
 }
 bool isMeasurementEffect(EffectKind k) { return k == EffectKind::GainError || k == EffectKind::Delay; }
 bool isDryFriction(EffectKind k) { return k == EffectKind::Coulomb || k == EffectKind::Stribeck; }
-bool isElastic(EffectKind k) { return k == EffectKind::Elastic || k == EffectKind::ElasticExp; }
+bool isElastic(EffectKind k) {
+  return k == EffectKind::Elastic || k == EffectKind::ElasticExp || k == EffectKind::ElasticCoupled;
+}
 EffectKind refinedKind(EffectKind k) {
   return k == EffectKind::Stribeck ? EffectKind::Coulomb : k == EffectKind::ElasticExp ? EffectKind::Elastic : k;
 }
@@ -67,7 +70,8 @@ double effectSignal(EffectKind k, const EffectShape& shape, double q, double v, 
     case EffectKind::Armature: return a;
     case EffectKind::GainError: return tau_model;
     case EffectKind::Delay: return -dtau_model;
-    case EffectKind::Elastic: return q - shape.center;
+    case EffectKind::Elastic:
+    case EffectKind::ElasticCoupled: return q - shape.center;  // q: the coupled joint's (signalJoint)
     case EffectKind::ElasticExp: {
       const double sc = shape.elastic_scale, x = q - shape.center;
       return sc != 0.0 ? sc * std::expm1(x / sc) : x;  // slope 1 at the center, the linear spring as |s| grows

@@ -228,19 +228,6 @@ void stateAtSamples(const Model& model, const std::vector<ResidualSeries>& serie
   }
 }
 
-// Kinematic neighbours of each joint: the parent body's joint and the children's.
-std::vector<std::vector<int>> kinematicNeighbours(const Model& model) {
-  std::vector<std::vector<int>> nb(model.njoints);
-  for (int j = 0; j < model.njoints; ++j) {
-    const int pb = model.parent[model.joint_body[j]];
-    if (pb >= 0 && model.jointOfBody(pb) >= 0) {
-      const int pj = model.jointOfBody(pb);
-      nb[j].push_back(pj), nb[pj].push_back(j);
-    }
-  }
-  return nb;
-}
-
 // One joint's training rows in time order per segment, cut into contiguous folds, and the fits over them.
 struct FoldPlan {
   const StageSamples& ss;
@@ -463,6 +450,19 @@ void plotSeries(const std::vector<ResidualSeries>& series, const StageSamples& s
 }
 
 }  // namespace
+
+std::vector<std::vector<int>> kinematicNeighbours(const Model& model) {
+  std::vector<std::vector<int>> nb(model.njoints);
+  for (int j = 0; j < model.njoints; ++j) {
+    const int pb = model.parent[model.joint_body[j]];
+    if (pb >= 0 && model.jointOfBody(pb) >= 0) {
+      const int pj = model.jointOfBody(pb);
+      nb[j].push_back(pj), nb[pj].push_back(j);
+    }
+  }
+  return nb;
+}
+
 
 bool residualPredictability(const Model& model, const std::vector<ResidualSeries>& series, double alpha, double min_share,
                             double pooled_rms, const PredictabilityOptions& o, PredictabilityResult& out,

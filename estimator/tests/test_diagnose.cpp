@@ -14,6 +14,7 @@
 #include "exoid/estimator/online/recursive_ls.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/inertial.hpp"
+#include "exoid/model/passive_joint_moments.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
 #include "kuka_model.hpp"
@@ -26,9 +27,10 @@ using test::kuka;
 // A smooth excitation: per joint a sum of three sines (0.1-0.6 Hz), |v| up to about 1 rad/s.
 struct Trajectory {
   std::vector<std::array<double, 3>> amp, freq, phase;  // [nj]
-  double q0 = 0.0;
+  std::vector<double> offset;                           // [nj] the posture swung about (empty: 0)
   State at(const Model& model, double t) const {
     State s = State::zero(model);
+    for (int j = 0; j < static_cast<int>(offset.size()); ++j) s.q[j] = offset[static_cast<size_t>(j)];
     for (int j = 0; j < model.njoints; ++j)
       for (int h = 0; h < 3; ++h) {
         const double w = 2 * M_PI * freq[j][h], arg = w * t + phase[j][h];
@@ -212,7 +214,9 @@ TEST(Diagnose, CandidatesInTheDeclaredSpanAreNotTested) {
       armature0 = c.status == "not separable from the declared model";
       EXPECT_LT(c.separable, 1e-6);  // the link's own Izz column
     }
-    if (c.effect.kind == EffectKind::Viscous) EXPECT_GT(c.separable, 0.1);  // no declared column looks like v
+    if (c.effect.kind == EffectKind::Viscous) {
+      EXPECT_GT(c.separable, 0.1);  // no declared column looks like v
+    }
   }
   EXPECT_TRUE(armature0);
   DiagnoseOptions opt;
@@ -360,8 +364,9 @@ TEST(Diagnose, JointElasticityIsNamedWithItsStiffnessAndShape) {
   EXPECT_EQ(fl.effect.joint, 3) << fl.sentence;
   EXPECT_NEAR(fl.effect.value, 2.0, 0.1) << fl.sentence;
   for (const Finding& f : lin.findings)
-    if (f.effect.kind == EffectKind::Offset && f.effect.joint == 3)
+    if (f.effect.kind == EffectKind::Offset && f.effect.joint == 3) {
       EXPECT_NEAR(fl.effect.center - f.effect.value / fl.effect.value, 0.0, 0.02) << f.sentence;
+    }
   EXPECT_LT(lin.coordinates[3].rms_after, 1.1 * sigma);
   // The exponential spring's stiffness at the training mean: k exp((c - c_inj) / s) with c_inj = c here.
   const uint64_t seed = 43;
@@ -380,6 +385,116 @@ TEST(Diagnose, JointElasticityIsNamedWithItsStiffnessAndShape) {
   EXPECT_NEAR(fe.effect.center, c, 1e-12);
   EXPECT_NEAR(fe.effect.value, 1.5, 0.075) << fe.sentence;
   EXPECT_LT(ex.coordinates[4].rms_after, 1.1 * sigma);
+}
+
+// A wearer's passive joint moments (issue 21 part 4; docs/wearer.md): Riener & Edrich's elastic law, its biarticular
+// coupling included (passiveElasticMoments, the simulator's own), on the exoskeleton's sagittal hip, knee and ankle joints
+// as the moment the drives must overcome (y = K phi - tau_passive), on synthetic floating-base data about a standing
+// posture with the knees bent 0.2 rad, every joint swinging about +-0.1 rad. Each of the six joints is named with an
+// elastic kind first; the stiffness its own springs give at the mean posture (linear plus exponential: both have slope 1
+// there) is within 10 % of the law's slope -d tau_j / d q_j; the strongest biarticular term, the knee's moment on the
+// ankle's angle (-0.046 phi_A in the knee's first exponential), is named on both knees within 10 % of the law's
+// -d tau_knee / d q_ankle; no finding on the joints the law leaves alone (hip ab/adduction, ankle in/eversion) and no
+// kind other than elastic, an offset (the law's constant part) or viscous; held-out RMSE from 11x the noise to below 2.2x
+// (what stays is the law's curvature beyond the candidates' shapes).
+TEST(Diagnose, AWearersPassiveMomentsAreNamedAsSpringsOnTheirJoints) {
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) << err;
+  const char* sides[2] = {"left", "right"};
+  int sag[2][3];
+  for (int s = 0; s < 2; ++s)
+    for (int k = 0; k < 3; ++k) {
+      const std::string name = std::string(sides[s]) + (k == 0 ? "_hip_fe" : k == 1 ? "_knee" : "_ankle_pd");
+      sag[s][k] = model.jointIndex(name);
+      ASSERT_GE(sag[s][k], 0) << name;
+    }
+  const double sigma = 0.05;
+  const auto passive = [&](const Eigen::VectorXd& q) {
+    Eigen::VectorXd tau = Eigen::VectorXd::Zero(model.njoints);
+    for (int s = 0; s < 2; ++s) {
+      const LegJoints m = passiveElasticMoments(LegJoints(q[sag[s][0]], q[sag[s][1]], q[sag[s][2]]));
+      for (int k = 0; k < 3; ++k) tau[sag[s][k]] = m[k];
+    }
+    return tau;
+  };
+  const auto makeWearerRun = [&](uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    Trajectory tr = randomTrajectory(model, rng);
+    for (auto& a : tr.amp)
+      for (double& x : a) x *= 0.3;  // about +-0.1 rad
+    tr.offset.assign(static_cast<size_t>(model.njoints), 0.0);
+    for (int s = 0; s < 2; ++s) tr.offset[static_cast<size_t>(sag[s][1])] = 0.2;
+    std::normal_distribution<double> noise(0.0, sigma);
+    estimator::Run run;
+    Data data(model);
+    for (double t = 0; t < 20.0; t += 0.005) {
+      State st = tr.at(model, t);
+      st.base_orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.05 * std::sin(0.7 * t), Eigen::Vector3d::UnitX()) *
+                                               Eigen::AngleAxisd(0.05 * std::sin(0.3 * t), Eigen::Vector3d::UnitY()));
+      st.base_acceleration = Eigen::Vector3d(0.3 * std::sin(1.1 * t), 0.2 * std::cos(0.6 * t), 0.1 * std::sin(0.5 * t));
+      computeJointTorqueRegressor(model, data, st);
+      Eigen::VectorXd y = data.K * model.phi;
+      const Eigen::VectorXd tp = passive(st.q);
+      for (int j = 0; j < model.njoints; ++j) y[model.jointRow(j)] -= tp[j];
+      for (int r = 0; r < model.nv; ++r) y[r] += noise(rng);
+      run.states.push_back(st), run.t.push_back(t), run.y.push_back(y);
+    }
+    return run;
+  };
+  const estimator::Run r1 = makeWearerRun(51), r2 = makeWearerRun(52), rv = makeWearerRun(53);
+  DiagnosisResult res;
+  ASSERT_TRUE(diagnose(model, {segmentOf(model, r1, "a"), segmentOf(model, r2, "b")}, {segmentOf(model, rv, "v")}, {}, res,
+                       &err))
+      << err;
+  for (const Finding& f : res.findings) std::printf("%s\n", f.sentence.c_str());
+  std::printf("held-out pooled %.4f -> %.4f N m\n", res.pooled_before, res.pooled_after);
+  // The law's slope at the training runs' mean posture, by central differences.
+  Eigen::VectorXd qm = Eigen::VectorXd::Zero(model.njoints);
+  for (const estimator::Run* r : {&r1, &r2})
+    for (const State& s : r->states) qm += s.q;
+  qm /= static_cast<double>(r1.states.size() + r2.states.size());
+  for (int s = 0; s < 2; ++s)
+    for (int k = 0; k < 3; ++k) {
+      const int j = sag[s][k];
+      Eigen::VectorXd qp = qm, qn = qm;
+      qp[j] += 1e-6, qn[j] -= 1e-6;
+      const double slope = -(passive(qp)[j] - passive(qn)[j]) / 2e-6;
+      const Finding* first = nullptr;
+      double stiffness = 0.0;
+      for (const Finding& f : res.findings) {
+        if (f.effect.joint != j) continue;
+        if (!first) first = &f;
+        if (f.effect.kind == EffectKind::Elastic || f.effect.kind == EffectKind::ElasticExp) stiffness += f.effect.value;
+      }
+      ASSERT_NE(first, nullptr) << model.joint_names[j] << ": no finding (law's stiffness " << slope << " N m/rad)";
+      EXPECT_TRUE(isElastic(first->effect.kind)) << first->sentence;
+      std::printf("%s: stiffness %.2f N m/rad, the law's %.2f\n", model.joint_names[j].c_str(), stiffness, slope);
+      EXPECT_NEAR(stiffness, slope, 0.1 * slope) << model.joint_names[j];
+    }
+  for (int s = 0; s < 2; ++s) {  // the knee's moment on the ankle's angle
+    const int knee = sag[s][1], ankle = sag[s][2];
+    Eigen::VectorXd qp = qm, qn = qm;
+    qp[ankle] += 1e-6, qn[ankle] -= 1e-6;
+    const double coupling = -(passive(qp)[knee] - passive(qn)[knee]) / 2e-6;
+    bool named = false;
+    for (const Finding& f : res.findings)
+      if (f.effect.kind == EffectKind::ElasticCoupled && f.effect.joint == knee && f.effect.coupled == ankle) {
+        named = true;
+        std::printf("%s on %s: %.2f N m/rad, the law's %.2f\n", model.joint_names[knee].c_str(),
+                    model.joint_names[ankle].c_str(), f.effect.value, coupling);
+        EXPECT_NEAR(f.effect.value, coupling, 0.1 * std::fabs(coupling)) << f.sentence;
+      }
+    EXPECT_TRUE(named) << model.joint_names[knee] << " on " << model.joint_names[ankle] << ": " << coupling << " N m/rad";
+  }
+  for (const Finding& f : res.findings) {
+    const std::string& n = model.joint_names[f.effect.joint];
+    EXPECT_TRUE(n.find("_aa") == std::string::npos && n.find("_ie") == std::string::npos) << f.sentence;
+    EXPECT_TRUE(isElastic(f.effect.kind) || f.effect.kind == EffectKind::Offset || f.effect.kind == EffectKind::Viscous)
+        << f.sentence;
+  }
+  EXPECT_GT(res.pooled_before, 8.0 * sigma);
+  EXPECT_LT(res.pooled_after, 2.2 * sigma);
 }
 
 // A payload against a held declared model (the caller streams y - K phi_declared, as `--declared-model` does): 2 kg on
@@ -449,13 +564,18 @@ TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
                  {EffectKind::GainError, 4, -0.031},
                  {EffectKind::Coulomb, 2, 0.4, 0.005},
                  {EffectKind::Elastic, 1, 3.25, 0.0, 0.123},
-                 {EffectKind::ElasticExp, 5, 1.5, -0.1, -0.25}};
+                 {EffectKind::ElasticExp, 5, 1.5, -0.1, -0.25},
+                 {EffectKind::ElasticCoupled, 2, -0.75, 0.0, 0.05, 3}};
   const std::string path = testing::TempDir() + "effects_" + std::to_string(::getpid()) + ".yaml";
   std::string err;
   ASSERT_TRUE(writeEffects(path, model, set, &err)) << err;
   EffectSet back;
   ASSERT_TRUE(readEffects(path, model, back, &err)) << err;
-  ASSERT_EQ(back.effects.size(), 5u);
+  ASSERT_EQ(back.effects.size(), 6u);
+  EXPECT_EQ(back.effects[5].kind, EffectKind::ElasticCoupled);
+  EXPECT_EQ(back.effects[5].coupled, 3);
+  EXPECT_EQ(back.effects[5].center, 0.05);
+  EXPECT_EQ(back.effects[5].value, -0.75);
   EXPECT_EQ(back.effects[3].kind, EffectKind::Elastic);
   EXPECT_EQ(back.effects[3].center, 0.123);
   EXPECT_EQ(back.effects[3].value, 3.25);
@@ -489,7 +609,10 @@ TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
                           "effects:\n  - {joint: lwr_0_joint, kind: offset, value: 1, center: 0.1}\n",
                           "effects:\n  - {joint: lwr_0_joint, kind: elastic_exp, value: 1, center: 0.1}\n",
                           "effects:\n  - {joint: lwr_0_joint, kind: elastic_exp, value: 1, center: 0.1, width: 0}\n",
-                          "effects:\n  - {joint: lwr_0_joint, kind: elastic, value: 1, center: .nan}\n"}) {
+                          "effects:\n  - {joint: lwr_0_joint, kind: elastic, value: 1, center: .nan}\n",
+                          "effects:\n  - {joint: lwr_0_joint, kind: elastic_coupled, value: 1, center: 0}\n",
+                          "effects:\n  - {joint: lwr_0_joint, kind: elastic_coupled, value: 1, center: 0, angle_of: lwr_0_joint}\n",
+                          "effects:\n  - {joint: lwr_0_joint, kind: elastic, value: 1, center: 0, angle_of: lwr_1_joint}\n"}) {
     FILE* f = std::fopen(path.c_str(), "w");
     std::fputs(bad, f);
     std::fclose(f);

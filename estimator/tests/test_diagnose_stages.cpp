@@ -153,13 +153,17 @@ TEST(DiagnoseStages, DeclaredFitIsTheDenseLeastSquaresFitAndItsPrediction) {
 
 TEST(DiagnoseStages, CandidateSignalsAndTheirColumns) {
   const Prepared p;
-  // Every kind on every joint (the arm's joints are actuated and measured).
-  EXPECT_EQ(p.data.nc, kEffectKinds * 7);
+  // Every kind on every joint (the arm's joints are actuated and measured); the biarticular spring once per kinematic
+  // neighbour (a chain of 7 joints: 6 pairs, each in both directions).
+  EXPECT_EQ(p.data.nc, (kEffectKinds - 1) * 7 + 12);
   EXPECT_EQ(p.data.P, p.data.m + p.data.nc + 1);  // no payload columns without a held model
   for (int r = 0; r < 7; ++r) EXPECT_EQ(p.data.active[r].back(), p.data.iy);
   for (const DiagnosisCandidate& cd : p.data.cands) {
     const double v = p.train.states[100].v[cd.joint], a = p.data.caches[0].a(100, cd.joint);
-    const double x = p.train.states[100].q[cd.joint] - cd.center;
+    const double x = p.train.states[100].q[cd.coupled >= 0 ? cd.coupled : cd.joint] - cd.center;
+    if (cd.kind == EffectKind::ElasticCoupled) {
+      EXPECT_EQ(std::abs(cd.coupled - cd.joint), 1);  // the arm's chain
+    }
     const double tau = p.data.caches[0].tau(100, cd.coord), dtau = p.data.caches[0].dtau(100, cd.coord);
     const double expect = cd.kind == EffectKind::Viscous    ? v
                           : cd.kind == EffectKind::Offset   ? 1.0
@@ -167,7 +171,7 @@ TEST(DiagnoseStages, CandidateSignalsAndTheirColumns) {
                           : cd.kind == EffectKind::GainError ? tau  // fixed base: the sensor's part is all of y
                           : cd.kind == EffectKind::Delay    ? -dtau
                           : cd.kind == EffectKind::Coulomb  ? std::tanh(v / cd.width)
-                          : cd.kind == EffectKind::Elastic  ? x
+                          : cd.kind == EffectKind::Elastic || cd.kind == EffectKind::ElasticCoupled ? x
                           : cd.kind == EffectKind::ElasticExp ? cd.width * (std::exp(x / cd.width) - 1.0)
                                                             : std::tanh(v / cd.width) * std::exp(-std::pow(v / 0.1, 2));
     EXPECT_NEAR(candidateSignal(kuka(), p.opt, p.data, 0, 100, cd), expect, 1e-12) << effectKindName(cd.kind);

@@ -114,6 +114,7 @@ std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
     case est::EffectKind::GainError: return "model torque (N m)";
     case est::EffectKind::Delay: return "-d/dt model torque (N m/s)";
     case est::EffectKind::Elastic: std::snprintf(buf, sizeof buf, "q - %.3g (rad)", shape.center); return buf;
+    case est::EffectKind::ElasticCoupled: std::snprintf(buf, sizeof buf, "q of a neighbour - %.3g (rad)", shape.center); return buf;
     case est::EffectKind::ElasticExp:
       std::snprintf(buf, sizeof buf, "%g (exp((q - %.3g)/%g) - 1) (rad)", shape.elastic_scale, shape.center,
                     shape.elastic_scale);
@@ -142,7 +143,8 @@ PlotSignals plotSignals(const Model& model, const est::DiagnoseOptions& opt, con
     if (!from_finding[r]) ps.kind[r] = f.effect.kind, ps.shape[r] = est::effectShape(opt.shape, f.effect), from_finding[r] = true;
   }
   for (int r = 0; r < nv; ++r)
-    if (ps.kind[r] == est::EffectKind::Offset) ps.kind[r] = est::EffectKind::Viscous;  // constant: plot vs v
+    // A constant (offset) or another joint's angle (elastic_coupled): no signal of this joint to plot against; v instead.
+    if (ps.kind[r] == est::EffectKind::Offset || ps.kind[r] == est::EffectKind::ElasticCoupled) ps.kind[r] = est::EffectKind::Viscous;
   return ps;
 }
 
@@ -303,7 +305,9 @@ nlohmann::json summaryJson(const Model& model, const est::DiagnoseOptions& opt, 
                               {"value", f.effect.value}, {"unit", est::effectUnit(f.effect.kind)},
                               {"std_error", f.std_error}, {"explained", f.explained}, {"p_value", f.p_value},
                               {"tested", f.tested}, {"sentence", f.sentence}});
-    if (f.effect.width > 0.0) js["findings"].back()["width"] = f.effect.width;  // rad/s, Coulomb and Stribeck
+    if (f.effect.width != 0.0) js["findings"].back()["width"] = f.effect.width;  // Coulomb, Stribeck: rad/s; elastic_exp: rad
+    if (est::isElastic(f.effect.kind)) js["findings"].back()["center"] = f.effect.center;  // rad
+    if (f.effect.kind == est::EffectKind::ElasticCoupled) js["findings"].back()["angle_of"] = model.joint_names[f.effect.coupled];
   }
   js["declared_model"] = in.declared_model_path.empty() ? nlohmann::json(nullptr) : nlohmann::json(in.declared_model_path);
   js["payloads"] = nlohmann::json::array();

@@ -9,6 +9,7 @@ namespace exoid::estimator {
 void candidateSignals(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& out) {
   const int nv = data.nv, m = data.m;
   data.cands.clear();
+  const std::vector<std::vector<int>> neighbours = kinematicNeighbours(model);
   for (EffectKind k : opt.kinds)
     for (int j = 0; j < data.nj; ++j) {
       const int r = model.jointRow(j);
@@ -20,10 +21,14 @@ void candidateSignals(const Model& model, const DiagnoseOptions& opt, DiagnoseDa
       const bool sensed = measured && (model.effort_limit.size() != data.nj || model.effort_limit[j] > 0);
       if (k == EffectKind::GainError && !sensed) continue;
       const size_t js = static_cast<size_t>(j);
+      if (k == EffectKind::ElasticCoupled) {  // one candidate per kinematic neighbour: the angle of that joint
+        for (int c : neighbours[js]) data.cands.push_back({k, j, r, 0.0, data.center_of[static_cast<size_t>(c)], c});
+        continue;
+      }
       const double width = isDryFriction(k)                ? data.width_of[2 * js + (k == EffectKind::Stribeck)]
                            : k == EffectKind::ElasticExp ? data.scale_of[js]
                                                          : 0.0;
-      data.cands.push_back({k, j, r, width, isElastic(k) ? data.center_of[js] : 0.0});
+      data.cands.push_back({k, j, r, width, isElastic(k) ? data.center_of[js] : 0.0, -1});
     }
   const int nc = data.nc = static_cast<int>(data.cands.size());
   out.candidates = nc;
@@ -56,8 +61,9 @@ double candidateSignal(const Model& model, const DiagnoseOptions& opt, const Dia
   const SegmentSignals& c = data.caches[s];
   // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus what the
   // plates contribute; all of y for a fixed base).
-  return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width, cd.center}),
-                      c.q.rows() > i ? c.q(i, cd.joint) : 0.0, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord), c.dtau(i, cd.coord) - c.dext(i, cd.coord));
+  const int qj = cd.coupled >= 0 ? cd.coupled : cd.joint;
+  return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width, cd.center, cd.coupled}),
+                      c.q.rows() > i ? c.q(i, qj) : 0.0, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord), c.dtau(i, cd.coord) - c.dext(i, cd.coord));
 }
 
 namespace {

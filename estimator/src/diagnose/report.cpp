@@ -162,22 +162,31 @@ void describeFindings(const Model& model, const DiagnoseOptions& opt, DiagnosisR
     pf.sentence = buf;
   }
   for (Finding& f : out.findings) {
-    char buf[512];
-    char width[192] = "";
+    char buf[640];
+    char width[256] = "";
     if (f.effect.width > 0.0 && isDryFriction(f.effect.kind))
       std::snprintf(width, sizeof width, ", tanh width %g rad/s", f.effect.width);
-    if (isElastic(f.effect.kind)) {
-      // k (q - q0) = k (q - c) + k (c - q0): the rest angle comes from an offset found on the same joint, if any.
+    if (f.effect.kind == EffectKind::ElasticCoupled) {
+      std::snprintf(width, sizeof width, " per rad of %s (about its mean angle %.3f rad)",
+                    model.joint_names[f.effect.coupled].c_str(), f.effect.center);
+    } else if (isElastic(f.effect.kind)) {
+      // k (q - q0) = k (q - c) + k (c - q0): the rest angle comes from an offset found on the same joint, if any, and
+      // the joint's stiffness at c, k the sum of its own springs' values (the linear and the exponential one both have
+      // slope 1 at c).
       const Finding* offset = nullptr;
-      for (const Finding& g : out.findings)
-        if (g.effect.kind == EffectKind::Offset && g.effect.joint == f.effect.joint) offset = &g;
+      double k = 0.0;
+      for (const Finding& g : out.findings) {
+        if (g.effect.joint != f.effect.joint) continue;
+        if (g.effect.kind == EffectKind::Offset) offset = &g;
+        if (g.effect.kind == EffectKind::Elastic || g.effect.kind == EffectKind::ElasticExp) k += g.effect.value;
+      }
       char scale[64] = "";
       if (f.effect.kind == EffectKind::ElasticExp)
         std::snprintf(scale, sizeof scale, ", stiffening toward %s q with scale %g rad", f.effect.width > 0 ? "+" : "-",
                       std::fabs(f.effect.width));
-      if (offset && f.effect.value > 0)
-        std::snprintf(width, sizeof width, " about the rest angle %.3f rad (with the offset found)%s",
-                      f.effect.center - offset->effect.value / f.effect.value, scale);
+      if (offset && k > 0)
+        std::snprintf(width, sizeof width, " at the mean angle %.3f rad%s (rest angle %.3f rad: the offset found over the "
+                      "joint's stiffness %.3g N m/rad)", f.effect.center, scale, f.effect.center - offset->effect.value / k, k);
       else
         std::snprintf(width, sizeof width, " at the mean angle %.3f rad%s (rest angle: not separable from an offset here)",
                       f.effect.center, scale);

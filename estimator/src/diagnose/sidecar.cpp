@@ -31,12 +31,19 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     if (set.effects.empty()) f << "  []\n";
     for (const Effect& e : set.effects) {
       if (e.joint < 0 || e.joint >= model.njoints) return error && (*error = "effect on an unknown joint", true), false;
+    if (e.kind == EffectKind::ElasticCoupled && (e.coupled < 0 || e.coupled >= model.njoints)) {
+      return error && (*error = "elastic_coupled effect without its joint", true), false;
+    }
       if (e.width > 0.0 && isDryFriction(e.kind))
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
                       model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
       else if (e.kind == EffectKind::Elastic)
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g}  # %s, rad\n",
                       model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center, effectUnit(e.kind));
+      else if (e.kind == EffectKind::ElasticCoupled)
+        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g, angle_of: %s}  # %s, rad\n",
+                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center,
+                      model.joint_names[e.coupled].c_str(), effectUnit(e.kind));
       else if (e.kind == EffectKind::ElasticExp)
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g, width: %.17g}  # %s, rad, rad\n",
                       model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center, e.width,
@@ -85,7 +92,16 @@ std::string readEffect(const YAML::Node& e, const std::string& where, const Mode
   if (!std::isfinite(ef.value)) return where + ": value is not finite";
   for (auto kv = e.begin(); kv != e.end(); ++kv) {
     const std::string k = kv->first.as<std::string>();
-    if (k != "joint" && k != "kind" && k != "value" && k != "width" && k != "center") return where + ": unknown key '" + k + "'";
+    if (k != "joint" && k != "kind" && k != "value" && k != "width" && k != "center" && k != "angle_of")
+      return where + ": unknown key '" + k + "'";
+  }
+  if (e["angle_of"]) {
+    if (ef.kind != EffectKind::ElasticCoupled) return where + ": angle_of belongs to elastic_coupled effects only";
+    ef.coupled = model.jointIndex(e["angle_of"].as<std::string>());
+    if (ef.coupled < 0 || ef.coupled == ef.joint)
+      return where + ": angle_of must name another joint of the model ('" + e["angle_of"].as<std::string>() + "')";
+  } else if (ef.kind == EffectKind::ElasticCoupled) {
+    return where + ": an elastic_coupled effect needs angle_of (the joint whose angle it reads)";
   }
   if (e["center"]) {
     if (!isElastic(ef.kind)) return where + ": a center belongs to elastic and elastic_exp effects only";
@@ -152,7 +168,7 @@ void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<co
   for (const Effect& e : set.effects) {
     if (isMeasurementEffect(e.kind)) continue;
     E(model.jointRow(e.joint), col++) =
-        effectSignal(e.kind, effectShape(set.shape, e), q[e.joint], v[e.joint], a[e.joint], 0.0, 0.0);
+        effectSignal(e.kind, effectShape(set.shape, e), q[signalJoint(e)], v[e.joint], a[e.joint], 0.0, 0.0);
   }
 }
 

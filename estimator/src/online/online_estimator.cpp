@@ -207,7 +207,8 @@ bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
   std::vector<double> sigma;
   std::vector<unsigned char> ff;
   for (const Effect& e : opt_.effects.effects) {
-    if (e.joint < 0 || e.joint >= model_.njoints || !std::isfinite(e.value)) {
+    if (e.joint < 0 || e.joint >= model_.njoints || signalJoint(e) < 0 || signalJoint(e) >= model_.njoints ||
+        !std::isfinite(e.value)) {
       setError("effects: a joint index outside the model or a non-finite value");
       return false;
     }

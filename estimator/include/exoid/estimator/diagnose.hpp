@@ -37,9 +37,12 @@ enum class EffectKind {
   /// signal s (exp((q - center) / s) - 1), s = width (rad, signed: > 0 stiffens toward +q, < 0 toward -q); value k,
   /// N m/rad (>= 0), the stiffness at center: the exponential shape of passive tissue (Riener & Edrich 1999)
   ElasticExp,
+  /// signal q_c - center on joint j's row, c = Effect::coupled a kinematic neighbour of j; value N m/rad (either sign):
+  /// a biarticular spring, the moment on j that depends on the neighbour's angle (a muscle across both joints)
+  ElasticCoupled,
 };
-inline constexpr int kEffectKinds = 9;
-/// "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp"
+inline constexpr int kEffectKinds = 10;
+/// "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp", "elastic_coupled"
 const char* effectKindName(EffectKind k);
 const char* effectKindWords(EffectKind k);  ///< "viscous friction", ..., "time delay", "joint elasticity", ...
 const char* effectUnit(EffectKind k);       ///< "N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad"
@@ -48,7 +51,7 @@ bool parseEffectKind(const std::string& name, EffectKind& k);
 bool isMeasurementEffect(EffectKind k);
 /// Coulomb and Stribeck: signals tanh(v / width) (...), the kinds an Effect's width applies to.
 bool isDryFriction(EffectKind k);
-/// Elastic and ElasticExp: signals of the joint position about the effect's center.
+/// Elastic, ElasticExp and ElasticCoupled: signals of a joint position about the effect's center.
 bool isElastic(EffectKind k);
 /// The kind a refinement kind refines (Stribeck: Coulomb; ElasticExp: Elastic); k itself otherwise. A refinement is
 /// named only when it predicts the held-out data clearly better than the kind it refines (DiagnoseOptions).
@@ -76,8 +79,12 @@ struct Effect {
   /// Coulomb and Stribeck: this effect's tanh width, rad/s (the diagnosis fits it per joint; 0: the set's
   /// shape.coulomb_width). ElasticExp: the exponential's signed scale s, rad (fitted per joint; never 0).
   double width = 0.0;
-  double center = 0.0;  ///< rad, Elastic and ElasticExp: the reference angle of the signal q - center
+  double center = 0.0;  ///< rad, the elastic kinds: the reference angle of the signal q - center
+  int coupled = -1;     ///< ElasticCoupled: the model joint whose angle the signal is (a kinematic neighbour of joint)
 };
+
+/// The joint whose angle an effect's signal reads: Effect::coupled for ElasticCoupled, else the effect's own joint.
+inline int signalJoint(const Effect& e) { return e.kind == EffectKind::ElasticCoupled ? e.coupled : e.joint; }
 
 /// The shape an effect's signal uses: `shape` with the effect's own Coulomb width, center and scale where it has them.
 EffectShape effectShape(const EffectShape& shape, const Effect& effect);
@@ -112,9 +119,10 @@ inline bool segmentRowMeasured(const Model& model, const Segment& segment, int r
 
 struct DiagnoseOptions {
   /// The elastic kinds need the joint positions: they are tested only when every segment has Segment::stream_state.
-  std::vector<EffectKind> kinds = {EffectKind::Viscous,   EffectKind::Coulomb, EffectKind::Stribeck,
-                                   EffectKind::Offset,    EffectKind::Armature, EffectKind::GainError,
-                                   EffectKind::Delay,     EffectKind::Elastic,  EffectKind::ElasticExp};
+  std::vector<EffectKind> kinds = {EffectKind::Viscous,   EffectKind::Coulomb,    EffectKind::Stribeck,
+                                   EffectKind::Offset,    EffectKind::Armature,   EffectKind::GainError,
+                                   EffectKind::Delay,     EffectKind::Elastic,    EffectKind::ElasticExp,
+                                   EffectKind::ElasticCoupled};
   EffectShape shape;
   /// rad/s: the Coulomb widths tried per joint. Dry friction's apparent width differs from joint to joint (how
   /// slowly the joint moves, how long it sticks, how the filter smears the sign change): each joint's Coulomb and

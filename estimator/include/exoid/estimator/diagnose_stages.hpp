@@ -26,7 +26,8 @@ struct DiagnosisCandidate {
   int joint;
   int coord;
   double width;   ///< Coulomb, Stribeck: the joint's profiled width (0: the shape's); ElasticExp: its profiled scale
-  double center;  ///< Elastic, ElasticExp: the joint's mean training angle (rad)
+  double center;  ///< the elastic kinds: the mean training angle (rad) of the joint the signal reads
+  int coupled;    ///< ElasticCoupled: the neighbour joint whose angle the signal reads; -1 otherwise
 };
 
 /// Per-sample signals of one segment, [n x nv] unless noted.

@@ -33,6 +33,9 @@
 
 namespace exoid::estimator {
 
+/// Kinematic neighbours of each joint [njoints]: the joint of its parent body and the joints of its children.
+std::vector<std::vector<int>> kinematicNeighbours(const Model& model);
+
 struct ResidualSeries;
 
 struct PredictabilityOptions {
