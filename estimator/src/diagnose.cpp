@@ -43,6 +43,8 @@ bool admissibleValue(EffectKind k, double value) {
     case EffectKind::Elastic:
     case EffectKind::ElasticExp:
       return value >= 0.0;
+    case EffectKind::Delay:
+      return std::fabs(value) <= kMaxLinearisedDelay;
     default:
       return true;
   }

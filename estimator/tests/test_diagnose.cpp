@@ -17,6 +17,7 @@
 #include "exoid/model/passive_joint_moments.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/model/urdf.hpp"
+#include "diagnosis_runs.hpp"
 #include "kuka_model.hpp"
 
 namespace exoid::estimator {
@@ -61,13 +62,10 @@ struct Injected {
   double center = 0.0; // Elastic, ElasticExp: the reference angle
 };
 
-// One run: samples at 200 Hz, y = K phi_true + effect + white noise of sigma N m on every joint.
-struct Run {
-  std::vector<State> states;
-  std::vector<double> t;
-  std::vector<Eigen::VectorXd> y;
-};
+using diagnosis_runs::Run;
+using diagnosis_runs::segmentOf;
 
+// One run: samples at 200 Hz, y = K phi_true + effect + white noise of sigma N m on every joint.
 Run makeRun(const Model& model, uint64_t seed, double duration, double sigma, const std::vector<Injected>& effects,
             const EffectShape& shape) {
   std::mt19937_64 rng(seed);
@@ -102,26 +100,6 @@ Run makeRun(const Model& model, uint64_t seed, double duration, double sigma, co
   return run;
 }
 
-// The run's rows, with q (Segment::stream_state) so that the elastic kinds are tested too.
-Segment segmentOf(const Model& model, const Run& run, const std::string& name) {
-  Segment sg{name, [&model, &run](const DiagnosisRowSink& sink, std::string*) {
-               Data data(model);
-               for (size_t i = 0; i < run.states.size(); ++i) {
-                 computeJointTorqueRegressor(model, data, run.states[i]);
-                 sink(run.t[i], data.K, run.y[i], run.y[i]);  // fixed base: y is the sensor torque
-               }
-               return true;
-             }};
-  sg.stream_state = [&model, &run](const DiagnosisStateSink& sink, std::string*) {
-    Data data(model);
-    for (size_t i = 0; i < run.states.size(); ++i) {
-      computeJointTorqueRegressor(model, data, run.states[i]);
-      sink(run.t[i], data.K, run.y[i], run.y[i], run.states[i].q);
-    }
-    return true;
-  };
-  return sg;
-}
 
 
 DiagnosisResult runDiagnosis(uint64_t seed, double sigma, const std::vector<Injected>& effects,

@@ -11,6 +11,7 @@
 
 #include "exoid/estimator/diagnose_stages.hpp"
 #include "exoid/model/regressor.hpp"
+#include "diagnosis_runs.hpp"
 #include "kuka_model.hpp"
 
 namespace exoid::estimator {
@@ -18,11 +19,8 @@ namespace {
 
 using test::kuka;
 
-struct Run {
-  std::vector<State> states;
-  std::vector<double> t;
-  std::vector<Eigen::VectorXd> y;
-};
+using diagnosis_runs::Run;
+using diagnosis_runs::segmentOf;
 
 // 8 s at 100 Hz of three sines per joint; y = K phi + 2 v_3 + N(0, 0.05^2).
 Run makeRun(const Model& model, uint64_t seed) {
@@ -51,26 +49,6 @@ Run makeRun(const Model& model, uint64_t seed) {
   return run;
 }
 
-// The run's rows, with q (Segment::stream_state): the elastic candidates are tested too.
-Segment segmentOf(const Model& model, const Run& run, const std::string& name) {
-  Segment sg{name, [&model, &run](const DiagnosisRowSink& sink, std::string*) {
-               Data data(model);
-               for (size_t i = 0; i < run.states.size(); ++i) {
-                 computeJointTorqueRegressor(model, data, run.states[i]);
-                 sink(run.t[i], data.K, run.y[i], run.y[i]);
-               }
-               return true;
-             }};
-  sg.stream_state = [&model, &run](const DiagnosisStateSink& sink, std::string*) {
-    Data data(model);
-    for (size_t i = 0; i < run.states.size(); ++i) {
-      computeJointTorqueRegressor(model, data, run.states[i]);
-      sink(run.t[i], data.K, run.y[i], run.y[i], run.states[i].q);
-    }
-    return true;
-  };
-  return sg;
-}
 
 // Stages up to the candidate columns on one training and one validation run.
 struct Prepared {

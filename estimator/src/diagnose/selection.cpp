@@ -90,7 +90,7 @@ void recordFirstStep(const Model& model, const DiagnoseOptions& opt, const Diagn
       }
     sc.correlation = correlation(res, sig);
     sc.status = ev.c == ch.best                                             ? "accepted"
-                : !ev.admissible                                            ? "inadmissible sign"
+                : !ev.admissible                                            ? "inadmissible value"
                 : ev.f.explained < opt.min_explained                        ? "below min-explained"
                 : !ch.coord_has_effect[static_cast<size_t>(cd.coord)]       ? "not significant"
                 : ev.f.p_value >= opt.alpha                                 ? "not significant"

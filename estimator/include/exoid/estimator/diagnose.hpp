@@ -56,7 +56,12 @@ bool isElastic(EffectKind k);
 /// The kind a refinement kind refines (Stribeck: Coulomb; ElasticExp: Elastic); k itself otherwise. A refinement is
 /// named only when it predicts the held-out data clearly better than the kind it refines (DiagnoseOptions).
 EffectKind refinedKind(EffectKind k);
-/// Physically admissible value: friction, armature and stiffness are >= 0, the others may have either sign.
+/// s: the largest time delay the linearised column -d dtau/dt stands for. tau(t - d) = tau(t) - d dtau/dt + O(d^2 w^2):
+/// at the ~1 Hz of the motions the second-order term reaches 5 % of the first at 50 ms; a larger fitted "delay" is some
+/// other slow structure borrowing the column (KUKA lwr_6: 324 ms), not a delay.
+inline constexpr double kMaxLinearisedDelay = 0.05;
+/// Physically admissible value: friction, armature and stiffness are >= 0, a delay within +-kMaxLinearisedDelay, the
+/// others may have either sign.
 bool admissibleValue(EffectKind k, double value);
 
 /// Shape constants of the smooth friction signals (documented in docs/diagnose.md and written to the sidecar).
@@ -207,7 +212,7 @@ struct CandidateScore {
   /// separable share still shows an effect above 3 standard errors when the data are many and well spread (a
   /// calibration run's torque offsets: ~1 % separable, yet a few hundredths of a N m).
   double std_error = 0.0;
-  std::string status;       ///< "accepted", "not significant", "below min-explained", "inadmissible sign",
+  std::string status;       ///< "accepted", "not significant", "below min-explained", "inadmissible value",
                             ///< "not separable from the declared model"
 };
 
