@@ -10,7 +10,7 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 seconds="${EXOID_FUZZ_SECONDS:-10}"
 jobs="${EXOID_FUZZ_JOBS:-$(nproc)}"
-all=(urdf states_csv sim_config controller_config lcm_decode lcm_log lcm_wire log_samples measured_csv)
+all=(urdf states_csv sim_config controller_config lcm_decode lcm_log lcm_wire log_samples measured_csv effects_sidecar)
 targets=("$@")
 ((${#targets[@]})) || targets=("${all[@]}")
 if [ "$seconds" = 0 ]; then echo "[fuzz] EXOID_FUZZ_SECONDS=0: skipped"; exit 0; fi

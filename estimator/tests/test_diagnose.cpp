@@ -566,6 +566,20 @@ TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
   EXPECT_EQ(back.effects[1].joint, 4);
   EXPECT_EQ(back.effects[1].value, -0.031);
   EXPECT_EQ(back.shape.coulomb_width, 0.02);
+  // Found by fuzz_effects_sidecar: a model name with a quote is written so that it reads back; a YAML error quoting a
+  // control character is still one line.
+  set.model = "exo \"v2\".urdf";
+  ASSERT_TRUE(writeEffects(path, model, set, &err)) << err;
+  ASSERT_TRUE(readEffects(path, model, back, &err)) << err;
+  EXPECT_EQ(back.model, set.model);
+  {
+    FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs("model: \"exo\\\001.urdf\"\neffects: []\n", f);
+    std::fclose(f);
+  }
+  EXPECT_FALSE(readEffects(path, model, back, &err));
+  EXPECT_EQ(err.find('\n'), std::string::npos) << err;
+  EXPECT_EQ(err.find('\001'), std::string::npos) << err;
   {
     FILE* f = std::fopen(path.c_str(), "w");
     std::fputs("effects:\n  - {joint: no_such_joint, kind: offset, value: 1}\n", f);

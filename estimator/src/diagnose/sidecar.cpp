@@ -7,10 +7,32 @@
 #include <fstream>
 
 #include "exoid/estimator/diagnose.hpp"
+#include "exoid/one_line.hpp"
 
 namespace exoid::estimator {
 
 // ---------------------------------------------------------------------------------------------------------
+namespace {
+// A YAML double-quoted scalar of any text (the model's name is the user's file name): quote, backslash and control
+// characters escaped, so that what is written reads back as the same string.
+std::string quotedYaml(const std::string& text) {
+  std::string out = "\"";
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '"' || c == '\\') {
+      out += '\\', out += ch;
+    } else if (c < 0x20 || c == 0x7f) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "\\x%02x", c);
+      out += hex;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+}  // namespace
+
 bool writeEffects(const std::string& path, const Model& model, const EffectSet& set, std::string* error) {
   const std::string tmp = path + ".tmp";
   {
@@ -24,7 +46,7 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
          "# (q in rad; the value of both elastic kinds is the stiffness at center, N m/rad).\n"
          "# Measurement effects correct the torque: gain g (measured = (1 + g) true), delay d (s, measured(t) =\n"
          "# true(t - d)).\n";
-    f << "model: \"" << set.model << "\"\n";
+    f << "model: " << quotedYaml(set.model) << "\n";
     std::snprintf(buf, sizeof buf, "coulomb_width: %.17g  # rad/s\nstribeck_velocity: %.17g  # rad/s\neffects:\n",
                   set.shape.coulomb_width, set.shape.stribeck_velocity);
     f << buf;
@@ -126,7 +148,7 @@ std::string readEffect(const YAML::Node& e, const std::string& where, const Mode
 
 bool readEffects(const std::string& path, const Model& model, EffectSet& set, std::string* error) {
   auto fail = [&](const std::string& m) {
-    if (error) *error = path + ": " + m;
+    if (error) *error = oneLine(path + ": " + m);  // YAML's messages and the keys may quote the file's own bytes
     return false;
   };
   if (std::ifstream probe(path); !probe) return fail("cannot open the file");
