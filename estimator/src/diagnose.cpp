@@ -1,6 +1,7 @@
 #include "exoid/estimator/diagnose.hpp"
 
 #include <boost/math/distributions/students_t.hpp>
+#include <algorithm>
 #include <cmath>
 
 #include "exoid/estimator/diagnose_stages.hpp"
@@ -75,8 +76,10 @@ double effectSignal(EffectKind k, const EffectShape& shape, double q, double v, 
     case EffectKind::Elastic:
     case EffectKind::ElasticCoupled: return q - shape.center;  // q: the coupled joint's (signalJoint)
     case EffectKind::ElasticExp: {
+      // Slope 1 at the center, the linear spring as |s| grows. The exponent is capped at 50 (e^50 ~ 5e21): a posture that
+      // far past the scale is outside any tissue's range, and an overflow would poison every fit the column enters.
       const double sc = shape.elastic_scale, x = q - shape.center;
-      return sc != 0.0 ? sc * std::expm1(x / sc) : x;  // slope 1 at the center, the linear spring as |s| grows
+      return sc != 0.0 ? sc * std::expm1(std::min(x / sc, 50.0)) : x;
     }
   }
   return 0.0;

@@ -475,6 +475,20 @@ TEST(Diagnose, AWearersPassiveMomentsAreNamedAsSpringsOnTheirJoints) {
   EXPECT_LT(res.pooled_after, 2.2 * sigma);
 }
 
+// The exponential spring's signal: slope 1 at its center, s (e^(x/s) - 1) beside it, and finite however far a posture
+// lies past the scale (the exponent is capped: an overflow would poison every fit the column enters).
+TEST(Diagnose, TheExponentialSpringsSignalIsExactNearItsCenterAndFiniteFarFromIt) {
+  EffectShape sh;
+  sh.center = 0.3, sh.elastic_scale = -0.05;
+  const double h = 1e-7;
+  EXPECT_NEAR((effectSignal(EffectKind::ElasticExp, sh, 0.3 + h, 0, 0, 0, 0) -
+               effectSignal(EffectKind::ElasticExp, sh, 0.3 - h, 0, 0, 0, 0)) / (2 * h), 1.0, 1e-6);
+  EXPECT_NEAR(effectSignal(EffectKind::ElasticExp, sh, 0.2, 0, 0, 0, 0), -0.05 * std::expm1(2.0), 1e-15);
+  EXPECT_TRUE(std::isfinite(effectSignal(EffectKind::ElasticExp, sh, -100.0, 0, 0, 0, 0)));
+  sh.elastic_scale = 0.0;  // no scale: the linear spring
+  EXPECT_EQ(effectSignal(EffectKind::ElasticExp, sh, 0.5, 0, 0, 0, 0), effectSignal(EffectKind::Elastic, sh, 0.5, 0, 0, 0, 0));
+}
+
 // A payload against a held declared model (the caller streams y - K phi_declared, as `--declared-model` does): 2 kg on
 // lwr_6_link at (0.02, 0.05, 0.03) m with its own inertia, its torque from rnea on a model holding only the payload,
 // and viscous friction on lwr_2_joint. The payload is named on its link with its mass and CoM (the fit has no inertia

@@ -63,7 +63,8 @@ double candidateSignal(const Model& model, const DiagnoseOptions& opt, const Dia
   // plates contribute; all of y for a fixed base).
   const int qj = cd.coupled >= 0 ? cd.coupled : cd.joint;
   return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width, cd.center, cd.coupled}),
-                      c.q.rows() > i ? c.q(i, qj) : 0.0, c.v(i, cd.joint), c.a(i, cd.joint), c.tau(i, cd.coord) - c.ext(i, cd.coord), c.dtau(i, cd.coord) - c.dext(i, cd.coord));
+                      c.q.rows() > i ? c.q(i, qj) : 0.0, c.v(i, cd.joint), c.a(i, cd.joint),
+                      c.tau(i, cd.coord) - c.ext(i, cd.coord), c.dtau(i, cd.coord) - c.dext(i, cd.coord));
 }
 
 namespace {

@@ -96,6 +96,7 @@ bool streamWithPositions(const Segment& seg, int nj, std::vector<double>& qs, st
       },
       error);
 }
+
 // One training sample's elastic-profile sums on every measured joint row (ElasticProfileSums).
 void addElasticProfile(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, size_t s, const Eigen::MatrixXd& K,
                        const Eigen::VectorXd& y, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
@@ -105,7 +106,11 @@ void addElasticProfile(const Model& model, const DiagnoseOptions& opt, DiagnoseD
     const int r = model.jointRow(j);
     if (data.unmeasured(model, s, r)) continue;
     const double x = q[j] - data.q_ref[static_cast<size_t>(j)];
-    for (int k = 0; k < ne; ++k) z[k] = opt.elastic_scales[k] * std::expm1(x / opt.elastic_scales[k]);
+    for (int k = 0; k < ne; ++k) {
+      EffectShape sh;
+      sh.elastic_scale = opt.elastic_scales[k];
+      z[k] = effectSignal(EffectKind::ElasticExp, sh, x, 0.0, 0.0, 0.0, 0.0);  // about q_ref (center 0)
+    }
     z[ne] = x, z[ne + 1] = 1.0;
     ElasticProfileSums& pr = data.eprofile[static_cast<size_t>(j)];
     for (int c = 0; c < data.md; ++c)
@@ -172,7 +177,8 @@ bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& 
           cache.t.push_back(t);
           for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
           if (data.nw > 1) addWidthProfile(model, opt, data, s, K, y, sig);
-          if (data.has_q) addElasticProfile(model, opt, data, s, K, y, Eigen::Map<const Eigen::VectorXd>(qs.data() + qs.size() - nj, nj), z);
+          if (data.has_q)
+            addElasticProfile(model, opt, data, s, K, y, Eigen::Map<const Eigen::VectorXd>(qs.data() + qs.size() - nj, nj), z);
           for (int r = 0; r < nv; ++r) ys.push_back(y[r]), es.push_back(y[r] - tau_sensor[r]);
           addDeclaredRows(model, data, K, y);
         },
@@ -268,8 +274,9 @@ bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult&
     }
     cache.tau = Eigen::Map<Eigen::MatrixXd>(taus.data(), nv, cache.n).transpose();
     cache.tau0 = cache.tau;
-    cache.q = qs.size() == static_cast<size_t>(cache.n * nj) ? Eigen::MatrixXd(Eigen::Map<Eigen::MatrixXd>(qs.data(), nj, cache.n).transpose())
-                                                             : Eigen::MatrixXd();
+    cache.q = qs.size() == static_cast<size_t>(cache.n * nj)
+                  ? Eigen::MatrixXd(Eigen::Map<Eigen::MatrixXd>(qs.data(), nj, cache.n).transpose())
+                  : Eigen::MatrixXd();
     cache.a = centralDifference(cache.t, cache.v);
     cache.dext = centralDifference(cache.t, cache.ext);
     cache.dtau = centralDifference(cache.t, cache.tau);
