@@ -42,8 +42,8 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     f << "# Effects the rigid-body model lacks, found by `exoid diagnose` (format: docs/diagnose.md).\n"
          "# Dynamics effects add a column on their joint's row: viscous v, coulomb tanh(v / width),\n"
          "# stribeck tanh(v / width) exp(-(v / stribeck_velocity)^2) (width: the effect's, else coulomb_width),\n"
-         "# offset 1, armature dv/dt, elastic q - center, elastic_exp width (exp((q - center) / width) - 1)\n"
-         "# (q in rad; the value of both elastic kinds is the stiffness at center, N m/rad).\n"
+         "# offset 1, armature dv/dt, elastic q - center, elastic_exp width (exp((q - center) / width) - 1),\n"
+         "# elastic_coupled q_(angle_of) - center (q in rad; the elastic values are stiffnesses at center, N m/rad).\n"
          "# Measurement effects correct the torque: gain g (measured = (1 + g) true), delay d (s, measured(t) =\n"
          "# true(t - d)).\n";
     f << "model: " << quotedYaml(set.model) << "\n";
@@ -53,9 +53,8 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     if (set.effects.empty()) f << "  []\n";
     for (const Effect& e : set.effects) {
       if (e.joint < 0 || e.joint >= model.njoints) return error && (*error = "effect on an unknown joint", true), false;
-    if (e.kind == EffectKind::ElasticCoupled && (e.coupled < 0 || e.coupled >= model.njoints)) {
-      return error && (*error = "elastic_coupled effect without its joint", true), false;
-    }
+      if (e.kind == EffectKind::ElasticCoupled && (e.coupled < 0 || e.coupled >= model.njoints))
+        return error && (*error = "elastic_coupled effect without its joint", true), false;
       if (e.width > 0.0 && isDryFriction(e.kind))
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
                       model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
@@ -126,7 +125,7 @@ std::string readEffect(const YAML::Node& e, const std::string& where, const Mode
     return where + ": an elastic_coupled effect needs angle_of (the joint whose angle it reads)";
   }
   if (e["center"]) {
-    if (!isElastic(ef.kind)) return where + ": a center belongs to elastic and elastic_exp effects only";
+    if (!isElastic(ef.kind)) return where + ": a center belongs to the elastic kinds only";
     ef.center = e["center"].as<double>();
     if (!std::isfinite(ef.center)) return where + ": center is not finite";
   } else if (isElastic(ef.kind)) {
