@@ -114,7 +114,9 @@ std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
     case est::EffectKind::GainError: return "model torque (N m)";
     case est::EffectKind::Delay: return "-d/dt model torque (N m/s)";
     case est::EffectKind::Elastic: std::snprintf(buf, sizeof buf, "q - %.3g (rad)", shape.center); return buf;
-    case est::EffectKind::ElasticCoupled: std::snprintf(buf, sizeof buf, "q of a neighbour - %.3g (rad)", shape.center); return buf;
+    case est::EffectKind::ElasticCoupled:  // not plotted (plotSignals: v instead); named for completeness
+      std::snprintf(buf, sizeof buf, "q of a neighbour - %.3g (rad)", shape.center);
+      return buf;
     case est::EffectKind::ElasticExp:
       std::snprintf(buf, sizeof buf, "%g (exp((q - %.3g)/%g) - 1) (rad)", shape.elastic_scale, shape.center,
                     shape.elastic_scale);
@@ -144,7 +146,8 @@ PlotSignals plotSignals(const Model& model, const est::DiagnoseOptions& opt, con
   }
   for (int r = 0; r < nv; ++r)
     // A constant (offset) or another joint's angle (elastic_coupled): no signal of this joint to plot against; v instead.
-    if (ps.kind[r] == est::EffectKind::Offset || ps.kind[r] == est::EffectKind::ElasticCoupled) ps.kind[r] = est::EffectKind::Viscous;
+    if (ps.kind[r] == est::EffectKind::Offset || ps.kind[r] == est::EffectKind::ElasticCoupled)
+      ps.kind[r] = est::EffectKind::Viscous;
   return ps;
 }
 
