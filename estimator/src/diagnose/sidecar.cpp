@@ -16,20 +16,12 @@ namespace {
 // A YAML double-quoted scalar of any text (the model's name is the user's file name): quote, backslash and control
 // characters escaped, so that what is written reads back as the same string.
 std::string quotedYaml(const std::string& text) {
-  std::string out = "\"";
+  std::string escaped;
   for (const char ch : text) {
-    const auto c = static_cast<unsigned char>(ch);
-    if (c == '"' || c == '\\') {
-      out += '\\', out += ch;
-    } else if (c < 0x20 || c == 0x7f) {
-      char hex[8];
-      std::snprintf(hex, sizeof hex, "\\x%02x", c);
-      out += hex;
-    } else {
-      out += ch;
-    }
+    if (ch == '"' || ch == '\\') escaped += '\\';
+    escaped += ch;
   }
-  return out + "\"";
+  return "\"" + oneLine(escaped) + "\"";  // control characters as \n, \r, \t, \xNN: YAML's escapes too
 }
 }  // namespace
 
