@@ -43,10 +43,14 @@ import time
 
 import yaml
 
-KINDS = ["viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp", "moving_body",
-         "passive", "payload"]
-# A wearer's passive joint moments (Riener & Edrich's elastic law plus damping) are found as any of these kinds.
-PASSIVE_KINDS = ("elastic", "elastic_exp", "viscous")
+KINDS = ["viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp",
+         "elastic_coupled", "passive", "moving_body", "payload"]
+# Seeded kinds no finding has: a wearer's passive moments (named as PASSIVE_KINDS), the trunk (a body moving on the base:
+# no candidate yet, docs/wearer.md), a payload (absorbed by the identified link).
+SEEDED_ONLY = ("passive", "moving_body", "payload")
+# A wearer's passive joint moments (Riener & Edrich's elastic law, its biarticular coupling, damping) are found as any of
+# these kinds.
+PASSIVE_KINDS = ("elastic", "elastic_exp", "elastic_coupled", "viscous")
 
 
 def seeded(path):
@@ -189,14 +193,11 @@ def main():
         for fd in findings:
             first.setdefault(fd["joint"], fd)
         seeded_joints = {j for j, k, v in effects if k != "payload"}
-        moving = bool(summary.get("base_motion", {}).get("found", False))
         verdicts = []
         for joint, kind, value in effects:
             found = "none" if kind == "payload" or joint not in first else first[joint]["kind"]
             if kind == "payload":  # no column: any finding on the link's joints would be the payload's shadow
                 found = "none"
-            if kind == "moving_body":
-                found = "moving_body" if moving else "none"
             confusion[(kind, found)] = confusion.get((kind, found), 0) + 1
             expected = "none" if kind == "payload" else found if kind == "passive" and found in PASSIVE_KINDS else kind
             verdicts.append(f"{joint} {kind} {value:g}: {'ok' if found == expected else 'found ' + found}")
@@ -211,23 +212,17 @@ def main():
                 confusion[("(none)", fd["kind"])] = confusion.get(("(none)", fd["kind"]), 0) + 1
                 verdicts.append(f"false finding: {fd['joint']} {fd['kind']}")
                 false_other += 1 if effects else 0
-        if moving and not any(k == "moving_body" for _, k, _ in effects):
-            confusion[("(none)", "moving_body")] = confusion.get(("(none)", "moving_body"), 0) + 1
-            verdicts.append("false finding: a body moving on the base")
-            false_other += 1 if effects else 0
-        if not effects and not findings and not moving:
+        if not effects and not findings:
             confusion[("(none)", "none")] = confusion.get(("(none)", "none"), 0) + 1
             verdicts.append("clean: no finding")
+        scenario_effects = [e for e in effect_rows if e["scenario"] == name]
         rows.append({
             "scenario": name,
             "seeded": "; ".join(f"{j} {k} {v:g}" for j, k, v in effects) or "none",
-            "effect_rms_nm": "; ".join(f"{effect_rms(j, k, v, residual, tau_rms):.3f}" for j, k, v in effects) or "",
-            "meets_3x_noise": "; ".join("n/a" if effect_rms(j, k, v, residual, tau_rms) != effect_rms(j, k, v, residual, tau_rms)
-                                        else "yes" if effect_rms(j, k, v, residual, tau_rms) >= 3.0 * sigma else "no"
-                                        for j, k, v in effects) or "",
-            "findings": "; ".join([f"{fd['joint']} {fd['kind']} {fd['value']:.3g} ({100 * fd['explained']:.0f} %)"
-                                   for fd in findings] + (["a body moving on the base (%.1fx)" % summary["base_motion"]["ratio"]]
-                                                          if moving else [])) or "none",
+            "effect_rms_nm": "; ".join(e["effect_rms_nm"] for e in scenario_effects) or "",
+            "meets_3x_noise": "; ".join(e["meets_3x_noise"] for e in scenario_effects) or "",
+            "findings": "; ".join(f"{fd['joint']} {fd['kind']} {fd['value']:.3g} ({100 * fd['explained']:.0f} %)"
+                                  for fd in findings) or "none",
             "verdict": "; ".join(verdicts),
             "heldout_before": f"{summary['pooled_rmse_before']:.4f}",
             "heldout_after": f"{summary['pooled_rmse_after']:.4f}",
@@ -235,7 +230,7 @@ def main():
         })
         print(f"{name}: {rows[-1]['verdict']} | held-out {rows[-1]['heldout_before']} -> {rows[-1]['heldout_after']} N m",
               flush=True)
-    found_kinds = ["none"] + [k for k in KINDS if k not in ("passive", "payload")]
+    found_kinds = ["none"] + [k for k in KINDS if k not in SEEDED_ONLY]
     seeded_kinds = [k for k in KINDS if any(s == k for s, _ in confusion)] + ["(none)"]
     with open(os.path.join(a.out, "confusion.csv"), "w", newline="") as f:
         w = csv.writer(f)

@@ -24,7 +24,7 @@ constexpr char kDescription[] =
     "the training data, analyses the residual per joint (size against the noise, autocorrelation, correlation\n"
     "with candidate signals), tests a library of candidate effects per joint (viscous, Coulomb with a smooth\n"
     "sign, Stribeck, constant offset, armature, torque-sensor gain error, time delay, joint elasticity: a linear\n"
-    "and an exponential spring about the mean angle) by forward selection with\n"
+    "and an exponential spring about the mean angle, a neighbouring joint's angle) by forward selection with\n"
     "a one-sided paired t-test over held-out time-block folds (Bonferroni over the candidates of each step:\n"
     "false-alarm rate <= --alpha per data set), re-identifies with the accepted effects and reports the torque\n"
     "RMSE before and after on the validation data, per joint and pooled. A last stage asks whether what remains of\n"
@@ -97,7 +97,8 @@ void addDiagnoseOptions(CLI::App& app, DiagnoseArgs& a) {
       ->type_name("URDF");
   app.add_option("--payload-com-bound", a.opt.payload_com_bound, "m: an admissible payload's CoM lies within this distance "
                  "of its link frame's origin (default 0.5)")->transform(common::strictNumber(1e-6, 1e3));
-  app.add_option("--effects", a.kinds, "candidate kinds to test (default all): viscous coulomb stribeck offset armature gain delay elastic elastic_exp");
+  app.add_option("--effects", a.kinds, "candidate kinds to test (default all): viscous coulomb stribeck offset armature gain delay elastic "
+                 "elastic_exp elastic_coupled");
   app.add_option("--alpha", a.opt.alpha, "false-alarm rate per data set (family-wise per selection step; default 0.01)")
       ->transform(common::strictNumber(1e-9, 0.5));
   app.add_option("--folds", a.folds, "time-block folds for the held-out test (default 20)")

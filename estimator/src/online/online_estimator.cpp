@@ -501,7 +501,8 @@ void OnlineEstimator::process() {
       if (isDryFriction(e.kind)) {
         const int r = model_.jointRow(e.joint);
         Kf_(r, p + col) =
-            effectSignal(e.kind, effectShape(opt_.effects.shape, e), 0.0, Kf_(r, model_.frictionParamIndex(e.joint)), 0.0, 0.0, 0.0);
+            effectSignal(e.kind, effectShape(opt_.effects.shape, e), 0.0, Kf_(r, model_.frictionParamIndex(e.joint)), 0.0,
+                         0.0, 0.0);
       }
       ++col;
     }

@@ -145,8 +145,8 @@ Eigen::MatrixXd centralDifference(const std::vector<double>& t, const Eigen::Mat
 void declaredColumns(const Model& model, const DiagnoseOptions& opt, const std::vector<Segment>& train,
                      const std::vector<Segment>& validate, DiagnoseData& data, DiagnosisResult& out);
 /// Pass A (training segments): the factor of [K_decl | y], the excitation of every (coordinate, column), t, v, y and
-/// y - tau_sensor per sample, and per joint the width-profile sums and (data.has_q) the elastic-profile sums. False with *error on a stream error, a sample of
-/// the wrong size or a segment of fewer than 3 samples.
+/// y - tau_sensor per sample, and per joint the width-profile sums and (data.has_q) the elastic-profile sums. False
+/// with *error on a stream error, a sample of the wrong size or a segment of fewer than 3 samples.
 bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, DiagnosisResult& out,
                   std::string* error);
 /// Excited declared columns (column-pivoted QR of the factor's unit-norm columns, threshold 1e-8) and the declared
@@ -198,7 +198,8 @@ std::vector<PayloadEval> screenPayloads(const Model& model, const DiagnoseOption
 /// What one selection step did.
 enum class StepOutcome { Stop, Effect, Payload, PayloadRelinearise };
 /// The step's decision: the Bonferroni test (alpha / tested) decides whether a coordinate has an effect, the held-out
-/// gain which kind (a refinement only by refinement_margin over the kind it refines); a significant payload with a larger gain wins.
+/// gain which kind (a refinement only by refinement_margin over the kind it refines); a significant payload with a
+/// larger gain wins.
 /// Records the first step's scores (step 0) and appends the accepted column(s) to data.S and out.
 StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data,
                        const std::vector<CandidateEval>& evals, const std::vector<PayloadEval>& pevals, int step,
