@@ -45,9 +45,10 @@ import yaml
 
 KINDS = ["viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp",
          "elastic_coupled", "passive", "moving_body", "payload"]
-# Seeded kinds no finding has: a wearer's passive moments (named as PASSIVE_KINDS), the trunk (a body moving on the base:
-# no candidate yet, docs/wearer.md), a payload (absorbed by the identified link).
-SEEDED_ONLY = ("passive", "moving_body", "payload")
+# Seeded kinds no finding has: a wearer's passive moments (named as PASSIVE_KINDS), a payload (absorbed by the identified
+# link). The trunk, a body moving on the base, is found as "moving_body" on "base" by the unmeasured-body stage (summary.json
+# "unmeasured_body": one pseudo-finding per plane named, value its resonance in Hz).
+SEEDED_ONLY = ("passive", "payload")
 # A wearer's passive joint moments (Riener & Edrich's elastic law, its biarticular coupling, damping) are found as any of
 # these kinds.
 PASSIVE_KINDS = ("elastic", "elastic_exp", "elastic_coupled", "viscous")
@@ -188,7 +189,9 @@ def main():
             summary = json.load(f)
         sigma = torque_noise(path, here)
         _, residual, tau_rms = truth_sizes(a.bin, os.path.join(d, "run2", "run.lcmlog"), d)
-        findings = summary["findings"]
+        findings = summary["findings"] + [
+            {"joint": "base", "kind": "moving_body", "value": p["frequency_hz"], "explained": p["share"]}
+            for p in summary.get("unmeasured_body", {}).get("planes", []) if p["found"]]
         first = {}
         for fd in findings:
             first.setdefault(fd["joint"], fd)

@@ -152,6 +152,10 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   if (!residualPredictability(model, out.series, opt.alpha, opt.min_explained, out.pooled_after, opt.predictability,
                               out.predictability, error))
     return false;
+  // Does an unmeasured body move on the base? (the base rows, which no joint effect reaches)
+  if (!unmeasuredBodyResponse(model, out.series, opt.alpha, opt.min_explained, opt.unmeasured_body, out.unmeasured_body,
+                              error))
+    return false;
   describeFindings(model, opt, out);
   return true;
 }

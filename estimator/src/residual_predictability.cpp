@@ -11,6 +11,7 @@
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/estimator/sparse_regression.hpp"
+#include "held_out_blocks.hpp"
 
 namespace exoid::estimator {
 
@@ -22,40 +23,6 @@ struct Column {
   std::vector<std::string> vars;
   Eigen::VectorXd x;
 };
-
-// Held-out figures of one method on one joint from per-block sums.
-struct BlockTest {
-  double share = 0.0, se = 0.0, p = 1.0;
-};
-
-BlockTest blockTest(const std::vector<double>& ssr, const std::vector<double>& sse) {
-  BlockTest bt;
-  const int B = static_cast<int>(ssr.size());
-  const double R = std::accumulate(ssr.begin(), ssr.end(), 0.0), E = std::accumulate(sse.begin(), sse.end(), 0.0);
-  if (B == 0 || !(R > 0.0)) return bt;
-  bt.share = 1.0 - E / R;
-  if (B < 3) return bt;  // no test with fewer than 3 blocks
-  // Delete-one-block jackknife of the share.
-  std::vector<double> s(B);
-  double ms = 0.0;
-  for (int b = 0; b < B; ++b) {
-    const double r = R - ssr[b], e = E - sse[b];
-    s[b] = r > 0.0 ? 1.0 - e / r : 0.0;
-    ms += s[b] / B;
-  }
-  double v = 0.0;
-  for (double x : s) v += (x - ms) * (x - ms);
-  bt.se = std::sqrt((B - 1.0) / B * v);
-  // One-sided t-test of the mean block gain g_b = ssr_b - sse_b > 0.
-  double mg = 0.0;
-  for (int b = 0; b < B; ++b) mg += (ssr[b] - sse[b]) / B;
-  double vg = 0.0;
-  for (int b = 0; b < B; ++b) vg += (ssr[b] - sse[b] - mg) * (ssr[b] - sse[b] - mg);
-  vg /= (B - 1.0);
-  if (vg > 0.0) bt.p = studentTUpperTail(mg / std::sqrt(vg / B), B - 1.0);
-  else bt.p = mg > 0.0 ? 0.0 : 1.0;
-  return bt;
-}
 
 std::string fmt(const char* f, double x) {
   char buf[64];
@@ -369,7 +336,7 @@ BlockSums heldOutBlocks(const std::vector<ResidualSeries>& series, const StageSa
 // min_share; the reported method is the larger significant share (else the larger share). True: the trees.
 bool judgeMethods(const BlockSums& b, const PredictabilityOptions& o, double level, double min_share,
                   JointPredictability& jp) {
-  const BlockTest bs = blockTest(b.ssr, b.sse_s), bt = o.trees ? blockTest(b.ssr, b.sse_t) : BlockTest{};
+  const BlockTest bs = heldOutBlockTest(b.ssr, b.ssr, b.sse_s), bt = o.trees ? heldOutBlockTest(b.ssr, b.ssr, b.sse_t) : BlockTest{};
   jp.share_sparse = bs.share, jp.se_sparse = bs.se, jp.p_sparse = bs.p;
   jp.share_trees = bt.share, jp.se_trees = bt.se, jp.p_trees = bt.p;
   const bool sig_s = bs.p < level && bs.share >= min_share, sig_t = o.trees && bt.p < level && bt.share >= min_share;

@@ -11,6 +11,7 @@
 
 #include "exoid/estimator/diagnose_stages.hpp"
 #include "exoid/model/regressor.hpp"
+#include "exoid/model/urdf.hpp"
 #include "diagnosis_runs.hpp"
 #include "kuka_model.hpp"
 
@@ -312,6 +313,45 @@ TEST(DiagnoseStages, SummariesAreTheResidualsRms) {
   // Joint 3 after: the 2 N m s/rad are gone down to the noise; before they were not.
   EXPECT_LT(p.out.coordinates[3].rms_after, 0.06);
   EXPECT_GT(p.out.coordinates[3].rms_before, 0.1);
+}
+
+// The floating base's motion that the unmeasured-body stage reads off K (declaredPrediction -> ResidualSeries::base)
+// against the states it came from: alpha and s = a_b - R^T g, with a rotating base (omega x (I omega) must not leak in).
+TEST(DiagnoseStages, DeclaredPredictionReadsTheFloatingBasesMotionOffK) {
+  Model model;
+  std::string err;
+  ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, model, &err)) << err;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0.0, 1.0);
+  diagnosis_runs::Run run;
+  Data d(model);
+  for (int k = 0; k < 120; ++k) {
+    State s = State::zero(model);
+    s.base_orientation = Eigen::Quaterniond(Eigen::Vector4d(g(rng), g(rng), g(rng), g(rng)).normalized());
+    s.base_omega = Eigen::Vector3d(g(rng), g(rng), g(rng));
+    s.base_domega = Eigen::Vector3d(g(rng), g(rng), g(rng));
+    s.base_acceleration = Eigen::Vector3d(g(rng), g(rng), g(rng));
+    for (int j = 0; j < model.njoints; ++j) s.q[j] = 0.3 * g(rng), s.v[j] = g(rng), s.a[j] = g(rng);
+    computeJointTorqueRegressor(model, d, s);
+    run.states.push_back(s), run.t.push_back(0.01 * k), run.y.push_back(d.K * model.phi + 0.1 * Eigen::VectorXd::Random(model.nv));
+  }
+  const std::vector<Segment> tr = {segmentOf(model, run, "train")};
+  DiagnoseOptions opt;
+  DiagnoseData data;
+  DiagnosisResult out;
+  declaredColumns(model, opt, tr, {}, data, out);
+  ASSERT_TRUE(trainingPass(model, opt, data, out, &err)) << err;
+  ASSERT_TRUE(declaredFit(data, out, &err)) << err;
+  ASSERT_TRUE(declaredPrediction(model, data, out, &err)) << err;
+  const Eigen::MatrixXd& base = data.caches[0].base;
+  ASSERT_EQ(base.rows(), 120);
+  ASSERT_EQ(base.cols(), 6);
+  for (int k = 0; k < 120; ++k) {
+    const State& s = run.states[k];
+    const Eigen::Vector3d sf = s.base_acceleration - s.base_orientation.toRotationMatrix().transpose() * model.gravity;
+    EXPECT_LT((base.row(k).head<3>().transpose() - s.base_domega).norm(), 1e-12) << k;
+    EXPECT_LT((base.row(k).tail<3>().transpose() - sf).norm(), 1e-12) << k;
+  }
 }
 
 TEST(StudentT, BoostTailMatchesClosedForms) {

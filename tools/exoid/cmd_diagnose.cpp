@@ -29,11 +29,14 @@ constexpr char kDescription[] =
     "false-alarm rate <= --alpha per data set), re-identifies with the accepted effects and reports the torque\n"
     "RMSE before and after on the validation data, per joint and pooled. A last stage asks whether what remains of\n"
     "each joint's residual is predictable from the state at all (sparse regression over a dictionary of the state,\n"
-    "gradient-boosted trees; held-out time blocks, Bonferroni over the joints) and names the state variables.\n\n"
+    "gradient-boosted trees; held-out time blocks, Bonferroni over the joints) and names the state variables. With a\n"
+    "floating base, a stage asks whether an unmeasured body moves on the base on a spring (a wearer's trunk): the\n"
+    "base rows' residual against a resonant response to the base's own motion, beyond a rigid null, held out.\n\n"
     "Writes to --out: report.md (findings in words, tables, plots), summary.json, rmse.csv, candidates.csv,\n"
     "residual_<segment>.csv, effects.yaml (the sidecar of the augmented model) next to a copy of the URDF,\n"
     "plot_diagnose.py and its PNGs (rmse.png, residual_vs_signal.png, spectra.png; python3 with matplotlib);\n"
-    "the last stage's predictability.csv, predictability_series.csv, plot_predictability.py, predictability.png.\n\n"
+    "the last stage's predictability.csv, predictability_series.csv, plot_predictability.py, predictability.png;\n"
+    "the base rows' unmeasured_body.csv, unmeasured_body_series.csv, plot_unmeasured_body.py, unmeasured_body.png.\n\n"
     "exit codes: 0 success, 2 bad input or data that cannot identify the declared model (one line on stderr),\n"
     "            3 the log is damaged (damaged stretches, a cut-off tail, rejected events; nothing written; see\n"
     "            --allow-partial).";
@@ -64,7 +67,7 @@ struct DiagnoseArgs {
   est::DiagnoseOptions opt;
   std::vector<std::string> kinds;
   std::string pipeline = "sensors", filter_mode = "parallel";
-  bool floating = false, skip_bad = false, allow_partial = false, no_predictability = false;
+  bool floating = false, skip_bad = false, allow_partial = false, no_predictability = false, no_unmeasured_body = false;
   double gravity = 9.81, cutoff = -1.0;
   int folds = est::DiagnoseOptions{}.folds, max_effects = est::DiagnoseOptions{}.max_effects;
   CLI::Option* width_opt = nullptr;
@@ -140,6 +143,12 @@ void addDiagnoseOptions(CLI::App& app, DiagnoseArgs& a) {
   app.add_option("--predictability-block", a.opt.predictability.block_seconds, "s: held-out blocks of the last stage's test "
                  "and the guard between its training and held-out data; longer than the time over which noise in the "
                  "residual is correlated (default 5)")->transform(common::strictNumber(0.01, 1e6));
+  app.add_flag("--no-unmeasured-body", a.no_unmeasured_body, "skip the floating base's stage that asks whether an "
+               "unmeasured body moves on the base on a spring (a wearer's trunk: the base rows' residual against a body's "
+               "resonant response to the base's motion, 0.5-4 Hz, beyond a rigid null; docs/diagnose.md)");
+  app.add_option("--unmeasured-body-block", a.opt.unmeasured_body.block_seconds, "s: held-out blocks of the unmeasured-body "
+                 "stage's test and the guard between its training and held-out data (default 2.5; a 6-move run is ~19 s)")
+      ->transform(common::strictNumber(0.01, 1e6));
   app.add_option("--python", a.in.python, "python interpreter for the plots (default python3; needs matplotlib and numpy)");
 }
 // The options parsed into the diagnosis's: one Coulomb width when given, the kinds, the declared model. False with
@@ -149,6 +158,7 @@ bool finishOptions(DiagnoseArgs& a, std::string* error) {
   if (a.width_opt->count() > 0) opt.coulomb_widths = {opt.shape.coulomb_width};  // one width, as asked
   opt.folds = a.folds;
   opt.predictability.enabled = !a.no_predictability;
+  opt.unmeasured_body.enabled = !a.no_unmeasured_body;
   opt.max_effects = a.max_effects;
   opt.declared_friction = a.in.declared == "rigid+friction";
   if (a.kinds.empty()) return true;

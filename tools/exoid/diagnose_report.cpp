@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "diagnose_predictability.hpp"
+#include "diagnose_unmeasured_body.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/render/run_keyframes.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
@@ -488,13 +489,14 @@ void reportRuns(std::ostringstream& md, const Model& model, const DiagnoseInputs
 
 // The console summary.
 void printSummary(const est::DiagnosisResult& res, const est::OnlineComparison& online, const std::string& predictability,
-                  const fs::path& out) {
+                  const std::string& unmeasured_body, const fs::path& out) {
   std::printf("declared model: %d base-parameter columns; %d candidates; %ld training / %ld validation samples\n",
               res.declared_columns, res.candidates, res.train_samples, res.validation_samples);
   for (const est::PayloadFinding& pf : res.payloads) std::printf("  %s\n", pf.sentence.c_str());
   for (const est::Finding& f : res.findings) std::printf("  %s\n", f.sentence.c_str());
   if (res.findings.empty() && res.payloads.empty()) std::printf("  no finding\n");
   std::printf("%s", predictability.c_str());
+  std::printf("%s", unmeasured_body.c_str());
   std::printf("%-16s %10s %10s\n", "coordinate", "before", "after");
   for (const est::CoordinateSummary& c : res.coordinates) std::printf("%-16s %10.4f %10.4f\n", c.name.c_str(), c.rms_before, c.rms_after);
   std::printf("%-16s %10.4f %10.4f   (%s RMSE, N m)\n", "pooled", res.pooled_before, res.pooled_after,
@@ -542,7 +544,7 @@ bool writeDiagnosis(const Model& model, const Model& declared_model, const est::
   std::vector<std::string> files = in.train_files;
   for (const auto* v : {&in.calib_files, &in.val_files, &in.val_calib_files}) files.insert(files.end(), v->begin(), v->end());
   nlohmann::json js_inputs;
-  std::string md_inputs, plot_csv, payload_urdf, predictability_md, predictability_console;
+  std::string md_inputs, plot_csv, payload_urdf, predictability_md, predictability_console, body_md, body_console;
   describeInputs(files, stats, js_inputs, md_inputs);
   std::error_code ec;
   fs::create_directories(in.out_dir, ec);
@@ -555,7 +557,9 @@ bool writeDiagnosis(const Model& model, const Model& declared_model, const est::
     return false;
   nlohmann::json js = summaryJson(model, opt, in, res, online, js_inputs, payload_urdf);
   if (!writePredictability(in.out_dir, model, res.predictability, opt.predictability, !in.no_plots, in.python, js,
-                           &predictability_md, &predictability_console, error))
+                           &predictability_md, &predictability_console, error) ||
+      !writeUnmeasuredBody(in.out_dir, res.unmeasured_body, opt.unmeasured_body, !in.no_plots, in.python, js, &body_md,
+                           &body_console, error))
     return false;
   std::ofstream f;
   if (!openOut(out, "summary.json", f, error)) return false;
@@ -572,13 +576,14 @@ bool writeDiagnosis(const Model& model, const Model& declared_model, const est::
   reportCandidates(md, model, res);
   reportHidden(md, model, res);
   md << predictability_md;
+  md << body_md;
   reportRuns(md, model, in, out);
   reportTail(md, plotted, plot_csv, set, payload_urdf);
   std::ofstream r;
   if (!openOut(out, "report.md", r, error)) return false;
   r << md.str();
   r.close();
-  printSummary(res, online, predictability_console, out);
+  printSummary(res, online, predictability_console, body_console, out);
   return true;
 }
 

@@ -238,8 +238,11 @@ bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult&
     SegmentSignals& cache = data.caches[s];
     const Segment& seg = data.segment(s);
     const bool is_train = s < data.ntrain;
-    std::vector<double> vs, ys, es, taus, qs;
+    std::vector<double> vs, ys, es, taus, qs, bs;
     long i = 0;
+    // The base link's own columns of K (docs/conventions.md): the Ixx, Iyy, Izz columns' moment rows are alpha exactly
+    // (omega x (I omega) has no component along a principal axis of a one-axis inertia), the m column's force rows s.
+    const int b0 = model.floating_base ? model.bodyParamIndex(0) : -1;
     const bool ok = streamWithPositions(
         seg, nj, qs, size_error,
         [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau_sensor) {
@@ -252,6 +255,8 @@ bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult&
             for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
             for (int r = 0; r < nv; ++r) ys.push_back(y[r]), es.push_back(y[r] - tau_sensor[r]);
           }
+          if (b0 >= 0)
+            bs.insert(bs.end(), {K(0, b0 + 4), K(1, b0 + 7), K(2, b0 + 9), K(3, b0), K(4, b0), K(5, b0)});
           for (int r = 0; r < nv; ++r) {
             double pr = 0.0;
             for (int c = 0; c < m; ++c) pr += K(r, data.decl[c]) * data.x0[c];
@@ -277,6 +282,9 @@ bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult&
     cache.q = qs.size() == static_cast<size_t>(cache.n * nj)
                   ? Eigen::MatrixXd(Eigen::Map<Eigen::MatrixXd>(qs.data(), nj, cache.n).transpose())
                   : Eigen::MatrixXd();
+    cache.base = bs.size() == static_cast<size_t>(cache.n * 6)
+                     ? Eigen::MatrixXd(Eigen::Map<Eigen::MatrixXd>(bs.data(), 6, cache.n).transpose())
+                     : Eigen::MatrixXd();
     cache.a = centralDifference(cache.t, cache.v);
     cache.dext = centralDifference(cache.t, cache.ext);
     cache.dtau = centralDifference(cache.t, cache.tau);

@@ -86,6 +86,7 @@ bool residualSeries(const Model& model, const DiagnoseOptions& opt, DiagnoseData
     rs.v = cache.v;
     rs.a = cache.a;
     rs.tau_model = cache.tau;
+    rs.base = cache.base;
     rs.held_base = data.segment(s).held_base;
     if (!augmentedResidual(model, opt, data, s, rs, error)) return false;
     out.series.push_back(std::move(rs));

@@ -16,6 +16,7 @@
 
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/residual_predictability.hpp"
+#include "exoid/estimator/unmeasured_body.hpp"
 #include "exoid/model/model.hpp"
 
 namespace exoid::estimator {
@@ -170,6 +171,9 @@ struct DiagnoseOptions {
   /// The last stage: is the augmented model's residual predictable from the state? (residual_predictability.hpp;
   /// its test uses alpha and min_explained.)
   PredictabilityOptions predictability;
+  /// The stage that asks whether an unmeasured body moves on the floating base on a spring (unmeasured_body.hpp; its
+  /// test uses alpha and min_explained).
+  UnmeasuredBodyOptions unmeasured_body;
 };
 
 /// A rigid body the data say is fixed to one link (a payload): mass m > 0 and CoM c in the link frame, from the
@@ -239,6 +243,9 @@ struct ResidualSeries {
   Eigen::MatrixXd v, a;           ///< [n x nj] joint velocity (from K's fv column) and acceleration (dv/dt)
   Eigen::MatrixXd tau_model;      ///< [n x nv] declared model's prediction
   Eigen::MatrixXd q;              ///< [n x nj] joint positions (segments with Segment::stream_state; else empty)
+  /// [n x 6] floating base: its angular acceleration alpha (rad/s^2) and specific force s = a_b - R^T g (m/s^2), base
+  /// coordinates, read off the base link's own columns of K (docs/conventions.md); empty for a fixed base
+  Eigen::MatrixXd base;
   bool held_base = false;         ///< Segment::held_base
 };
 
@@ -258,6 +265,7 @@ struct DiagnosisResult {
   std::vector<PayloadFinding> payloads;             ///< accepted payloads, in the order accepted (values: final fit)
   std::vector<PayloadFinding> payload_first_step;   ///< every link's payload candidate in the first step
   PredictabilityResult predictability;  ///< the last stage, on the residual after augmentation
+  UnmeasuredBodyResult unmeasured_body;  ///< the base rows' resonance test, on the residual after augmentation
 };
 
 /// The diagnosis loop. train: at least one segment; validate: may be empty (then "held-out" numbers are the

@@ -37,6 +37,7 @@ struct SegmentSignals {
   Eigen::MatrixXd ext, dext;   ///< y minus the torque sensors' part (the plates' contribution), d/dt of it
   Eigen::MatrixXd v, a;        ///< [n x nj] joint velocity (K's fv column), acceleration (d/dt of v)
   Eigen::MatrixXd q;           ///< [n x nj] joint position (segments with Segment::stream_state; else empty)
+  Eigen::MatrixXd base;        ///< [n x 6] floating base: alpha, s (ResidualSeries::base); else empty
   Eigen::MatrixXd y, tau0;     ///< measured y, the declared model's prediction
   Eigen::MatrixXd tau, dtau;   ///< reference prediction of the gain/delay signals (Gauss-Newton), d/dt of it
 };
@@ -162,7 +163,7 @@ void profileCoulombWidths(DiagnoseData& data);
 /// training angle (data.center_of, data.scale_of; nothing without q).
 void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data);
 /// Pass B (every segment): the declared model's prediction tau0 = K_decl x0 and its d/dt; the validation segments'
-/// t, v, y; q where the segment streams it (data.has_q: every segment does). False on a stream error or data that
+/// t, v, y; q where the segment streams it (data.has_q: every segment does); a floating base's motion (alpha, s). False on a stream error or data that
 /// changed between two reads.
 bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult& out, std::string* error);
 /// Row weights: sigma_c = sqrt(SSE_c / rows_c) of the declared model's training residual per coordinate (WLS-R,
