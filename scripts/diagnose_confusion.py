@@ -12,7 +12,8 @@ effects read from the scenario file:
   parameters, which the identified rigid-body model absorbs: no column, so the right answer is no finding).
 
 A seeded effect is "found as K" when K is the kind of the first finding on its joint (none: no finding there);
-a finding on a joint without a seeded effect counts in the row "(none)".
+a finding on a joint without a seeded effect counts in the row "(none)". A wearer's trunk is seeded as "moving_body" on
+"base" and found when the base rows' stage names an unmeasured body in either plane (summary.json "unmeasured_body").
 
 Effect size (issue 9's criterion: "every seeded effect that changes its joint's torque by >= 3x the torque noise is
 named"), from the validation run's ground truth:
