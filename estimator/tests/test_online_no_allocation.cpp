@@ -146,7 +146,9 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     EXPECT_EQ(est.sensorOffsetColumnCount(), 2 * model.njoints);
     EXPECT_EQ(est.movingBodyColumnCount(), effects ? 6 : 0);
     EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 + 6 : 0) + 2 * model.njoints);
-    if (effects) EXPECT_GE(est.changesDetected(), 2) << forgettingName(f);
+    if (effects) {
+      EXPECT_GE(est.changesDetected(), 2) << forgettingName(f);
+    }
   }
 }
 

@@ -200,7 +200,9 @@ TEST(OnlineEstimator, NoForgettingEqualsTheBatchRegularisedSolutionOnSimulatedDa
   const Eigen::VectorXd d = svd.matrixU().transpose() * (fac.z - fac.R * x0);
   const Eigen::VectorXd xi_v = svd.matrixV().transpose() * xi;
   for (int i = 0; i < m; ++i)
-    if (s[i] < 1e-2) EXPECT_LE(std::abs(xi_v[i]), s[i] * std::abs(d[i]) * (1 + 1e-6) + 1e-10 * xi.norm()) << i;
+    if (s[i] < 1e-2) {
+      EXPECT_LE(std::abs(xi_v[i]), s[i] * std::abs(d[i]) * (1 + 1e-6) + 1e-10 * xi.norm()) << i;
+    }
   // The published fields: base parameters = x, standard parameters reproduce them, sigma within the prior's.
   EXPECT_EQ((out.base_params - x).norm(), 0.0);
   EXPECT_LE((f.base.base_map * out.params - x).norm(), 1e-9 * x.norm());
@@ -531,10 +533,16 @@ TEST(OnlineEstimator, BadInputsAreRejectedCountedAndLeaveTheEstimateUntouched) {
       EXPECT_EQ(dirty.addPlate(badp), InputStatus::NonFinite);
     }
     EXPECT_EQ(dirty.addState(s), InputStatus::Accepted);
-    if (i == 700) EXPECT_EQ(dirty.addState(s), InputStatus::Duplicate);
+    if (i == 700) {
+      EXPECT_EQ(dirty.addState(s), InputStatus::Duplicate);
+    }
     dirty.addPlate(f.train.plates[i][0]);
-    if (i == 900) EXPECT_EQ(dirty.addPlate(f.train.plates[i - 5][0]), InputStatus::OutOfOrder);
-    if (i == 901) EXPECT_EQ(dirty.addState(f.train.states[i - 3]), InputStatus::OutOfOrder);
+    if (i == 900) {
+      EXPECT_EQ(dirty.addPlate(f.train.plates[i - 5][0]), InputStatus::OutOfOrder);
+    }
+    if (i == 901) {
+      EXPECT_EQ(dirty.addState(f.train.states[i - 3]), InputStatus::OutOfOrder);
+    }
     dirty.addPlate(f.train.plates[i][1]);
   }
   EstimatorOutputSample a, b;
@@ -871,7 +879,9 @@ TEST(OnlineEstimator, TheStatedComUncertaintyIsHonestAndAPriorsErrorStandsOut) {
   std::printf("+-25 %% prior: its CoM error %.2f %.2f %.2f mm, final sigma %.3f %.3f %.3f mm\n", 1e3 * prior_error.x(),
               1e3 * prior_error.y(), 1e3 * prior_error.z(), 1e3 * sigma.x(), 1e3 * sigma.y(), 1e3 * sigma.z());
   for (int a = 0; a < 3; ++a)
-    if (std::abs(prior_error[a]) > 0.005) EXPECT_GT(std::abs(prior_error[a]), 5.0 * sigma[a]) << a;
+    if (std::abs(prior_error[a]) > 0.005) {
+      EXPECT_GT(std::abs(prior_error[a]), 5.0 * sigma[a]) << a;
+    }
   EXPECT_GT(std::abs(prior_error.z()), 0.005);  // this prior is mostly wrong in height (30 mm)
 }
 

@@ -65,7 +65,9 @@ TEST(LegSwing, ReferenceStartsAtRestStaysInsideTheLimitsAndItsDerivativesAreCons
     const bool hip_aa = n.find("hip_aa") != std::string::npos;
     const double half = 0.5 * (model.position_upper[j] - model.position_lower[j]);
     EXPECT_GT(hi[j] - lo[j], (hip_aa ? 0.3 : 0.6) * half) << n;
-    if (hip_aa) EXPECT_TRUE(lo[j] >= -1e-12 || hi[j] <= 1e-12) << n << " " << lo[j] << " .. " << hi[j];
+    if (hip_aa) {
+      EXPECT_TRUE(lo[j] >= -1e-12 || hi[j] <= 1e-12) << n << " " << lo[j] << " .. " << hi[j];
+    }
   }
   // A joint without finite limits cannot be swung within them: a clear error.
   Model bad = model;
