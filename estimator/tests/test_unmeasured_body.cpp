@@ -101,7 +101,7 @@ void bodyWrench(const Body& b, const std::function<double(double)>& s, const std
 // Ornstein-Uhlenbeck noise of 1 s correlation time (sigma_smooth) on the four tested rows, plus the sagittal `effect`.
 using BaseRowEffect = std::function<void(const BaseMotion&, const Eigen::VectorXd& t, Eigen::MatrixXd& dw)>;
 ResidualSeries makeRun(const Model& model, uint64_t seed, double duration, double sigma_white, double sigma_smooth,
-                       const BaseRowEffect& effect, bool validation) {
+                       const BaseRowEffect& effect, bool validation, bool frontal = false) {
   std::mt19937_64 rng(seed);
   const BaseMotion motion(rng);
   std::normal_distribution<double> gauss(0.0, 1.0);
@@ -128,7 +128,9 @@ ResidualSeries makeRun(const Model& model, uint64_t seed, double duration, doubl
   if (effect) {
     Eigen::MatrixXd dw;
     effect(motion, rs.t, dw);
-    rs.after.col(1) += dw.col(0), rs.after.col(3) += dw.col(1);
+    // the plane's rows: sagittal n_y, f_x; frontal: the same body leaning about -x, so n_x = -n, f_y = f
+    if (frontal) rs.after.col(0) -= dw.col(0), rs.after.col(4) += dw.col(1);
+    else rs.after.col(1) += dw.col(0), rs.after.col(3) += dw.col(1);
   }
   return rs;
 }
@@ -140,9 +142,10 @@ Model exoModel() {
   return model;
 }
 
-UnmeasuredBodyResult run(const Model& model, uint64_t seed, double sigma_white, double sigma_smooth, const BaseRowEffect& effect) {
-  std::vector<ResidualSeries> series = {makeRun(model, seed, 60.0, sigma_white, sigma_smooth, effect, false),
-                                        makeRun(model, seed + 1000, 40.0, sigma_white, sigma_smooth, effect, true)};
+UnmeasuredBodyResult run(const Model& model, uint64_t seed, double sigma_white, double sigma_smooth, const BaseRowEffect& effect,
+                         bool frontal = false) {
+  std::vector<ResidualSeries> series = {makeRun(model, seed, 60.0, sigma_white, sigma_smooth, effect, false, frontal),
+                                        makeRun(model, seed + 1000, 40.0, sigma_white, sigma_smooth, effect, true, frontal)};
   UnmeasuredBodyResult res;
   std::string err;
   EXPECT_TRUE(unmeasuredBodyResponse(model, series, 0.01, 0.02, UnmeasuredBodyOptions{}, res, &err)) << err;
@@ -152,8 +155,8 @@ UnmeasuredBodyResult run(const Model& model, uint64_t seed, double sigma_white, 
 // The pendulum at natural frequency f_hz and damping ratio zeta, driven by the base (s_x, alpha_y; x base_gain) and,
 // with sway > 0, by its own torque like the simulator's (sim/src/wearer.cpp: white noise through a first-order low-pass
 // at 0.5 Hz): 24 sines at log-spaced frequencies 0.05-3 Hz, each carrying its band's share of that spectrum, sway N m RMS.
-BaseRowEffect pendulum(double f_hz, double zeta, double sway = 0.0, double base_gain = 1.0) {
-  return [f_hz, zeta, sway, base_gain](const BaseMotion& motion, const Eigen::VectorXd& t, Eigen::MatrixXd& dw) {
+BaseRowEffect pendulum(double f_hz, double zeta, double sway = 0.0, double base_gain = 1.0, bool frontal = false) {
+  return [f_hz, zeta, sway, base_gain, frontal](const BaseMotion& motion, const Eigen::VectorXd& t, Eigen::MatrixXd& dw) {
     Body b;
     const double Jp = b.Jc + b.m * b.h * b.h, w = 2 * M_PI * f_hz;
     b.k = Jp * w * w + b.m * 9.81 * b.h, b.c = 2 * zeta * w * Jp;  // k - m g h = J w^2
@@ -170,8 +173,9 @@ BaseRowEffect pendulum(double f_hz, double zeta, double sway = 0.0, double base_
       for (int h = 0; h < kS; ++h) q += A[h] * std::sin(W[h] * x + P[h]);
       return sway * q / std::sqrt(power);
     };
-    bodyWrench(b, [&](double x) { return base_gain * motion(0, x); }, [&](double x) { return base_gain * motion(3, x); },
-               torque, t, dw);
+    // frontal: the body leans about -x, driven by s_y and -alpha_x
+    bodyWrench(b, [&](double x) { return base_gain * motion(frontal ? 1 : 0, x); },
+               [&](double x) { return frontal ? -base_gain * motion(2, x) : base_gain * motion(3, x); }, torque, t, dw);
   };
 }
 
@@ -231,6 +235,30 @@ TEST(UnmeasuredBody, ABodyMovedByItsOwnTorqueShowsTheGravitySignature) {
     EXPECT_FALSE(res.planes[1].found) << "frontal: " << res.planes[1].verdict;
     EXPECT_NE(sag.sentence.find("double integral"), std::string::npos) << sag.sentence;
   }
+}
+
+TEST(UnmeasuredBody, AFrontalBodyIsNamedInTheFrontalPlaneWithGravitysSign) {
+  const Model model = exoModel();
+  // The same trunk leaning sideways (about -x): rows base_nx = -n, base_fy = f, inputs s_y and -alpha_x. Checks the
+  // frontal plane's rows, inputs and the sign of g in its signature (n_x = -z f_y + g p_y).
+  const UnmeasuredBodyResult driven = run(model, 90, 0.3, 0.3, pendulum(2.0, 0.3, 0.0, 1.0, true), true);
+  const UnmeasuredBodyResult sway = run(model, 91, 0.1, 0.1, pendulum(1.25, 0.3, 5.0, 0.1, true), true);
+  ASSERT_TRUE(driven.ran && sway.ran);
+  for (const UnmeasuredBodyResult* res : {&driven, &sway}) {
+    EXPECT_EQ(res->planes[1].plane, "frontal");
+    EXPECT_TRUE(res->planes[1].found) << res->planes[1].verdict;
+    EXPECT_FALSE(res->planes[0].found) << "sagittal: " << res->planes[0].verdict;
+  }
+  const UnmeasuredBodyPlane& d = driven.planes[1];
+  EXPECT_TRUE(d.driven.passed);
+  EXPECT_LT(std::fabs(std::log(d.frequency_hz / 2.0)), 0.25 * std::log(2.0) * 1.01) << d.frequency_hz;
+  const UnmeasuredBodyPlane& g = sway.planes[1];
+  EXPECT_TRUE(g.gravity.passed) << g.gravity.p;
+  EXPECT_GT(g.gravity_ratio, 0.8);
+  EXPECT_LT(g.gravity_ratio, 1.2);
+  EXPECT_NEAR(g.lever, 0.605, 0.05);
+  std::printf("frontal: driven %.2f Hz gain %.3f p %.2g; sway b/g %.2f height %.3f gain %.3f p %.2g\n", d.frequency_hz,
+              d.driven.gain, d.driven.p, g.gravity_ratio, g.lever, g.gravity.gain, g.gravity.p);
 }
 
 TEST(UnmeasuredBody, NoiseARigidBodyAndAStiffBodyAreNotNamed) {
