@@ -60,17 +60,28 @@ struct PlaneDef {
 };
 constexpr PlaneDef kPlanes[2] = {{"sagittal", 1, 3, 3, 1, -1.0}, {"frontal", 0, 4, 4, 0, 1.0}};
 
-// Least squares of each column of R on X over `rows`; coefficients [X.cols() x R.cols()].
-Eigen::MatrixXd fitRows(const Eigen::MatrixXd& X, const Eigen::MatrixXd& R, const std::vector<long>& rows) {
-  Eigen::MatrixXd A(rows.size(), X.cols()), B(rows.size(), R.cols());
-  for (size_t i = 0; i < rows.size(); ++i) A.row(i) = X.row(rows[i]), B.row(i) = R.row(rows[i]);
+// Least squares of each column of R on [Xn | Xe] over `rows` (Xe may have no columns); coefficients [(nn + ne) x k].
+Eigen::MatrixXd fitRows(const Eigen::MatrixXd& Xn, const Eigen::MatrixXd& Xe, const Eigen::MatrixXd& R,
+                        const std::vector<long>& rows) {
+  Eigen::MatrixXd A(rows.size(), Xn.cols() + Xe.cols()), B(rows.size(), R.cols());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    A.row(i) << Xn.row(rows[i]), Xe.row(rows[i]);
+    B.row(i) = R.row(rows[i]);
+  }
   return Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(A).solve(B);
 }
 
-double sseOn(const Eigen::MatrixXd& X, const Eigen::MatrixXd& R, const Eigen::MatrixXd& beta,
+// The prediction of [Xn | Xe] beta at row k.
+Eigen::RowVectorXd predictRow(const Eigen::MatrixXd& Xn, const Eigen::MatrixXd& Xe, const Eigen::MatrixXd& beta, long k) {
+  Eigen::RowVectorXd p = Xn.row(k) * beta.topRows(Xn.cols());
+  if (Xe.cols() > 0) p += Xe.row(k) * beta.bottomRows(Xe.cols());
+  return p;
+}
+
+double sseOn(const Eigen::MatrixXd& Xn, const Eigen::MatrixXd& Xe, const Eigen::MatrixXd& R, const Eigen::MatrixXd& beta,
              const std::vector<long>& rows) {
   double s = 0.0;
-  for (long k : rows) s += (R.row(k) - X.row(k) * beta).squaredNorm();
+  for (long k : rows) s += (R.row(k) - predictRow(Xn, Xe, beta, k)).squaredNorm();
   return s;
 }
 
@@ -147,28 +158,29 @@ struct Stage {
     return rows;
   }
 
-  // Held-out predictions of the null Xn and of the best of the alternatives Xa (the one with the smallest SSE on the
-  // fitting rows) for the scaled targets Rs [N x k]: cross-fitted training folds (too few fitting rows, 10 per column:
-  // no prediction, no skill claimed), validation from all training rows. Returns the alternative chosen on all training
-  // rows and its coefficients there.
-  int predict(const Eigen::MatrixXd& Rs, const Eigen::MatrixXd& Xn, const std::vector<Eigen::MatrixXd>& Xa,
+  // Held-out predictions of the null Xn and of the best of the alternatives [Xn | Xe[g]] (the one with the smallest SSE on
+  // the fitting rows) for the scaled targets Rs [N x k]: cross-fitted training folds (too few fitting rows, 10 per
+  // column: no prediction, no skill claimed), validation from all training rows. Returns the alternative chosen on all
+  // training rows and (beta_all) its coefficients there, the null's first.
+  int predict(const Eigen::MatrixXd& Rs, const Eigen::MatrixXd& Xn, const std::vector<Eigen::MatrixXd>& Xe,
               Eigen::MatrixXd& Pn, Eigen::MatrixXd& Pa, Eigen::MatrixXd* beta_all) const {
     Pn = Eigen::MatrixXd::Zero(N, Rs.cols()), Pa = Pn;
+    const Eigen::MatrixXd none(N, 0);
     auto run = [&](const std::vector<long>& fit, const std::vector<long>& target, Eigen::MatrixXd* beta_out) {
       int best = 0;
       double best_sse = INFINITY;
       Eigen::MatrixXd best_beta;
-      for (size_t g = 0; g < Xa.size(); ++g) {
-        const Eigen::MatrixXd beta = fitRows(Xa[g], Rs, fit);
-        const double e = sseOn(Xa[g], Rs, beta, fit);
+      for (size_t g = 0; g < Xe.size(); ++g) {
+        const Eigen::MatrixXd beta = fitRows(Xn, Xe[g], Rs, fit);
+        const double e = sseOn(Xn, Xe[g], Rs, beta, fit);
         if (e < best_sse) best_sse = e, best = static_cast<int>(g), best_beta = beta;
       }
-      const Eigen::MatrixXd bn = fitRows(Xn, Rs, fit);
-      for (long k : target) Pn.row(k) = Xn.row(k) * bn, Pa.row(k) = Xa[best].row(k) * best_beta;
+      const Eigen::MatrixXd bn = fitRows(Xn, none, Rs, fit);
+      for (long k : target) Pn.row(k) = Xn.row(k) * bn, Pa.row(k) = predictRow(Xn, Xe[best], best_beta, k);
       if (beta_out) *beta_out = best_beta;
       return best;
     };
-    const size_t min_rows = 10 * static_cast<size_t>(Xa.front().cols());
+    const size_t min_rows = 10 * static_cast<size_t>(Xn.cols() + Xe.front().cols());
     for (int f = 0; f < o.folds; ++f) {
       std::vector<long> te;
       for (long k : train_rows)
@@ -322,15 +334,14 @@ bool unmeasuredBodyResponse(const Model& model, const std::vector<ResidualSeries
     // carries g p, well above its noise wherever the body moves.
     {
       const double js = st.trainRms(Jf);
-      Eigen::MatrixXd Gn(N, 2), Ga(N, 3);
+      Eigen::MatrixXd Gn(N, 2);
       Gn << H.col(1), Eigen::VectorXd::Ones(N);
-      Ga << H.col(0), H.col(1), Eigen::VectorXd::Ones(N);
       const Eigen::MatrixXd Js = Jf / (js > 0.0 ? js : 1.0);
       Eigen::MatrixXd Pn, Pa, beta;
-      st.predict(Js, Gn, {Ga}, Pn, Pa, &beta);
+      st.predict(Js, Gn, {H.col(0)}, Pn, Pa, &beta);  // beta: f, 1, n
       up.gravity = st.test(Js, Pn, Pa);
-      // J[f] = (L f - n) / g (sagittal), (n + L f) / g (frontal): the coefficient of n is 1 / (sign g)
-      const double bn = beta(0, 0) * js, bf = beta(1, 0) * js;
+      // J[f] = (z f - n) / g (sagittal), (n + z f) / g (frontal): the coefficient of n is 1 / (sign g)
+      const double bn = beta(2, 0) * js, bf = beta(0, 0) * js;
       up.gravity_ratio = bn * P.gravity_sign * kGravity;
       up.lever = bn != 0.0 ? P.gravity_sign * bf / bn : 0.0;  // z of n_y = z f_x, n_x = -z f_y: the mass's height
       up.first_moment_rms = js;
@@ -340,14 +351,9 @@ bool unmeasuredBodyResponse(const Model& model, const std::vector<ResidualSeries
     {
       const Eigen::MatrixXd Rs = R * scale.cwiseInverse().asDiagonal();
       normalise(Xn, st.train_rows);
-      std::vector<Eigen::MatrixXd> Xf(ng);
-      for (int g = 0; g < ng; ++g) {
-        normalise(Xb[g], st.train_rows);
-        Xf[g].resize(N, 11);
-        Xf[g] << Xn, Xb[g];
-      }
+      for (Eigen::MatrixXd& X : Xb) normalise(X, st.train_rows);
       Eigen::MatrixXd Pn, Pb;
-      const int g_all = st.predict(Rs, Xn, Xf, Pn, Pb, nullptr);
+      const int g_all = st.predict(Rs, Xn, Xb, Pn, Pb, nullptr);
       up.frequency_hz = o.frequencies_hz[g_all / o.damping_ratios.size()];
       up.damping_ratio = o.damping_ratios[g_all % o.damping_ratios.size()];
       up.driven = st.test(Rs, Pn, Pb);
