@@ -67,5 +67,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                        back.shape.stribeck_velocity == set.shape.stribeck_velocity,
                    "the same shape constants");
   EXOID_FUZZ_CHECK(back.model == set.model, "the same model name");
+  EXOID_FUZZ_CHECK(back.base_body_moves == set.base_body_moves, "the same base_body_moves");
   return 0;
 }

@@ -625,6 +625,35 @@ TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
     EXPECT_FALSE(readEffects(path, model, back, &err)) << bad;
     EXPECT_NE(err.find("effects[0]"), std::string::npos) << err;
   }
+  // base_body_moves (an unmeasured body on the floating base): read back on a floating base, refused on a fixed one
+  // (the KUKA) and unless true or false; a refused file leaves the set as it was.
+  Model exo;
+  ASSERT_TRUE(buildModelFromUrdfFile(std::string(EXOID_CONFIG_DIR) + "/exo.urdf", true, exo, &err)) << err;
+  EffectSet moving;
+  moving.model = "exo.urdf";
+  moving.base_body_moves = true;
+  ASSERT_TRUE(writeEffects(path, exo, moving, &err)) << err;
+  ASSERT_TRUE(readEffects(path, exo, back, &err)) << err;
+  EXPECT_TRUE(back.base_body_moves);
+  EXPECT_TRUE(back.effects.empty());
+  EXPECT_FALSE(writeEffects(path, model, moving, &err));
+  EXPECT_NE(err.find("floating base"), std::string::npos) << err;
+  for (const char* bad : {"base_body_moves: yes\neffects: []\n", "base_body_moves: 1\neffects: []\n",
+                          "base_body_moves: [true]\neffects: []\n"}) {
+    FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs(bad, f);
+    std::fclose(f);
+    EXPECT_FALSE(readEffects(path, exo, back, &err)) << bad;
+    EXPECT_NE(err.find("base_body_moves must be true or false"), std::string::npos) << err;
+    EXPECT_TRUE(back.base_body_moves) << "a refused file changed the set";
+  }
+  {
+    FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs("base_body_moves: true\neffects: []\n", f);
+    std::fclose(f);
+  }
+  EXPECT_FALSE(readEffects(path, model, back, &err));
+  EXPECT_NE(err.find("needs a floating base"), std::string::npos) << err;
   std::remove(path.c_str());
 }
 

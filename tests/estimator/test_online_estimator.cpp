@@ -968,6 +968,13 @@ TEST(OnlineEstimator, ABodyMovingOnTheBaseKeepsItsLagOutOfTheTrustedComHeight) {
               "(%.1f sigma) with base_body_moves\n", 1e3 * rigid, z_rigid, 1e3 * told, z_moving);
   EXPECT_GT(rigid, 5e-3);  // the lag biases the height, and the rigid model's covariance claims to know it
   EXPECT_LT(told, 1e-3);
+  // A diagnose sidecar that named an unmeasured body on the base (`base_body_moves: true`) tells the estimator the
+  // same: the very same estimate.
+  OnlineEstimatorOptions sidecar;
+  sidecar.effects.base_body_moves = true;
+  double z_sidecar = 0.0;
+  EXPECT_EQ(taken(sidecar, &z_sidecar), told);
+  EXPECT_EQ(z_sidecar, z_moving);
 }
 
 TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAlarmsBefore) {

@@ -130,6 +130,7 @@ TEST(DiagnoseScenarios, SeededEffectsAreNamedAndTheCleanRunGivesNoFinding) {
   EXPECT_TRUE(clean["findings"].empty()) << clean["findings"].dump(1);
   nothingPredictable(clean, "clean_seed11");
   noUnmeasuredBody(clean, "clean_seed11");
+  EXPECT_EQ(test::slurp(clean_dir.file("dg/effects.yaml")).find("base_body_moves"), std::string::npos);
   // What a balancing robot's data cannot show: a constant torque on any joint lies (almost) inside the declared
   // model's span (measured 6e-7 to 2e-3 of its signal outside it), friction does not (0.83-0.98); the report says so.
   {
@@ -273,6 +274,8 @@ TEST(DiagnoseScenarios, AWearersTrunkIsNamedAsAnUnmeasuredBodyOnTheBase) {
       dir.path);
   ASSERT_EQ(d.exit_code, 0) << d.err;
   EXPECT_NE(d.out.find("an unmeasured body moves on the base"), std::string::npos) << d.out;
+  // handed on: the sidecar tells the online estimator (docs/diagnose.md "The sidecar")
+  EXPECT_NE(test::slurp(dir.file("dg/effects.yaml")).find("\nbase_body_moves: true"), std::string::npos);
   const nlohmann::json js = nlohmann::json::parse(test::slurp(dir.file("dg/summary.json")));
   ASSERT_TRUE(js["unmeasured_body"]["ran"].get<bool>());
   const auto& planes = js["unmeasured_body"]["planes"];

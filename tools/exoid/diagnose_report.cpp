@@ -471,6 +471,10 @@ void reportTail(std::ostringstream& md, bool plotted, const std::string& plot_cs
     md << "Not drawn (run `python3 plot_diagnose.py " << plot_csv << "` here with matplotlib).\n\n";
   md << "## Augmented model\n\n`" << set.model << "` (the rigid-body model, unchanged) + `effects.yaml` (the accepted "
         "effects: dynamics columns and measurement corrections; format in docs/diagnose.md).\n";
+  if (set.base_body_moves)
+    md << "\n`base_body_moves: true`: an unmeasured body moves on the base (above); the online estimator given this "
+          "sidecar (`exo_estimator --effects effects.yaml`) frees the base rows' own mcz, which such a body's lag "
+          "misreads as a higher base link (docs/estimator.md \"A body that moves on the base\").\n";
   if (!payload_urdf.empty())
     md << "\n`" << payload_urdf << "`: the declared model with the payloads found added to their links (point masses).\n";
 }
@@ -535,6 +539,7 @@ est::EffectSet effectSetOf(const std::string& model_path, const est::DiagnoseOpt
   set.model = fs::path(model_path).filename().string();
   set.shape = opt.shape;
   for (const est::Finding& f : res.findings) set.effects.push_back(f.effect);
+  for (const est::UnmeasuredBodyPlane& p : res.unmeasured_body.planes) set.base_body_moves = set.base_body_moves || p.found;
   return set;
 }
 

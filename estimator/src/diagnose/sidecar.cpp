@@ -39,6 +39,10 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
          "# Measurement effects correct the torque: gain g (measured = (1 + g) true), delay d (s, measured(t) =\n"
          "# true(t - d)).\n";
     f << "model: " << quotedYaml(set.model) << "\n";
+    if (set.base_body_moves) {
+      if (!model.floating_base) return error && (*error = "base_body_moves needs a floating base", true), false;
+      f << "base_body_moves: true  # an unmeasured body moves on the base: the online estimator frees the base rows' mcz\n";
+    }
     std::snprintf(buf, sizeof buf, "coulomb_width: %.17g  # rad/s\nstribeck_velocity: %.17g  # rad/s\neffects:\n",
                   set.shape.coulomb_width, set.shape.stribeck_velocity);
     f << buf;
@@ -78,14 +82,21 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
 
 namespace {
 // Why the sidecar's top-level mapping is not one (empty: it is): known keys only, positive finite shape constants.
-std::string readShape(const YAML::Node& root, EffectSet& set) {
+std::string readShape(const YAML::Node& root, const Model& model, EffectSet& set) {
   if (!root.IsMap()) return "expected a mapping with 'effects'";
   for (auto it = root.begin(); it != root.end(); ++it) {
     const std::string key = it->first.as<std::string>();
-    if (key != "model" && key != "coulomb_width" && key != "stribeck_velocity" && key != "effects")
+    if (key != "model" && key != "coulomb_width" && key != "stribeck_velocity" && key != "effects" &&
+        key != "base_body_moves")
       return "unknown key '" + key + "'";
   }
   if (root["model"]) set.model = root["model"].as<std::string>();
+  if (root["base_body_moves"]) {  // YAML 1.1's yes/on/y are not taken: true or false only
+    const YAML::Node& b = root["base_body_moves"];
+    if (!b.IsScalar() || (b.Scalar() != "true" && b.Scalar() != "false")) return "base_body_moves must be true or false";
+    set.base_body_moves = b.Scalar() == "true";
+    if (set.base_body_moves && !model.floating_base) return "base_body_moves needs a floating base";
+  }
   if (root["coulomb_width"]) set.shape.coulomb_width = root["coulomb_width"].as<double>();
   if (root["stribeck_velocity"]) set.shape.stribeck_velocity = root["stribeck_velocity"].as<double>();
   if (!(set.shape.coulomb_width > 0) || !std::isfinite(set.shape.coulomb_width) || !(set.shape.stribeck_velocity > 0) ||
@@ -149,20 +160,21 @@ bool readEffects(const std::string& path, const Model& model, EffectSet& set, st
   } catch (const std::exception& e) {
     return fail(std::string("not readable YAML: ") + e.what());
   }
-  set = EffectSet{};
+  EffectSet read;  // the caller's set changes only on success
   try {
-    if (const std::string why = readShape(root, set); !why.empty()) return fail(why);
+    if (const std::string why = readShape(root, model, read); !why.empty()) return fail(why);
     const YAML::Node effects = root["effects"];
     if (!effects || !effects.IsSequence()) return fail("'effects' must be a list");
     for (size_t i = 0; i < effects.size(); ++i) {
       Effect ef;
       if (const std::string why = readEffect(effects[i], "effects[" + std::to_string(i) + "]", model, ef); !why.empty())
         return fail(why);
-      set.effects.push_back(ef);
+      read.effects.push_back(ef);
     }
   } catch (const std::exception& ex) {
     return fail(std::string("malformed: ") + ex.what());
   }
+  set = read;
   return true;
 }
 

@@ -83,7 +83,8 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   // so the filter runs on E's entries too and the checkpoint structure holds the columns.
   std::vector<double> effect_sigma;
   if (!opt_.effects.effects.empty() && !addEffectColumns(effect_sigma)) return;
-  if (opt_.base_body_moves && !addMovingBodyColumns(prior_phi, effect_sigma)) return;
+  // told by the options or by the sidecar (a diagnosis that named an unmeasured body on the base)
+  if ((opt_.base_body_moves || opt_.effects.base_body_moves) && !addMovingBodyColumns(prior_phi, effect_sigma)) return;
   if ((opt_.sensor_offset_sigma > 0.0 || opt_.sensor_gain_sigma > 0.0) && !addSensorOffsetColumns(effect_sigma)) return;
   rls_ = RecursiveLsData(rls_model_);
   weighting_ = opt_.forgetting == Forgetting::Selective ? RowWeighting::Fixed : opt_.row_weighting;

@@ -282,6 +282,10 @@ struct EffectSet {
   std::string model;  ///< URDF file name the effects belong to
   EffectShape shape;
   std::vector<Effect> effects;
+  /// The diagnosis named an unmeasured body on the floating base (UnmeasuredBodyResult: a plane found). The online
+  /// estimator given this sidecar then frees the base rows' own mcz (OnlineEstimatorOptions::base_body_moves): such a
+  /// body's lag reads as a higher base link there (docs/estimator.md "A body that moves on the base").
+  bool base_body_moves = false;
 };
 bool writeEffects(const std::string& path, const Model& model, const EffectSet& set, std::string* error);
 /// Reads a sidecar; fails naming the entry on an unknown joint or kind or a non-finite value.

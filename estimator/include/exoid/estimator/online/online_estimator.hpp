@@ -142,7 +142,8 @@ struct OnlineEstimatorOptions {
   /// columns, the base link's own mcz column on each base row, prior 0 with one-sigma |the prior's base mcz| +
   /// 1e-3 kg m, so that those rows no longer tell the height. Off for a robot without such a body (the empty
   /// exoskeleton: its payloads' heights come from those rows); `exoid experiment` turns it on for a scenario
-  /// with a wearer.
+  /// with a wearer, and a sidecar with EffectSet::base_body_moves (a diagnosis that named an unmeasured body on
+  /// the base) does too.
   bool base_body_moves = false;
 };
 
