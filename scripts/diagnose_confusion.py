@@ -48,7 +48,7 @@ KINDS = ["viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay"
          "elastic_coupled", "passive", "moving_body", "payload"]
 # Seeded kinds no finding has: a wearer's passive moments (named as PASSIVE_KINDS), a payload (absorbed by the identified
 # link). The trunk, a body moving on the base, is found as "moving_body" on "base" by the unmeasured-body stage (summary.json
-# "unmeasured_body": one pseudo-finding per plane named, value its resonance in Hz).
+# "unmeasured_body": one pseudo-finding per plane named, value its resonance in Hz, share the passed signature's gain).
 SEEDED_ONLY = ("passive", "payload")
 # A wearer's passive joint moments (Riener & Edrich's elastic law, its biarticular coupling, damping) are found as any of
 # these kinds.
@@ -191,7 +191,8 @@ def main():
         sigma = torque_noise(path, here)
         _, residual, tau_rms = truth_sizes(a.bin, os.path.join(d, "run2", "run.lcmlog"), d)
         findings = summary["findings"] + [
-            {"joint": "base", "kind": "moving_body", "value": p["frequency_hz"], "explained": p["share"]}
+            {"joint": "base", "kind": "moving_body", "value": p["frequency_hz"],
+             "explained": max(t["gain"] for t in (p["gravity"], p["driven"]) if t["passed"])}
             for p in summary.get("unmeasured_body", {}).get("planes", []) if p["found"]]
         first = {}
         for fd in findings:
