@@ -1,14 +1,43 @@
 #pragma once
-// The held-out block test shared by the diagnosis' residual stages (residual_predictability.cpp, unmeasured_body.cpp):
-// per held-out block b, the residual's sum of squares ssr_b, a reference model's error sse_ref_b (the residual itself,
-// i.e. predicting zero, or a null model) and the tested model's error sse_b.
+// The cross-fitting and the held-out block test shared by the diagnosis' residual stages (residual_predictability.cpp,
+// unmeasured_body.cpp): the training rows a held-out fold may be predicted from, and per held-out block b the
+// residual's sum of squares ssr_b, a reference model's error sse_ref_b (the residual itself, i.e. predicting zero, or a
+// null model) and the tested model's error sse_b.
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
+#include <utility>
 #include <vector>
 
 #include "exoid/estimator/diagnose.hpp"
 
 namespace exoid::estimator {
+
+/// The rows of `train_rows` outside the folds `held` and more than `guard` seconds away from them within their segment
+/// (the residual is correlated over seconds: a neighbouring sample would leak it). fold [N]: each row's fold (-1: not a
+/// training row); seg [N], tt [N]: each row's segment and time (any container indexed by row).
+template <class Times>
+std::vector<long> trainingRowsOutside(const std::vector<long>& train_rows, const std::vector<int>& fold,
+                                      const std::vector<int>& seg, const Times& tt, const std::vector<int>& held,
+                                      double guard) {
+  auto is_held = [&](long k) { return std::find(held.begin(), held.end(), fold[k]) != held.end(); };
+  std::map<int, std::pair<double, double>> span;  // segment -> time range of the held rows
+  for (long k : train_rows)
+    if (is_held(k)) {
+      auto it = span.find(seg[k]);
+      if (it == span.end()) span[seg[k]] = {tt[k], tt[k]};
+      else it->second.first = std::min(it->second.first, tt[k]), it->second.second = std::max(it->second.second, tt[k]);
+    }
+  std::vector<long> rows;
+  for (long k : train_rows) {
+    if (is_held(k)) continue;
+    auto it = span.find(seg[k]);
+    if (it != span.end() && tt[k] >= it->second.first - guard && tt[k] <= it->second.second + guard) continue;
+    rows.push_back(k);
+  }
+  return rows;
+}
 
 struct BlockTest {
   double share = 0.0, se = 0.0, p = 1.0;

@@ -208,25 +208,9 @@ struct FoldPlan {
       if (usable[k]) (ss.val[k] ? val_rows : train_rows).push_back(k);
     for (size_t i = 0; i < train_rows.size(); ++i) fold[train_rows[i]] = static_cast<int>(i * o.folds / train_rows.size());
   }
-  bool held(const std::vector<int>& folds, long k) const { return std::find(folds.begin(), folds.end(), fold[k]) != folds.end(); }
   // Training rows outside the folds in `folds` and outside block_seconds of them within their segment.
   std::vector<long> trainingOutside(const std::vector<int>& folds) const {
-    std::map<int, std::pair<double, double>> span;  // segment -> time range of the held rows
-    for (long k : train_rows)
-      if (held(folds, k)) {
-        auto it = span.find(ss.seg[k]);
-        if (it == span.end()) span[ss.seg[k]] = {ss.tt[k], ss.tt[k]};
-        else it->second.first = std::min(it->second.first, ss.tt[k]), it->second.second = std::max(it->second.second, ss.tt[k]);
-      }
-    std::vector<long> rows;
-    for (long k : train_rows) {
-      if (held(folds, k)) continue;
-      auto it = span.find(ss.seg[k]);
-      if (it != span.end() && ss.tt[k] >= it->second.first - o.block_seconds && ss.tt[k] <= it->second.second + o.block_seconds)
-        continue;
-      rows.push_back(k);
-    }
-    return rows;
+    return trainingRowsOutside(train_rows, fold, ss.seg, ss.tt, folds, o.block_seconds);
   }
   std::vector<long> foldRows(int f) const {
     std::vector<long> rows;

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <numeric>
 
 #include "exoid/estimator/diagnose.hpp"
@@ -139,24 +138,7 @@ struct Stage {
   }
 
   // Training rows outside fold f and outside block_seconds of it within its segment (the residual is correlated).
-  std::vector<long> outside(int f) const {
-    std::map<int, std::pair<double, double>> span;
-    for (long k : train_rows)
-      if (fold[k] == f) {
-        auto it = span.find(seg[k]);
-        if (it == span.end()) span[seg[k]] = {tt[k], tt[k]};
-        else it->second.first = std::min(it->second.first, tt[k]), it->second.second = std::max(it->second.second, tt[k]);
-      }
-    std::vector<long> rows;
-    for (long k : train_rows) {
-      if (fold[k] == f) continue;
-      auto it = span.find(seg[k]);
-      if (it != span.end() && tt[k] >= it->second.first - o.block_seconds && tt[k] <= it->second.second + o.block_seconds)
-        continue;
-      rows.push_back(k);
-    }
-    return rows;
-  }
+  std::vector<long> outside(int f) const { return trainingRowsOutside(train_rows, fold, seg, tt, {f}, o.block_seconds); }
 
   // Held-out predictions of the null Xn and of the best of the alternatives [Xn | Xe[g]] (the one with the smallest SSE on
   // the fitting rows) for the scaled targets Rs [N x k]: cross-fitted training folds (too few fitting rows, 10 per
@@ -230,10 +212,14 @@ struct Stage {
   }
 };
 
-const char* verdictOf(const BodyTest& t, double level, double min_share, bool admissible) {
+// A signature's verdict (sets t.passed): significant at the level, a gain of at least min_share and admissible.
+const char* judge(BodyTest& t, double level, double min_share, bool admissible) {
+  t.passed = false;
   if (!(t.p < level)) return "not significant";
   if (t.gain < min_share) return "below min-share";
-  return admissible ? "an unmeasured body" : "wrong sign";
+  if (!admissible) return "wrong sign";
+  t.passed = true;
+  return "an unmeasured body";
 }
 
 }  // namespace
@@ -345,7 +331,6 @@ bool unmeasuredBodyResponse(const Model& model, const std::vector<ResidualSeries
       up.gravity_ratio = bn * P.gravity_sign * kGravity;
       up.lever = bn != 0.0 ? P.gravity_sign * bf / bn : 0.0;  // z of n_y = z f_x, n_x = -z f_y: the mass's height
       up.first_moment_rms = js;
-      up.gravity.passed = up.gravity.p < out.level && up.gravity.gain >= min_share && up.gravity_ratio > 0.0;
     }
     // 2. The driven response on both rows (scaled by their training RMS).
     {
@@ -357,7 +342,6 @@ bool unmeasuredBodyResponse(const Model& model, const std::vector<ResidualSeries
       up.frequency_hz = o.frequencies_hz[g_all / o.damping_ratios.size()];
       up.damping_ratio = o.damping_ratios[g_all % o.damping_ratios.size()];
       up.driven = st.test(Rs, Pn, Pb);
-      up.driven.passed = up.driven.p < out.level && up.driven.gain >= min_share;
       double m_r = 0, m_b = 0, f_r = 0, f_b = 0;
       for (long k = 0; k < N; ++k) {
         m_r += Rs(k, 0) * Rs(k, 0), m_b += std::pow(Rs(k, 0) - Pb(k, 0), 2);
@@ -375,11 +359,11 @@ bool unmeasuredBodyResponse(const Model& model, const std::vector<ResidualSeries
       }
     }
 
+    const std::string gravity_verdict = judge(up.gravity, out.level, min_share, up.gravity_ratio > 0.0),
+                      driven_verdict = judge(up.driven, out.level, min_share, true);
     up.found = up.gravity.passed || up.driven.passed;
     up.verdict = up.found ? "an unmeasured body"
-                          : std::string("gravity signature: ") +
-                                verdictOf(up.gravity, out.level, min_share, up.gravity_ratio > 0.0) +
-                                "; driven response: " + verdictOf(up.driven, out.level, min_share, true);
+                          : "gravity signature: " + gravity_verdict + "; driven response: " + driven_verdict;
     if (up.found) {
       std::string why;
       if (up.gravity.passed)

@@ -163,8 +163,8 @@ void profileCoulombWidths(DiagnoseData& data);
 /// training angle (data.center_of, data.scale_of; nothing without q).
 void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data);
 /// Pass B (every segment): the declared model's prediction tau0 = K_decl x0 and its d/dt; the validation segments'
-/// t, v, y; q where the segment streams it (data.has_q: every segment does); a floating base's motion (alpha, s). False on a stream error or data that
-/// changed between two reads.
+/// t, v, y; q where the segment streams it (data.has_q: every segment does); a floating base's motion (alpha, s).
+/// False on a stream error or data that changed between two reads.
 bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult& out, std::string* error);
 /// Row weights: sigma_c = sqrt(SSE_c / rows_c) of the declared model's training residual per coordinate (WLS-R,
 /// thesis eqs. 29-32), floored at 1e-9 max sigma.

@@ -118,7 +118,8 @@ void secondOrderResponse(const Eigen::VectorXd& t, const Eigen::VectorXd& u, dou
 
 /// The stage on the diagnosis' per-sample residuals (ResidualSeries: t, after, base; held_base segments and a fixed
 /// base give no rows). alpha, min_share: DiagnoseOptions::alpha, min_explained (the share of the plane's remaining
-/// held-out residual the body must predict beyond the null: UnmeasuredBodyPlane::gain). Nothing to test (no base rows) leaves out.ran false.
+/// held-out residual a signature must predict beyond its null: BodyTest::gain). Nothing to test (no base rows) leaves
+/// out.ran false.
 bool unmeasuredBodyResponse(const Model& model, const std::vector<ResidualSeries>& series, double alpha, double min_share,
                             const UnmeasuredBodyOptions& options, UnmeasuredBodyResult& out, std::string* error);
 
