@@ -12,6 +12,7 @@
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/estimator/sparse_regression.hpp"
 #include "held_out_blocks.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::estimator {
 
@@ -259,7 +260,7 @@ bool predictJoint(const Eigen::MatrixXd& X, const Eigen::MatrixXd& F, const Eige
     if (o.trees) {
       Eigen::VectorXd pred;
       if (!fitBoostedTrees(F, r, tr, te, o.tree, pred, nullptr, &err))
-        return error && (*error = "residual predictability: " + err, true), false;
+        return common::fail(error, "residual predictability: " + err);
       for (size_t i = 0; i < te.size(); ++i) Ptr(te[i], j) = pred[static_cast<Eigen::Index>(i)];
     }
   }
@@ -271,7 +272,7 @@ bool predictJoint(const Eigen::MatrixXd& X, const Eigen::MatrixXd& F, const Eige
   if (o.trees) {
     Eigen::VectorXd pred;
     if (!fitBoostedTrees(F, r, plan.train_rows, plan.val_rows, o.tree, pred, &gain, &err))
-      return error && (*error = "residual predictability: " + err, true), false;
+      return common::fail(error, "residual predictability: " + err);
     for (size_t i = 0; i < plan.val_rows.size(); ++i) Ptr(plan.val_rows[i], j) = pred[static_cast<Eigen::Index>(i)];
   }
   return true;

@@ -1,6 +1,7 @@
 // The wearer's segments from de Leva (1996) Table 4, scaled to the height, with seeded per-parameter variation.
 // Sources of every number: docs/wearer.md.
 #include "exoid/model/anthropometry.hpp"
+#include "exoid/common/fail.hpp"
 
 #include <cmath>
 #include <random>
@@ -47,10 +48,7 @@ double symmetricUniform(std::mt19937_64& rng) {
   return 2.0 * static_cast<double>(rng() >> 11) * k - 1.0;
 }
 
-bool fail(std::string* err, const std::string& what) {
-  if (err) *err = what;
-  return false;
-}
+using common::fail;
 
 // Principal moments of a physical body satisfy the triangle inequality: each is at most the sum of the others.
 bool triangle(const Eigen::Vector3d& I) { return I[0] <= I[1] + I[2] && I[1] <= I[0] + I[2] && I[2] <= I[0] + I[1]; }

@@ -4,6 +4,7 @@
 
 #include "mjcf_check.hpp"
 #include "wearer.hpp"
+#include "exoid/common/fail.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -20,10 +21,7 @@ namespace {
 // (plate force vs MuJoCo's contact forces and vs the robot's weight).
 constexpr double kPlateSensorSign = -1.0;
 
-bool fail(std::string* err, const std::string& msg) {
-  if (err) *err = msg;
-  return false;
-}
+using common::fail;
 
 int findSensor(const mjModel* m, int type, int objtype, int objid) {
   for (int i = 0; i < m->nsensor; ++i)
@@ -457,6 +455,15 @@ void stageRecordState(const SimModel& sm, SimData& sd) {
   for (int j = 0; j < sm.nj; ++j) {
     t.q[j] = d->qpos[sm.qpos_adr[static_cast<size_t>(j)]];
     t.v[j] = d->qvel[sm.dof_adr[static_cast<size_t>(j)]];
+  }
+  const WearerSim& w = sm.wearer;
+  t.has_trunk = w.enabled;
+  if (w.enabled) {  // the lumbar hinges are not exo joints: the trunk's own fields
+    for (size_t i = 0; i < 3; ++i) {
+      t.trunk_angle[static_cast<Eigen::Index>(i)] = d->qpos[w.lumbar_qpos[i]];
+      t.trunk_rate[static_cast<Eigen::Index>(i)] = d->qvel[w.lumbar_dof[i]];
+    }
+    t.trunk_com = Eigen::Vector3d(d->xipos + 3 * w.upper_body);
   }
 }
 

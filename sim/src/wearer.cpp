@@ -1,6 +1,7 @@
 // The wearer in the simulator (docs/wearer.md "In the simulation"): its segments welded to the exo links, its upper
 // body on a compliant lumbar joint, and the per-tick passive moments, sway and reflex torques.
 #include "wearer.hpp"
+#include "exoid/common/fail.hpp"
 
 #include <tinyxml2.h>
 
@@ -13,10 +14,7 @@
 namespace exoid::sim {
 namespace {
 
-bool fail(std::string* err, const std::string& msg) {
-  if (err) *err = msg;
-  return false;
-}
+using common::fail;
 
 tinyxml2::XMLElement* findBody(tinyxml2::XMLElement* e, const std::string& name) {
   for (tinyxml2::XMLElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
@@ -167,6 +165,9 @@ bool findWearerJoints(SimModel& sm, std::string* err) {
   };
   for (int i = 0; i < 3; ++i)
     if (!joint(std::string(kWearerPrefix) + "lumbar_" + "xyz"[i], w.lumbar_qpos[i], w.lumbar_dof[i])) return false;
+  const std::string upper = std::string(kWearerPrefix) + "upper_body";
+  w.upper_body = mj_name2id(m, mjOBJ_BODY, upper.c_str());
+  if (w.upper_body < 0) return fail(err, sm.mjcf_path + ": body '" + upper + "': missing (the wearer's trunk)");
   const char* legs[3] = {"hip_fe", "knee", "ankle_pd"};
   for (int s = 0; s < 2; ++s)
     for (int i = 0; i < 3; ++i)

@@ -110,6 +110,10 @@ inline GroundTruthSample makeTruth(int n = 10) {
   s.foot_moment[0] = Eigen::Vector3d(3, 4, 5);
   s.foot_moment[1] = Eigen::Vector3d(-3, -4, -5);
   s.com = Eigen::Vector3d(-0.03, 0.002, 0.92);
+  s.has_trunk = true;
+  s.trunk_angle = Eigen::Vector3d(0.04, -0.05, 0.06);
+  s.trunk_rate = Eigen::Vector3d(-0.4, 0.5, -0.6);
+  s.trunk_com = Eigen::Vector3d(0.01, -0.02, 1.31);
   return s;
 }
 

@@ -13,6 +13,7 @@
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/kinematics.hpp"
 #include "exoid/model/urdf.hpp"
+#include "exoid/model/wearer_mount.hpp"
 #include "exoid/sim/sim.hpp"
 #include "exoid/tools/wearer_urdf.hpp"
 #include "support/alloc_counter.hpp"
@@ -82,6 +83,54 @@ TEST(SimWearer, ModelCarriesExoPlusWearerAndTheTruthCoMIsTheAnthropometricOne) {
     EXPECT_LT((sd.truth.com - expected).norm(), 1e-9) << name << ": " << sd.truth.com.transpose() << " vs "
                                                       << expected.transpose();
   }
+}
+
+// The truth channel's trunk (schema.h `trunk_*`): the lumbar hinges' angles and rates as set, and the upper body's
+// CoM where the hinges put it, recomputed here from the pelvis pose, the pivot and the lumped body's offset with
+// intrinsic x-y-z rotations (MuJoCo's order of a body's joints): the convention written in docs/lcm.md. The system's
+// CoM moves by the trunk's mass share of the trunk's move. The empty exoskeleton has no trunk: zeros.
+TEST(SimWearer, TheTruthCarriesTheTrunksStateWhereTheLumbarHingesPutIt) {
+  const Scenario sc = scenario("wearer_nominal_sway");
+  SimModel sm;
+  SimData sd;
+  load(sc, sm, sd);
+  const WearerSim& w = sm.wearer;
+  const int pelvis = mj_name2id(sm.m, mjOBJ_BODY, exoPelvisLink());
+  ASSERT_GE(pelvis, 0);
+  const double M = sm.m->body_subtreemass[sm.base_body], mt = w.upper_body.mass;
+  JointCommandSample zero = simZeroCommand(sm);
+  simStep(sm, sd, zero);
+  ASSERT_TRUE(sd.truth.has_trunk);
+  const Eigen::Vector3d com0 = sd.truth.com, trunk0 = sd.truth.trunk_com;
+  const Eigen::Vector3d angle(0.05, -0.12, 0.3), rate(0.2, -0.4, 0.7);
+  simReset(sm, sd);
+  for (size_t i = 0; i < 3; ++i) {
+    sd.d->qpos[w.lumbar_qpos[i]] = angle[static_cast<Eigen::Index>(i)];
+    sd.d->qvel[w.lumbar_dof[i]] = rate[static_cast<Eigen::Index>(i)];
+  }
+  simStep(sm, sd, zero);  // the truth of this tick is the state set above
+  EXPECT_EQ(sd.truth.trunk_angle, angle);
+  EXPECT_EQ(sd.truth.trunk_rate, rate);
+  const Eigen::Vector3d p(sd.d->xpos + 3 * pelvis);
+  const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(sd.d->xmat + 9 * pelvis);
+  const Eigen::Matrix3d lumbar = (Eigen::AngleAxisd(angle.x(), Eigen::Vector3d::UnitX()) *
+                                  Eigen::AngleAxisd(angle.y(), Eigen::Vector3d::UnitY()) *
+                                  Eigen::AngleAxisd(angle.z(), Eigen::Vector3d::UnitZ())).toRotationMatrix();
+  const Eigen::Vector3d& pivot = w.mount.lumbar_pivot;
+  const Eigen::Vector3d expected = p + R * (pivot + lumbar * (w.upper_body.com - pivot));
+  EXPECT_LT((sd.truth.trunk_com - expected).norm(), 1e-12) << sd.truth.trunk_com.transpose() << " vs "
+                                                           << expected.transpose();
+  EXPECT_GT((sd.truth.trunk_com - trunk0).norm(), 0.03);  // the angles moved it by centimetres
+  EXPECT_LT((sd.truth.com - (com0 + mt / M * (sd.truth.trunk_com - trunk0))).norm(), 1e-12);
+
+  SimModel exo;
+  SimData exo_data;
+  load(scenario("ideal"), exo, exo_data);
+  JointCommandSample exo_zero = simZeroCommand(exo);
+  simStep(exo, exo_data, exo_zero);
+  EXPECT_FALSE(exo_data.truth.has_trunk);
+  EXPECT_EQ(exo_data.truth.trunk_angle, Eigen::Vector3d::Zero());
+  EXPECT_EQ(exo_data.truth.trunk_com, Eigen::Vector3d::Zero());
 }
 
 // The passive moments are generalized forces on the exo's hip/knee/ankle dofs (qfrc_applied): the drives' torque

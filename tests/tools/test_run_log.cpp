@@ -318,14 +318,79 @@ TEST_F(DamagedLogTest, ExportRefusesADamagedLogUnlessAllowPartial) {
 
 // The true-CoM figures against a direct computation: the true CoM off the reference by a horizontal wiggle
 // and a vertical offset of 20 mm plus a small drift; the relative figure leaves out the offset at the first tick.
+// --truth ends with the system's CoM and, for a wearer run, the trunk's state (schema.h `trunk_*`), each column the
+// message's field; the empty exoskeleton's export has no trunk columns; a log mixing both is refused with the tick.
+TEST_F(RunLogTest, TruthExportEndsWithTheCoMAndAWearersTrunk) {
+  intake::RunLog log;
+  for (int64_t k = 0; k < 3; ++k) {
+    GroundTruthSample t;
+    t.tick = k;
+    t.utime = 1000 * k;
+    t.base_position = Eigen::Vector3d(0, 0, 1.0);
+    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
+    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    t.foot_moment = t.foot_force;
+    const double x = static_cast<double>(k);
+    t.com = Eigen::Vector3d(0.01 * x, -0.02, 0.9);
+    t.has_trunk = true;
+    t.trunk_angle = Eigen::Vector3d(0.1 * x, -0.2, 0.3);
+    t.trunk_rate = Eigen::Vector3d(-0.4, 0.5 * x, 0.6);
+    t.trunk_com = Eigen::Vector3d(0.03, 0.04, 1.2 + 0.001 * x);
+    log.truth.push_back(t);
+  }
+  tools::ExportOptions truth;
+  truth.truth = true;
+  tools::RunTable table;
+  std::string err;
+  ASSERT_TRUE(tools::buildRunTable(model_, log, truth, table, &err)) << err;
+  auto column = [&](const std::string& name) {
+    const auto it = std::find(table.header.begin(), table.header.end(), name);
+    EXPECT_NE(it, table.header.end()) << name;
+    return static_cast<size_t>(it - table.header.begin());
+  };
+  ASSERT_EQ(table.rows.size(), 3u);
+  EXPECT_EQ(table.header.back(), "trunk_com_z");
+  for (size_t k = 0; k < 3; ++k) {
+    const GroundTruthSample& t = log.truth[k];
+    for (int i = 0; i < 3; ++i) {
+      const std::string c(1, "xyz"[i]);
+      EXPECT_EQ(table.rows[k][column("com_" + c)], t.com[i]);
+      EXPECT_EQ(table.rows[k][column("trunk_angle_" + c)], t.trunk_angle[i]);
+      EXPECT_EQ(table.rows[k][column("trunk_rate_" + c)], t.trunk_rate[i]);
+      EXPECT_EQ(table.rows[k][column("trunk_com_" + c)], t.trunk_com[i]);
+    }
+  }
+  log.truth[1].has_trunk = false;
+  EXPECT_FALSE(tools::buildRunTable(model_, log, truth, table, &err));
+  EXPECT_NE(err.find("tick 1: has_trunk false"), std::string::npos) << err;
+  for (GroundTruthSample& t : log.truth) t.has_trunk = false;
+  ASSERT_TRUE(tools::buildRunTable(model_, log, truth, table, &err)) << err;
+  EXPECT_EQ(table.header.back(), "com_z");
+  EXPECT_EQ(std::count_if(table.header.begin(), table.header.end(),
+                          [](const std::string& h) { return h.rfind("trunk_", 0) == 0; }),
+            0);
+}
+
 TEST_F(RunLogTest, TrueComFiguresAgainstADirectComputation) {
   intake::RunLog log;
   double sq = 0.0, sq_xy = 0.0, sq_rel = 0.0;
   const int n = 200;
+  // The trunk: angles and the upper body's CoM in a yawed pelvis's frame, their spreads computed here two-pass.
+  const Eigen::Quaterniond yaw(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()));
+  std::vector<Eigen::Vector3d> angles, local;
+  for (int64_t k = 0; k < n; ++k) {
+    const double x = static_cast<double>(k);
+    angles.emplace_back(0.01 * std::sin(0.2 * x), 0.1 + 0.02 * std::cos(0.13 * x), -0.003);
+    local.emplace_back(0.02 + 0.004 * std::sin(0.2 * x), -0.001 * std::cos(0.3 * x), 0.3);
+  }
   for (int64_t k = 0; k < n; ++k) {
     GroundTruthSample t;
     t.tick = k;
     t.base_position = Eigen::Vector3d(0, 0, 1.0);
+    t.base_orientation = yaw;
+    t.has_trunk = true;
+    t.trunk_angle = angles[static_cast<size_t>(k)];
+    t.trunk_com = t.base_position + yaw * local[static_cast<size_t>(k)];
     t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
     t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     t.foot_moment = t.foot_force;
@@ -348,6 +413,22 @@ TEST_F(RunLogTest, TrueComFiguresAgainstADirectComputation) {
   EXPECT_NEAR(s.true_com_rmse_rel_m, std::sqrt(sq_rel / n), 1e-15);
   EXPECT_GT(s.true_com_rmse_m, 5.0 * s.true_com_rmse_rel_m);  // the offset dominates the absolute figure
   EXPECT_NE(tools::summaryJson(s).find("\"true_com_rmse_rel_m\""), std::string::npos);
+  auto spread = [](const std::vector<Eigen::Vector3d>& v, Eigen::Vector3d& mean) {
+    mean.setZero();
+    for (const Eigen::Vector3d& x : v) mean += x / static_cast<double>(v.size());
+    Eigen::Vector3d ss = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& x : v) ss += (x - mean).cwiseAbs2() / static_cast<double>(v.size());
+    return Eigen::Vector3d(ss.cwiseSqrt());
+  };
+  Eigen::Vector3d angle_mean, local_mean;
+  const Eigen::Vector3d angle_rms = spread(angles, angle_mean), local_rms = spread(local, local_mean);
+  ASSERT_TRUE(s.has_trunk);
+  EXPECT_LT((s.trunk_angle_mean_rad - angle_mean).cwiseAbs().maxCoeff(), 1e-14);
+  EXPECT_LT((s.trunk_angle_rms_rad - angle_rms).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((s.trunk_com_rms_m - local_rms).cwiseAbs().maxCoeff(), 1e-9);  // in the pelvis frame, not the world's
+  EXPECT_GT(local_rms.x(), 1e-3);
+  EXPECT_NE(tools::summaryJson(s).find("\"trunk_com_rms_m\""), std::string::npos);
+  EXPECT_NE(tools::summaryTable(s).find("wearer's trunk on the pelvis"), std::string::npos);
 }
 
 // The summary's figures against an independent count on a synthetic run: 150 ticks simulated, the log holds

@@ -36,7 +36,11 @@ constexpr char kFooter[] =
     "  base_px..pz                    base origin in the world (--truth only: not measured by the robot)\n"
     "  tau_<joint>                    actuated joints: torque sensors (applied torque with --truth), N m\n"
     "  fp_<right|left>_fx,fy,fz       force ON the foot, world coordinates, N (minus the plate's reading)\n"
-    "  fp_<right|left>_nx,ny,nz       its moment about the world origin, world coordinates, N m\n\n"
+    "  fp_<right|left>_nx,ny,nz       its moment about the world origin, world coordinates, N m\n"
+    "  com_x..z                       --truth only: the whole system's CoM, world, m (wearer included)\n"
+    "  trunk_angle_x..z, trunk_rate_x..z  --truth of a wearer run only: the lumbar hinges (the upper body on the\n"
+    "                                 pelvis, intrinsic x-y-z), rad, rad/s\n"
+    "  trunk_com_x..z                 --truth of a wearer run only: the upper body's CoM, world, m\n\n"
     "exit codes: 0 success (with --allow-partial also from a damaged log), 2 bad input (unreadable log, no\n"
     "            usable tick, bad option), 3 the log is damaged (nothing written; see --allow-partial).";
 

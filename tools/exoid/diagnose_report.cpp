@@ -15,6 +15,7 @@
 #include "exoid/model/inertial.hpp"
 #include "exoid/render/run_keyframes.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::cli {
 
@@ -259,7 +260,7 @@ bool writeAugmentedModel(const fs::path& out, const Model& model, const Model& d
                          std::string* error) {
   std::error_code ec;
   fs::copy_file(in.model_path, out / set.model, fs::copy_options::overwrite_existing, ec);
-  if (ec) return error && (*error = "cannot copy the URDF: " + ec.message(), true), false;
+  if (ec) return common::fail(error, "cannot copy the URDF: " + ec.message());
   if (!est::writeEffects((out / "effects.yaml").string(), model, set, error)) return false;
   if (res.payloads.empty()) return true;
   Eigen::VectorXd phi = declared_model.phi;
@@ -553,7 +554,7 @@ bool writeDiagnosis(const Model& model, const Model& declared_model, const est::
   describeInputs(files, stats, js_inputs, md_inputs);
   std::error_code ec;
   fs::create_directories(in.out_dir, ec);
-  if (ec) return error && (*error = "cannot create '" + in.out_dir + "': " + ec.message(), true), false;
+  if (ec) return common::fail(error, "cannot create '" + in.out_dir + "': " + ec.message());
   const fs::path out(in.out_dir);
   const est::EffectSet set = effectSetOf(in.model_path, opt, res);
   if (!writeRmseCsv(out, res, error) || !writeCandidatesCsv(out, model, res, error) ||

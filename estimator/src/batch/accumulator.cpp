@@ -31,7 +31,7 @@ std::vector<std::vector<int>> activeBaseColumns(const Model& model, const BasePa
 }
 
 LsqAccumulator::LsqAccumulator(const Model& model, const BaseParameters& base, const AccumulatorOptions& options)
-    : model_(model), base_(base), opt_(options), nv_(model.nv), m_(base.rank) {
+    : base_(base), opt_(options), nv_(model.nv), m_(base.rank) {
   opt_.folds = std::max(1, opt_.folds);
   opt_.block = std::max(1, opt_.block);
   opt_.chunk = std::max(1, opt_.chunk);

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "exoid/estimator/diagnose_stages.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::estimator {
 
@@ -115,7 +116,7 @@ bool foldFactors(const Model& model, const DiagnoseOptions& opt, DiagnoseData& d
         },
         error);
     if (!ok) return false;
-    if (i != cache.n) return error && (*error = data.segment(s).name + ": the data changed between two reads", true), false;
+    if (i != cache.n) return common::fail(error, data.segment(s).name + ": the data changed between two reads");
   }
   for (TriangularFactor& t : data.fc) t.flush();
   // Scatter the coordinate factors into P-space: per fold, then training-without-fold and all.

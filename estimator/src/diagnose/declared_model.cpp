@@ -6,6 +6,7 @@
 
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/diagnose_stages.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::estimator {
 
@@ -184,9 +185,9 @@ bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& 
         },
         error);
     if (!ok) return false;
-    if (!size_error.empty()) return error && (*error = size_error, true), false;
+    if (!size_error.empty()) return common::fail(error, size_error);
     cache.n = static_cast<long>(cache.t.size());
-    if (cache.n < 3) return error && (*error = seg.name + ": fewer than 3 samples", true), false;
+    if (cache.n < 3) return common::fail(error, seg.name + ": fewer than 3 samples");
     cache.v = Eigen::Map<Eigen::MatrixXd>(vs.data(), nj, cache.n).transpose();
     cache.y = Eigen::Map<Eigen::MatrixXd>(ys.data(), nv, cache.n).transpose();
     cache.ext = Eigen::Map<Eigen::MatrixXd>(es.data(), nv, cache.n).transpose();
@@ -212,7 +213,7 @@ bool declaredFit(DiagnoseData& data, DiagnosisResult& out, std::string* error) {
   }
   std::sort(keep.begin(), keep.end());
   if (keep.empty() && md > 0)
-    return error && (*error = "the training data excite none of the declared model's parameters", true), false;
+    return common::fail(error, "the training data excite none of the declared model's parameters");
   out.dropped_columns = md - static_cast<int>(keep.size());
   std::vector<int> d2;
   std::vector<std::vector<char>> t2(nv);
@@ -227,7 +228,7 @@ bool declaredFit(DiagnoseData& data, DiagnosisResult& out, std::string* error) {
   data.x0 = m > 0 ? Eigen::VectorXd(data.A_keep.householderQr().solve(R.col(md))) : Eigen::VectorXd();
   out.declared_columns = m;
   if (out.train_samples * nv <= m)
-    return error && (*error = "fewer training rows than declared parameters", true), false;
+    return common::fail(error, "fewer training rows than declared parameters");
   return true;
 }
 
@@ -266,16 +267,16 @@ bool declaredPrediction(const Model& model, DiagnoseData& data, DiagnosisResult&
         },
         error);
     if (!ok) return false;
-    if (!size_error.empty()) return error && (*error = size_error, true), false;
+    if (!size_error.empty()) return common::fail(error, size_error);
     if (!is_train) {
       cache.n = static_cast<long>(cache.t.size());
-      if (cache.n < 3) return error && (*error = seg.name + ": fewer than 3 samples", true), false;
+      if (cache.n < 3) return common::fail(error, seg.name + ": fewer than 3 samples");
       cache.v = Eigen::Map<Eigen::MatrixXd>(vs.data(), nj, cache.n).transpose();
       cache.y = Eigen::Map<Eigen::MatrixXd>(ys.data(), nv, cache.n).transpose();
       cache.ext = Eigen::Map<Eigen::MatrixXd>(es.data(), nv, cache.n).transpose();
       out.validation_samples += cache.n;
     } else if (i != cache.n) {
-      return error && (*error = seg.name + ": the data changed between two reads", true), false;
+      return common::fail(error, seg.name + ": the data changed between two reads");
     }
     cache.tau = Eigen::Map<Eigen::MatrixXd>(taus.data(), nv, cache.n).transpose();
     cache.tau0 = cache.tau;

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "exoid/estimator/diagnose_stages.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::estimator {
 
@@ -50,7 +51,7 @@ bool augmentedResidual(const Model& model, const DiagnoseOptions& opt, const Dia
                                          error)
                                    : seg.stream(row, error);
   if (!ok) return false;
-  if (i != cache.n) return error && (*error = seg.name + ": the data changed between two reads", true), false;
+  if (i != cache.n) return common::fail(error, seg.name + ": the data changed between two reads");
   return true;
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "exoid/estimator/diagnose_stages.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::estimator {
 
@@ -207,7 +208,7 @@ bool relinearise(const Model& model, DiagnoseData& data, std::string* error) {
         },
         error);
     if (!ok) return false;
-    if (i != cache.n) return error && (*error = data.segment(s).name + ": the data changed between two reads", true), false;
+    if (i != cache.n) return common::fail(error, data.segment(s).name + ": the data changed between two reads");
     cache.dtau = centralDifference(cache.t, cache.tau);
   }
   return true;

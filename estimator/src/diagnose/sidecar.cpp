@@ -8,6 +8,7 @@
 
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/one_line.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::estimator {
 
@@ -29,7 +30,7 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
   const std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp);
-    if (!f) return error && (*error = "cannot write '" + tmp + "'", true), false;
+    if (!f) return common::fail(error, "cannot write '" + tmp + "'");
     char buf[512];
     f << "# Effects the rigid-body model lacks, found by `exoid diagnose` (format: docs/diagnose.md).\n"
          "# Dynamics effects add a column on their joint's row: viscous v, coulomb tanh(v / width),\n"
@@ -40,7 +41,7 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
          "# true(t - d)).\n";
     f << "model: " << quotedYaml(set.model) << "\n";
     if (set.base_body_moves) {
-      if (!model.floating_base) return error && (*error = "base_body_moves needs a floating base", true), false;
+      if (!model.floating_base) return common::fail(error, "base_body_moves needs a floating base");
       f << "base_body_moves: true  # an unmeasured body moves on the base: the online estimator frees the base rows' mcz\n";
     }
     std::snprintf(buf, sizeof buf, "coulomb_width: %.17g  # rad/s\nstribeck_velocity: %.17g  # rad/s\neffects:\n",
@@ -48,9 +49,9 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     f << buf;
     if (set.effects.empty()) f << "  []\n";
     for (const Effect& e : set.effects) {
-      if (e.joint < 0 || e.joint >= model.njoints) return error && (*error = "effect on an unknown joint", true), false;
+      if (e.joint < 0 || e.joint >= model.njoints) return common::fail(error, "effect on an unknown joint");
       if (e.kind == EffectKind::ElasticCoupled && (e.coupled < 0 || e.coupled >= model.njoints))
-        return error && (*error = "elastic_coupled effect without its joint", true), false;
+        return common::fail(error, "elastic_coupled effect without its joint");
       if (e.width > 0.0 && isDryFriction(e.kind))
         std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
                       model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
@@ -70,7 +71,7 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
                       effectKindName(e.kind), e.value, effectUnit(e.kind));
       f << buf;
     }
-    if (!f.good()) return error && (*error = "write failed on '" + tmp + "'", true), false;
+    if (!f.good()) return common::fail(error, "write failed on '" + tmp + "'");
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());

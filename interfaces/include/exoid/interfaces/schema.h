@@ -88,7 +88,11 @@
   F(JOINTS, tau_applied, _, NO)    /* actuator torque applied this tick, N m */                                 \
   F(FEET3, foot_force, _, NO)      /* [right, left] contact force ON the foot, world, N */                      \
   F(FEET3, foot_moment, _, NO)     /* [right, left] its moment about the world origin, world, N m */            \
-  F(V3, com, _, NO)                /* whole-robot CoM, world, m (the simulated robot: payloads included) */
+  F(V3, com, _, NO)                /* whole-robot CoM, world, m (the simulated robot: payloads included) */     \
+  F(BOOL, has_trunk, false, NO)    /* a wearer's upper body rides on lumbar hinges (trunk_* valid; else 0) */   \
+  F(V3, trunk_angle, _, NO)        /* lumbar hinges x, y, z: upper body on the pelvis, intrinsic x-y-z, rad */  \
+  F(V3, trunk_rate, _, NO)         /* their rates, rad/s */                                                     \
+  F(V3, trunk_com, _, NO)          /* the upper body's CoM, world, m (also inside com) */
 
 /* Controller diagnostics at one tick. ControllerStatusSample / exoid_plugin_status /
  * exoid_lcm.controller_status_t (EXO_CONTROLLER_STATUS). */

@@ -43,6 +43,9 @@ void truthFigures(const Model& model, const intake::RunLog& log, ExperimentSumma
   const double z0 = log.truth.front().base_position.z();
   double sum_sq = 0.0, true_sum_sq = 0.0, true_xy_sq = 0.0, true_rel_sq = 0.0, z_offset = 0.0;
   long n = 0;
+  // The trunk's sums: angles and the upper body's CoM in the pelvis frame, each and squared (moments about 0).
+  Eigen::Vector3d angle_sum = Eigen::Vector3d::Zero(), angle_sq = Eigen::Vector3d::Zero();
+  Eigen::Vector3d trunk_sum = Eigen::Vector3d::Zero(), trunk_sq = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < log.truth.size(); ++i) {
     const GroundTruthSample& t = log.truth[i];
     forwardKinematics(model, dyn.kin, stateFromTruth(model, t));
@@ -68,8 +71,22 @@ void truthFigures(const Model& model, const intake::RunLog& log, ExperimentSumma
       const double ez = t.com.z() - it->second->com_ref.z() - z_offset;
       true_rel_sq += (t.com - it->second->com_ref).head<2>().squaredNorm() + ez * ez;
       s.true_com_max_error_m = std::max(s.true_com_max_error_m, et);
+      if (t.has_trunk) {
+        s.has_trunk = true;
+        const Eigen::Vector3d c = R.transpose() * (t.trunk_com - t.base_position);
+        angle_sum += t.trunk_angle;
+        angle_sq += t.trunk_angle.cwiseAbs2();
+        trunk_sum += c;
+        trunk_sq += c.cwiseAbs2();
+      }
       ++n;
     }
+  }
+  if (s.has_trunk) {  // RMS about the mean: sqrt(E[x^2] - E[x]^2), clamped at 0 against rounding
+    const double k = static_cast<double>(n);
+    s.trunk_angle_mean_rad = angle_sum / k;
+    s.trunk_angle_rms_rad = (angle_sq / k - s.trunk_angle_mean_rad.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+    s.trunk_com_rms_m = (trunk_sq / k - (trunk_sum / k).cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
   }
   s.com_rmse_m = n ? std::sqrt(sum_sq / n) : 0.0;
   s.true_com_rmse_m = n ? std::sqrt(true_sum_sq / n) : 0.0;
@@ -285,6 +302,12 @@ std::string summaryJson(const ExperimentSummary& s) {
   j["true_com_rmse_xy_m"] = s.true_com_rmse_xy_m;
   j["true_com_rmse_rel_m"] = s.true_com_rmse_rel_m;
   j["max_foot_slip_m"] = s.max_foot_slip_m;
+  if (s.has_trunk) {
+    const auto v3 = [](const Eigen::Vector3d& v) { return std::vector<double>{v.x(), v.y(), v.z()}; };
+    j["trunk_angle_mean_rad"] = v3(s.trunk_angle_mean_rad);
+    j["trunk_angle_rms_rad"] = v3(s.trunk_angle_rms_rad);
+    j["trunk_com_rms_m"] = v3(s.trunk_com_rms_m);
+  }
   j["qp_solve_us_p50"] = s.qp_solve_us_p50;
   j["qp_solve_us_p99"] = s.qp_solve_us_p99;
   j["tick_us_p50"] = s.tick_us_p50;
@@ -375,6 +398,17 @@ std::string summaryTable(const ExperimentSummary& s) {
                 s.log_complete ? "complete" : ("INCOMPLETE" + (s.log_damage.empty() ? "" : ": " + s.log_damage)).c_str(),
                 s.eom_residual_max_rel);
   std::string out = buf + loopTimingRows(s);
+  if (s.has_trunk) {
+    const Eigen::Vector3d& a = s.trunk_angle_mean_rad;
+    const Eigen::Vector3d& r = s.trunk_angle_rms_rad;
+    const Eigen::Vector3d c = 1e3 * s.trunk_com_rms_m;
+    std::snprintf(buf, sizeof buf,
+                  "| wearer's trunk on the pelvis (truth): lumbar angle x, y, z mean; RMS about it | %.4f, %.4f, %.4f "
+                  "rad; %.4f, %.4f, %.4f rad | |\n"
+                  "| its CoM's move on the pelvis (pelvis frame x, y, z), RMS | %.2f, %.2f, %.2f mm | |\n",
+                  a.x(), a.y(), a.z(), r.x(), r.y(), r.z(), c.x(), c.y(), c.z());
+    out += buf;
+  }
   if (s.joint_torque_prediction_rmse_nm >= 0.0) {
     std::snprintf(buf, sizeof buf,
                   "| joint-torque prediction error (controller's model + all it fed forward; model alone) | "

@@ -4,16 +4,14 @@
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/tools/state_columns.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::tools {
 
 namespace {
 const char* const kSides[2] = {"right", "left"};
 
-bool fail(std::string* error, const std::string& m) {
-  if (error) *error = m;
-  return false;
-}
+using common::fail;
 
 /// The columns both tables end with: tau_<actuated joint>, then fp_<side>_fx..nz.
 void appendTauPlates(const Model& model, const std::vector<int>& actuated, std::vector<std::string>& h) {
@@ -27,9 +25,19 @@ bool truthTable(const Model& model, const intake::RunLog& log, const ExportOptio
                 const std::vector<int>& actuated, RunTable& table, std::string* error) {
   if (opt.filter_hz > 0.0) return fail(error, "--filter applies to sensor data only (the truth has exact derivatives)");
   if (log.truth.empty()) return fail(error, "the log has no ground-truth (EXO_TRUTH) messages");
+  // A wearer's trunk (lumbar hinges) is in every message of a run or in none: a log that mixes both is not one run.
+  const bool trunk = log.truth.front().has_trunk;
+  for (const GroundTruthSample& t : log.truth)
+    if (t.has_trunk != trunk)
+      return fail(error, "EXO_TRUTH tick " + std::to_string(t.tick) + ": has_trunk " + (t.has_trunk ? "true" : "false") +
+                             ", the log's first message " + (trunk ? "true" : "false") + " (two runs in one log?)");
   table.header = {"t"};
   for (const std::string& n : StateColumns::names(model, true)) table.header.push_back(n);
   appendTauPlates(model, actuated, table.header);
+  for (const char* c : {"com_x", "com_y", "com_z"}) table.header.push_back(c);
+  if (trunk)
+    for (const char* g : {"trunk_angle_", "trunk_rate_", "trunk_com_"})
+      for (const char* c : {"x", "y", "z"}) table.header.push_back(std::string(g) + c);
   for (const GroundTruthSample& t : log.truth) {
     std::vector<double> row{t.utime * 1e-6};
     StateColumns::write(model, stateFromTruth(model, t), row, true);
@@ -38,6 +46,10 @@ bool truthTable(const Model& model, const intake::RunLog& log, const ExportOptio
       row.insert(row.end(), {t.foot_force[side].x(), t.foot_force[side].y(), t.foot_force[side].z()});
       row.insert(row.end(), {t.foot_moment[side].x(), t.foot_moment[side].y(), t.foot_moment[side].z()});
     }
+    row.insert(row.end(), {t.com.x(), t.com.y(), t.com.z()});
+    if (trunk)
+      for (const Eigen::Vector3d* v : {&t.trunk_angle, &t.trunk_rate, &t.trunk_com})
+        row.insert(row.end(), {v->x(), v->y(), v->z()});
     table.rows.push_back(std::move(row));
   }
   return true;

@@ -28,6 +28,7 @@
 #include "exoid/model/dynamics.hpp"
 #include "exoid/tools/identify_input.hpp"
 #include "exoid/intake/run_log.hpp"
+#include "exoid/common/fail.hpp"
 
 namespace exoid::tools {
 
@@ -36,10 +37,7 @@ namespace {
 using estimator::Method;
 using estimator::Metrics;
 
-bool fail(std::string* error, const std::string& msg) {
-  if (error) *error = msg;
-  return false;
-}
+using common::fail;
 
 /// One scored estimate.
 struct Row {

@@ -69,7 +69,6 @@ class LsqAccumulator {
 
  private:
   void update(int slot);
-  const Model& model_;
   BaseParameters base_;
   AccumulatorOptions opt_;
   int nv_ = 0, m_ = 0;

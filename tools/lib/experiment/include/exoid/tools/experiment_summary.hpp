@@ -57,6 +57,13 @@ struct ExperimentSummary {
   /// controller can remove it); the estimate's height changes during the run still count.
   double true_com_rmse_rel_m = 0.0;
   double max_foot_slip_m = 0.0;    ///< largest horizontal displacement of either sole centre from its start
+  /// A wearer's trunk (truth `trunk_*`, docs/conventions.md "A wearer's trunk"), over the ticks of the moves: the
+  /// lumbar hinges' mean angle and RMS about it (x, y, z, rad), and the upper body's CoM relative to the pelvis
+  /// (pelvis frame: R^T (trunk_com - base_position)), RMS about its mean per axis (m): how far the body that no
+  /// exo sensor measures moves on the base. Zero when has_trunk is false.
+  bool has_trunk = false;
+  Eigen::Vector3d trunk_angle_mean_rad = Eigen::Vector3d::Zero(), trunk_angle_rms_rad = Eigen::Vector3d::Zero();
+  Eigen::Vector3d trunk_com_rms_m = Eigen::Vector3d::Zero();
   double qp_solve_us_p50 = 0.0, qp_solve_us_p99 = 0.0;
   double tick_us_p50 = 0.0, tick_us_p99 = 0.0, tick_us_max = 0.0;  ///< the controller's tick (its status)
   sim::LoopTiming timing;          ///< the sim's loop timing (docs/sim.md, "Loop timing"; valid when sim_reported)
