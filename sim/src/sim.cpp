@@ -463,7 +463,7 @@ void stageRecordState(const SimModel& sm, SimData& sd) {
       t.trunk_angle[static_cast<Eigen::Index>(i)] = d->qpos[w.lumbar_qpos[i]];
       t.trunk_rate[static_cast<Eigen::Index>(i)] = d->qvel[w.lumbar_dof[i]];
     }
-    t.trunk_com = Eigen::Vector3d(d->xipos + 3 * w.upper_body);
+    t.trunk_com = Eigen::Vector3d(d->xipos + 3 * w.upper_body_id);
   }
 }
 

@@ -166,8 +166,8 @@ bool findWearerJoints(SimModel& sm, std::string* err) {
   for (int i = 0; i < 3; ++i)
     if (!joint(std::string(kWearerPrefix) + "lumbar_" + "xyz"[i], w.lumbar_qpos[i], w.lumbar_dof[i])) return false;
   const std::string upper = std::string(kWearerPrefix) + "upper_body";
-  w.upper_body = mj_name2id(m, mjOBJ_BODY, upper.c_str());
-  if (w.upper_body < 0) return fail(err, sm.mjcf_path + ": body '" + upper + "': missing (the wearer's trunk)");
+  w.upper_body_id = mj_name2id(m, mjOBJ_BODY, upper.c_str());
+  if (w.upper_body_id < 0) return fail(err, sm.mjcf_path + ": body '" + upper + "': missing (the wearer's trunk)");
   const char* legs[3] = {"hip_fe", "knee", "ankle_pd"};
   for (int s = 0; s < 2; ++s)
     for (int i = 0; i < 3; ++i)

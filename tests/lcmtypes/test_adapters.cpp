@@ -504,7 +504,7 @@ TEST(Gate, FromLcmAndTheSampleChecksGiveTheSameVerdict) {
     RobotStateSample out;
     RejectReason reason = RejectReason::Duplicate;
     EXPECT_EQ(fromLcm(encodeDecode(msg), jointNames(), out, nullptr, &reason), f == SampleFault::None) << states[i].first;
-    if (f != SampleFault::None) EXPECT_EQ(reason, expectedReason(f)) << states[i].first;
+    if (f != SampleFault::None) { EXPECT_EQ(reason, expectedReason(f)) << states[i].first; }
   }
   std::vector<std::pair<const char*, ForcePlateSample>> plates;
   const ForcePlateSample pclean = test::makePlate(1);
@@ -528,7 +528,7 @@ TEST(Gate, FromLcmAndTheSampleChecksGiveTheSameVerdict) {
     ForcePlateSample out;
     RejectReason reason = RejectReason::Duplicate;
     EXPECT_EQ(fromLcm(encodeDecode(msg), 1, out, nullptr, &reason), f == SampleFault::None) << plates[i].first;
-    if (f != SampleFault::None) EXPECT_EQ(reason, expectedReason(f)) << plates[i].first;
+    if (f != SampleFault::None) { EXPECT_EQ(reason, expectedReason(f)) << plates[i].first; }
   }
 }
 

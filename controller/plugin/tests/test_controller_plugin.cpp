@@ -174,7 +174,7 @@ TEST(BalancePlugin, SameCommandsAsTheControllerBitForBitWithoutAllocating) {
       ASSERT_TRUE(blind.setEstimate(est_rx));
     }
     test::AllocationCounter count;
-    if (send) ASSERT_TRUE(plugin->setEstimate(est_rx));
+    if (send) { ASSERT_TRUE(plugin->setEstimate(est_rx)); }
     ASSERT_TRUE(plugin->step(s));
     const bool plates_taken = plugin->setForcePlates(exo.data.plates.data(), sim::kNumFeet);
     count.stop();

@@ -137,6 +137,8 @@ bool safeDecode(const void* data, int size, exoid_lcm::ground_truth_t& msg) {
   w.skipStrings(n);
   w.skipDoubles(4 * int64_t{n});
   w.skipDoubles(3 * 4 + 3);  // foot wrenches, com
+  w.skip(1);                 // has_trunk (an LCM boolean is one byte)
+  w.skipDoubles(3 * 3);      // trunk_angle, trunk_rate, trunk_com
   return decodeChecked(w, data, size, msg);
 }
 

@@ -89,7 +89,7 @@ struct WearerSim {
   WearerMount mount;                   ///< its segments on the exo links (pelvis-frame lumbar pivot)
   MountedSegment upper_body;           ///< the lumped body on the lumbar joint
   std::array<int, 3> lumbar_qpos{}, lumbar_dof{};  ///< x, y, z hinges
-  int upper_body = -1;                 ///< MuJoCo body id of the upper body (the truth's trunk_com)
+  int upper_body_id = -1;              ///< its MuJoCo body id (the truth's trunk_com)
   std::array<std::array<int, 3>, 2> leg_qpos{}, leg_dof{};  ///< [right, left][hip_fe, knee, ankle_pd]
   double sway_decay = 0.0;             ///< exp(-2 pi fc h): first-order low-pass of the sway torque per tick
 };

@@ -39,13 +39,15 @@ void truthFigures(const Model& model, const intake::RunLog& log, ExperimentSumma
   std::unordered_map<int64_t, const ControllerStatusSample*> status;
   for (const auto& st : log.status) status.emplace(st.tick, &st);
   DynamicsData dyn(model);
-  Eigen::Vector3d sole0[2];
+  Eigen::Vector3d sole0[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   const double z0 = log.truth.front().base_position.z();
   double sum_sq = 0.0, true_sum_sq = 0.0, true_xy_sq = 0.0, true_rel_sq = 0.0, z_offset = 0.0;
   long n = 0;
-  // The trunk's sums: angles and the upper body's CoM in the pelvis frame, each and squared (moments about 0).
-  Eigen::Vector3d angle_sum = Eigen::Vector3d::Zero(), angle_sq = Eigen::Vector3d::Zero();
-  Eigen::Vector3d trunk_sum = Eigen::Vector3d::Zero(), trunk_sq = Eigen::Vector3d::Zero();
+  // The trunk's sums: angles and the upper body's CoM in the pelvis frame, each and squared, about the first move
+  // tick's values (shifted: the raw moments would cancel to 1e-8 of a 0.3 m offset).
+  Eigen::Vector3d angle_sum = Eigen::Vector3d::Zero(), angle_sq = Eigen::Vector3d::Zero(), angle0 = angle_sq;
+  Eigen::Vector3d trunk_sum = Eigen::Vector3d::Zero(), trunk_sq = Eigen::Vector3d::Zero(), trunk0 = trunk_sq;
+  long n_trunk = 0;
   for (size_t i = 0; i < log.truth.size(); ++i) {
     const GroundTruthSample& t = log.truth[i];
     forwardKinematics(model, dyn.kin, stateFromTruth(model, t));
@@ -72,20 +74,25 @@ void truthFigures(const Model& model, const intake::RunLog& log, ExperimentSumma
       true_rel_sq += (t.com - it->second->com_ref).head<2>().squaredNorm() + ez * ez;
       s.true_com_max_error_m = std::max(s.true_com_max_error_m, et);
       if (t.has_trunk) {
-        s.has_trunk = true;
         const Eigen::Vector3d c = R.transpose() * (t.trunk_com - t.base_position);
-        angle_sum += t.trunk_angle;
-        angle_sq += t.trunk_angle.cwiseAbs2();
-        trunk_sum += c;
-        trunk_sq += c.cwiseAbs2();
+        if (!s.has_trunk) {
+          angle0 = t.trunk_angle;
+          trunk0 = c;
+          s.has_trunk = true;
+        }
+        angle_sum += t.trunk_angle - angle0;
+        angle_sq += (t.trunk_angle - angle0).cwiseAbs2();
+        trunk_sum += c - trunk0;
+        trunk_sq += (c - trunk0).cwiseAbs2();
+        ++n_trunk;
       }
       ++n;
     }
   }
   if (s.has_trunk) {  // RMS about the mean: sqrt(E[x^2] - E[x]^2), clamped at 0 against rounding
-    const double k = static_cast<double>(n);
-    s.trunk_angle_mean_rad = angle_sum / k;
-    s.trunk_angle_rms_rad = (angle_sq / k - s.trunk_angle_mean_rad.cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
+    const double k = static_cast<double>(n_trunk);
+    s.trunk_angle_mean_rad = angle0 + angle_sum / k;
+    s.trunk_angle_rms_rad = (angle_sq / k - (angle_sum / k).cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
     s.trunk_com_rms_m = (trunk_sq / k - (trunk_sum / k).cwiseAbs2()).cwiseMax(0.0).cwiseSqrt();
   }
   s.com_rmse_m = n ? std::sqrt(sum_sq / n) : 0.0;
