@@ -14,6 +14,22 @@
 
 namespace exoid::controller::testing {
 
+/// The simulator's world minus the controller's. The controller's observer fixes its world at the start-up latch
+/// (docs/controller.md, BaseStateObserver: the base at initial_base_xy, the soles at ground_height); a robot that
+/// settles during the window is offset between the two (a wearer: ~5 mm). A true position p is compared with the
+/// controller's reference as p - offset (the summary of `exoid experiment` does the same from the log,
+/// tools::ControllerFrame). Zero until the latch.
+struct ControllerFrameOffset {
+  bool set = false;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  /// After ctrl.tick on the state of the tick `truth` describes.
+  void update(const BalanceController& ctrl, const GroundTruthSample& truth) {
+    if (set || !ctrl.observer().latched()) return;
+    offset = truth.base_position - ctrl.observer().state().base_position;
+    set = true;
+  }
+};
+
 struct ScenarioRunMetrics {
   bool loaded = false;
   bool fell = false;
@@ -67,6 +83,7 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
   Eigen::Vector3d sole0[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   double se_model = 0.0, se_true = 0.0, se_true_xy = 0.0;
   long n = 0;
+  ControllerFrameOffset frame;
   const long ticks = static_cast<long>((plannedRunDuration(cfg) + 0.5) / cfg.loop.period);
   for (long k = 0; k < ticks; ++k) {
     sim::simStep(sm, sd, cmd);
@@ -75,6 +92,7 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
     // As over LCM: the plates of tick k reach the controller after its answer to the state of tick k.
     for (const ForcePlateSample& p : sd.plates) ctrl.setForcePlate(p);
     observe(k, sm, sd, ctrl, st);
+    frame.update(ctrl, sd.truth);
     const mjData* d = sd.d;
     for (int i = 0; i < 2; ++i) {
       const Eigen::Vector3d p(d->geom_xpos + 3 * sole_geom[i]);
@@ -82,7 +100,7 @@ ScenarioRunMetrics runScenarioClosedLoop(const Model& model, const ControllerCon
       m.slip = std::max(m.slip, (p - sole0[i]).head<2>().norm());
     }
     if (st.move_index >= 0 && st.trajectory_ready && !st.trajectory_done) {
-      const Eigen::Vector3d true_com(d->subtree_com + 3 * sm.base_body);
+      const Eigen::Vector3d true_com = Eigen::Vector3d(d->subtree_com + 3 * sm.base_body) - frame.offset;
       const double em = (st.com - st.com_ref).norm(), et = (true_com - st.com_ref).norm();
       se_model += em * em;
       se_true += et * et;

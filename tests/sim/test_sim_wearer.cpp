@@ -9,6 +9,7 @@
 #include <random>
 
 #include "controller_test_util.hpp"
+#include "sim_closed_loop.hpp"
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/kinematics.hpp"
@@ -253,11 +254,13 @@ TEST(SimWearer, BalanceControllerHoldsEveryShippedWearerForTwoSeconds) {
     controller::ControllerStatus st;
     double max_error = 0.0;
     bool fell = false;
+    controller::testing::ControllerFrameOffset frame;
     for (int k = 0; k < 2000 && !fell; ++k) {
       simStep(sm, sd, cmd);
       ctrl.tick(sd.state, cmd, st);
       for (const ForcePlateSample& p : sd.plates) ctrl.setForcePlate(p);
-      max_error = std::max(max_error, (sd.truth.com - st.com_ref).head<2>().norm());
+      frame.update(ctrl, sd.truth);
+      max_error = std::max(max_error, (sd.truth.com - frame.offset - st.com_ref).head<2>().norm());
       fell = simFell(sm, sd);
     }
     std::printf("%-26s 2 s: fell %s, horizontal true CoM - reference max %.2f mm, lumbar (%.4f, %.4f, %.4f) rad, "
@@ -299,20 +302,25 @@ ProtocolRun runProtocol(const Scenario& sc, const controller::ControllerConfig& 
   if (!ctrl.ok() || !sd.d) return r;
   JointCommandSample cmd = simZeroCommand(sm);
   controller::ControllerStatus st;
-  Eigen::Vector2d sole0[2];
+  Eigen::Vector2d sole0[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
   double track2 = 0.0;
   long n = 0;
+  controller::testing::ControllerFrameOffset frame;
   const long ticks = std::lround(controller::plannedRunDuration(cfg) / cfg.loop.period);
   for (long k = 0; !r.fell && !st.trajectory_done && k < ticks; ++k) {
     simStep(sm, sd, cmd);
     ctrl.tick(sd.state, cmd, st);
     for (const ForcePlateSample& p : sd.plates) ctrl.setForcePlate(p);
+    frame.update(ctrl, sd.truth);
     for (int f = 0; f < 2; ++f) {  // the soles' world positions (MuJoCo's geoms)
       const Eigen::Vector2d p(sd.d->geom_xpos[3 * sm.foot_geom[f]], sd.d->geom_xpos[3 * sm.foot_geom[f] + 1]);
       if (k == 0) sole0[f] = p;
       r.max_slip = std::max(r.max_slip, (p - sole0[f]).norm());
     }
-    if (st.move_index >= 0) track2 += (sd.truth.com - st.com_ref).head<2>().squaredNorm(), ++n;
+    if (st.move_index >= 0) {
+      track2 += (sd.truth.com - frame.offset - st.com_ref).head<2>().squaredNorm();
+      ++n;
+    }
     r.fell = simFell(sm, sd);
   }
   r.fell_at_s = sd.d->time;

@@ -13,6 +13,8 @@
 
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/experiment_summary.hpp"
@@ -429,6 +431,53 @@ TEST_F(RunLogTest, TrueComFiguresAgainstADirectComputation) {
   EXPECT_GT(local_rms.x(), 1e-3);
   EXPECT_NE(tools::summaryJson(s).find("\"trunk_com_rms_m\""), std::string::npos);
   EXPECT_NE(tools::summaryTable(s).find("wearer's trunk on the pelvis"), std::string::npos);
+}
+
+// The controller's world is fixed at its start-up latch (tools::ControllerFrame): a robot that settled by delta before
+// it is offset by delta between the simulator's world and the controller's. A true CoM that sits exactly on the
+// reference in the controller's world is then 0 off, and |delta| off when the frame is unknown (the simulator's
+// world taken as the controller's, as before). The offset is read at the latch tick, not before or after.
+TEST_F(RunLogTest, TheTrueComIsComparedInTheControllersWorld) {
+  const Eigen::Vector3d settle(-0.005, 0.0003, 0.0);  // where the base is at the latch (tick 9)
+  intake::RunLog log;
+  for (int64_t k = 0; k < 40; ++k) {
+    GroundTruthSample t;
+    t.tick = k;
+    const double f = std::min(1.0, static_cast<double>(k) / 9.0);  // settles over the window, then stays
+    t.base_position = Eigen::Vector3d(0, 0, 1.0) + f * settle;
+    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
+    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    t.foot_moment = t.foot_force;
+    ControllerStatusSample st;
+    st.tick = k;
+    st.move_index = k >= 20 ? 0 : -1;
+    st.com_ref = Eigen::Vector3d(0.01 + 0.0001 * static_cast<double>(k), -0.02, 0.9);
+    t.com = st.com_ref + settle;  // on the reference in the controller's world
+    log.truth.push_back(t);
+    log.status.push_back(st);
+  }
+  tools::RunFacts facts;
+  const tools::ExperimentSummary unknown = tools::summarizeExperiment(model_, log, facts);
+  EXPECT_NEAR(unknown.true_com_rmse_xy_m, settle.head<2>().norm(), 1e-15);
+  EXPECT_EQ(unknown.frame_offset_m, Eigen::Vector3d::Zero());
+  facts.controller_frame.latch_tick = 9;
+  facts.controller_frame.ground_height = 0.0;
+  const tools::ExperimentSummary s = tools::summarizeExperiment(model_, log, facts);
+  EXPECT_NEAR((s.frame_offset_m.head<2>() - settle.head<2>()).norm(), 0.0, 1e-15);
+  EXPECT_LT(s.true_com_rmse_xy_m, 1e-15);
+  // The vertical: the soles' mean height at the latch, which the controller calls ground_height. Here the standing
+  // robot's soles, from the sole frames' fixed offsets in the zero pose (the legs hang straight below the base).
+  DynamicsData dyn(model_);
+  State zero = State::zero(model_);
+  forwardKinematics(model_, dyn.kin, zero);
+  double sole_z = 0.0;
+  for (const char* name : {"right_sole", "left_sole"}) {
+    const Model::Frame& fr = model_.frames[model_.frameIndex(name)];
+    sole_z += 0.5 * (1.0 + (dyn.kin.p[fr.body] + dyn.kin.R[fr.body] * fr.position).z());
+  }
+  EXPECT_NEAR(s.frame_offset_m.z(), sole_z, 1e-12);
+  EXPECT_LT(sole_z, 0.05);  // the soles stand near the floor: a frame offset of millimetres, not the base's metre
+  EXPECT_NE(tools::summaryJson(s).find("\"frame_offset_m\""), std::string::npos);
 }
 
 // The summary's figures against an independent count on a synthetic run: 150 ticks simulated, the log holds

@@ -396,6 +396,7 @@ ExperimentReport reportExperiment(const ExperimentPlan& plan, RunFacts facts) {
   const ExperimentOptions& o = plan.options;
   const std::filesystem::path out = o.out_dir;
   intake::RunLog log;
+  facts.controller_frame = plan.controller_frame;
   facts.log_readable = intake::readRunLog((out / "run.lcmlog").string(), plan.model.joint_names, log, &facts.log_error);
   ExperimentReport r;
   r.summary = summarizeExperiment(plan.model, log, facts);

@@ -33,7 +33,8 @@ long missingIn(const std::vector<Sample>& samples, int64_t n) {
 }
 
 // Truth-channel figures: CoM tracking against the controller's reference, foot slip, fall.
-void truthFigures(const Model& model, const intake::RunLog& log, ExperimentSummary& s, int64_t* first_drop_tick) {
+void truthFigures(const Model& model, const intake::RunLog& log, const ControllerFrame& frame, ExperimentSummary& s,
+                  int64_t* first_drop_tick) {
   const int sole[2] = {model.frameIndex("right_sole"), model.frameIndex("left_sole")};
   if (log.truth.empty() || sole[0] < 0 || sole[1] < 0) return;
   std::unordered_map<int64_t, const ControllerStatusSample*> status;
@@ -48,30 +49,38 @@ void truthFigures(const Model& model, const intake::RunLog& log, ExperimentSumma
   Eigen::Vector3d angle_sum = Eigen::Vector3d::Zero(), angle_sq = Eigen::Vector3d::Zero(), angle0 = angle_sq;
   Eigen::Vector3d trunk_sum = Eigen::Vector3d::Zero(), trunk_sq = Eigen::Vector3d::Zero(), trunk0 = trunk_sq;
   long n_trunk = 0;
+  bool frame_set = frame.latch_tick < 0;  // unknown frame: the offset stays zero
   for (size_t i = 0; i < log.truth.size(); ++i) {
     const GroundTruthSample& t = log.truth[i];
     forwardKinematics(model, dyn.kin, stateFromTruth(model, t));
     centroidal(model, dyn);
     const Eigen::Matrix3d R = t.base_orientation.toRotationMatrix();
-    const Eigen::Vector3d com = t.base_position + R * dyn.com;
+    double sole_z = 0.0;
     for (int side = 0; side < 2; ++side) {
       const Model::Frame& f = model.frames[sole[side]];
       const Eigen::Vector3d p = t.base_position + R * (dyn.kin.p[f.body] + dyn.kin.R[f.body] * f.position);
       if (i == 0) sole0[side] = p;
       s.max_foot_slip_m = std::max(s.max_foot_slip_m, (p - sole0[side]).head<2>().norm());
+      sole_z += 0.5 * p.z();
     }
+    if (!frame_set && t.tick >= frame.latch_tick) {  // the controller's world is fixed here (the first tick after)
+      s.frame_offset_m << t.base_position.head<2>() - frame.base_xy, sole_z - frame.ground_height;
+      frame_set = true;
+    }
+    const Eigen::Vector3d com = t.base_position + R * dyn.com - s.frame_offset_m;  // the controller's world
+    const Eigen::Vector3d true_com = t.com - s.frame_offset_m;
     if (t.base_position.z() < z0 - 0.25 && *first_drop_tick < 0) *first_drop_tick = t.tick;
     auto it = status.find(t.tick);
     if (it != status.end() && it->second->move_index >= 0) {
       const double e = (com - it->second->com_ref).norm();
       sum_sq += e * e;
       s.com_max_error_m = std::max(s.com_max_error_m, e);
-      const double et = (t.com - it->second->com_ref).norm();  // what the model does not know shows here
+      const double et = (true_com - it->second->com_ref).norm();  // what the model does not know shows here
       true_sum_sq += et * et;
-      true_xy_sq += (t.com - it->second->com_ref).head<2>().squaredNorm();
-      if (n == 0) z_offset = t.com.z() - it->second->com_ref.z();
-      const double ez = t.com.z() - it->second->com_ref.z() - z_offset;
-      true_rel_sq += (t.com - it->second->com_ref).head<2>().squaredNorm() + ez * ez;
+      true_xy_sq += (true_com - it->second->com_ref).head<2>().squaredNorm();
+      if (n == 0) z_offset = true_com.z() - it->second->com_ref.z();
+      const double ez = true_com.z() - it->second->com_ref.z() - z_offset;
+      true_rel_sq += (true_com - it->second->com_ref).head<2>().squaredNorm() + ez * ez;
       s.true_com_max_error_m = std::max(s.true_com_max_error_m, et);
       if (t.has_trunk) {
         const Eigen::Vector3d c = R.transpose() * (t.trunk_com - t.base_position);
@@ -225,7 +234,7 @@ ExperimentSummary summarizeExperiment(const Model& model, const intake::RunLog& 
   s.failures = f.failures;
 
   int64_t first_drop_tick = -1;
-  if (f.log_readable) truthFigures(model, log, s, &first_drop_tick);
+  if (f.log_readable) truthFigures(model, log, f.controller_frame, s, &first_drop_tick);
   s.fall_tick = f.sim_reported ? f.sim_fall_tick : first_drop_tick;
   s.fell = s.fall_tick >= 0;
   s.fall_time_s = s.fell ? s.fall_tick * 1e-3 : -1.0;
@@ -309,6 +318,7 @@ std::string summaryJson(const ExperimentSummary& s) {
   j["true_com_rmse_xy_m"] = s.true_com_rmse_xy_m;
   j["true_com_rmse_rel_m"] = s.true_com_rmse_rel_m;
   j["max_foot_slip_m"] = s.max_foot_slip_m;
+  j["frame_offset_m"] = {s.frame_offset_m.x(), s.frame_offset_m.y(), s.frame_offset_m.z()};
   if (s.has_trunk) {
     const auto v3 = [](const Eigen::Vector3d& v) { return std::vector<double>{v.x(), v.y(), v.z()}; };
     j["trunk_angle_mean_rad"] = v3(s.trunk_angle_mean_rad);
@@ -388,7 +398,7 @@ std::string summaryTable(const ExperimentSummary& s) {
                 "| outcome | %s | completed |\n"
                 "| moves done | %d / %d | all |\n| fell | %s | no |\n"
                 "| CoM tracking RMSE (model CoM) | %.2f mm (max %.2f mm) | <= 5 mm |\n"
-                "| true CoM vs reference RMSE | %.2f mm (max %.2f mm; horizontal RMSE %.2f mm; height relative to the start %.2f mm) | |\n| max foot slip | %.3f mm | <= 1 mm |\n"
+                "| true CoM vs reference RMSE (controller's world: the truth moved by %.2f, %.2f, %.2f mm) | %.2f mm (max %.2f mm; horizontal RMSE %.2f mm; height relative to the start %.2f mm) | |\n| max foot slip | %.3f mm | <= 1 mm |\n"
                 "| QP solve p50 / p99 | %.1f / %.1f us | |\n| controller tick p50 / p99 / max | %.1f / %.1f / %.1f us | p99 <= 250 us |\n"
                 "| fallback ticks (controller) | %ld | 0 |\n| fallback ticks (sim) | %s | 0 |\n"
                 "| rejected inputs (controller) | %ld | 0 |\n"
@@ -398,6 +408,7 @@ std::string summaryTable(const ExperimentSummary& s) {
                 "| log | %s | complete |\n"
                 "| EoM residual max rel (W phi_model - y) | %.2g | <= 1e-8 without noise/effects |\n",
                 s.outcome.c_str(), s.moves_done, s.moves_planned, fall, 1e3 * s.com_rmse_m, 1e3 * s.com_max_error_m,
+                -1e3 * s.frame_offset_m.x(), -1e3 * s.frame_offset_m.y(), -1e3 * s.frame_offset_m.z(),
                 1e3 * s.true_com_rmse_m, 1e3 * s.true_com_max_error_m, 1e3 * s.true_com_rmse_xy_m, 1e3 * s.true_com_rmse_rel_m, 1e3 * s.max_foot_slip_m, s.qp_solve_us_p50, s.qp_solve_us_p99, s.tick_us_p50, s.tick_us_p99, s.tick_us_max,
                 s.controller_fallbacks, sim_fb, s.controller_rejected, rtf, s.lockstep ? ">= 5x (lockstep)" : "",
                 s.sim_reported ? std::to_string(s.ticks_simulated).c_str() : "unknown (no sim report)",

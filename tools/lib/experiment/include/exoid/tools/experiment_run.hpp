@@ -53,6 +53,7 @@ struct ExperimentPlan {
   Model controller_model;            ///< the controller's and the estimator's prior
   double duration_s = 0.0;           ///< the controller's planned run (start-up latch, moves, holds)
   int estimate_lag_ticks = 0;        ///< the controller configuration's estimate.lag_ticks (the lockstep wait)
+  ControllerFrame controller_frame;  ///< the controller configuration's world (the summary's true-CoM figures)
   bool use_plugin = true, lockstep = true;
   Injection inject;
   std::vector<std::string> estimator_words;  ///< exo_estimator's extra arguments (--effects made absolute)

@@ -13,8 +13,20 @@
 
 namespace exoid::tools {
 
+/// Where the controller's world sits in the simulator's. The controller's observer (docs/controller.md,
+/// BaseStateObserver) fixes its world at the start-up window's last state: the base at base_xy, the soles' mean
+/// height at ground_height. A robot that settles during the window (a wearer's weight loading the joints: ~5 mm)
+/// is then offset between the two worlds, and the truth is moved into the controller's before it is compared with
+/// the controller's reference (the reference, its targets and the soles are all in the controller's world).
+struct ControllerFrame {
+  int64_t latch_tick = -1;  ///< the window's last tick (observer.latch_ticks - 1); -1: the simulator's world is taken
+  Eigen::Vector2d base_xy = Eigen::Vector2d::Zero();  ///< observer.initial_base_xy
+  double ground_height = 0.0;                         ///< observer.ground_height
+};
+
 /// What `exoid experiment` knows about a run besides its log.
 struct RunFacts {
+  ControllerFrame controller_frame;  ///< the controller's world (from its configuration)
   int moves_planned = 0;
   int64_t ticks_planned = 0;        ///< planned run length (the sim's --duration in ticks)
   bool lockstep = true;             ///< the real-time factor target (>= 5x) applies to lockstep only
@@ -46,6 +58,9 @@ struct ExperimentSummary {
   int64_t fall_tick = -1;          ///< tick of the fall (the sim's report, else the first such tick in the log)
   double fall_time_s = -1.0;
   int fall_during_move = -1;       ///< 0-based move under way at the fall (-1: before the first move)
+  /// The simulator's world minus the controller's (ControllerFrame) at the latch: subtracted from every true position
+  /// compared with the reference below. Zero when the frame is unknown.
+  Eigen::Vector3d frame_offset_m = Eigen::Vector3d::Zero();
   double com_rmse_m = 0.0;         ///< model CoM (the URDF model at the exact state) vs the CoM reference
   double com_max_error_m = 0.0;
   double true_com_rmse_m = 0.0;    ///< the simulated robot's CoM (undeclared payloads included) vs the reference
