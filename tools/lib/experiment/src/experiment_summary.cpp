@@ -63,7 +63,8 @@ void truthFigures(const Model& model, const intake::RunLog& log, const Controlle
       s.max_foot_slip_m = std::max(s.max_foot_slip_m, (p - sole0[side]).head<2>().norm());
       sole_z += 0.5 * p.z();
     }
-    if (!frame_set && t.tick >= frame.latch_tick) {  // the controller's world is fixed here (the first tick after)
+    // The controller's world is fixed at the latch tick (or the first logged tick after it).
+    if (!frame_set && t.tick >= frame.latch_tick) {
       s.frame_offset_m << t.base_position.head<2>() - frame.base_xy, sole_z - frame.ground_height;
       frame_set = true;
     }
