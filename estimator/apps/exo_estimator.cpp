@@ -182,10 +182,10 @@ void addEstimatorOptions(CLI::App& app, Args& a) {
                  "one-sigma, relative; never fed forward); 0: none")
       ->capture_default_str()->transform(common::strictNumber(0.0, 10.0))->type_name("REL");
   app.add_flag("--base-body-moves", a.base_body_moves,
-               "a body moves on the base link on its own (a wearer's trunk on the pelvis): the base link's\n"
-               "first-moment-z column gets a nuisance twin on each base row (prior 0 +- |its prior|), so the\n"
-               "base rows, which that body's lag biases, do not tell the CoM height (exoid experiment sets it\n"
-               "for a scenario with a wearer)");
+               "a body moves on the base link on its own (a wearer's trunk on the pelvis): its lag biases the\n"
+               "CoM height the base rows give, so the published height uncertainty keeps the prior's (the base\n"
+               "link's mcz, one sigma) and the controller leaves the height at the prior's while it takes the\n"
+               "horizontal CoM (exoid experiment sets it for a scenario with a wearer)");
 }
 
 /// Publication, checkpoint, final estimate, LCM, idle timeout.

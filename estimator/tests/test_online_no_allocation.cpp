@@ -91,7 +91,7 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     opt.forget_every = 50;
     if (effects) {
       opt.effects = sidecar;
-      opt.base_body_moves = true;  // its six columns too
+      opt.base_body_moves = true;  // its height sigma in the uncertainty publications too
       // A detected change inside the counted loop (every time it is armed: the threshold is out of the way), so
       // that the discount and the sensor columns' carried information run there too.
       opt.change_threshold = 1e-9;
@@ -141,11 +141,10 @@ TEST(OnlineNoAllocation, EstimatorLoopAndPublicationAllocateNothing) {
     EXPECT_EQ(out.rejected_nonfinite, (warm + 599) / 97 - (warm - 1) / 97);  // the multiples of 97 among the ticks
     EXPECT_EQ(est.reconciles(), 1);
     EXPECT_TRUE(out.params.allFinite() && out.tau_correction.allFinite());
-    // Base parameters, the sidecar's columns, base_body_moves' six, then one offset and one gain per joint torque
-    // sensor (defaults).
+    // Base parameters, the sidecar's columns, then one offset and one gain per joint torque sensor (defaults);
+    // base_body_moves adds no column (it widens the published height's sigma).
     EXPECT_EQ(est.sensorOffsetColumnCount(), 2 * model.njoints);
-    EXPECT_EQ(est.movingBodyColumnCount(), effects ? 6 : 0);
-    EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 + 6 : 0) + 2 * model.njoints);
+    EXPECT_EQ(out.base_params.size(), base.rank + (effects ? 5 : 0) + 2 * model.njoints);
     if (effects) {
       EXPECT_GE(est.changesDetected(), 2) << forgettingName(f);
     }

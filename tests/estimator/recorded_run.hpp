@@ -16,6 +16,10 @@ namespace exoid::estimator::testing {
 struct RecordedRun {
   std::vector<RobotStateSample> states;
   std::vector<std::array<ForcePlateSample, 2>> plates;
+  /// Of each state's tick, from the truth: the simulated robot's CoM (trunk, payloads and all) in the base frame,
+  /// and the base orientation (world <- base).
+  std::vector<Eigen::Vector3d> true_com_base;
+  std::vector<Eigen::Quaterniond> true_orientation;
 };
 
 /// `moves` CoM moves of move seed `seed` on config/<scenario_file>; attach_at_s >= 0 moves every payload's
@@ -37,6 +41,9 @@ inline RecordedRun recordRun(const Model& model, uint64_t seed, int moves, const
           const controller::ControllerStatus&) {
         log.states.push_back(sd.state);
         log.plates.push_back({sd.plates[0], sd.plates[1]});
+        const Eigen::Quaterniond& q = sd.truth.base_orientation;
+        log.true_com_base.push_back(q.conjugate() * (sd.truth.com - sd.truth.base_position));
+        log.true_orientation.push_back(q);
       });
   EXPECT_TRUE(m.loaded) << err;
   EXPECT_FALSE(m.fell);

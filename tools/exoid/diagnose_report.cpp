@@ -474,8 +474,8 @@ void reportTail(std::ostringstream& md, bool plotted, const std::string& plot_cs
         "effects: dynamics columns and measurement corrections; format in docs/diagnose.md).\n";
   if (set.base_body_moves)
     md << "\n`base_body_moves: true`: an unmeasured body moves on the base (above); the online estimator given this "
-          "sidecar (`exo_estimator --effects effects.yaml`) frees the base rows' own mcz, which such a body's lag "
-          "misreads as a higher base link (docs/estimator.md \"A body that moves on the base\").\n";
+          "sidecar (`exo_estimator --effects effects.yaml`) keeps the prior's uncertainty on the CoM height, which "
+          "such a body's lag biases (docs/estimator.md \"A body that moves on the base\").\n";
   if (!payload_urdf.empty())
     md << "\n`" << payload_urdf << "`: the declared model with the payloads found added to their links (point masses).\n";
 }

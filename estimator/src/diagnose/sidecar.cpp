@@ -42,7 +42,7 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     f << "model: " << quotedYaml(set.model) << "\n";
     if (set.base_body_moves) {
       if (!model.floating_base) return common::fail(error, "base_body_moves needs a floating base");
-      f << "base_body_moves: true  # an unmeasured body moves on the base: the online estimator frees the base rows' mcz\n";
+      f << "base_body_moves: true  # an unmeasured body moves on the base: the online estimator keeps the prior's CoM height\n";
     }
     std::snprintf(buf, sizeof buf, "coulomb_width: %.17g  # rad/s\nstribeck_velocity: %.17g  # rad/s\neffects:\n",
                   set.shape.coulomb_width, set.shape.stribeck_velocity);

@@ -112,6 +112,7 @@ void OnlineEstimator::controllerUncertainty(bool uncertainty, EstimatorOutputSam
     for (int j = 0; j < 3; ++j) cov_base(i, j) = V_.col(i).dot(AV_.col(j));
   const Eigen::Matrix3d R = state_.base_orientation.toRotationMatrix();
   com_cov_.noalias() = R * cov_base * R.transpose();
+  com_cov_(2, 2) += height_prior_sigma_ * height_prior_sigma_;  // base_body_moves: the base rows do not tell it
   com_stddev_ = com_cov_.diagonal().cwiseMax(0.0).cwiseSqrt();
   mass_stddev_ = std::sqrt(std::max(0.0, V_.col(3).dot(AV_.col(3))));
   for (int r = 0; r < nv; ++r) tau_stddev_[r] = std::sqrt(std::max(0.0, V_.col(4 + r).dot(AV_.col(4 + r))));

@@ -83,8 +83,14 @@ OnlineEstimator::OnlineEstimator(const Model& model, const BaseParameters& base,
   // so the filter runs on E's entries too and the checkpoint structure holds the columns.
   std::vector<double> effect_sigma;
   if (!opt_.effects.effects.empty() && !addEffectColumns(effect_sigma)) return;
-  // told by the options or by the sidecar (a diagnosis that named an unmeasured body on the base)
-  if ((opt_.base_body_moves || opt_.effects.base_body_moves) && !addMovingBodyColumns(prior_phi, effect_sigma)) return;
+  // Told by the options or by the sidecar (a diagnosis that named an unmeasured body on the base): the CoM height the
+  // base rows give is that body's lag as much as the robot's, so the stated height uncertainty keeps the prior's
+  // (docs/estimator.md "A body that moves on the base"). One sigma of the base link's mcz over the total mass.
+  if (opt_.base_body_moves || opt_.effects.base_body_moves) {
+    double mass = 0.0;
+    for (int b = 0; b < model_.nbodies; ++b) mass += prior_phi[model_.bodyParamIndex(b)];
+    height_prior_sigma_ = std::sqrt(prior.var[model_.bodyParamIndex(0) + 3]) / mass;
+  }
   if ((opt_.sensor_offset_sigma > 0.0 || opt_.sensor_gain_sigma > 0.0) && !addSensorOffsetColumns(effect_sigma)) return;
   rls_ = RecursiveLsData(rls_model_);
   weighting_ = opt_.forgetting == Forgetting::Selective ? RowWeighting::Fixed : opt_.row_weighting;
@@ -227,15 +233,6 @@ bool OnlineEstimator::addEffectColumns(std::vector<double>& effect_sigma) {
   if (appendColumns(rows, sigma, ff, effect_sigma) < 0) return false;
   effects_ = true;
   return true;
-}
-
-bool OnlineEstimator::addMovingBodyColumns(const Eigen::VectorXd& prior_phi, std::vector<double>& effect_sigma) {
-  const double sigma = std::fabs(prior_phi[model_.bodyParamIndex(0) + 3]) + 1e-3;  // |mcz| of the base, kg m
-  const std::vector<int> rows = {0, 1, 2, 3, 4, 5};  // the base rows (moment, force; docs/conventions.md)
-  // What the moving body does is not the robot's to feed forward.
-  n_moving_ = appendColumns(rows, std::vector<double>(rows.size(), sigma), std::vector<unsigned char>(rows.size(), 0),
-                            effect_sigma);
-  return n_moving_ >= 0;
 }
 
 bool OnlineEstimator::addSensorOffsetColumns(std::vector<double>& effect_sigma) {
@@ -479,11 +476,6 @@ void OnlineEstimator::process() {
     const int p = model_.nparams(), nd = effectColumnCount(), ns = ne_ - n_offset_;
     Kx_.leftCols(p) = kin_.K;
     if (nd > 0) effectColumns(model_, opt_.effects, st.q, st.v, st.a, Kx_.middleCols(p, nd));
-    // base_body_moves: the base link's own mcz column, one nuisance parameter per base row.
-    for (int e = 0; e < n_moving_; ++e) {
-      const int r = effect_row_[static_cast<size_t>(nd + e)];
-      Kx_(r, p + nd + e) = kin_.K(r, model_.bodyParamIndex(0) + 3);
-    }
     // The sensor columns: offsets (1 where the joint has a sensor), then gains (its measured torque).
     const int nj = model_.njoints;
     const bool offsets = opt_.sensor_offset_sigma > 0.0;

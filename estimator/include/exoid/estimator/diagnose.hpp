@@ -283,8 +283,9 @@ struct EffectSet {
   EffectShape shape;
   std::vector<Effect> effects;
   /// The diagnosis named an unmeasured body on the floating base (UnmeasuredBodyResult: a plane found). The online
-  /// estimator given this sidecar then frees the base rows' own mcz (OnlineEstimatorOptions::base_body_moves): such a
-  /// body's lag reads as a higher base link there (docs/estimator.md "A body that moves on the base").
+  /// estimator given this sidecar then keeps the prior's uncertainty on the CoM height
+  /// (OnlineEstimatorOptions::base_body_moves): such a body's lag reads as a higher base link in the base rows
+  /// (docs/estimator.md "A body that moves on the base").
   bool base_body_moves = false;
 };
 bool writeEffects(const std::string& path, const Model& model, const EffectSet& set, std::string* error);

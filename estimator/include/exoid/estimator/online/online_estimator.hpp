@@ -138,12 +138,13 @@ struct OnlineEstimatorOptions {
   /// A body moves on the base link on its own: a wearer's trunk on its compliant lumbar joint (docs/estimator.md,
   /// "A body that moves on the base"). The rigid model lumps it into the base link, and when the pelvis rotates or
   /// accelerates the body lags; the base rows then misread the base link's first moment along its z (the CoM
-  /// height: +27 mm at 20 sigma on a 75 kg wearer) while the covariance claims to know it. true: six nuisance
-  /// columns, the base link's own mcz column on each base row, prior 0 with one-sigma |the prior's base mcz| +
-  /// 1e-3 kg m, so that those rows no longer tell the height. Off for a robot without such a body (the empty
-  /// exoskeleton: its payloads' heights come from those rows); `exoid experiment` turns it on for a scenario
-  /// with a wearer, and a sidecar with EffectSet::base_body_moves (a diagnosis that named an unmeasured body on
-  /// the base) does too.
+  /// height: +27 mm at 20 sigma on a 75 kg wearer) while the covariance claims to know it. What the lag does to
+  /// the horizontal CoM when the pelvis tilts is the same effective first moment, so the fit is kept, and true adds
+  /// the prior's uncertainty of the height (the base link's mcz one sigma over the total mass, world z) to the
+  /// published com_stddev: the controller's trust rule then leaves the height at the prior's and takes the
+  /// horizontal CoM. Off for a robot without such a body (the empty exoskeleton: its payloads' heights come from
+  /// those rows); `exoid experiment` turns it on for a scenario with a wearer, and a sidecar with
+  /// EffectSet::base_body_moves (a diagnosis that named an unmeasured body on the base) does too.
   bool base_body_moves = false;
 };
 
@@ -214,12 +215,10 @@ class OnlineEstimator {
   const RecursiveLsData& rlsData() const { return rls_; }
   /// The row weighting in effect (options.row_weighting; Fixed under selective forgetting).
   RowWeighting rowWeighting() const { return weighting_; }
-  /// [m + ne] after publish: base parameters, the sidecar's effects, base_body_moves' six, the sensor offsets and
-  /// gains (per joint)
+  /// [m + ne] after publish: base parameters, the sidecar's effects, the sensor offsets and gains (per joint)
   const Eigen::VectorXd& baseEstimate() const { return rls_.x; }
   int baseParameterCount() const { return m_base_; }   ///< m: the rigid model's base parameters
-  int effectColumnCount() const { return ne_ - n_offset_ - n_moving_; }  ///< the sidecar's columns (0 without one)
-  int movingBodyColumnCount() const { return n_moving_; }  ///< 6 with base_body_moves, else 0
+  int effectColumnCount() const { return ne_ - n_offset_; }  ///< the sidecar's columns (0 without one)
   /// The sensor columns: njoints offsets (sensor_offset_sigma > 0), then njoints gains (sensor_gain_sigma > 0).
   int sensorOffsetColumnCount() const { return n_offset_; }
   const Eigen::VectorXd& params() const { return phi_; }           ///< [p] after publish
@@ -269,8 +268,6 @@ class OnlineEstimator {
   bool addEffectColumns(std::vector<double>& effect_sigma);
   /// The sensor columns after them: an offset per joint, then a gain per joint (never fed forward).
   bool addSensorOffsetColumns(std::vector<double>& effect_sigma);
-  /// base_body_moves: the base's mcz column on each base row (after the sidecar's, before the sensor columns).
-  bool addMovingBodyColumns(const Eigen::VectorXd& prior_phi, std::vector<double>& effect_sigma);
   /// phi = phi_prior + G (x - x0) with G = Sigma B^T Lambda0, its variance floor, and reconcile()'s prior rows.
   void initStandardParameters(const BaseParameters& base, const Eigen::VectorXd& prior_phi, const BasePrior& prior,
                               const std::vector<double>& effect_sigma);
@@ -327,7 +324,7 @@ class OnlineEstimator {
   RecursiveLsData rls_;
   int m_base_ = 0, ne_ = 0;     ///< base parameters; extra columns after them (the sidecar's, then the offsets)
   int n_offset_ = 0;            ///< the sensor columns (offsets, then gains), the last n_offset_ of the ne_
-  int n_moving_ = 0;            ///< base_body_moves' six columns, just before the sensor columns
+  double height_prior_sigma_ = 0.0;  ///< base_body_moves: the prior's one sigma of the CoM height (m), else 0
   bool effects_ = false;        ///< a sidecar is applied (columns and/or gains)
   std::vector<unsigned char> ff_effect_;  ///< [ne] the column enters tau_correction (all but armature)
   std::vector<int> effect_row_;           ///< [ne] the coordinate (joint row) column e touches
