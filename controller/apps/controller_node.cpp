@@ -45,9 +45,9 @@ ControllerNode::ControllerNode(LcmEndpoint& lcm, const Model& model, BalanceCont
   toLcm(static_cast<const ControllerStatusSample&>(status_), status_msg_);
   lcm_.reserve(static_cast<size_t>(std::max(command_msg_.getEncodedSize(), status_msg_.getEncodedSize())) + 1024);
   lcm_.subscribeRaw(channels::kState, [this](const char*, const void* data, int size, int64_t) { onState(data, size); });
-  if (config_.disturbance.enabled && config_.disturbance.force_plates) {
-    // The plates of tick k arrive after the state of tick k: the observer pairs them with the wrench it planned
-    // for that tick, so they are used one tick later.
+  if (usesForcePlates(config_)) {
+    // The plates of tick k arrive after the state of tick k: the disturbance observer pairs them with the wrench it
+    // planned for that tick, so they are used one tick later (by the CoM observer too).
     for (int i = 0; i < 2; ++i) {
       const char* channel = i == 0 ? channels::kPlateRight : channels::kPlateLeft;
       lcm_.subscribeRaw(channel, [this, i](const char*, const void* data, int size, int64_t) {

@@ -78,6 +78,7 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
       contact_left_(config.contact, BaseStateObserver::kLeft),
       formulation_(model, config.contact, config.torque),
       disturbance_(config.disturbance, config.loop.period, model.nv),
+      com_observer_(config.com_observer, config.loop.period),
       solver_(std::move(solver)),
       dyn_(model) {
   std::string why;
@@ -263,6 +264,7 @@ void BalanceController::advanceEstimateBlend(int64_t tick) {
 
 void BalanceController::updateDynamics(const State& state) {
   computeRobotDynamics(model_, soles_, dyn_, state);
+  angular_momentum_urdf_ = dyn_.momentum.tail<3>();
   const double w = estimate_use_.weight;
   vertical_shift_ = 0.0;
   vertical_shift_rate_ = 0.0;
@@ -312,11 +314,26 @@ bool BalanceController::setForcePlate(const ForcePlateSample& p) {
   return true;
 }
 
+bool BalanceController::platePairFresh() const {
+  return plate_tick_[0] >= 0 && plate_tick_[0] == plate_tick_[1] &&
+         last_tick_ - plate_tick_[0] <= cfg_.disturbance.max_plate_age_ticks;
+}
+
+void BalanceController::applyComObserver() {
+  const Eigen::Vector3d force = plate_force_[0] + plate_force_[1];
+  const Eigen::Vector3d moment = plate_moment_[0] + plate_moment_[1];
+  const bool plates = platePairFresh();
+  com_observer_.update(dyn_.com, dyn_.com_velocity, angular_momentum_urdf_, plates ? &force : nullptr,
+                       plates ? &moment : nullptr, dyn_.mass, gap_);
+  if (!com_observer_.fusing()) return;
+  dyn_.com += com_observer_.correction();
+  dyn_.com_velocity += com_observer_.velocityCorrection();
+  dyn_.momentum.head<3>() += dyn_.mass * com_observer_.velocityCorrection();
+}
+
 bool BalanceController::plateResidual() {
   // Both plates of the same tick j, recent, and the wrench planned for the command applied at tick j.
-  if (plate_tick_[0] < 0 || plate_tick_[0] != plate_tick_[1] ||
-      last_tick_ - plate_tick_[0] > cfg_.disturbance.max_plate_age_ticks)
-    return false;
+  if (!platePairFresh()) return false;
   const size_t slot = static_cast<size_t>(plate_tick_[0] % kPlanRing);
   if (planned_tick_[slot] != plate_tick_[0]) return false;
   wrench_residual_.setZero();
@@ -343,6 +360,7 @@ void BalanceController::startTrajectory(int64_t tick) {
   contact_right_.setReference(observer_->solePosition(0), observer_->soleRotation(0));
   contact_left_.setReference(observer_->solePosition(1), observer_->soleRotation(1));
   updateDynamics(observer_->state());
+  com_observer_.reset();  // its anchor to the model was in the world before the latch
   const auto yaw = [](const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); };
   const SupportPolygon polygon = SupportPolygon::fromSoles(
       observer_->solePosition(0).head<2>(), yaw(observer_->soleRotation(0)), observer_->solePosition(1).head<2>(),
@@ -517,6 +535,7 @@ void BalanceController::tick(const RobotStateSample& in, JointCommandSample& out
   if (fresh) {
     // Dynamics with the estimate blended in: tau_correction (estimator) in h + tau_correction, the controller's CoM.
     updateDynamics(observer_->state());
+    applyComObserver();  // what the model holds rigid and the plates see (com_observer.hpp)
     // Reference: the trajectory once the feet are latched (its height moved with the estimate's vertical CoM
     // offset); before that, hold the current CoM.
     updateReference(in.tick, st);

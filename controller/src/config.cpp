@@ -307,6 +307,16 @@ void readDisturbanceSection(Reader& r, const YAML::Node& root, ControllerConfig&
   r.integer(s, n, "max_plate_age_ticks", c.disturbance.max_plate_age_ticks);
 }
 
+/// The `com_observer` section: the model's CoM fused with the force plates.
+void readComObserverSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
+  const char* n = "com_observer";
+  const auto s = r.section(root, n, {"enabled", "crossover_hz", "anchor_time_constant", "settle_time"});
+  r.boolean(s, n, "enabled", c.com_observer.enabled);
+  r.number(s, n, "crossover_hz", c.com_observer.crossover_hz);
+  r.number(s, n, "anchor_time_constant", c.com_observer.anchor_time_constant);
+  r.number(s, n, "settle_time", c.com_observer.settle_time);
+}
+
 }  // namespace
 
 bool parseControllerConfig(const std::string& yaml, const std::string& source, ControllerConfig& c,
@@ -327,7 +337,7 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
   Reader r(source, error);
   try {
     r.checkKeys(root, "", {"loop", "trajectory", "observer", "momentum", "posture", "contact", "torque", "solver",
-                           "fallback", "estimate", "disturbance"});
+                           "fallback", "estimate", "disturbance", "com_observer"});
     readLoopSection(r, root, c);
     readTrajectorySection(r, root, c);
     readObserverSection(r, root, c);
@@ -339,6 +349,7 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
     readFallbackSection(r, root, c);
     readEstimateSection(r, root, c);
     readDisturbanceSection(r, root, c);
+    readComObserverSection(r, root, c);
   } catch (const YAML::Exception& e) {
     return failWith(error, source + ": " + e.what());
   }
@@ -433,7 +444,13 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
          positive(c.disturbance.time_constant, "disturbance.time_constant") &&
          nonneg(c.disturbance.max_abs, "disturbance.max_abs") &&
          (c.disturbance.max_plate_age_ticks >= 0 ? true
-                                                  : failWith(error, "disturbance.max_plate_age_ticks: must be >= 0"));
+                                                  : failWith(error, "disturbance.max_plate_age_ticks: must be >= 0")) &&
+         // forward Euler at the control period: the filter's poles must sit far below the control rate
+         (c.com_observer.crossover_hz > 0.0 && c.com_observer.crossover_hz * c.loop.period <= 0.02
+              ? true
+              : failWith(error, "com_observer.crossover_hz: must be > 0 and at most 1/50 of the control rate")) &&
+         positive(c.com_observer.anchor_time_constant, "com_observer.anchor_time_constant") &&
+         positive(c.com_observer.settle_time, "com_observer.settle_time");
 }
 
 }  // namespace exoid::controller

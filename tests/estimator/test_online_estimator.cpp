@@ -1031,7 +1031,7 @@ TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAla
   // Residual-triggered forgetting (docs/estimator.md, "Change detection"), default options (no forgetting,
   // threshold 12): config/scenarios/payload_mid_run.yaml's 3 kg attached at 8 s of a 4-move run. Nothing is
   // detected before the attachment, one change within 0.2 s after it, and the estimated total mass (sum of the
-  // published link masses) reaches 95 % of the change within 4 s (issue 8: within 5 s); the fixture's run
+  // published link masses) reaches 95 % of the change within 5 s (issue 8); the fixture's run
   // (no change, +-25 % prior) gives no detection.
   const Fixture& f = fixture();
   const double attach_s = 8.0;
@@ -1067,7 +1067,9 @@ TEST(OnlineEstimator, APayloadAttachedMidRunIsDetectedAndFollowedWithoutFalseAla
   EXPECT_LE(est.lastChangeTick(), attach_tick + 200);
   EXPECT_GT(mass_before, 0.9 * f.model.phi[f.model.bodyParamIndex(0)]);
   EXPECT_GT(reached_s, 0.0);
-  EXPECT_LE(reached_s, 4.0);  // measured 3.50 s with the default weighting
+  // Issue 8's bound. Measured 2.53-3.50 s before the controller's CoM observer, 4.17 s with it: the plates show
+  // the payload's CoM shift at once, and the controller moves the robot to carry it (a different excitation).
+  EXPECT_LE(reached_s, 5.0);
   std::printf("change detected %ld ms after the attachment, largest statistic %.1f; 95 %% of the 3 kg after %.2f s\n",
               est.lastChangeTick() - attach_tick, est.largestChangeStatistic(), reached_s);
 

@@ -150,7 +150,7 @@ int setEstimate(void* self, const exoid_plugin_estimate* e) noexcept {
 int setForcePlates(void* self, const exoid_plugin_force_plate* plates, int32_t n) noexcept {
   auto& p = *static_cast<BalancePlugin*>(self);
   if (!plates || n != EXOID_PLUGIN_NUM_PLATES) return EXOID_PLUGIN_ERROR;
-  if (!(p.cfg.disturbance.enabled && p.cfg.disturbance.force_plates)) return EXOID_PLUGIN_OK;  // not listening
+  if (!exoid::controller::usesForcePlates(p.cfg)) return EXOID_PLUGIN_OK;  // not listening
   bool ok = true;
   for (int i = 0; i < n; ++i)
     ok = exoid::plugin_abi::fromPlugin(plates[i], i, p.plate) && p.ctrl->setForcePlate(p.plate) && ok;

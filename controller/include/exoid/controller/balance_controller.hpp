@@ -15,6 +15,7 @@
 #include "exoid/controller/base_state_observer.hpp"
 #include "exoid/controller/com_trajectory.hpp"
 #include "exoid/controller/config.hpp"
+#include "exoid/controller/com_observer.hpp"
 #include "exoid/controller/disturbance_observer.hpp"
 #include "exoid/controller/formulation.hpp"
 #include "exoid/controller/qp_solver.hpp"
@@ -131,6 +132,7 @@ class BalanceController {
   const CoMReference& reference() const { return ref_; }
   const LinearAngular6d& desiredMomentumRate() const { return rate_desired_; }
   const DisturbanceObserver& disturbanceObserver() const { return disturbance_; }
+  const ComObserver& comObserver() const { return com_observer_; }
   /// Trajectory duration (s), known once the trajectory is generated (at the end of the start-up latch).
   double trajectoryDuration() const { return trajectory_.ready() ? trajectory_.duration() : 0.0; }
   const std::array<SoleFrame, 2>& soles() const { return soles_; }
@@ -180,6 +182,7 @@ class BalanceController {
   ContactSixD contact_right_, contact_left_;
   BalanceFormulation formulation_;
   DisturbanceObserver disturbance_;
+  ComObserver com_observer_;
   std::unique_ptr<QpSolver> solver_;
   RobotDynamicsData dyn_;
   QpProblem qp_;
@@ -211,6 +214,11 @@ class BalanceController {
   std::array<int64_t, kPlanRing> planned_tick_{};
   Eigen::VectorXd wrench_residual_;  // [nv]
   bool plateResidual();              // fills wrench_residual_; false if no usable pair
+  bool platePairFresh() const;       // both plates of the same tick, at most max_plate_age_ticks old
+  /// Folds this tick's CoM (after the estimate's blend) and plates into the CoM observer (once per tick), then adds
+  /// its correction to dyn_'s CoM, CoM velocity and linear momentum.
+  void applyComObserver();
+  Eigen::Vector3d angular_momentum_urdf_ = Eigen::Vector3d::Zero();  // world, about the CoM: the URDF model's
   int64_t trajectory_start_tick_ = 0;
   bool has_last_safe_ = false;
   // Online estimate: the last accepted one (kept for blending out after a withdrawal), its tick, whether it

@@ -125,6 +125,15 @@ struct DisturbanceConfig {
   int max_plate_age_ticks = 0; ///< a plate sample older than this many ticks is not used
 };
 
+/// Horizontal CoM observer: the CoM the force plates measure, fused with the model's (com_observer.hpp;
+/// docs/controller.md, "The CoM observer").
+struct ComObserverConfig {
+  bool enabled = false;               ///< the controller's horizontal CoM takes the plates' correction
+  double crossover_hz = 0.0;          ///< Hz: the plates' moment balance below, their acceleration above
+  double anchor_time_constant = 0.0;  ///< s: the model's CoM below 1 / (2 pi this), the plates' above
+  double settle_time = 0.0;           ///< s of fusing before the correction enters (in fully at twice this)
+};
+
 struct ControllerConfig {
   LoopConfig loop;
   TrajectoryConfig trajectory;
@@ -137,6 +146,7 @@ struct ControllerConfig {
   FallbackConfig fallback;
   EstimateConfig estimate;
   DisturbanceConfig disturbance;
+  ComObserverConfig com_observer;
 };
 
 /// Reads and validates a controller configuration file. Returns false with a one-line message naming the
@@ -148,5 +158,9 @@ bool parseControllerConfig(const std::string& yaml, const std::string& source, C
                            std::string* error);
 /// Range checks of an already filled configuration (also run by the loaders).
 bool validateControllerConfig(const ControllerConfig& config, std::string* error);
+/// Whether the controller reads the force plates: the disturbance observer with force_plates, or the CoM observer.
+inline bool usesForcePlates(const ControllerConfig& c) {
+  return (c.disturbance.enabled && c.disturbance.force_plates) || c.com_observer.enabled;
+}
 
 }  // namespace exoid::controller

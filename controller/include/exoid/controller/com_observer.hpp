@@ -1,0 +1,83 @@
+#pragma once
+// Horizontal CoM observer: the CoM the force plates measure, fused with the model's (docs/wearer.md, "The CoM from
+// the plates"; docs/controller.md, "The CoM observer").
+//
+// The model's CoM moves only with the measured joints: a body it holds rigid that is not (a wearer's trunk on its
+// lumbar joint) is missing from it, at 0.05-2 Hz. Two feet on plates measure the whole system's CoM:
+//  1. the moment balance about the CoM, per horizontal axis (world; F, M the total contact force and moment ON the
+//     robot, M about the world origin; L the angular momentum about the CoM, from the model):
+//        c_x = (c_z F_x - M_y + dL_y/dt) / F_z,   c_y = (M_x + c_z F_y - dL_x/dt) / F_z,
+//     exact at every frequency but for the part of dL/dt the model lacks (the trunk's own rotation), which grows
+//     with the frequency squared; c_z, a 1 cm error of which moves c by F_x / F_z cm, is the model's;
+//  2. Newton, c'' = F_xy / m: exact at high frequency, useless at low (an offset integrates twice; in 1. a force
+//     offset is a constant, c_z offset / F_z, which the anchor below removes).
+// They are fused by a 4th-order complementary pair (D the Butterworth polynomial at w = 2 pi crossover_hz):
+//        c_P = L(s) c_1 + H(s) (F / m) / s^2,   L = (a2 s^2 + a1 s + a0) / D,   H = 1 - L = s^3 (s + a3) / D,
+// in observable canonical form, forward Euler at the control period:
+//        x1' = -a3 x1 + x2,   x2' = -a2 x1 + x3 + a2 u + a,   x3' = -a1 x1 + x4 + a1 u + a3 a,   x4' = -a0 x1 + a0 u,
+//        c_P = x1,  c_P' = -a3 x1 + x2.
+// c_P is in the plates' (lab) frame, which the controller's world (fixed by its kinematics at the latch) is a few mm
+// from, and the model's CoM is right at low frequency once its parameters are (the online estimate). So the
+// controller's CoM is the model's plus what the plates see beyond it above 1 / (2 pi anchor_time_constant):
+//        delta = HP(c_P - c_model),   HP = tau s / (tau s + 1),   c = c_model + w delta,
+// c_model the controller's (the URDF's, or blended toward the estimate's: a change of belief enters within tau),
+// w a smoothstep from 0 at settle_time to 1 at twice that, counted from the start of fusing (the pair's start-up
+// transient decays first). tau puts HP's corner below the moves (0.1-0.35 Hz) and keeps the estimate's lag short.
+// Fusing needs both plates fresh and loaded (F_z above half the weight); otherwise it restarts (w = 0).
+// Allocation-free per tick.
+#include <Eigen/Core>
+#include <cstdint>
+
+#include "exoid/controller/config.hpp"
+
+namespace exoid::controller {
+
+class ComObserver {
+ public:
+  ComObserver(const ComObserverConfig& config, double period);
+
+  /// Forget the state and the correction: the next update restarts (e.g. the controller's world was just fixed).
+  void reset() {
+    started_ = fusing_ = false;
+    delta_.setZero();
+    delta_velocity_.setZero();
+    weight_ = 0.0;
+  }
+  /// One tick. com_model, com_velocity_model [3] world: the controller's CoM and its velocity (the URDF's or blended
+  /// with the estimate's); angular_momentum_urdf [3] world: the URDF model's angular momentum about its CoM;
+  /// force, moment [3] world: the total contact force ON the robot and its moment about the world origin, as the
+  /// plates measured them (nullptr: no usable plate pair this tick);
+  /// mass kg; ticks_since_last >= 1.
+  void update(const Eigen::Vector3d& com_model, const Eigen::Vector3d& com_velocity_model,
+              const Eigen::Vector3d& angular_momentum_urdf, const Eigen::Vector3d* force,
+              const Eigen::Vector3d* moment, double mass, int64_t ticks_since_last);
+  /// m and m/s, world [3]: what to add to the controller's CoM and CoM velocity (w delta; z always 0).
+  const Eigen::Vector3d& correction() const { return delta_; }
+  const Eigen::Vector3d& velocityCorrection() const { return delta_velocity_; }
+  /// The moment balance's CoM c_1 and the fused plates' CoM c_P [3] (lab frame; z: the model's), the weight w of
+  /// the last update.
+  const Eigen::Vector3d& balanceCom() const { return balance_com_; }
+  const Eigen::Vector3d& platesCom() const { return plates_com_; }
+  double weight() const { return weight_; }
+  /// Whether the last update fused the plates (false: disabled, no plates, or restarting).
+  bool fusing() const { return fusing_; }
+
+  /// s, time constant of the low-pass on the model's dL/dt (a difference of the encoders' velocities).
+  static constexpr double kAngularMomentumRateTimeConstant = 0.02;
+  /// Fusing needs the plates' vertical force above this fraction of the weight (feet on the plates).
+  static constexpr double kMinLoadFraction = 0.5;
+
+ private:
+  ComObserverConfig cfg_;
+  double period_;
+  double a0_ = 0.0, a1_ = 0.0, a2_ = 0.0, a3_ = 0.0;  // D(s) coefficients
+  Eigen::Matrix<double, 4, 2> x_ = Eigen::Matrix<double, 4, 2>::Zero();  // the pair's states (rows) per axis x, y
+  Eigen::Vector2d anchor_ = Eigen::Vector2d::Zero();      // m: the low-passed c_P - c_model
+  Eigen::Vector3d previous_momentum_ = Eigen::Vector3d::Zero(), momentum_rate_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d balance_com_ = Eigen::Vector3d::Zero(), plates_com_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d delta_ = Eigen::Vector3d::Zero(), delta_velocity_ = Eigen::Vector3d::Zero();
+  double fused_time_ = 0.0, weight_ = 0.0;
+  bool started_ = false, fusing_ = false;
+};
+
+}  // namespace exoid::controller

@@ -1,0 +1,78 @@
+#include "exoid/controller/com_observer.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace exoid::controller {
+
+ComObserver::ComObserver(const ComObserverConfig& config, double period) : cfg_(config), period_(period) {
+  const double w = 2.0 * M_PI * cfg_.crossover_hz;
+  // 4th-order Butterworth: (s^2 + 2 sin(pi/8) w s + w^2)(s^2 + 2 cos(pi/8) w s + w^2).
+  const double p = 2.0 * std::sin(M_PI / 8.0), q = 2.0 * std::cos(M_PI / 8.0);
+  a3_ = (p + q) * w;
+  a2_ = (2.0 + p * q) * w * w;
+  a1_ = (p + q) * w * w * w;
+  a0_ = w * w * w * w;
+}
+
+void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d& com_velocity_model,
+                         const Eigen::Vector3d& angular_momentum_urdf, const Eigen::Vector3d* force,
+                         const Eigen::Vector3d* moment, double mass, int64_t ticks_since_last) {
+  fusing_ = false;
+  delta_.setZero();
+  delta_velocity_.setZero();
+  weight_ = 0.0;
+  constexpr double g = 9.81;
+  if (!cfg_.enabled || force == nullptr || moment == nullptr || !(mass > 0.0) || !force->allFinite() ||
+      !moment->allFinite() || !(force->z() > kMinLoadFraction * mass * g) || ticks_since_last < 1) {
+    started_ = false;
+    return;
+  }
+  const double dt = static_cast<double>(ticks_since_last) * period_;
+  if (started_) {
+    const Eigen::Vector3d rate = (angular_momentum_urdf - previous_momentum_) / dt;
+    momentum_rate_ += std::min(1.0, dt / kAngularMomentumRateTimeConstant) * (rate - momentum_rate_);
+  } else {
+    momentum_rate_.setZero();
+  }
+  previous_momentum_ = angular_momentum_urdf;
+  const Eigen::Vector3d& F = *force;
+  const Eigen::Vector3d& M = *moment;
+  const double cz = com_model.z();
+  balance_com_ << (cz * F.x() - M.y() + momentum_rate_.y()) / F.z(), (M.x() + cz * F.y() - momentum_rate_.x()) / F.z(),
+      cz;
+  plates_com_.z() = cz;
+  if (!started_) {  // the pair's steady state for a CoM at c_P moving at the model's velocity, no acceleration
+    for (int i = 0; i < 2; ++i) {
+      x_(0, i) = plates_com_[i] = balance_com_[i];
+      x_(1, i) = a3_ * balance_com_[i] + com_velocity_model[i];
+      x_(2, i) = a3_ * com_velocity_model[i];
+      x_(3, i) = 0.0;
+      anchor_[i] = balance_com_[i] - com_model[i];
+    }
+    fused_time_ = 0.0;
+    started_ = true;
+    return;
+  }
+  fused_time_ += dt;
+  const double r = std::clamp((fused_time_ - cfg_.settle_time) / cfg_.settle_time, 0.0, 1.0);
+  weight_ = r * r * (3.0 - 2.0 * r);  // smoothstep: no kick at either end
+  const double k = std::min(1.0, dt / cfg_.anchor_time_constant);
+  for (int i = 0; i < 2; ++i) {
+    const double u = balance_com_[i], a = F[i] / mass;
+    const double x1 = x_(0, i), x2 = x_(1, i), x3 = x_(2, i), x4 = x_(3, i);
+    x_(0, i) = x1 + dt * (-a3_ * x1 + x2);
+    x_(1, i) = x2 + dt * (-a2_ * x1 + x3 + a2_ * u + a);
+    x_(2, i) = x3 + dt * (-a1_ * x1 + x4 + a1_ * u + a3_ * a);
+    x_(3, i) = x4 + dt * (-a0_ * x1 + a0_ * u);
+    plates_com_[i] = x_(0, i);
+    const double d = x_(0, i) - com_model[i];  // c_P - c_model
+    anchor_[i] += k * (d - anchor_[i]);
+    delta_[i] = weight_ * (d - anchor_[i]);
+    const double d_rate = -a3_ * x_(0, i) + x_(1, i) - com_velocity_model[i];
+    delta_velocity_[i] = weight_ * (d_rate - (d - anchor_[i]) / cfg_.anchor_time_constant);
+  }
+  fusing_ = true;
+}
+
+}  // namespace exoid::controller
