@@ -307,7 +307,7 @@ void readDisturbanceSection(Reader& r, const YAML::Node& root, ControllerConfig&
   r.integer(s, n, "max_plate_age_ticks", c.disturbance.max_plate_age_ticks);
 }
 
-/// The `com_observer` section: the model's CoM fused with the force plates.
+/// The `com_observer` section: the CoM the force plates measure, fused with the model's.
 void readComObserverSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
   const char* n = "com_observer";
   const auto s = r.section(root, n, {"enabled", "crossover_hz", "anchor_time_constant", "settle_time"});
