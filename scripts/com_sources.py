@@ -1,16 +1,20 @@
 #!/usr/bin/env python3
-"""What the controller's CoM misses, and what the force plates could give it (docs/wearer.md "The CoM from the plates").
+"""What the controller's CoM misses, and what the force plates give it (docs/wearer.md "The CoM from the plates").
 
 Reads one run log of `exoid experiment` (controller status, ground truth, both plates) and prints, over the moves
 (after the first --skip seconds), against the true CoM (simulator's world = the plates'):
   - the controller's CoM (status `com`: the model's, or blended with the estimate): its mean offset (the model's
     bias plus the offset of the controller's world, summary.json frame_offset_m) and the RMS about it, and that
     error's spectrum by frequency band;
-  - two offline fusions of the horizontal CoM, each the same 4th-order complementary pair (a Butterworth
+  - offline fusions of the horizontal CoM, each the same 4th-order complementary pair (a Butterworth
     denominator at the crossover, the plates' acceleration f / m twice integrated above it):
-      model + acc: the controller's CoM below the crossover;
-      CoP + acc:   the plates' own CoM, c = p + c_z f / f_z (the centre of pressure corrected by the lean of the
-                   ground force; the rate of angular momentum about the CoM, -dL / f_z, left out), below it.
+      model + acc:        the controller's CoM below the crossover;
+      balance + acc:      the plates' own CoM by the moment balance about the CoM, c_x = (c_z F_x - M_y) / F_z,
+                          c_y = (M_x + c_z F_y) / F_z (the centre of pressure corrected by the ground force's lean),
+                          below it;
+      balance+dL + acc:   the same with the model's rate of angular momentum about the CoM (+dL_y/dt, -dL_x/dt over
+                          F_z; the status `momentum`, differenced through a 20 ms low-pass as the controller's CoM
+                          observer does, docs/controller.md "The CoM observer").
 No model, no controller: the log alone. Needs lcm-gen (to decode the messages) and numpy.
 
     python3 scripts/com_sources.py out/run/run.lcmlog --crossovers 0.05 0.1 0.2 0.3
@@ -109,6 +113,11 @@ def main():
     if len(ticks) < 2 * int(args.skip / args.period):
         sys.exit(f"{args.log}: {len(ticks)} ticks with status, truth and both plates during the moves: too few")
     ctrl = np.array([status[t].com for t in ticks])
+    momentum = np.array([status[t].momentum[3:] for t in ticks])
+    rate = np.zeros_like(momentum)  # dL/dt, low-passed (20 ms) as the controller's observer does
+    k_rate = min(1.0, args.period / 0.02)
+    for k in range(1, len(ticks)):
+        rate[k] = rate[k - 1] + k_rate * ((momentum[k] - momentum[k - 1]) / args.period - rate[k - 1])
     true = np.array([truth[t].com for t in ticks])
     force = np.zeros((len(ticks), 3))   # ON the robot, world
     moment = np.zeros((len(ticks), 3))  # ON the robot about the world origin
@@ -122,6 +131,7 @@ def main():
     acc = force[:, :2] / mass
     fz = force[:, 2]
     cop_com = np.stack([-moment[:, 1] / fz, moment[:, 0] / fz], 1) + ctrl[:, 2:3] * force[:, :2] / fz[:, None]
+    cop_com_dl = cop_com + np.stack([rate[:, 1], -rate[:, 0]], 1) / fz[:, None]
     s = int(args.skip / args.period)
     true_xy = true[s:, :2]
     print(f"{args.log}: {len(ticks)} ticks of moves, mass from the plates {mass:.2f} kg, figures after {args.skip} s")
@@ -136,12 +146,16 @@ def main():
         f"{lo:g}-{hi:g} {power[(freq >= lo) & (freq < hi)].sum() / power.sum():.2f}" if hi < 1e9 else
         f">{lo:g} {power[freq >= lo].sum() / power.sum():.2f}" for lo, hi in bands))
     m, r = error_figures(true_xy, cop_com[s:])
-    print(f"CoP-based CoM (no fusion): mean offset ({m[0]:+.2f}, {m[1]:+.2f}) mm, RMS about it {r:.2f} mm")
+    print(f"moment balance's CoM (no fusion): mean offset ({m[0]:+.2f}, {m[1]:+.2f}) mm, RMS about it {r:.2f} mm")
+    m, r = error_figures(true_xy, cop_com_dl[s:])
+    print(f"  with the model's dL/dt: mean offset ({m[0]:+.2f}, {m[1]:+.2f}) mm, RMS about it {r:.2f} mm")
     for fc in args.crossovers:
         a = error_figures(true_xy, fuse(ctrl[:, :2], acc, fc, args.period)[s:])
         b = error_figures(true_xy, fuse(cop_com, acc, fc, args.period)[s:])
-        print(f"crossover {fc:g} Hz: model + acc RMS {a[1]:.2f} mm (mean {a[0][0]:+.2f}, {a[0][1]:+.2f}); "
-              f"CoP + acc RMS {b[1]:.2f} mm (mean {b[0][0]:+.2f}, {b[0][1]:+.2f})")
+        c = error_figures(true_xy, fuse(cop_com_dl, acc, fc, args.period)[s:])
+        print(f"crossover {fc:g} Hz, RMS about the mean (mean x, y), mm: model + acc {a[1]:.2f} ({a[0][0]:+.2f}, "
+              f"{a[0][1]:+.2f}); balance + acc {b[1]:.2f} ({b[0][0]:+.2f}, {b[0][1]:+.2f}); balance+dL + acc "
+              f"{c[1]:.2f} ({c[0][0]:+.2f}, {c[0][1]:+.2f})")
 
 
 if __name__ == "__main__":
