@@ -13,9 +13,9 @@
 #include <string>
 
 #include "exoid/controller/base_state_observer.hpp"
+#include "exoid/controller/com_observer.hpp"
 #include "exoid/controller/com_trajectory.hpp"
 #include "exoid/controller/config.hpp"
-#include "exoid/controller/com_observer.hpp"
 #include "exoid/controller/disturbance_observer.hpp"
 #include "exoid/controller/formulation.hpp"
 #include "exoid/controller/qp_solver.hpp"
