@@ -52,6 +52,11 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_EQ(c.estimate.lag_ticks, 70);
   EXPECT_DOUBLE_EQ(c.estimate.blend_time, 1.0);
   EXPECT_DOUBLE_EQ(c.estimate.max_relative_mass_change, 0.5);
+  EXPECT_TRUE(c.com_observer.enabled);
+  EXPECT_DOUBLE_EQ(c.com_observer.crossover_hz, 0.2);
+  EXPECT_DOUBLE_EQ(c.com_observer.anchor_time_constant, 5.0);
+  EXPECT_DOUBLE_EQ(c.com_observer.settle_time, 3.0);
+  EXPECT_TRUE(usesForcePlates(c));
   EXPECT_TRUE(validateControllerConfig(c, &err)) << err;
 }
 
@@ -84,6 +89,13 @@ TEST(ControllerConfig, ErrorsNameTheField) {
   EXPECT_NE(err.find("estimate.use_centre: unknown key"), std::string::npos) << err;
   EXPECT_FALSE(parseControllerConfig(withLine(text, "use_feedforward", "use_feedforward: maybe"), "cfg", c, &err));
   EXPECT_NE(err.find("estimate.use_feedforward"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "crossover_hz", "crossover_hz: 30"), "cfg", c, &err));
+  EXPECT_NE(err.find("com_observer.crossover_hz: must be > 0 and at most 1/50 of the control rate"), std::string::npos)
+      << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "anchor_time_constant", "anchor_time_constant: 0"), "cfg", c, &err));
+  EXPECT_NE(err.find("com_observer.anchor_time_constant: must be > 0"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "settle_time", ""), "cfg", c, &err));
+  EXPECT_EQ(err, "cfg: com_observer.settle_time: missing");
   EXPECT_FALSE(parseControllerConfig("loop: [1, 2", "cfg", c, &err));
   EXPECT_NE(err.find("YAML"), std::string::npos) << err;
   EXPECT_EQ(err.find('\n'), std::string::npos) << "one line";
