@@ -5,7 +5,8 @@
 
 namespace exoid::controller {
 
-ComObserver::ComObserver(const ComObserverConfig& config, double period) : cfg_(config), period_(period) {
+ComObserver::ComObserver(const ComObserverConfig& config, double period, double gravity)
+    : cfg_(config), period_(period), gravity_(gravity) {
   const double w = 2.0 * M_PI * cfg_.crossover_hz;
   // 4th-order Butterworth: (s^2 + 2 sin(pi/8) w s + w^2)(s^2 + 2 cos(pi/8) w s + w^2).
   const double p = 2.0 * std::sin(M_PI / 8.0), q = 2.0 * std::cos(M_PI / 8.0);
@@ -22,9 +23,8 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
   delta_.setZero();
   delta_velocity_.setZero();
   weight_ = 0.0;
-  constexpr double g = 9.81;
   if (!cfg_.enabled || force == nullptr || moment == nullptr || !(mass > 0.0) || !force->allFinite() ||
-      !moment->allFinite() || !(force->z() > kMinLoadFraction * mass * g) || ticks_since_last < 1) {
+      !moment->allFinite() || !(force->z() > kMinLoadFraction * mass * gravity_) || ticks_since_last < 1) {
     started_ = false;
     return;
   }

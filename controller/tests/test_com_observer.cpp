@@ -97,12 +97,12 @@ TEST(ComObserver, TheMomentBalanceGivesTheCoMWhenTheAngularMomentumRateIsKnown) 
   // dL/dt / F_z (20 / 1079 N = 18.5 mm peak, 13.1 RMS).
   Case told;
   told.Lt = told.Lm = 20.0;
-  ComObserver a(config(), kPeriod);
+  ComObserver a(config(), kPeriod, kG);
   const Figures ft = simulate(told, a);
   EXPECT_LT(ft.balance, 0.0025 / std::sqrt(2.0));
   Case untold = told;
   untold.Lm = 0.0;
-  ComObserver b(config(), kPeriod);
+  ComObserver b(config(), kPeriod, kG);
   const Figures fu = simulate(untold, b);
   EXPECT_NEAR(fu.balance, 20.0 / (kMass * kG) / std::sqrt(2.0), 0.001);
   // ...and the pair takes that unknown 1 Hz term down by |L(j 2 pi)| at a 0.2 Hz crossover.
@@ -119,7 +119,7 @@ TEST(ComObserver, TheControllersCoMKeepsTheModelsBiasAndLosesWhatTheModelMisses)
   k.E = 0.004;
   k.seconds = 120.0;
   k.from = 60.0;
-  ComObserver obs(config(), kPeriod);
+  ComObserver obs(config(), kPeriod, kG);
   const Figures f = simulate(k, obs);
   const double missing = k.E / std::sqrt(2.0);
   EXPECT_LT(f.controller, 0.03 * missing);
@@ -138,7 +138,7 @@ TEST(ComObserver, APlateForceOffsetBiasesThePlatesCoMButNotTheControllers) {
   clean.from = 180.0;
   Case offset = clean;
   offset.offset = 5.0;
-  ComObserver a(config(), kPeriod), b(config(), kPeriod);
+  ComObserver a(config(), kPeriod, kG), b(config(), kPeriod, kG);
   const Figures fc = simulate(clean, a), fo = simulate(offset, b);
   EXPECT_NEAR(fo.plates, std::hypot(fc.plates, 0.9 * 5.0 / (kMass * kG)), 2e-5);
   EXPECT_LT(std::abs(fo.controller - fc.controller), 2e-5);
@@ -146,7 +146,7 @@ TEST(ComObserver, APlateForceOffsetBiasesThePlatesCoMButNotTheControllers) {
 }
 
 TEST(ComObserver, TheCorrectionEntersAfterTheSettleTimeAndStopsWithThePlates) {
-  ComObserver obs(config(), kPeriod);
+  ComObserver obs(config(), kPeriod, kG);
   const Eigen::Vector3d c(0.01, -0.02, 0.9), v = Eigen::Vector3d::Zero(), L = Eigen::Vector3d::Zero();
   const Eigen::Vector3d F(0.0, 0.0, kMass * kG), M = c.cross(F);
   const Eigen::Vector3d model = c + Eigen::Vector3d(0.004, 0.0, 0.0);  // 4 mm off: the correction would be 4 mm
@@ -178,7 +178,7 @@ TEST(ComObserver, TheCorrectionEntersAfterTheSettleTimeAndStopsWithThePlates) {
   EXPECT_EQ(obs.correction().norm(), 0.0);
   ComObserverConfig off = config();
   off.enabled = false;
-  ComObserver none(off, kPeriod);
+  ComObserver none(off, kPeriod, kG);
   for (int i = 0; i < 10; ++i) none.update(model, v, L, &F, &M, kMass, 1);
   EXPECT_FALSE(none.fusing());
 }

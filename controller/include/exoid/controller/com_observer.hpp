@@ -34,7 +34,8 @@ namespace exoid::controller {
 
 class ComObserver {
  public:
-  ComObserver(const ComObserverConfig& config, double period);
+  /// period: s, the control period; gravity: m/s^2, the model's (its norm), for the plates' load check.
+  ComObserver(const ComObserverConfig& config, double period, double gravity);
 
   /// Forget the state and the correction: the next update restarts (e.g. the controller's world was just fixed).
   void reset() {
@@ -69,7 +70,7 @@ class ComObserver {
 
  private:
   ComObserverConfig cfg_;
-  double period_;
+  double period_, gravity_;
   double a0_ = 0.0, a1_ = 0.0, a2_ = 0.0, a3_ = 0.0;  // D(s) coefficients
   Eigen::Matrix<double, 4, 2> x_ = Eigen::Matrix<double, 4, 2>::Zero();  // the pair's states (rows) per axis x, y
   Eigen::Vector2d anchor_ = Eigen::Vector2d::Zero();      // m: the low-passed c_P - c_model
