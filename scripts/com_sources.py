@@ -43,8 +43,11 @@ def lcm_types(tmp):
 
 def events(path):
     """(channel, payload) of every event of an LCM log; stops with a message at the first damaged event."""
-    with open(path, "rb") as f:
-        data = f.read()
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        sys.exit(f"{path}: cannot read: {e.strerror}")
     i = 0
     while i + 28 <= len(data):
         sync, _, _, cl, dl = struct.unpack(">IqqII", data[i:i + 28])
