@@ -4,26 +4,18 @@
 // is not empty, and that read hands on the same samples as the --allow-partial one; every sample handed on is
 // counted, has the model's sizes and finite values, two contacts on the feet, and comes in tick order (never
 // two of one tick: the counts of samples and skips add up to at most the ticks seen).
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 
 #include "exoid/intake/measured_input.hpp"
 #include "exoid/model/urdf.hpp"
+#include "fuzz_samples.hpp"
 #include "fuzz_support.hpp"
 
 namespace {
 exoid::Model g_model;
 int g_feet[2];
-
-bool finite(const exoid::estimator::MeasuredSample& s) {
-  bool ok = std::isfinite(s.t) && s.q.allFinite() && s.tau.allFinite() && s.v.allFinite() && s.a.allFinite() &&
-            s.base_orientation.coeffs().allFinite() && s.base_omega.allFinite() && s.base_acceleration.allFinite() &&
-            s.base_position.allFinite() && s.base_domega.allFinite();
-  for (int i = 0; i < s.ncontacts; ++i) ok = ok && s.contact[i].force.allFinite() && s.contact[i].moment_world_origin.allFinite();
-  return ok;
-}
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
@@ -47,7 +39,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (int allow = 0; allow < 2; ++allow) {
       const exoid::intake::SampleSink sink = [&](const exoid::estimator::MeasuredSample& s, std::string*) {
         EXOID_FUZZ_CHECK(s.q.size() == g_model.njoints && s.tau.size() == g_model.njoints, "a sample has the model's sizes");
-        EXOID_FUZZ_CHECK(finite(s), "a sample is finite");
+        EXOID_FUZZ_CHECK(exoid::fuzz::allValuesFinite(s), "a sample is finite");
         EXOID_FUZZ_CHECK(s.ncontacts == 2 && s.contact[0].body == g_feet[0] && s.contact[1].body == g_feet[1],
                          "a sample's contacts are the feet");
         ++counted[allow];

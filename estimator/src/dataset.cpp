@@ -66,9 +66,17 @@ std::vector<AlignedTick> alignByTick(const std::vector<RobotStateSample>& states
     }
   };
   for (;;) {
-    int c = -1;  // the channel whose next message has the smallest tick (ties: channel order)
+    // The channel whose next message has the smallest tick; ties: the channels not needed first (a tick is
+    // released once its needed channels are in: an optional message of it offered after that would count as
+    // out of order), then channel order.
+    int c = -1;
+    auto before = [&](int k, int than) {
+      const int64_t tk = tickOf(k, next[k]), tt = tickOf(than, next[than]);
+      if (tk != tt) return tk < tt;
+      return !(needed & (1u << k)) && (needed & (1u << than));
+    };
     for (int k = 0; k < kTickChannels; ++k)
-      if (next[k] < size[k] && (c < 0 || tickOf(k, next[k]) < tickOf(c, next[c]))) c = k;
+      if (next[k] < size[k] && (c < 0 || before(k, c))) c = k;
     if (c < 0) break;
     const size_t i = next[c]++;
     int slot = -1;

@@ -4,6 +4,8 @@
 //    (exit 3) with the damage report (count, first bad byte, where the readable part ends), and with
 //    --allow-partial read exactly the samples of the readable part, reported in summary.json; `exoid study`
 //    refuses them with exit 3 too;
+//    a plate message with a finite force and position of 1e200 (the foot's moment, p x F, overflows) is
+//    a rejected message like a flipped payload;
 //  - measured CSVs: a wild time (2.68e154) costs its own row, not the rest of the file; a real gap in the
 //    recording is kept; a time that goes back for real is refused naming its line; errors name file:line
 //    and the column; `exoid diagnose` reports skipped rows on stdout, in summary.json and report.md.
@@ -12,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <lcm/eventlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -103,6 +106,23 @@ class DamagedLogCommands : public ::testing::Test {
   static void setWord(std::string& b, long at, uint32_t v) {
     for (int i = 0; i < 4; ++i) b[static_cast<size_t>(at + i)] = static_cast<char>(v >> (24 - 8 * i));
   }
+  // The right plate's event of tick k rewritten, well-formed, with a force and a position of 1e200: finite, but
+  // the foot's moment about the world origin, p x F, overflows (the fuzzer's find: a sample with an Inf reached
+  // the estimators before the gate bounded a measured value's magnitude).
+  static void overflowingPlate(std::string& b, int k) {
+    ForcePlateSample f;
+    f.plate = 0, f.tick = k, f.utime = k * 1000;
+    f.force = Eigen::Vector3d(1.0, 1.0, -1e200);
+    f.plate_position = Eigen::Vector3d(0.0, 1e200, 0.0);
+    exoid_lcm::force_plate_t m;
+    toLcm(f, m);
+    std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
+    m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    const long data = offsets_[3 * k + 1] + 28 + static_cast<long>(std::strlen(channels::kPlateRight));
+    ASSERT_EQ(b.substr(static_cast<size_t>(data) - std::strlen(channels::kPlateRight), std::strlen(channels::kPlateRight)),
+              channels::kPlateRight);
+    std::copy(buf.begin(), buf.end(), b.begin() + data);
+  }
   struct Case {
     std::string name, path;
     long first_bad = -1;    ///< byte of the first damage (-1: a cut-off tail)
@@ -121,6 +141,7 @@ class DamagedLogCommands : public ::testing::Test {
            for (long i = 0; i < 32; ++i) b[static_cast<size_t>(data + i)] = static_cast<char>(~b[static_cast<size_t>(data + i)]);
          }), -1, kTicks - 1},
         {"cut_in_half", damaged("cut.lcmlog", [&](std::string& b) { b.resize(static_cast<size_t>(offsets_[3 * 2000] + 10)); }), -1, 2000},
+        {"value_beyond_range", damaged("beyond.lcmlog", [&](std::string& b) { overflowingPlate(b, 1700); }), -1, kTicks - 1},
     };
   }
   static inline test::TempDir* dir_ = nullptr;
@@ -151,6 +172,9 @@ TEST_F(DamagedLogCommands, IdentifyRefusesWithTheReportOrReadsTheReadablePart) {
       EXPECT_NE(r.err.find("first at byte " + std::to_string(c.first_bad)), std::string::npos) << r.err;
     }
     EXPECT_NE(r.err.find("readable part ends at byte"), std::string::npos) << r.err;
+    if (c.name == "value_beyond_range") {
+      EXPECT_NE(r.err.find("force_plate_t: force[2] is -1e+200, beyond the 1e+09"), std::string::npos) << r.err;
+    }
     EXPECT_FALSE(std::filesystem::exists(out.file(c.name + "/summary.json")));
     const auto p = test::runCommand(identifyCmd(c.path) + " --allow-partial --out " + out.file(c.name), out.path);
     ASSERT_EQ(p.exit_code, 0) << p.err;
@@ -213,6 +237,57 @@ TEST(IntakeHelp, EveryCommandReadingLogsDocumentsAllowPartial) {
               std::string::npos)
         << command << r.out;
   }
+}
+
+// The log's sensors exported to a measured CSV (what a lab's own recording looks like), with a plate's moment
+// and the base's acceleration out of their ranges (fuzz_measured_csv's property: before, only the plates'
+// forces were bounded, and a base acceleration of 1e300 reached the estimators): each named by line and
+// column, or with --skip-bad-rows dropped and counted as absurd.
+TEST_F(DamagedLogCommands, AnAbsurdBaseOrPlateValueInAMeasuredCsvIsNamed) {
+  const test::TempDir out("intake_csv_floating");
+  const std::string csv = out.file("m.csv");
+  const auto e = test::runCommand(test::exoidBinary() + " export --log " + path_ + " --out " + csv, out.path);
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(csv);
+    std::string line;
+    while (std::getline(in, line)) lines.push_back(line);
+  }
+  ASSERT_EQ(lines.size(), static_cast<size_t>(kTicks) + 1);
+  auto cells = [](const std::string& line) {
+    std::vector<std::string> c;
+    std::stringstream ss(line);
+    std::string x;
+    while (std::getline(ss, x, ',')) c.push_back(x);
+    return c;
+  };
+  const std::vector<std::string> header = cells(lines[0]);
+  auto edit = [&](size_t row, const std::string& column, const std::string& value) {
+    const size_t col = static_cast<size_t>(std::find(header.begin(), header.end(), column) - header.begin());
+    ASSERT_LT(col, header.size()) << column;
+    std::vector<std::string> c = cells(lines[row]);
+    c[col] = value;
+    std::string joined;
+    for (size_t i = 0; i < c.size(); ++i) joined += (i ? "," : "") + c[i];
+    lines[row] = joined;
+  };
+  edit(1000, "fp_right_nx", "2e6");
+  edit(1500, "base_ay", "1e300");
+  {
+    std::ofstream f(csv);
+    for (const std::string& l : lines) f << l << "\n";
+  }
+  const std::string cmd = test::exoidBinary() + " identify --data " + csv + " --method OLS --rank full";
+  auto r = test::runCommand(cmd, out.path);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(csv + ":1001: column "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("'fp_right_nx': 2e+06 outside [-1e+06, 1e+06]"), std::string::npos) << r.err;
+  r = test::runCommand(cmd + " --skip-bad-rows --out " + out.file("o"), out.path);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json in = readJson(out.file("o/summary.json"))["inputs"][0];
+  EXPECT_EQ(in["samples"].get<long>(), kTicks - 2);
+  EXPECT_EQ(in["skipped_by_reason"]["absurd value"].get<long>(), 2);
 }
 
 // The KUKA LWR4+ run 1 (data/kuka_lwr4, 200 Hz) with edits.

@@ -492,8 +492,15 @@ TEST(Gate, FromLcmAndTheSampleChecksGiveTheSameVerdict) {
   s.has_tau[2] = false;
   s.tau[2] = 1.0;
   states.push_back({"torque without sensor", s});
+  s = clean;
+  s.imu_accel.z() = -1.0001 * kMaxSampleMagnitude;
+  states.push_back({"accel beyond the range", s});
+  s = clean;
+  s.q[0] = kMaxSampleMagnitude;
+  states.push_back({"q at the range", s});
   const SampleFault want_state[] = {SampleFault::None,      SampleFault::NonFinite, SampleFault::NonFinite,
-                                    SampleFault::Malformed, SampleFault::None,      SampleFault::Malformed};
+                                    SampleFault::Malformed, SampleFault::None,      SampleFault::Malformed,
+                                    SampleFault::Malformed, SampleFault::None};
   for (size_t i = 0; i < states.size(); ++i) {
     const RobotStateSample& in = states[i].second;
     ASSERT_TRUE(stateSizesOk(in, static_cast<int>(jointNames().size())));
@@ -518,7 +525,14 @@ TEST(Gate, FromLcmAndTheSampleChecksGiveTheSameVerdict) {
   p = pclean;
   p.plate_orientation.coeffs() *= 1.0 - 5e-7;
   plates.push_back({"|q| 1 - 5e-7", p});
-  const SampleFault want_plate[] = {SampleFault::None, SampleFault::NonFinite, SampleFault::Malformed, SampleFault::None};
+  p = pclean;
+  p.force.z() = -1e200, p.plate_position.y() = 1e200;  // finite, but p x F overflows (fuzz_log_samples' find)
+  plates.push_back({"force and position 1e200", p});
+  p = pclean;
+  p.plate_position.x() = -kMaxSampleMagnitude;
+  plates.push_back({"position at the range", p});
+  const SampleFault want_plate[] = {SampleFault::None, SampleFault::NonFinite, SampleFault::Malformed, SampleFault::None,
+                                    SampleFault::Malformed, SampleFault::None};
   for (size_t i = 0; i < plates.size(); ++i) {
     const ForcePlateSample& in = plates[i].second;
     const SampleFault f = checkPlateValues(in);
@@ -530,6 +544,28 @@ TEST(Gate, FromLcmAndTheSampleChecksGiveTheSameVerdict) {
     EXPECT_EQ(fromLcm(encodeDecode(msg), 1, out, nullptr, &reason), f == SampleFault::None) << plates[i].first;
     if (f != SampleFault::None) { EXPECT_EQ(reason, expectedReason(f)) << plates[i].first; }
   }
+}
+
+// A value beyond the range is named with its field and index; the truth, which the gate has no sample check
+// for, gets the same rule.
+TEST(Gate, AValueBeyondTheSampleRangeIsNamed) {
+  ForcePlateSample p = test::makePlate(0);
+  p.force.z() = 3e12;
+  exoid_lcm::force_plate_t msg;
+  toLcm(p, msg);
+  std::string why;
+  RejectReason reason = RejectReason::Duplicate;
+  EXPECT_FALSE(fromLcm(encodeDecode(msg), 0, p, &why, &reason));
+  EXPECT_EQ(reason, RejectReason::Malformed);
+  EXPECT_EQ(why, "force_plate_t: force[2] is 3e+12, beyond the 1e+09 a measured value can take");
+
+  GroundTruthSample t = test::makeTruth();
+  t.foot_moment[1].x() = -2e10;
+  exoid_lcm::ground_truth_t tmsg;
+  toLcm(t, jointNames(), tmsg);
+  EXPECT_FALSE(fromLcm(encodeDecode(tmsg), jointNames(), t, &why, &reason));
+  EXPECT_EQ(reason, RejectReason::Malformed);
+  EXPECT_EQ(why, "ground_truth_t: foot_moment_left[0] is -2e+10, beyond the 1e+09 a measured value can take");
 }
 
 }  // namespace

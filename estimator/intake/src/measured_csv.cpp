@@ -155,9 +155,16 @@ std::string implausibleValue(const Model& model, const CsvColumns& c, Row& row,
     const double tl = model.effort_limit[j] > 0.0 ? 100.0 * model.effort_limit[j] : 1e5;
     check(c.tau[j], -tl, tl);
   }
-  if (model.floating_base)
+  if (model.floating_base) {
+    // The base and the plates by the joints' bounds: rates 1e3, accelerations 1e5, forces and moments 1e6.
     for (int sd = 0; sd < 2; ++sd)
-      for (int k = 0; k < 3; ++k) check(c.plate[sd][k], -1e6, 1e6);
+      for (int k = 0; k < 6; ++k) check(c.plate[sd][k], -1e6, 1e6);
+    for (int i = 0; i < 3; ++i) {
+      check(c.base_w[i], -1e3, 1e3), check(c.base_a[i], -1e5, 1e5);
+      if (c.has_dw) check(c.base_dw[i], -1e5, 1e5);
+      if (c.has_p) check(c.base_p[i], -1e4, 1e4);
+    }
+  }
   row.quat = Eigen::Quaterniond::Identity();
   if (model.floating_base && absurd.empty()) {
     row.quat = Eigen::Quaterniond(val[c.base_q[0]], val[c.base_q[1]], val[c.base_q[2]], val[c.base_q[3]]);

@@ -83,6 +83,16 @@ class Check {
   bool finite(const std::vector<double>& v, const char* field) { return finite(v.data(), v.size(), field); }
   bool finite(double v, const char* field) { return finite(&v, 1, field); }
 
+  // A measured sample's values: finite and within kMaxSampleMagnitude (the gate's rules, sample_checks.hpp).
+  bool measured(const double* v, size_t n, const char* field) {
+    if (!finite(v, n, field)) return false;
+    size_t i = 0;
+    if (withinSampleRange(v, n, &i)) return true;
+    return fail(RejectReason::Malformed, "%s[%zu] is %g, beyond the %g a measured value can take", field, i, v[i],
+                kMaxSampleMagnitude);
+  }
+  bool measured(const std::vector<double>& v, const char* field) { return measured(v.data(), v.size(), field); }
+
   bool nonNegative(const double* v, size_t n, const char* field) {
     for (size_t i = 0; i < n; ++i)
       if (!(v[i] >= 0.0)) return fail(RejectReason::Malformed, "%s[%zu] is %g, must be >= 0", field, i, v[i]);
@@ -220,8 +230,8 @@ bool fromLcm(const exoid_lcm::robot_state_t& msg, const std::vector<std::string>
       !c.length(msg.has_tau.size(), msg.num_joints, "has_tau"))
     return false;
   if (!c.names(msg.joint_names, expected_joint_names, "joint_names")) return false;
-  if (!c.finite(msg.q, "q") || !c.finite(msg.tau, "tau") || !c.finite(msg.imu_gyro, 3, "imu_gyro") ||
-      !c.finite(msg.imu_accel, 3, "imu_accel"))
+  if (!c.measured(msg.q, "q") || !c.measured(msg.tau, "tau") || !c.measured(msg.imu_gyro, 3, "imu_gyro") ||
+      !c.measured(msg.imu_accel, 3, "imu_accel"))
     return false;
   size_t i = 0;
   if (!unmeasuredTorquesZero(msg.tau.data(), msg.has_tau, n, &i))
@@ -254,8 +264,8 @@ bool fromLcm(const exoid_lcm::force_plate_t& msg, int expected_plate, ForcePlate
   if (expected_plate >= 0 && plate != expected_plate)
     return c.fail(RejectReason::Malformed, "plate_name is '%s' on a channel for the %s plate", msg.plate_name.c_str(),
                   plateName(expected_plate) ? plateName(expected_plate) : "?");
-  if (!c.finite(msg.force, 3, "force") || !c.finite(msg.moment, 3, "moment") || !c.finite(msg.cop, 3, "cop") ||
-      !c.finite(msg.plate_position, 3, "plate_position"))
+  if (!c.measured(msg.force, 3, "force") || !c.measured(msg.moment, 3, "moment") || !c.measured(msg.cop, 3, "cop") ||
+      !c.measured(msg.plate_position, 3, "plate_position"))
     return false;
   if (!c.unitQuaternion(msg.plate_orientation, "plate_orientation")) return false;
 
@@ -317,14 +327,14 @@ bool fromLcm(const exoid_lcm::ground_truth_t& msg, const std::vector<std::string
       !c.length(msg.tau_applied.size(), msg.num_joints, "tau_applied"))
     return false;
   if (!c.names(msg.joint_names, expected_joint_names, "joint_names")) return false;
-  if (!c.finite(msg.base_position, 3, "base_position") || !c.finite(msg.base_omega, 3, "base_omega") ||
-      !c.finite(msg.base_velocity, 3, "base_velocity") || !c.finite(msg.base_domega, 3, "base_domega") ||
-      !c.finite(msg.base_acceleration, 3, "base_acceleration") || !c.finite(msg.q, "q") ||
-      !c.finite(msg.v, "v") || !c.finite(msg.a, "a") || !c.finite(msg.tau_applied, "tau_applied") ||
-      !c.finite(msg.foot_force_right, 3, "foot_force_right") ||
-      !c.finite(msg.foot_moment_right, 3, "foot_moment_right") ||
-      !c.finite(msg.foot_force_left, 3, "foot_force_left") || !c.finite(msg.foot_moment_left, 3, "foot_moment_left") ||
-      !c.finite(msg.com, 3, "com"))
+  if (!c.measured(msg.base_position, 3, "base_position") || !c.measured(msg.base_omega, 3, "base_omega") ||
+      !c.measured(msg.base_velocity, 3, "base_velocity") || !c.measured(msg.base_domega, 3, "base_domega") ||
+      !c.measured(msg.base_acceleration, 3, "base_acceleration") || !c.measured(msg.q, "q") ||
+      !c.measured(msg.v, "v") || !c.measured(msg.a, "a") || !c.measured(msg.tau_applied, "tau_applied") ||
+      !c.measured(msg.foot_force_right, 3, "foot_force_right") ||
+      !c.measured(msg.foot_moment_right, 3, "foot_moment_right") ||
+      !c.measured(msg.foot_force_left, 3, "foot_force_left") || !c.measured(msg.foot_moment_left, 3, "foot_moment_left") ||
+      !c.measured(msg.com, 3, "com"))
     return false;
   if (!c.unitQuaternion(msg.base_orientation, "base_orientation")) return false;
 
