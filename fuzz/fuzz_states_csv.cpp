@@ -66,6 +66,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         continue;
       }
       exoid::computeJointTorqueRegressor(model, kin, state);
+      EXOID_FUZZ_CHECK(kin.K.allFinite(), "an accepted row gives a finite regressor");
     }
   }
   return 0;

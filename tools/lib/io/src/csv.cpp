@@ -65,6 +65,7 @@ bool readCsv(const std::string& path, CsvTable& table, std::string* error) {
                     table.header[c] + "': " + common::quoteValue(cells[c]) + ": " + why);
     }
     table.rows.push_back(std::move(row));
+    table.lines.push_back(line_no);
   }
   if (in.bad()) return fail("read error");
   if (table.header.empty()) return fail("no header row");

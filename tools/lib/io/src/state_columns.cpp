@@ -1,6 +1,9 @@
 #include "exoid/tools/state_columns.hpp"
 
 #include <cmath>
+#include <sstream>
+
+#include "exoid/sample_checks.hpp"
 
 namespace exoid::tools {
 
@@ -64,10 +67,30 @@ bool StateColumns::bind(const Model& model, const CsvTable& table, std::string* 
     // robot measures neither (sensor exports leave them out).
     for (int i = 0; i < 3; ++i) v_base_[i] = table.column(kV[i]), pos_[i] = table.column(kP[i]);
   }
+  header_ = table.header;
+  used_.clear();
+  for (const std::vector<int>* g : {&q_, &v_, &a_}) used_.insert(used_.end(), g->begin(), g->end());
+  if (floating_) {
+    used_.insert(used_.end(), quat_, quat_ + 4);
+    for (const int* g : {w_, v_base_, dw_, acc_, pos_})
+      for (int i = 0; i < 3; ++i)
+        if (g[i] >= 0) used_.push_back(g[i]);
+  }
   return true;
 }
 
 bool StateColumns::read(const std::vector<double>& row, State& s, std::string* error) const {
+  // The columns read, within the gate's range (the ignored ones are not judged).
+  for (const int c : used_) {
+    if (withinSampleRange(&row[static_cast<size_t>(c)], 1)) continue;
+    if (error) {
+      std::ostringstream o;
+      o << "column " << c + 1 << " '" << header_[static_cast<size_t>(c)] << "': " << row[static_cast<size_t>(c)]
+        << " is beyond the " << kMaxSampleMagnitude << " a state value can take";
+      *error = o.str();
+    }
+    return false;
+  }
   for (size_t j = 0; j < q_.size(); ++j) {
     s.q[j] = row[q_[j]];
     s.v[j] = row[v_[j]];

@@ -11,6 +11,7 @@ namespace exoid::tools {
 struct CsvTable {
   std::vector<std::string> header;
   std::vector<std::vector<double>> rows;  ///< [rows][header.size()]
+  std::vector<long> lines;                ///< [rows] each row's line in the file, as an editor counts (1 = first)
   /// Index of a column, -1 if absent.
   int column(const std::string& name) const;
 };

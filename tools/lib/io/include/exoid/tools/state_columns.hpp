@@ -20,6 +20,8 @@ class StateColumns {
   bool bind(const Model& model, const CsvTable& table, std::string* error);
   /// Fills a state (sized for the model) from one row. Fails if the quaternion is not unit length
   /// within 1e-3 (it is normalised otherwise).
+  /// Every value read must be within the gate's kMaxSampleMagnitude (sample_checks.hpp: beyond it the
+  /// regressor's products, v^2 among them, leave the doubles' range); *error names the column otherwise.
   bool read(const std::vector<double>& row, State& state, std::string* error) const;
   /// Appends the state's values in names() order.
   static void write(const Model& model, const State& state, std::vector<double>& out, bool with_base_position = true);
@@ -29,6 +31,8 @@ class StateColumns {
   std::vector<int> q_, v_, a_;
   int quat_[4] = {-1, -1, -1, -1}, w_[3] = {-1, -1, -1}, v_base_[3] = {-1, -1, -1}, dw_[3] = {-1, -1, -1},
       acc_[3] = {-1, -1, -1}, pos_[3] = {-1, -1, -1};
+  std::vector<int> used_;            ///< every column read
+  std::vector<std::string> header_;  ///< the bound table's names, for errors
 };
 
 }  // namespace exoid::tools
