@@ -27,7 +27,7 @@ bool writeRegressor(const Model& model, const tools::CsvTable& table, const tool
   State state = State::zero(model);
   for (size_t i = 0; i < table.rows.size(); ++i) {
     if (!columns.read(table.rows[i], state, err))
-      return *err = states_path + ":" + std::to_string(table.lines[i]) + ": " + *err, false;
+      return *err = states_path + ":" + std::to_string(table.lines.at(i)) + ": " + *err, false;  // readCsv's lines
     computeJointTorqueRegressor(model, data, state);
     for (int r = 0; r < model.nv; ++r) {
       std::fprintf(f, "%zu,%s", i, row_names[r].c_str());
