@@ -64,6 +64,17 @@ void evaluate(const DataSet& ds, const std::vector<std::string>& rules) {
     std::fprintf(stderr, "%s: %s\n", ds.name.c_str(), err.c_str());
     return;
   }
+  // The default rule's processing term, as `exoid identify` gives it (tools::processingAlternatives).
+  std::vector<std::unique_ptr<estimator::LsqAccumulator>> alternatives;
+  std::vector<const estimator::LsqAccumulator*> processing;
+  for (const tools::ProcessingAlternative& alt : tools::processingAlternatives(ds.train_options, ds.model.floating_base)) {
+    alternatives.emplace_back();
+    if (!load(ds, ds.train, alt.source, 5, alternatives.back(), base, &err)) {
+      std::fprintf(stderr, "%s (%s): %s\n", ds.name.c_str(), alt.what.c_str(), err.c_str());
+      return;
+    }
+    processing.push_back(alternatives.back().get());
+  }
   std::vector<Row> rows;
   double prior_rmse = 0.0;
   for (const std::string& rule : rules) {
@@ -71,7 +82,7 @@ void evaluate(const DataSet& ds, const std::vector<std::string>& rules) {
     o.physically_consistent = true;
     if (!estimator::parseRankRule(rule, o.rank_rule)) continue;
     estimator::IdentifyResult r;
-    if (!estimator::identify(*tr, ds.model, ds.prior, o, va.get(), r, &err)) {
+    if (!estimator::identify(*tr, ds.model, ds.prior, o, va.get(), r, &err, processing)) {
       std::fprintf(stderr, "%s %s: %s\n", ds.name.c_str(), rule.c_str(), err.c_str());
       continue;
     }

@@ -4,8 +4,12 @@
 //  - every solver (OLS, WLS-R, WLS-C, WLS-RC) at every truncation rank equals the thesis's formulas
 //    (eqs. 20-23, 27, 29-32) evaluated with a dense SVD of the stacked, scaled 130-column W;
 //  - a held function (HeldFunction, eliminated from the rows) gives the equality-constrained least-squares fit of a
-//    dense nullspace solve, the function held exactly.
+//    dense nullspace solve, the function held exactly;
+//  - a set of directions kept (orderDirections) equals the dense minimum-deviation solve of its equations, and the
+//    jackknife leaves at the prior a direction that another processing of the same data moves.
 #include <gtest/gtest.h>
+
+#include <algorithm>
 
 #include <Eigen/Cholesky>
 #include <Eigen/SVD>
@@ -248,6 +252,88 @@ TEST(BatchSolvers, RankChoiceCurvesAreConsistentWithTheirDefinitions) {
   const RankCurve cv = rankByCrossValidation(acc, pb.model, prior, Method::WlsRC);
   EXPECT_EQ(static_cast<int>(cv.score.size()), sp.s.size() + 1);
   EXPECT_GT(cv.best, 0);
+}
+
+// A rule that keeps a set of directions rather than the z largest (the jackknife's): orderDirections puts them first,
+// and solveAtRank then keeps exactly those and fills the rest from the prior. Independent: the kept equations
+// v_i^T H^-1 (phi - gamma) = d_i / s_i for i in S, and the minimum deviation from the prior in the fill's metric,
+// phi = prior + D (A D)^+ (b - A prior) with A = V_S^T H^-1, D = diag(fill), by a complete orthogonal decomposition.
+TEST(BatchSolvers, OrderedDirectionsKeepExactlyTheChosenSet) {
+  const Problem pb = makeProblem(600, 5);
+  const LsqAccumulator acc = accumulate(pb, {64, 5, 50, 2});
+  const Eigen::VectorXd prior = pb.model.phi * 1.2;
+  const ScaledProblem sp = scaleProblem(acc, pb.model, prior, Method::WlsRC);
+  const int r = static_cast<int>(sp.s.size());
+  std::vector<int> kept, order;
+  for (int i = 0; i < 12; ++i) kept.push_back(i);
+  for (int i : {20, 35, r - 3}) kept.push_back(i);
+  order = kept;
+  for (int i = 0; i < r; ++i)
+    if (std::find(kept.begin(), kept.end(), i) == kept.end()) order.push_back(i);
+  const int z = static_cast<int>(kept.size());
+  const Eigen::VectorXd phi = solveAtRank(orderDirections(sp, order), z);
+  const int p = pb.model.nparams();
+  Eigen::MatrixXd A(z, p);
+  Eigen::VectorXd b(z);
+  for (int k = 0; k < z; ++k) {
+    const int i = kept[k];
+    A.row(k) = sp.V.col(i).cwiseQuotient(sp.h).transpose();
+    b[k] = sp.d[i] / sp.s[i] + A.row(k).dot(sp.gamma);
+  }
+  const Eigen::MatrixXd AD = A * sp.fill.asDiagonal();
+  const Eigen::VectorXd dense = prior + sp.fill.cwiseProduct(AD.completeOrthogonalDecomposition().solve(b - A * prior));
+  EXPECT_LT((A * phi - b).norm(), 1e-9 * b.norm());
+  EXPECT_LT((phi - dense).cwiseQuotient(sp.h).norm(), 1e-8 * dense.cwiseQuotient(sp.h).norm());
+  // Not the prefix of the same size: the set differs.
+  EXPECT_GT((solveAtRank(sp, z) - phi).cwiseQuotient(sp.h).norm(), 1e-3 * dense.cwiseQuotient(sp.h).norm());
+  // The singular-value order itself changes nothing.
+  std::vector<int> identity(r);
+  for (int i = 0; i < r; ++i) identity[i] = i;
+  EXPECT_LT((solveAtRank(orderDirections(sp, identity), 40) - solveAtRank(sp, 40)).norm(), 1e-12 * prior.norm());
+}
+
+// The jackknife's processing term: training data processed another way that moves the estimate along one kept
+// direction by twice the prior's standard deviation there (y + W H v_k c, the same data otherwise, so every other
+// coordinate stays) leave exactly that direction at the prior, named as processing-sensitive; every other
+// direction keeps its verdict, and the kept set has the least risk of the curve.
+TEST(BatchSolvers, TheJackknifeLeavesAtThePriorADirectionTheProcessingMoves) {
+  const Problem pb = makeProblem(600, 6);
+  const Model& m = pb.model;
+  const LsqAccumulator acc = accumulate(pb, {64, 5, 50, 2});
+  Eigen::VectorXd prior = m.phi * 1.2;
+  for (int j = 0; j < m.njoints; ++j) prior[m.frictionParamIndex(j)] = 0.36, prior[m.frictionParamIndex(j) + 1] = 0.6;
+  const TrainingFactors tf = trainingFactors(acc, m, Method::WlsRC);
+  // Processed the same way (b = 0): the least-risk set of the variances alone, nothing processing-sensitive.
+  const RankCurve plain = rankByJackknife(tf, m, prior, 0.25, {tf.all});
+  ASSERT_GT(plain.best, 10);
+  EXPECT_TRUE(plain.processing_sensitive.empty());
+  const std::vector<int> kept(plain.order.begin(), plain.order.begin() + plain.best);
+  // Without processing alternatives the rule keeps a prefix (order empty).
+  EXPECT_TRUE(rankByJackknife(tf, m, prior, 0.25).order.empty());
+  const int k = kept[kept.size() / 2];
+  const ScaledProblem sp = scaleProblem(tf.all, m, prior, Method::WlsRC);
+  const Eigen::VectorXd sh = priorUncertainty(m, prior, tf.all, 0.25).cwiseQuotient(sp.h);
+  const double c = 2.0 * sh.cwiseProduct(sp.V.col(k)).norm();  // twice the prior's standard deviation along v_k
+  Problem moved = pb;
+  moved.y += pb.W * sp.h.cwiseProduct(sp.V.col(k)) * c;
+  const LsqAccumulator alt = accumulate(moved, {64, 5, 50, 2});
+  const RankCurve checked = rankByJackknife(tf, m, prior, 0.25, {weightedFactor(alt, m, true)});
+  ASSERT_EQ(checked.processing_sensitive, std::vector<int>{k});
+  std::vector<int> expect = kept;
+  expect.erase(std::find(expect.begin(), expect.end(), k));
+  EXPECT_EQ(std::vector<int>(checked.order.begin(), checked.order.begin() + checked.best), expect);
+  EXPECT_EQ(checked.best, plain.best - 1);
+  for (double score : checked.score) EXPECT_GE(score, checked.score[checked.best]);
+  for (double score : plain.score) EXPECT_GE(score, plain.score[plain.best]);
+  // The same through identify(): that set kept, the rest filled from the prior.
+  IdentifyOptions o;
+  o.rank_rule = RankRule::Jackknife;
+  IdentifyResult r;
+  std::string err;
+  ASSERT_TRUE(identify(acc, m, prior, o, nullptr, r, &err, {&alt})) << err;
+  EXPECT_EQ(r.rank, checked.best);
+  const Eigen::VectorXd expect_phi = solveAtRank(orderDirections(sp, checked.order), checked.best);
+  EXPECT_LT((r.phi - expect_phi).cwiseQuotient(sp.h).norm(), 1e-9 * expect_phi.cwiseQuotient(sp.h).norm());
 }
 
 // The system's vertical first moment at q = 0 held 0.5 kg m away from the truth's (`exoid identify --com-height

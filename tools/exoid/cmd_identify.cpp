@@ -65,10 +65,15 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
                  "guaranteed); case-insensitive")
       ->transform(CLI::IsMember({"OLS", "WLS-R", "WLS-C", "WLS-RC", "WLS-RC-PC"}, CLI::ignore_case));
   app.add_option("--rank", o.rank, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
-                 "choice), or from the training data alone: 'jackknife' (default: the z of least expected error, each "
-                 "direction's time-block jackknife variance against the prior's variance along it, see "
-                 "--prior-uncertainty), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
+                 "choice), or from the training data alone: 'jackknife' (default: the directions of least expected "
+                 "error: each one's time-block jackknife variance, plus how far it moves when the same data are "
+                 "processed another way (half the cutoff, the other --filter-mode, the IMU's orientation; see "
+                 "--no-processing-check), against the prior's variance along it, see --prior-uncertainty; z is the "
+                 "number kept), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them; with --only-links the default is 'full'");
+  app.add_flag("--no-processing-check", o.no_processing_check, "--rank jackknife: leave out the processing term (the "
+               "training data are then read once instead of once per other processing: with --cutoff, half the "
+               "cutoff and the other --filter-mode; with the fused orientation, the IMU's)");
   app.add_option("--prior-uncertainty", o.prior_uncertainty, "--rank jackknife: the prior's parameters that it states (the "
                  "URDF's inertials, any kind with a nonzero entry) are within +-this relative error of the truth "
                  "(default 0.25); a kind the prior leaves at zero throughout (friction without a --prior for it) is "
@@ -133,6 +138,12 @@ std::string printReport(const tools::IdentifyRun& run) {
   std::printf("%s, rank %s: z = %d of %d base parameters (numerical rank %d), condition number %.3g\n",
               estimator::methodLabel(r.method, r.physically_consistent).c_str(), estimator::rankRuleName(r.rank_rule), r.rank,
               run.base.rank, r.numerical_rank, r.condition);
+  if (!run.processing_checked.empty()) {
+    std::string what;
+    for (const std::string& w : run.processing_checked) what += (what.empty() ? "" : ", ") + w;
+    std::printf("processing check (%s): %zu directions left at the prior because the processing moves them\n",
+                what.c_str(), r.curve.processing_sensitive.size());
+  }
   std::printf("training: %ld samples, %ld equations, generalized-force RMSE %.6g (RMS of y %.6g)\n", run.training_samples,
               r.training_rows, r.training_rmse, r.training_y_rms);
   if (r.validation_rmse >= 0.0) {
@@ -207,7 +218,9 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
   j["numerical_rank"] = r.numerical_rank;
   j["condition_number"] = r.condition;
   j["singular_values"] = std::vector<double>(r.singular_values.data(), r.singular_values.data() + r.singular_values.size());
-  j["rank_curve"] = {{"rule", r.curve.rule}, {"score", r.curve.score}};
+  j["rank_curve"] = {{"rule", r.curve.rule}, {"score", r.curve.score}, {"order", r.curve.order},
+                     {"processing_checked", run.processing_checked},
+                     {"processing_sensitive", r.curve.processing_sensitive}};
   j["row_weight"] = r.row_weight;
   j["training"] = {{"samples", run.training_samples}, {"equations", r.training_rows}, {"rmse", r.training_rmse},
                    {"y_rms", r.training_y_rms}};

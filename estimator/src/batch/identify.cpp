@@ -46,7 +46,8 @@ namespace {
 /// cannot run on this data.
 bool chooseRank(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
                 const IdentifyOptions& o, const LsqAccumulator* validation, const ScaledProblem& sp,
-                const LsqFactor& vfactor, IdentifyResult& out, std::string& why) {
+                const LsqFactor& vfactor, const std::vector<const LsqAccumulator*>& processing, IdentifyResult& out,
+                std::string& why) {
   const int m = train.baseColumns();
   switch (o.rank_rule) {
     case RankRule::Full: out.rank = out.numerical_rank; break;
@@ -68,7 +69,7 @@ bool chooseRank(const LsqAccumulator& train, const Model& model, const Eigen::Ve
       break;
     case RankRule::Jackknife:
       if (train.folds() < 2) return why = "the jackknife needs at least 2 folds", false;
-      out.curve = rankByJackknife(train, model, prior, o.method, o.prior_uncertainty);
+      out.curve = rankByJackknife(train, model, prior, o.method, o.prior_uncertainty, processing);
       out.rank = out.curve.best;
       break;
     case RankRule::Gcv:
@@ -156,7 +157,8 @@ void reportFit(const LsqAccumulator& train, const LsqAccumulator* validation, co
 }  // namespace
 
 bool identify(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
-              const IdentifyOptions& o, const LsqAccumulator* validation, IdentifyResult& out, std::string* error) {
+              const IdentifyOptions& o, const LsqAccumulator* validation, IdentifyResult& out, std::string* error,
+              const std::vector<const LsqAccumulator*>& processing) {
   auto fail = [&](const std::string& m) {
     if (error) *error = m;
     return false;
@@ -176,7 +178,7 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
     return fail("too little data: " + std::to_string(rows) + " equations for " + std::to_string(m) +
                 " base parameters (" + std::to_string(train.samples()) + " samples)");
   }
-  const ScaledProblem sp = scaleProblem(train, model, prior, o.method);
+  ScaledProblem sp = scaleProblem(train, model, prior, o.method);
   out.singular_values = sp.s;
   out.row_weight = sp.row_weight;
   out.numerical_rank = sp.numericalRank();
@@ -184,8 +186,9 @@ bool identify(const LsqAccumulator& train, const Model& model, const Eigen::Vect
   LsqFactor vfactor;
   if (validation) vfactor = toStandard(validation->mergedBase(), validation->base().base_map);
   std::string why;
-  if (!chooseRank(train, model, prior, o, validation, sp, vfactor, out, why)) return fail(why);
+  if (!chooseRank(train, model, prior, o, validation, sp, vfactor, processing, out, why)) return fail(why);
   out.rank = std::min(out.rank, out.numerical_rank);
+  sp = orderDirections(sp, out.curve.order);  // a rule that keeps a set of directions: those first
   out.phi = solveAtRank(sp, out.rank);
   if (o.held_function.j >= 0) {
     if (o.held_function.c.size() != p || o.held_function.j >= p || o.held_function.c[o.held_function.j] != 1.0)

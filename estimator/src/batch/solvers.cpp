@@ -147,6 +147,26 @@ TrainingFactors trainingFactors(const LsqAccumulator& acc, const Model& model, M
   return t;
 }
 
+namespace {
+
+/// The fill for the problem's direction order: kept equations v_i^T H^-1 (phi - gamma) = alpha_i; phi = prior + D u
+/// with u the minimum-norm solution of (D H^-1 V_z)^T u = r_z, r = alpha - V^T H^-1 (prior - gamma). With
+/// M = D H^-1 V = Q R (Householder), u = Q_z R_z^-T r_z: R^T is lower triangular, so w = R^-T r serves every z at once.
+void prepareFill(ScaledProblem& sp) {
+  const int r = static_cast<int>(sp.s.size()), p = static_cast<int>(sp.V.rows());
+  Eigen::VectorXd alpha = Eigen::VectorXd::Zero(r);
+  for (int i = 0; i < r; ++i)
+    if (sp.s[i] > 0.0) alpha[i] = sp.d[i] / sp.s[i];
+  const Eigen::VectorXd rv = alpha - sp.V.transpose() * (sp.prior - sp.gamma).cwiseQuotient(sp.h);
+  const Eigen::MatrixXd M = sp.fill.cwiseQuotient(sp.h).asDiagonal() * sp.V;
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(M);
+  sp.Q = qr.householderQ() * Eigen::MatrixXd::Identity(p, r);
+  const Eigen::MatrixXd Rq = qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
+  sp.w = Rq.transpose().triangularView<Eigen::Lower>().solve(rv);
+}
+
+}  // namespace
+
 ScaledProblem scaleProblem(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
                       const std::vector<bool>& include, const FillOptions& fill) {
   return scaleProblem(weightedFactor(acc, model, rowScaled(method), include), model, prior, method, fill);
@@ -178,20 +198,21 @@ ScaledProblem scaleProblem(const WeightedFactor& f, const Model& model, const Ei
   sp.Rw = f.Rf;
   sp.zw = f.z;
   sp.rss_w = f.rss;
-  // The fill: kept equations v_i^T H^-1 (phi - gamma) = alpha_i; phi = prior + D u with u the minimum-norm
-  // solution of (D H^-1 V_z)^T u = r_z, r = alpha - V^T H^-1 (prior - gamma). With M = D H^-1 V = Q R
-  // (Householder), u = Q_z R_z^-T r_z: R^T is lower triangular, so w = R^-T r serves every z at once.
-  const int r = static_cast<int>(sp.s.size());
   sp.fill = fill.metric == FillMetric::Scaled ? sp.h : priorScale(model, prior, sp.h, fill.absolute_prior);
-  Eigen::VectorXd alpha = Eigen::VectorXd::Zero(r);
-  for (int i = 0; i < r; ++i)
-    if (sp.s[i] > 0.0) alpha[i] = sp.d[i] / sp.s[i];
-  const Eigen::VectorXd rv = alpha - sp.V.transpose() * (prior - sp.gamma).cwiseQuotient(sp.h);
-  const Eigen::MatrixXd M = sp.fill.cwiseQuotient(sp.h).asDiagonal() * sp.V;
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(M);
-  sp.Q = qr.householderQ() * Eigen::MatrixXd::Identity(p, r);
-  const Eigen::MatrixXd Rq = qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
-  sp.w = Rq.transpose().triangularView<Eigen::Lower>().solve(rv);
+  prepareFill(sp);
+  return sp;
+}
+
+ScaledProblem orderDirections(const ScaledProblem& in, const std::vector<int>& order) {
+  if (order.empty()) return in;
+  ScaledProblem sp = in;
+  for (size_t k = 0; k < order.size(); ++k) {
+    const int i = order[k];
+    sp.s[k] = in.s[i];
+    sp.V.col(k) = in.V.col(i);
+    sp.d[k] = in.d[i];
+  }
+  prepareFill(sp);
   return sp;
 }
 
@@ -290,8 +311,10 @@ std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors&
 }
 
 RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
-                          double prior_uncertainty) {
-  return rankByJackknife(trainingFactors(acc, model, method), model, prior, prior_uncertainty);
+                          double prior_uncertainty, const std::vector<const LsqAccumulator*>& processing) {
+  std::vector<WeightedFactor> alt;
+  for (const LsqAccumulator* a : processing) alt.push_back(weightedFactor(*a, model, rowScaled(method)));
+  return rankByJackknife(trainingFactors(acc, model, method), model, prior, prior_uncertainty, alt);
 }
 
 Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prior, const WeightedFactor& all,
@@ -316,19 +339,23 @@ Eigen::VectorXd priorUncertainty(const Model& model, const Eigen::VectorXd& prio
 }
 
 RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const Eigen::VectorXd& prior,
-                          double prior_uncertainty) {
+                          double prior_uncertainty, const std::vector<WeightedFactor>& processing) {
   RankCurve c;
-  c.rule = "jackknife over time blocks: z of least risk, data variance against the prior's per direction";
+  c.rule = processing.empty() ? "jackknife over time blocks: the directions of least risk, data variance against the "
+                                "prior's per direction"
+                              : "jackknife over time blocks and the processing: the directions of least risk, data "
+                                "variance and processing sensitivity against the prior's variance per direction";
   const ScaledProblem all = scaleProblem(tf.all, model, prior, tf.method);
   const int r = all.numericalRank(), K = static_cast<int>(tf.without.size());
+  // Coordinates along the full problem's right singular vectors, in its scaled units (at full rank the fill does
+  // not change them).
+  auto coordinates = [&](const ScaledProblem& sp) -> Eigen::VectorXd {
+    return all.V.leftCols(r).transpose() * (solveAtRank(sp, sp.numericalRank()) - all.gamma).cwiseQuotient(all.h);
+  };
   std::vector<Eigen::VectorXd> a;
   for (int k = 0; k < K; ++k) {
     if (tf.fold_rows[k] == 0 || tf.without[k].rows == 0) continue;  // an empty fold
-    const ScaledProblem sp = scaleProblem(tf.without[k], model, prior, tf.method);
-    // Coordinates along the full problem's right singular vectors, in its scaled units (at full rank the
-    // fill does not change them).
-    const Eigen::VectorXd phi = solveAtRank(sp, sp.numericalRank());
-    a.push_back(all.V.leftCols(r).transpose() * (phi - all.gamma).cwiseQuotient(all.h));
+    a.push_back(coordinates(scaleProblem(tf.without[k], model, prior, tf.method)));
   }
   c.score.assign(r + 1, 0.0);
   c.best = 0;
@@ -338,20 +365,47 @@ RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const E
   for (const auto& x : a) mean += x / used;
   for (const auto& x : a) var += (x - mean).cwiseAbs2();
   var *= (used - 1.0) / used;
+  // The processing's share: how far each coordinate moves when the same data are processed another way.
+  Eigen::VectorXd bias = Eigen::VectorXd::Zero(r);
+  if (!processing.empty()) {
+    const Eigen::VectorXd full = coordinates(all);
+    for (const WeightedFactor& f : processing)
+      if (f.rows > 0) bias = bias.cwiseMax((full - coordinates(scaleProblem(f, model, prior, tf.method))).cwiseAbs2());
+  }
   // The prior's variance of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma): ||diag(sigma / h) v_i||^2.
   const Eigen::VectorXd sh = priorUncertainty(model, prior, tf.all, prior_uncertainty).cwiseQuotient(all.h);
   Eigen::VectorXd prior_var(r);
   for (int i = 0; i < r; ++i) prior_var[i] = sh.cwiseProduct(all.V.col(i)).squaredNorm();
-  // Expected squared error of the rank-z fit on data like the training data: a kept direction costs its
-  // variance, a dropped one (left at the prior) the prior's, each weighted by s_i^2 (its share of the forces).
+  // Expected squared error on data like the training data: a kept direction costs its variance and processing
+  // sensitivity, a dropped one (left at the prior) the prior's, each weighted by s_i^2 (its share of the forces).
   double risk = 0.0;
   for (int i = 0; i < r; ++i) risk += all.s[i] * all.s[i] * prior_var[i];
   c.score[0] = risk;
-  double best = risk;
+  if (processing.empty()) {
+    // Without a measure of the processing's error the jackknife underestimates the weak directions' error (it cannot
+    // see a systematic one), and the singular-value order guards against it: the least risk over prefixes.
+    double best = risk;
+    for (int z = 1; z <= r; ++z) {
+      risk += all.s[z - 1] * all.s[z - 1] * (var[z - 1] - prior_var[z - 1]);
+      c.score[z] = risk;
+      if (risk < best) best = risk, c.best = z;
+    }
+    return c;
+  }
+  // With it, the least risk over every set: each direction that costs less kept than dropped.
+  std::vector<int> dropped;
+  for (int i = 0; i < r; ++i) {
+    if (var[i] + bias[i] < prior_var[i]) c.order.push_back(i);
+    else dropped.push_back(i);
+    if (var[i] < prior_var[i] && !(var[i] + bias[i] < prior_var[i])) c.processing_sensitive.push_back(i);
+  }
+  c.best = static_cast<int>(c.order.size());
+  c.order.insert(c.order.end(), dropped.begin(), dropped.end());
+  for (int i = r; i < static_cast<int>(all.s.size()); ++i) c.order.push_back(i);  // numerically zero: never kept
   for (int z = 1; z <= r; ++z) {
-    risk += all.s[z - 1] * all.s[z - 1] * (var[z - 1] - prior_var[z - 1]);
+    const int i = c.order[z - 1];
+    risk += all.s[i] * all.s[i] * (var[i] + bias[i] - prior_var[i]);
     c.score[z] = risk;
-    if (risk < best) best = risk, c.best = z;
   }
   return c;
 }

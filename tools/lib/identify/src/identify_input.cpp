@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <memory>
@@ -12,6 +13,28 @@
 
 
 namespace exoid::tools {
+
+std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& training, bool logs_on_floating_base) {
+  std::vector<ProcessingAlternative> out;
+  const estimator::DatasetOptions& d = training.dataset;
+  if (d.cutoff_hz > 0.0) {
+    char what[64];
+    std::snprintf(what, sizeof what, "cutoff %g Hz", 0.5 * d.cutoff_hz);
+    ProcessingAlternative half{what, training};
+    half.source.dataset.cutoff_hz = 0.5 * d.cutoff_hz;
+    out.push_back(half);
+    const bool parallel = d.filter == estimator::FilterMode::Parallel;
+    ProcessingAlternative mode{parallel ? "filtering the inputs" : "parallel filtering", training};
+    mode.source.dataset.filter = parallel ? estimator::FilterMode::Inputs : estimator::FilterMode::Parallel;
+    out.push_back(mode);
+  }
+  if (d.orientation_from_legs && logs_on_floating_base) {
+    ProcessingAlternative imu{"IMU orientation", training};
+    imu.source.dataset.orientation_from_legs = false;
+    out.push_back(imu);
+  }
+  return out;
+}
 
 bool isCsvPath(const std::string& path) {
   return path.size() >= 4 && (path.compare(path.size() - 4, 4, ".csv") == 0 || path.compare(path.size() - 4, 4, ".CSV") == 0);

@@ -373,8 +373,26 @@ bool runIdentify(const IdentifyRunOptions& o, IdentifyRun& run, std::string* err
     if (!load(o.validate, validationSource(o, so), *val, run, error)) return false;
     val->flush();
   }
+  // The default rank rule's processing term: the same training data under each other processing choice.
+  std::vector<std::unique_ptr<estimator::LsqAccumulator>> alternatives;
+  std::vector<const estimator::LsqAccumulator*> processing;
+  if (run.options.rank_rule == estimator::RankRule::Jackknife && !o.no_processing_check) {
+    bool logs = model.floating_base;
+    for (const std::string& f : o.data) logs = logs && !isCsvPath(f);
+    for (const ProcessingAlternative& alt : processingAlternatives(so, logs)) {
+      alternatives.push_back(std::make_unique<estimator::LsqAccumulator>(model, run.base, ao));
+      for (const std::string& f : o.data) {
+        intake::InputStats st;  // the files were read (and reported) above
+        if (!accumulateFile(f, model, alt.source, *alternatives.back(), st, error)) return false;
+      }
+      alternatives.back()->flush();
+      processing.push_back(alternatives.back().get());
+      run.processing_checked.push_back(alt.what);
+    }
+    run.read_s = seconds(t0);
+  }
   const auto t1 = std::chrono::steady_clock::now();
-  if (!estimator::identify(train, model, run.prior, run.options, val.get(), run.result, error)) return false;
+  if (!estimator::identify(train, model, run.prior, run.options, val.get(), run.result, error, processing)) return false;
   run.solve_s = seconds(t1);
   std::vector<bool> excited(static_cast<size_t>(model.nparams()), true);
   for (int i : run.result.unexcited) excited[static_cast<size_t>(i)] = false;

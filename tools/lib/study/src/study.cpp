@@ -447,7 +447,8 @@ void scorePrior(const Study& st, Job& job, const JobFactors& jf, const PriorRang
       c = r == "cv" ? cv.first : cv.second;
     }
     job.seconds[r == "jackknife" || r == "gcv" ? "WLS-RC " + r + " rank choice" : "WLS-RC cv rank choices"] += since(tc);
-    scoreEstimate(st, job, range, i, "WLS-RC (" + r + ")", estimator::solveAtRank(rc, c.best), c.best);
+    scoreEstimate(st, job, range, i, "WLS-RC (" + r + ")", estimator::solveAtRank(estimator::orderDirections(rc, c.order), c.best),
+                  c.best);
   }
   estimator::ConsistentOptions co;
   co.max_iterations = st.o.pc_iterations;

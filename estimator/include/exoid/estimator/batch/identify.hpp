@@ -85,7 +85,7 @@ struct IdentifyResult {
   Eigen::VectorXd singular_values;  ///< [m] of the scaled training problem
   int rank = 0;                ///< z used
   int numerical_rank = 0;      ///< s_i > 1e-10 s_1
-  double condition = 0.0;      ///< s_1 / s_z
+  double condition = 0.0;      ///< largest / smallest kept singular value (s_1 / s_z for a prefix)
   RankCurve curve;             ///< the rank rule's score per z (empty for Full / Fixed)
   std::vector<int> unexcited;  ///< standard parameters whose estimate is the prior's value (|phi_i - prior_i| <=
                                ///< 1e-9 of the prior's scale): nothing in the data or the fill moved them
@@ -105,10 +105,12 @@ struct IdentifyResult {
 };
 
 /// Identifies from the training accumulator. validation may be null (then RankRule::Validation fails).
-/// False with *error when the data cannot support an estimate (no rows, fewer rows than base parameters,
+/// processing: the same training data processed other ways (tools::processingAlternatives: half the cutoff, the
+/// other filter mode, the IMU's orientation), for RankRule::Jackknife's processing term (rankByJackknife); may be
+/// empty. False with *error when the data cannot support an estimate (no rows, fewer rows than base parameters,
 /// nothing excited) or the options are inconsistent.
 bool identify(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
               const IdentifyOptions& options, const LsqAccumulator* validation, IdentifyResult& out,
-              std::string* error);
+              std::string* error, const std::vector<const LsqAccumulator*>& processing = {});
 
 }  // namespace exoid::estimator

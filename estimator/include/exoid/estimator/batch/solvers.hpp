@@ -115,7 +115,18 @@ struct RankCurve {
   std::vector<double> score;  ///< [r + 1] score per z (index z; score[0] = the prior)
   int best = 0;               ///< chosen z
   std::string rule;           ///< how it was chosen
+  /// [r] the directions (indices into ScaledProblem::s) in the order the rule keeps them, when it keeps a set
+  /// rather than the z largest: solve on orderDirections(problem, order) at rank best. Empty: singular-value order.
+  std::vector<int> order;
+  /// Directions the rule left at the prior only because the same data processed another way moved them (the
+  /// jackknife's processing term; indices into s).
+  std::vector<int> processing_sensitive;
 };
+
+/// The problem with its directions in `order` (a permutation of 0..r-1; empty: sp itself), the fill prepared for
+/// it, so that solveAtRank(result, z) keeps the first z of order and fills the rest from the prior; s is permuted
+/// with V and d (no longer descending).
+ScaledProblem orderDirections(const ScaledProblem& sp, const std::vector<int>& order);
 
 /// (a) The thesis's choice: validation generalized-force RMSE (needs a separate, ideal run).
 RankCurve rankByValidation(const ScaledProblem& problem, const LsqFactor& validation);
@@ -132,19 +143,28 @@ RankCurve rankByCrossValidation(const TrainingFactors& factors, const LsqAccumul
 std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors& factors, const LsqAccumulator& acc,
                                                           const Model& model, const Eigen::VectorXd& prior,
                                                           const FillOptions& fill = {});
-/// (b3) Training data only, the default of `exoid identify`: the z of least expected error. The jackknife over
-/// the time-block folds gives the variance var_i of each scaled coordinate alpha_i = v_i^T H^-1 (phi - gamma) of
-/// the full-rank estimate (it sees the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); the prior's
-/// variance along the same direction is pv_i = ||diag(sigma / h) v_i||^2 with sigma = priorUncertainty (a stated
-/// prior within +-prior_uncertainty, an unknown kind scaled by the data). A kept direction costs its variance,
-/// a dropped one (left at the prior) the prior's, each weighted by s_i^2, its share of the training forces:
-///   risk(z) = sum_{i <= z} s_i^2 var_i + sum_{i > z} s_i^2 pv_i,   best = argmin_z risk(z) = score.
-/// With every prior entry stated and h = |prior| (pv_i = prior_uncertainty^2 / 3) a direction pays for itself
-/// where the former cap (std_i <= prior_uncertainty / sqrt(3)) kept it. Meaningful with column scaling.
+/// (b3) Training data only, the default of `exoid identify`: the set of directions of least expected error. The
+/// jackknife over the time-block folds gives the variance var_i of each scaled coordinate alpha_i = v_i^T H^-1 (phi -
+/// gamma) of the full-rank estimate (it sees the real, time-correlated noise, unlike sigma^2 / s_i^2 of eq. 34); the
+/// prior's variance along the same direction is pv_i = ||diag(sigma / h) v_i||^2 with sigma = priorUncertainty (a
+/// stated prior within +-prior_uncertainty, an unknown kind scaled by the data). A systematic error of the data
+/// processing (differentiated encoders, a filter's lag, an estimated orientation) is the same in every time block,
+/// so the jackknife cannot see it; what can is the estimate's move when the same data are processed another way:
+/// with `processing` (the training data's weighted factors under other processing, e.g. half the cutoff, the other
+/// filter mode, the IMU's orientation) b_i = max_k (alpha_i - alpha_i^(k))^2, else 0. A kept direction costs
+/// var_i + b_i, a dropped one (left at the prior) pv_i, each weighted by s_i^2, its share of the training forces:
+///   risk(S) = sum_{i in S} s_i^2 (var_i + b_i) + sum_{i not in S} s_i^2 pv_i.
+/// With `processing`, S = {i : var_i + b_i < pv_i}, the least risk over every set: order = S (by singular value) then
+/// the rest, best = |S|, score[z] = the risk of the first z of order. Without it, the least risk over the prefixes
+/// S = {1..z} (order empty, score[z] = risk({1..z})): the jackknife alone underestimates the weak directions' error,
+/// which a systematic one dominates, and the singular-value order guards against keeping them out of turn (on the
+/// exoskeleton's sensor runs the least-risk set without b was 1.5-3.7x worse than the prefix; docs/identification.md).
+/// With every prior entry stated and h = |prior| (pv_i = prior_uncertainty^2 / 3) a direction pays for itself where
+/// the former cap (std_i <= prior_uncertainty / sqrt(3)) kept it. Meaningful with column scaling.
 RankCurve rankByJackknife(const LsqAccumulator& acc, const Model& model, const Eigen::VectorXd& prior, Method method,
-                          double prior_uncertainty);
+                          double prior_uncertainty, const std::vector<const LsqAccumulator*>& processing = {});
 RankCurve rankByJackknife(const TrainingFactors& factors, const Model& model, const Eigen::VectorXd& prior,
-                          double prior_uncertainty);
+                          double prior_uncertainty, const std::vector<WeightedFactor>& processing = {});
 /// Per-parameter prior standard deviation sigma [p] of the jackknife rule: a meaningful prior (a kind of
 /// parameter with some nonzero prior entry: the URDF's inertials) is within +-relative of the truth, uniform,
 /// sigma_j = relative h_j / sqrt(3) with h the column scale (|prior_j|, or its kind's median where that is ~0);

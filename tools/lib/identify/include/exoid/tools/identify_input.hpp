@@ -53,6 +53,18 @@ bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, co
                        const SourceOptions& options, estimator::LsqAccumulator& acc, intake::InputStats& stats,
                        std::string* error);
 
+/// The same data processed another way, for the default rank rule's processing term (estimator::rankByJackknife):
+/// what a systematic error of the processing would move, the jackknife over time blocks cannot see.
+struct ProcessingAlternative {
+  std::string what;      ///< e.g. "cutoff 15 Hz", "parallel filtering", "IMU orientation"
+  SourceOptions source;  ///< the training options with that one choice changed
+};
+/// The alternatives of a training pipeline: with a filter (cutoff > 0), half its cutoff and the other filter mode
+/// (inputs <-> parallel); with the legs' orientation (SourceOptions::dataset.orientation_from_legs) on LCM logs of a
+/// floating-base robot (logs_on_floating_base; a CSV carries its orientation), the IMU's. Empty where the processing
+/// has nothing to choose (unfiltered CSV data with recorded velocities and accelerations).
+std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& training, bool logs_on_floating_base);
+
 /// True if the path names a CSV (by its extension), false for anything else (read as an LCM log).
 bool isCsvPath(const std::string& path);
 

@@ -29,6 +29,8 @@ struct IdentifyRunOptions {
   std::string com_height;
   bool rank_given = false;  ///< --rank was given (--only-links changes only the default)
   bool fixed_base = false, derive = false, skip_bad_rows = false, allow_partial = false;
+  /// --no-processing-check: the jackknife rank rule without its processing term (processingAlternatives).
+  bool no_processing_check = false;
   double cutoff_hz = 0.0, noise = 0.0, prior_perturb = 0.0, chunk_s = 2.0, orientation_cutoff_hz = 5.0,
          prior_uncertainty = 0.25;
   uint64_t seed = 1, prior_seed = 1;
@@ -75,6 +77,8 @@ struct IdentifyRun {
   SystemComCheck system_com;                ///< validation logs with a truth channel
   bool com_height_held = false;             ///< the system's CoM height was held at the prior's
   double com_height_m = 0.0;                ///< that height above the base origin (standing pose), when held
+  /// The other processings of the training data the jackknife rank rule compared (processingAlternatives).
+  std::vector<std::string> processing_checked;
 };
 
 /// Whether the training rows are the floating base's only (SourceOptions::base_rows_only): --rows base, or no --rows
