@@ -67,13 +67,13 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
   app.add_option("--rank", o.rank, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
                  "choice), or from the training data alone: 'jackknife' (default: the directions of least expected "
                  "error: each one's time-block jackknife variance, plus how far it moves when the same data are "
-                 "processed another way (half the cutoff, the other --filter-mode, the IMU's orientation; see "
-                 "--no-processing-check), against the prior's variance along it, see --prior-uncertainty; z is the "
-                 "number kept), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
+                 "processed another way (half the cutoff; with --filter-mode parallel, filtering the inputs; the "
+                 "IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
+                 "--prior-uncertainty; z is the number kept), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them; with --only-links the default is 'full'");
   app.add_flag("--no-processing-check", o.no_processing_check, "--rank jackknife: leave out the processing term (the "
                "training data are then read once instead of once per other processing: with --cutoff, half the "
-               "cutoff and the other --filter-mode; with the fused orientation, the IMU's)");
+               "cutoff, and filtering the inputs where --filter-mode is parallel; with the fused orientation, the IMU's)");
   app.add_option("--prior-uncertainty", o.prior_uncertainty, "--rank jackknife: the prior's parameters that it states (the "
                  "URDF's inertials, any kind with a nonzero entry) are within +-this relative error of the truth "
                  "(default 0.25); a kind the prior leaves at zero throughout (friction without a --prior for it) is "

@@ -395,9 +395,9 @@ RankCurve rankByJackknife(const TrainingFactors& tf, const Model& model, const E
   // With it, the least risk over every set: each direction that costs less kept than dropped.
   std::vector<int> dropped;
   for (int i = 0; i < r; ++i) {
-    if (var[i] + bias[i] < prior_var[i]) c.order.push_back(i);
-    else dropped.push_back(i);
-    if (var[i] < prior_var[i] && !(var[i] + bias[i] < prior_var[i])) c.processing_sensitive.push_back(i);
+    const bool keep = var[i] + bias[i] < prior_var[i];
+    (keep ? c.order : dropped).push_back(i);
+    if (!keep && var[i] < prior_var[i]) c.processing_sensitive.push_back(i);
   }
   c.best = static_cast<int>(c.order.size());
   c.order.insert(c.order.end(), dropped.begin(), dropped.end());

@@ -23,10 +23,13 @@ std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& t
     ProcessingAlternative half{what, training};
     half.source.dataset.cutoff_hz = 0.5 * d.cutoff_hz;
     out.push_back(half);
-    const bool parallel = d.filter == estimator::FilterMode::Parallel;
-    ProcessingAlternative mode{parallel ? "filtering the inputs" : "parallel filtering", training};
-    mode.source.dataset.filter = parallel ? estimator::FilterMode::Inputs : estimator::FilterMode::Parallel;
-    out.push_back(mode);
+    // Parallel filtering is not an alternative to the default (filtering the inputs): on the exoskeleton's runs it
+    // never changed which directions were kept, and it holds every column of the whole run (docs/identification.md).
+    if (d.filter == estimator::FilterMode::Parallel) {
+      ProcessingAlternative inputs{"filtering the inputs", training};
+      inputs.source.dataset.filter = estimator::FilterMode::Inputs;
+      out.push_back(inputs);
+    }
   }
   if (d.orientation_from_legs && logs_on_floating_base) {
     ProcessingAlternative imu{"IMU orientation", training};

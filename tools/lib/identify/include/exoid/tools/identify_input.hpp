@@ -56,11 +56,12 @@ bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, co
 /// The same data processed another way, for the default rank rule's processing term (estimator::rankByJackknife):
 /// what a systematic error of the processing would move, the jackknife over time blocks cannot see.
 struct ProcessingAlternative {
-  std::string what;      ///< e.g. "cutoff 15 Hz", "parallel filtering", "IMU orientation"
+  std::string what;      ///< e.g. "cutoff 15 Hz", "filtering the inputs", "IMU orientation"
   SourceOptions source;  ///< the training options with that one choice changed
 };
-/// The alternatives of a training pipeline: with a filter (cutoff > 0), half its cutoff and the other filter mode
-/// (inputs <-> parallel); with the legs' orientation (SourceOptions::dataset.orientation_from_legs) on LCM logs of a
+/// The alternatives of a training pipeline: with a filter (cutoff > 0), half its cutoff, and with parallel filtering
+/// also filtering the inputs (not the reverse: the parallel filter never changed the kept set on the exoskeleton's
+/// runs and holds every column of the run in memory); with the legs' orientation (SourceOptions::dataset.orientation_from_legs) on LCM logs of a
 /// floating-base robot (logs_on_floating_base; a CSV carries its orientation), the IMU's. Empty where the processing
 /// has nothing to choose (unfiltered CSV data with recorded velocities and accelerations).
 std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& training, bool logs_on_floating_base);
