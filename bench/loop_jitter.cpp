@@ -17,13 +17,11 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "exoid/common/clock.hpp"
+
 namespace {
 
-int64_t clockNs(clockid_t clock) {
-  timespec ts;
-  clock_gettime(clock, &ts);
-  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
-}
+using exoid::common::clockNs;
 
 /// A whole number in [lo, hi] from argv[i] (default when absent); false on anything else.
 bool argument(int argc, char** argv, int i, long lo, long hi, long* v) {

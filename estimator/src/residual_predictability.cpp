@@ -8,6 +8,7 @@
 #include <map>
 #include <numeric>
 
+#include "exoid/common/format.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/diagnose.hpp"
 #include "exoid/estimator/sparse_regression.hpp"
@@ -25,11 +26,7 @@ struct Column {
   Eigen::VectorXd x;
 };
 
-std::string fmt(const char* f, double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, x);
-  return buf;
-}
+using common::fmt;
 
 // The state at the stage samples [N x nj]: q (zero when not given), v, a, the model torque tau, and per lag L
 // v(t - L) and q(t) - q(t - L).

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <numeric>
 
+#include "exoid/common/format.hpp"
 #include "exoid/estimator/diagnose.hpp"
 #include "held_out_blocks.hpp"
 
@@ -43,11 +44,7 @@ namespace {
 constexpr double kNullDamping = 0.7;
 constexpr double kGravity = 9.81;
 
-std::string fmt(const char* f, double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, x);
-  return buf;
-}
+using common::fmt;
 
 // One plane: its two rows of K / y and the base-motion columns (ResidualSeries::base) that drive it; the sign of g in
 // its gravity signature (n_y = L f_x - g J[f_x]; n_x = -L f_y + g J[f_y]).

@@ -31,7 +31,7 @@ class CaptureHandler : public console_bridge::OutputHandler {
   std::string last_error;
 };
 
-bool fail(std::string* error, const std::string& message) {
+bool failOneLine(std::string* error, const std::string& message) {
   if (error) *error = oneLine(message);  // tinyxml2's and urdfdom's messages quote the file
   return false;
 }
@@ -109,17 +109,17 @@ bool checkNumbers(const tinyxml2::XMLElement* robot, std::string* error) {
         values.resize(1);
         if (a.count == 1 ? !common::parseDouble(text, values[0], &why)
                          : !common::parseDoubleList(text, a.count, values, &why))
-          return fail(error, where(top, e, a.attribute) + ": " + why);
+          return failOneLine(error, where(top, e, a.attribute) + ": " + why);
         for (double v : values)
           if (v < a.lo || v > a.hi) {
             char range[64];
             std::snprintf(range, sizeof range, a.hi == kInf ? ">= %g" : "in [%g, %g]", a.lo, a.hi);
-            return fail(error, where(top, e, a.attribute) + ": out of range, expected " + range);
+            return failOneLine(error, where(top, e, a.attribute) + ": out of range, expected " + range);
           }
       }
       if (std::strcmp(e->Name(), "limit") == 0 && e->Attribute("lower") && e->Attribute("upper") &&
           e->DoubleAttribute("lower") > e->DoubleAttribute("upper"))
-        return fail(error, where(top, e, "lower") + ": lower limit above the upper limit " +
+        return failOneLine(error, where(top, e, "lower") + ": lower limit above the upper limit " +
                                common::quoteValue(e->Attribute("upper")));
     }
   }
@@ -131,9 +131,9 @@ bool checkNumbers(const tinyxml2::XMLElement* robot, std::string* error) {
 bool checkXmlAndJointOrder(const std::string& xml, std::map<std::string, int>& joint_order, std::string* error) {
   tinyxml2::XMLDocument doc;
   if (doc.Parse(xml.c_str(), xml.size()) != tinyxml2::XML_SUCCESS)
-    return fail(error, std::string("malformed XML: ") + (doc.ErrorStr() ? doc.ErrorStr() : "parse error"));
+    return failOneLine(error, std::string("malformed XML: ") + (doc.ErrorStr() ? doc.ErrorStr() : "parse error"));
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
-  if (!robot) return fail(error, "no <robot> element");
+  if (!robot) return failOneLine(error, "no <robot> element");
   if (!checkNumbers(robot, error)) return false;
   for (const tinyxml2::XMLElement* j = robot->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
     const char* name = j->Attribute("name");
@@ -164,9 +164,9 @@ bool lumpInertial(const urdf::Link& link, const WalkItem& it, WalkedTree& tree, 
   const urdf::Inertial& in = *link.inertial;
   const double vals[] = {in.mass, in.ixx, in.ixy, in.ixz, in.iyy, in.iyz, in.izz};
   for (double v : vals)
-    if (!std::isfinite(v)) return fail(error, "link '" + link.name + "': non-finite inertial value");
-  if (!finite(in.origin)) return fail(error, "link '" + link.name + "': non-finite inertial origin");
-  if (in.mass < 0.0) return fail(error, "link '" + link.name + "': negative mass");
+    if (!std::isfinite(v)) return failOneLine(error, "link '" + link.name + "': non-finite inertial value");
+  if (!finite(in.origin)) return failOneLine(error, "link '" + link.name + "': non-finite inertial origin");
+  if (in.mass < 0.0) return failOneLine(error, "link '" + link.name + "': negative mass");
   Eigen::Matrix3d Ic;
   Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
   const Vector10d local = paramsFromInertial(in.mass, vector(in.origin.position), rotation(in.origin.rotation), Ic);
@@ -181,9 +181,9 @@ bool pushChildJoint(const urdf::ModelInterface& urdf_model, const urdf::Joint& j
                     std::vector<WalkItem>& stack, WalkedTree& tree, std::string* error) {
   Model& m = tree.m;
   urdf::LinkConstSharedPtr child = urdf_model.getLink(joint.child_link_name);
-  if (!child) return fail(error, "joint '" + joint.name + "': unknown child link");
+  if (!child) return failOneLine(error, "joint '" + joint.name + "': unknown child link");
   if (!finite(joint.parent_to_joint_origin_transform))
-    return fail(error, "joint '" + joint.name + "': non-finite origin");
+    return failOneLine(error, "joint '" + joint.name + "': non-finite origin");
   const Eigen::Matrix3d Rj = it.R * rotation(joint.parent_to_joint_origin_transform.rotation);
   const Eigen::Vector3d pj = it.p + it.R * vector(joint.parent_to_joint_origin_transform.position);
   if (joint.type == urdf::Joint::FIXED) {
@@ -191,7 +191,7 @@ bool pushChildJoint(const urdf::ModelInterface& urdf_model, const urdf::Joint& j
   } else if (joint.type == urdf::Joint::REVOLUTE || joint.type == urdf::Joint::CONTINUOUS) {
     Eigen::Vector3d axis = vector(joint.axis);
     if (!axis.allFinite() || axis.norm() < 1e-12)
-      return fail(error, "joint '" + joint.name + "': zero or non-finite axis");
+      return failOneLine(error, "joint '" + joint.name + "': zero or non-finite axis");
     // Placeholder index; bodies are renumbered in tree order below.
     stack.push_back({child, -2 - static_cast<int>(m.joint_names.size()), Rj, pj});
     m.joint_names.push_back(joint.name);
@@ -208,7 +208,7 @@ bool pushChildJoint(const urdf::ModelInterface& urdf_model, const urdf::Joint& j
   } else {
     static const char* names[] = {"unknown", "revolute", "continuous", "prismatic", "floating", "planar", "fixed"};
     const int t = static_cast<int>(joint.type);
-    return fail(error, "joint '" + joint.name + "': type " + (t >= 0 && t <= 6 ? names[t] : "?") +
+    return failOneLine(error, "joint '" + joint.name + "': type " + (t >= 0 && t <= 6 ? names[t] : "?") +
                            " is not supported (revolute, continuous and fixed are)");
   }
   return true;
@@ -271,7 +271,7 @@ bool checkAllLinksReached(const urdf::ModelInterface& urdf_model, const Model& m
     bool reached = false;
     for (const Model::Frame& f : m.frames) reached = reached || f.name == entry.first;
     if (!reached)
-      return fail(error, "link '" + entry.first + "' is not connected to the root link '" +
+      return failOneLine(error, "link '" + entry.first + "' is not connected to the root link '" +
                              urdf_model.getRoot()->name + "' (a kinematic loop?)");
   }
   return true;
@@ -362,19 +362,19 @@ void assembleModel(const WalkedTree& tree, const std::vector<int>& order, Model&
 bool buildModelFromUrdfFile(const std::string& path, bool floating_base, Model& model, std::string* error,
                             double gravity_magnitude) {
   std::ifstream in(path);
-  if (!in) return fail(error, "cannot read URDF file '" + path + "'");
+  if (!in) return failOneLine(error, "cannot read URDF file '" + path + "'");
   std::stringstream ss;
   ss << in.rdbuf();
   std::string err;
   if (!buildModelFromUrdfString(ss.str(), floating_base, model, &err, gravity_magnitude))
-    return fail(error, "URDF '" + path + "': " + err);
+    return failOneLine(error, "URDF '" + path + "': " + err);
   return true;
 }
 
 bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model& out, std::string* error,
                               double gravity_magnitude) {
   if (!std::isfinite(gravity_magnitude) || gravity_magnitude < 0.0)
-    return fail(error, "gravity must be finite and non-negative");
+    return failOneLine(error, "gravity must be finite and non-negative");
   std::map<std::string, int> joint_order;
   if (!checkXmlAndJointOrder(xml, joint_order, error)) return false;
   CaptureHandler capture;
@@ -387,7 +387,7 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
   }
   console_bridge::restorePreviousOutputHandler();
   if (!urdf_model)
-    return fail(error, capture.last_error.empty() ? "urdfdom could not parse the robot" : capture.last_error);
+    return failOneLine(error, capture.last_error.empty() ? "urdfdom could not parse the robot" : capture.last_error);
   // urdfdom accepts a kinematic loop detached from the root; its links then own each other (child_links are
   // shared pointers) and would leak. Break those references whatever this function returns.
   struct ReleaseLinks {
@@ -396,7 +396,7 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
       for (const auto& entry : model.links_) entry.second->child_links.clear();
     }
   } release_links{*urdf_model};
-  if (!urdf_model->getRoot()) return fail(error, "no root link");
+  if (!urdf_model->getRoot()) return failOneLine(error, "no root link");
 
   WalkedTree tree;
   tree.m.name = urdf_model->getName();
@@ -405,7 +405,7 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
   if (!walkLinks(*urdf_model, joint_order, tree, error)) return false;
   if (!checkAllLinksReached(*urdf_model, tree.m, error)) return false;
   if (tree.m.body_names.empty())
-    return fail(error, "no moving link: the root is fixed to the world and no revolute or continuous joint follows "
+    return failOneLine(error, "no moving link: the root is fixed to the world and no revolute or continuous joint follows "
                        "it (a floating base would move)");
   assembleModel(tree, depthFirstBodyOrder(tree.m, joint_order), out);
   return true;

@@ -1,10 +1,9 @@
 #include "plugin_link.hpp"
 
-#include <time.h>
-
 #include <algorithm>
 #include <cstdio>
 
+#include "exoid/common/clock.hpp"
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/model/urdf.hpp"
@@ -12,12 +11,7 @@
 namespace exoid::sim {
 namespace {
 constexpr size_t kRawBufferBytes = size_t{64} << 20;  // the estimator's and the logger's: bursts wait there
-
-int64_t threadCpuNs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
-}
+using common::threadCpuNs;
 }  // namespace
 
 PluginLink::PluginLink(ControllerPlugin& plugin, LcmEndpoint& ep, const std::vector<std::string>& joint_names)

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "exoid/common/clock.hpp"
 #include "exoid/lcm/adapters.hpp"
 #include "exoid/lcm/channels.hpp"
 #include "exoid/lcm/message_gate.hpp"
@@ -24,15 +25,9 @@ namespace {
 
 constexpr int64_t kPeriodNs = 1000000;  // the loop's 1 kHz
 
-int64_t clockNs(clockid_t clock) {
-  timespec ts;
-  clock_gettime(clock, &ts);
-  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
-}
-int64_t monoNs() { return clockNs(CLOCK_MONOTONIC); }
-/// CPU time of the calling thread: wall time minus this is time it was not running (preempted, or the
-/// hypervisor ran something else on its CPU).
-int64_t threadCpuNs() { return clockNs(CLOCK_THREAD_CPUTIME_ID); }
+using common::clockNs;
+using common::monoNs;
+using common::threadCpuNs;
 
 /// The loop thread's preemptions and page faults so far (getrusage, RUSAGE_THREAD).
 void threadCounts(int64_t* preemptions, int64_t* page_faults) {
