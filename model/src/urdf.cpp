@@ -120,7 +120,7 @@ bool checkNumbers(const tinyxml2::XMLElement* robot, std::string* error) {
       if (std::strcmp(e->Name(), "limit") == 0 && e->Attribute("lower") && e->Attribute("upper") &&
           e->DoubleAttribute("lower") > e->DoubleAttribute("upper"))
         return failOneLine(error, where(top, e, "lower") + ": lower limit above the upper limit " +
-                               common::quoteValue(e->Attribute("upper")));
+                                      common::quoteValue(e->Attribute("upper")));
     }
   }
   return true;
@@ -209,7 +209,7 @@ bool pushChildJoint(const urdf::ModelInterface& urdf_model, const urdf::Joint& j
     static const char* names[] = {"unknown", "revolute", "continuous", "prismatic", "floating", "planar", "fixed"};
     const int t = static_cast<int>(joint.type);
     return failOneLine(error, "joint '" + joint.name + "': type " + (t >= 0 && t <= 6 ? names[t] : "?") +
-                           " is not supported (revolute, continuous and fixed are)");
+                                  " is not supported (revolute, continuous and fixed are)");
   }
   return true;
 }
@@ -405,8 +405,8 @@ bool buildModelFromUrdfString(const std::string& xml, bool floating_base, Model&
   if (!walkLinks(*urdf_model, joint_order, tree, error)) return false;
   if (!checkAllLinksReached(*urdf_model, tree.m, error)) return false;
   if (tree.m.body_names.empty())
-    return failOneLine(error, "no moving link: the root is fixed to the world and no revolute or continuous joint follows "
-                       "it (a floating base would move)");
+    return failOneLine(error, "no moving link: the root is fixed to the world and no revolute or continuous joint "
+                              "follows it (a floating base would move)");
   assembleModel(tree, depthFirstBodyOrder(tree.m, joint_order), out);
   return true;
 }

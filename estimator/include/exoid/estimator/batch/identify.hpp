@@ -106,9 +106,9 @@ struct IdentifyResult {
 
 /// Identifies from the training accumulator. validation may be null (then RankRule::Validation fails).
 /// processing: the same training data processed other ways (tools::processingAlternatives: half the cutoff,
-/// filtering the inputs instead of parallel filtering, the IMU's orientation), for RankRule::Jackknife's processing term (rankByJackknife); may be
-/// empty. False with *error when the data cannot support an estimate (no rows, fewer rows than base parameters,
-/// nothing excited) or the options are inconsistent.
+/// filtering the inputs instead of parallel filtering, the IMU's orientation), for RankRule::Jackknife's processing
+/// term (rankByJackknife); may be empty. False with *error when the data cannot support an estimate (no rows, fewer
+/// rows than base parameters, nothing excited) or the options are inconsistent.
 bool identify(const LsqAccumulator& train, const Model& model, const Eigen::VectorXd& prior,
               const IdentifyOptions& options, const LsqAccumulator* validation, IdentifyResult& out,
               std::string* error, const std::vector<const LsqAccumulator*>& processing = {});

@@ -151,8 +151,9 @@ std::pair<RankCurve, RankCurve> rankByCrossValidationBoth(const TrainingFactors&
 /// processing (differentiated encoders, a filter's lag, an estimated orientation) is the same in every time block,
 /// so the jackknife cannot see it; what can is the estimate's move when the same data are processed another way:
 /// with `processing` (the training data's weighted factors under other processing, e.g. half the cutoff, filtering
-/// the inputs instead of parallel filtering, the IMU's orientation) b_i = max_k (alpha_i - alpha_i^(k))^2, else 0. A kept direction costs
-/// var_i + b_i, a dropped one (left at the prior) pv_i, each weighted by s_i^2, its share of the training forces:
+/// the inputs instead of parallel filtering, the IMU's orientation) b_i = max_k (alpha_i - alpha_i^(k))^2, else 0.
+/// A kept direction costs var_i + b_i, a dropped one (left at the prior) pv_i, each weighted by s_i^2, its share of
+/// the training forces:
 ///   risk(S) = sum_{i in S} s_i^2 (var_i + b_i) + sum_{i not in S} s_i^2 pv_i.
 /// With `processing`, S = {i : var_i + b_i < pv_i}, the least risk over every set: order = S (by singular value) then
 /// the rest, best = |S|, score[z] = the risk of the first z of order. Without it, the least risk over the prefixes
