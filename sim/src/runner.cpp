@@ -25,7 +25,6 @@ namespace {
 
 constexpr int64_t kPeriodNs = 1000000;  // the loop's 1 kHz
 
-using common::clockNs;
 using common::monoNs;
 using common::threadCpuNs;
 
