@@ -10,14 +10,16 @@
 
 #include "controller_test_util.hpp"
 #include "exoid/controller/balance_controller.hpp"
+#include "exoid/model/kinematics.hpp"
 #include "exoid/sim/sim.hpp"
 
 namespace exoid::controller::testing {
 
 /// The simulator's world minus the controller's. The controller's observer fixes its world at the start-up latch
 /// (docs/controller.md, BaseStateObserver: the base at initial_base_xy, the soles at ground_height); a robot that
-/// settles during the window is offset between the two (a wearer: ~5 mm). A true position p is compared with the
-/// controller's reference as p - offset (the summary of `exoid experiment` does the same from the log,
+/// settles during the window is offset between the two (a wearer: ~5 mm). The worlds are aligned by the soles, the
+/// points the controller's world is built on: the true soles (the controller's model at the true state) minus
+/// where the observer latched them, mean of the two (the summary of `exoid experiment` does the same from the log,
 /// tools::ControllerFrame). Zero until the latch.
 struct ControllerFrameOffset {
   bool set = false;
@@ -25,7 +27,21 @@ struct ControllerFrameOffset {
   /// After ctrl.tick on the state of the tick `truth` describes.
   void update(const BalanceController& ctrl, const GroundTruthSample& truth) {
     if (set || !ctrl.observer().latched()) return;
-    offset = truth.base_position - ctrl.observer().state().base_position;
+    const Model& model = ctrl.model();
+    Data kin(model);
+    State st = State::zero(model);
+    st.q = truth.q;
+    st.base_orientation = truth.base_orientation;
+    st.base_position = truth.base_position;
+    forwardKinematics(model, kin, st);
+    const std::string names[2] = {ctrl.config().contact.right_sole_frame, ctrl.config().contact.left_sole_frame};
+    offset.setZero();
+    for (int side = 0; side < 2; ++side) {
+      SoleFrame f;
+      if (!resolveSoleFrame(model, names[side], f, nullptr)) return;
+      const Eigen::Vector3d p = truth.base_position + truth.base_orientation * (kin.p[f.body] + kin.R[f.body] * f.position);
+      offset += 0.5 * (p - ctrl.observer().solePosition(side));
+    }
     set = true;
   }
 };

@@ -56,16 +56,20 @@ void truthFigures(const Model& model, const intake::RunLog& log, const Controlle
     centroidal(model, dyn);
     const Eigen::Matrix3d R = t.base_orientation.toRotationMatrix();
     double sole_z = 0.0;
+    Eigen::Vector2d sole_xy_offset = Eigen::Vector2d::Zero();  // the true soles minus the controller's, mean
     for (int side = 0; side < 2; ++side) {
       const Model::Frame& f = model.frames[sole[side]];
       const Eigen::Vector3d p = t.base_position + R * (dyn.kin.p[f.body] + dyn.kin.R[f.body] * f.position);
       if (i == 0) sole0[side] = p;
       s.max_foot_slip_m = std::max(s.max_foot_slip_m, (p - sole0[side]).head<2>().norm());
       sole_z += 0.5 * p.z();
+      sole_xy_offset += 0.5 * (p.head<2>() - frame.sole_xy[side]);
     }
-    // The controller's world is fixed at the latch tick (or the first logged tick after it).
+    // The controller's world is fixed at the latch tick (or the first logged tick after it): by the soles where it
+    // latched them when they are known (ControllerFrame::has_soles), else by its base.
     if (!frame_set && t.tick >= frame.latch_tick) {
-      s.frame_offset_m << t.base_position.head<2>() - frame.base_xy, sole_z - frame.ground_height;
+      s.frame_offset_m << (frame.has_soles ? sole_xy_offset : Eigen::Vector2d(t.base_position.head<2>() - frame.base_xy)),
+          sole_z - frame.ground_height;
       frame_set = true;
     }
     const Eigen::Vector3d com = t.base_position + R * dyn.com - s.frame_offset_m;  // the controller's world

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "exoid/controller/config.hpp"
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/model.hpp"
 #include "exoid/tools/experiment_summary.hpp"
@@ -54,6 +55,7 @@ struct ExperimentPlan {
   double duration_s = 0.0;           ///< the controller's planned run (start-up latch, moves, holds)
   int estimate_lag_ticks = 0;        ///< the controller configuration's estimate.lag_ticks (the lockstep wait)
   ControllerFrame controller_frame;  ///< the controller configuration's world (the summary's true-CoM figures)
+  controller::ControllerConfig controller_config;  ///< as loaded (its observer replayed: latchedControllerSoles)
   bool use_plugin = true, lockstep = true;
   Injection inject;
   std::vector<std::string> estimator_words;  ///< exo_estimator's extra arguments (--effects made absolute)
@@ -61,6 +63,13 @@ struct ExperimentPlan {
   double payload_attach_s = -1.0, payload_mass_kg = 0.0;  ///< a mid-run payload of the scenario (-1: none)
   std::string wearer_prior;  ///< the table prior written for a wearer scenario (ExperimentOptions::model_given); "" none
 };
+
+/// The controller's latched soles (ControllerFrame::sole_xy, has_soles): its base state observer (the controller's
+/// model, cc.observer, cc.loop.period, the sole and IMU frames it resolves) replayed over the logged states, in
+/// tick order, until it latches. The controller ran the same observer on the same samples (lockstep and plugin:
+/// every state; a state it refused would be missing here too). False, frame unchanged, when the log latches nothing.
+bool latchedControllerSoles(const Model& controller_model, const controller::ControllerConfig& cc,
+                            const std::vector<RobotStateSample>& states, ControllerFrame& frame);
 
 /// Checks every input and fills *plan; false with a one-line *error naming the option or file.
 bool planExperiment(const ExperimentOptions& options, ExperimentPlan& plan, std::string* error);

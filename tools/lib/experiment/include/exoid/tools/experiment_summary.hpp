@@ -22,6 +22,12 @@ struct ControllerFrame {
   int64_t latch_tick = -1;  ///< the window's last tick (observer.latch_ticks - 1); -1: the simulator's world is taken
   Eigen::Vector2d base_xy = Eigen::Vector2d::Zero();  ///< observer.initial_base_xy
   double ground_height = 0.0;                         ///< observer.ground_height
+  /// The soles where the controller latched them in its world (right, left; x-y), from replaying its base state
+  /// observer over the logged states (latchedControllerSoles). With them the two worlds are aligned by the soles,
+  /// the points the controller's world is built on; without, by the base at the latch tick, which is off by the
+  /// latch window's orientation error times the legs' length (0.2-0.6 mm with the realistic IMU, docs/wearer.md).
+  bool has_soles = false;
+  Eigen::Vector2d sole_xy[2] = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
 };
 
 /// What `exoid experiment` knows about a run besides its log.
