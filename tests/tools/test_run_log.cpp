@@ -35,6 +35,16 @@ class RunLogTest : public ::testing::Test {
     std::string err;
     ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model_, &err)) << err;
   }
+  /// A truth sample of the robot standing still in the zero pose at `base`, no contact forces.
+  GroundTruthSample standingTruth(int64_t tick, const Eigen::Vector3d& base) const {
+    GroundTruthSample t;
+    t.tick = tick;
+    t.base_position = base;
+    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
+    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    t.foot_moment = t.foot_force;
+    return t;
+  }
   template <class Msg>
   void write(lcm_eventlog_t* log, const char* channel, const Msg& msg, int64_t utime) {
     std::vector<uint8_t> buf(msg.getEncodedSize());
@@ -328,13 +338,8 @@ TEST_F(DamagedLogTest, ExportRefusesADamagedLogUnlessAllowPartial) {
 TEST_F(RunLogTest, TruthExportEndsWithTheCoMAndAWearersTrunk) {
   intake::RunLog log;
   for (int64_t k = 0; k < 3; ++k) {
-    GroundTruthSample t;
-    t.tick = k;
+    GroundTruthSample t = standingTruth(k, Eigen::Vector3d(0, 0, 1.0));
     t.utime = 1000 * k;
-    t.base_position = Eigen::Vector3d(0, 0, 1.0);
-    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
-    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    t.foot_moment = t.foot_force;
     const double x = static_cast<double>(k);
     t.com = Eigen::Vector3d(0.01 * x, -0.02, 0.9);
     t.has_trunk = true;
@@ -389,16 +394,11 @@ TEST_F(RunLogTest, TrueComFiguresAgainstADirectComputation) {
     local.emplace_back(0.02 + 0.004 * std::sin(0.2 * x), -0.001 * std::cos(0.3 * x), 0.3);
   }
   for (int64_t k = 0; k < n; ++k) {
-    GroundTruthSample t;
-    t.tick = k;
-    t.base_position = Eigen::Vector3d(0, 0, 1.0);
+    GroundTruthSample t = standingTruth(k, Eigen::Vector3d(0, 0, 1.0));
     t.base_orientation = yaw;
     t.has_trunk = true;
     t.trunk_angle = angles[static_cast<size_t>(k)];
     t.trunk_com = t.base_position + yaw * local[static_cast<size_t>(k)];
-    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
-    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    t.foot_moment = t.foot_force;
     ControllerStatusSample st;
     st.tick = k;
     st.move_index = 0;
@@ -444,13 +444,8 @@ TEST_F(RunLogTest, TheTrueComIsComparedInTheControllersWorld) {
   const Eigen::Vector3d settle(-0.005, 0.0003, 0.0);  // where the base is at the latch (tick 9)
   intake::RunLog log;
   for (int64_t k = 0; k < 40; ++k) {
-    GroundTruthSample t;
-    t.tick = k;
     const double f = std::min(1.0, static_cast<double>(k) / 9.0);  // settles over the window, then stays
-    t.base_position = Eigen::Vector3d(0, 0, 1.0) + f * settle;
-    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
-    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    t.foot_moment = t.foot_force;
+    GroundTruthSample t = standingTruth(k, Eigen::Vector3d(0, 0, 1.0) + f * settle);
     ControllerStatusSample st;
     st.tick = k;
     st.move_index = k >= 20 ? 0 : -1;
@@ -506,12 +501,7 @@ TEST_F(RunLogTest, WithTheControllersLatchedSolesTheWorldsAreAlignedByTheSoles) 
   const Eigen::Vector2d offset = base.head<2>() - shift;  // true soles minus the controller's
   intake::RunLog log;
   for (int64_t k = 0; k < 30; ++k) {
-    GroundTruthSample t;
-    t.tick = k;
-    t.base_position = base;
-    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
-    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    t.foot_moment = t.foot_force;
+    GroundTruthSample t = standingTruth(k, base);
     ControllerStatusSample st;
     st.tick = k;
     st.move_index = k >= 15 ? 0 : -1;
@@ -577,12 +567,7 @@ TEST_F(RunLogTest, TheSettledTrueComErrorStartsTenSecondsIn) {
   double sq_all = 0.0, sq_late = 0.0;
   long n_all = 0, n_late = 0;
   for (int64_t k = 0; k < 12500; k += 5) {
-    GroundTruthSample t;
-    t.tick = k;
-    t.base_position = Eigen::Vector3d(0, 0, 1.0);
-    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
-    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    t.foot_moment = t.foot_force;
+    GroundTruthSample t = standingTruth(k, Eigen::Vector3d(0, 0, 1.0));
     ControllerStatusSample st;
     st.tick = k;
     st.move_index = k >= 2000 ? 0 : -1;
@@ -610,12 +595,7 @@ TEST_F(RunLogTest, TheSettledTrueComErrorStartsTenSecondsIn) {
 TEST_F(RunLogTest, SummaryFiguresAreMeasuredAgainstTheSimulatedRunNotTheLog) {
   intake::RunLog log;
   for (int64_t k = 0; k < 100; ++k) {
-    GroundTruthSample t;
-    t.tick = k;
-    t.base_position = Eigen::Vector3d(0, 0, k < 80 ? 1.0 : 0.5);
-    t.q = t.v = t.a = t.tau_applied = Eigen::VectorXd::Zero(model_.njoints);
-    t.foot_force = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    t.foot_moment = t.foot_force;
+    GroundTruthSample t = standingTruth(k, Eigen::Vector3d(0, 0, k < 80 ? 1.0 : 0.5));
     log.truth.push_back(t);
     if (k != 50) log.states.push_back(state(k));  // one lost state
     log.plates[0].push_back(plate(0, k));
