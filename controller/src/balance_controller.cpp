@@ -90,16 +90,8 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
     error_ = "controller config: " + why;
     return;
   }
-  if (!resolveSoleFrame(model, cfg_.contact.right_sole_frame, soles_[0], &why) ||
-      !resolveSoleFrame(model, cfg_.contact.left_sole_frame, soles_[1], &why)) {
-    error_ = "contact frames: " + why;
-    return;
-  }
-  // IMU frame: "imu" if the model has one, the base frame otherwise.
-  if (model.frameIndex("imu") >= 0) resolveSoleFrame(model, "imu", imu_, nullptr);
-  else imu_ = SoleFrame{0, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()};
-  if (imu_.body != 0) {
-    error_ = "the IMU frame must be on the base body";
+  if (!resolveObserverFrames(model, cfg_.contact, soles_, imu_, &why)) {
+    error_ = why;
     return;
   }
   observer_ = std::make_unique<BaseStateObserver>(model, cfg_.observer, cfg_.loop.period, soles_, imu_);

@@ -32,6 +32,23 @@ bool resolveSoleFrame(const Model& model, const std::string& name, SoleFrame& ou
   return false;
 }
 
+bool resolveObserverFrames(const Model& model, const ContactConfig& contact, std::array<SoleFrame, 2>& soles,
+                           SoleFrame& imu, std::string* error) {
+  std::string why;
+  if (!resolveSoleFrame(model, contact.right_sole_frame, soles[0], &why) ||
+      !resolveSoleFrame(model, contact.left_sole_frame, soles[1], &why)) {
+    if (error) *error = "contact frames: " + why;
+    return false;
+  }
+  if (model.frameIndex("imu") >= 0) resolveSoleFrame(model, "imu", imu, nullptr);
+  else imu = SoleFrame{0, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity()};
+  if (imu.body != 0) {
+    if (error) *error = "the IMU frame must be on the base body";
+    return false;
+  }
+  return true;
+}
+
 BaseStateObserver::BaseStateObserver(const Model& model, const ObserverConfig& config, double period,
                                        const std::array<SoleFrame, 2>& soles, const SoleFrame& imu)
     : model_(model),

@@ -34,11 +34,9 @@ struct ControllerFrameOffset {
     st.base_orientation = truth.base_orientation;
     st.base_position = truth.base_position;
     forwardKinematics(model, kin, st);
-    const std::string names[2] = {ctrl.config().contact.right_sole_frame, ctrl.config().contact.left_sole_frame};
     offset.setZero();
     for (int side = 0; side < 2; ++side) {
-      SoleFrame f;
-      if (!resolveSoleFrame(model, names[side], f, nullptr)) return;
+      const SoleFrame& f = ctrl.soles()[static_cast<size_t>(side)];
       const Eigen::Vector3d p = truth.base_position + truth.base_orientation * (kin.p[f.body] + kin.R[f.body] * f.position);
       offset += 0.5 * (p - ctrl.observer().solePosition(side));
     }

@@ -35,6 +35,13 @@ class RunLogTest : public ::testing::Test {
     std::string err;
     ASSERT_TRUE(buildModelFromUrdfFile(test::configPath("exo.urdf"), true, model_, &err)) << err;
   }
+  /// A sole's origin (0: right_sole, 1: left_sole) in the base frame, the zero pose: the model's kinematics.
+  Eigen::Vector3d zeroPoseSole(int side) const {
+    Data kin(model_);
+    forwardKinematics(model_, kin, State::zero(model_));
+    const Model::Frame& fr = model_.frames[model_.frameIndex(side == 0 ? "right_sole" : "left_sole")];
+    return kin.p[fr.body] + kin.R[fr.body] * fr.position;
+  }
   /// A truth sample of the robot standing still in the zero pose at `base`, no contact forces.
   GroundTruthSample standingTruth(int64_t tick, const Eigen::Vector3d& base) const {
     GroundTruthSample t;
@@ -465,14 +472,8 @@ TEST_F(RunLogTest, TheTrueComIsComparedInTheControllersWorld) {
   EXPECT_LT(s.true_com_rmse_xy_m, 1e-15);
   // The vertical: the soles' mean height at the latch, which the controller calls ground_height. Here the standing
   // robot's soles, from the sole frames' fixed offsets in the zero pose (the legs hang straight below the base).
-  DynamicsData dyn(model_);
-  State zero = State::zero(model_);
-  forwardKinematics(model_, dyn.kin, zero);
   double sole_z = 0.0;
-  for (const char* name : {"right_sole", "left_sole"}) {
-    const Model::Frame& fr = model_.frames[model_.frameIndex(name)];
-    sole_z += 0.5 * (1.0 + (dyn.kin.p[fr.body] + dyn.kin.R[fr.body] * fr.position).z());
-  }
+  for (int side = 0; side < 2; ++side) sole_z += 0.5 * (1.0 + zeroPoseSole(side).z());
   EXPECT_NEAR(s.frame_offset_m.z(), sole_z, 1e-12);
   EXPECT_LT(sole_z, 0.05);  // the soles stand near the floor: a frame offset of millimetres, not the base's metre
   EXPECT_NE(tools::summaryJson(s).find("\"frame_offset_m\""), std::string::npos);
@@ -484,20 +485,13 @@ TEST_F(RunLogTest, TheTrueComIsComparedInTheControllersWorld) {
 // latched its soles 0.6 mm fore and 0.4 mm right of where the base alignment would have them: a true CoM on the
 // reference in the soles' world is 0 off, and the offset is the soles' (true soles from the model's kinematics).
 TEST_F(RunLogTest, WithTheControllersLatchedSolesTheWorldsAreAlignedByTheSoles) {
-  DynamicsData dyn(model_);
-  forwardKinematics(model_, dyn.kin, State::zero(model_));
-  Eigen::Vector2d sole_base[2];  // the soles in the base frame, zero pose (horizontal part)
-  for (int side = 0; side < 2; ++side) {
-    const Model::Frame& fr = model_.frames[model_.frameIndex(side == 0 ? "right_sole" : "left_sole")];
-    sole_base[side] = (dyn.kin.p[fr.body] + dyn.kin.R[fr.body] * fr.position).head<2>();
-  }
   const Eigen::Vector3d base(0.004, -0.002, 1.0);  // the true base, still
   const Eigen::Vector2d shift(0.0006, -0.0004);    // the controller's soles minus the base alignment's
   tools::RunFacts facts;
   facts.controller_frame.latch_tick = 9;
   facts.controller_frame.base_xy = Eigen::Vector2d::Zero();
   facts.controller_frame.has_soles = true;
-  for (int side = 0; side < 2; ++side) facts.controller_frame.sole_xy[side] = sole_base[side] + shift;
+  for (int side = 0; side < 2; ++side) facts.controller_frame.sole_xy[side] = zeroPoseSole(side).head<2>() + shift;
   const Eigen::Vector2d offset = base.head<2>() - shift;  // true soles minus the controller's
   intake::RunLog log;
   for (int64_t k = 0; k < 30; ++k) {
@@ -518,10 +512,10 @@ TEST_F(RunLogTest, WithTheControllersLatchedSolesTheWorldsAreAlignedByTheSoles) 
   EXPECT_NEAR(tools::summarizeExperiment(model_, log, facts).true_com_rmse_xy_m, shift.norm(), 1e-15);
 }
 
-// tools::latchedControllerSoles replays the controller's base state observer over logged states: with the IMU
-// reading a constant tilt and the legs in the zero pose, the observer's world puts the base at initial_base_xy and
-// the soles at R p_sole (R the tilt, p_sole the sole in the base frame from the model's kinematics), x-y; before
-// latch_ticks states nothing is latched.
+// tools::controllerFrame replays the controller's base state observer over logged states: with the IMU reading a
+// constant tilt and the legs in the zero pose, the observer's world puts the base at initial_base_xy and the soles at
+// R p_sole (R the tilt, p_sole the sole in the base frame from the model's kinematics), x-y; before latch_ticks
+// states nothing is latched; the latch tick, base and ground height are the configuration's.
 TEST_F(RunLogTest, TheControllersLatchedSolesComeFromReplayingItsObserver) {
   controller::ControllerConfig cc;
   std::string err;
@@ -543,18 +537,16 @@ TEST_F(RunLogTest, TheControllersLatchedSolesComeFromReplayingItsObserver) {
     st.imu_accel = Eigen::Vector3d(0, 0, 9.81);
     states.push_back(st);
   }
-  tools::ControllerFrame frame;
   const std::vector<RobotStateSample> short_log(states.begin(), states.begin() + cc.observer.latch_ticks - 1);
-  EXPECT_FALSE(tools::latchedControllerSoles(model_, cc, short_log, frame));
-  EXPECT_FALSE(frame.has_soles);
+  EXPECT_FALSE(tools::controllerFrame(model_, cc, short_log).has_soles);
   std::reverse(states.begin(), states.end());  // log order is not tick order: replayed by tick
-  ASSERT_TRUE(tools::latchedControllerSoles(model_, cc, states, frame));
+  const tools::ControllerFrame frame = tools::controllerFrame(model_, cc, states);
   ASSERT_TRUE(frame.has_soles);
-  DynamicsData dyn(model_);
-  forwardKinematics(model_, dyn.kin, State::zero(model_));
+  EXPECT_EQ(frame.latch_tick, cc.observer.latch_ticks - 1);
+  EXPECT_EQ(frame.base_xy, cc.observer.initial_base_xy);
+  EXPECT_EQ(frame.ground_height, cc.observer.ground_height);
   for (int side = 0; side < 2; ++side) {
-    const Model::Frame& fr = model_.frames[model_.frameIndex(side == 0 ? "right_sole" : "left_sole")];
-    const Eigen::Vector3d p = tilt * (dyn.kin.p[fr.body] + dyn.kin.R[fr.body] * fr.position);
+    const Eigen::Vector3d p = tilt * zeroPoseSole(side);
     EXPECT_LT((frame.sole_xy[side] - cc.observer.initial_base_xy - p.head<2>()).norm(), 1e-12) << side;
   }
 }

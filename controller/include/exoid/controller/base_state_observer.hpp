@@ -32,6 +32,11 @@ struct SoleFrame {
 /// Resolves a URDF frame by name (a fixed-joint link lumped into a body, or a body itself).
 bool resolveSoleFrame(const Model& model, const std::string& name, SoleFrame& out, std::string* error);
 
+/// The frames the balance controller gives its observer: the soles of `contact` (right, left) and the IMU ("imu" if
+/// the model has that frame, the base frame otherwise; it must be on the base body). False with *error otherwise.
+bool resolveObserverFrames(const Model& model, const ContactConfig& contact, std::array<SoleFrame, 2>& soles,
+                           SoleFrame& imu, std::string* error);
+
 class BaseStateObserver {
  public:
   static constexpr int kRight = 0;

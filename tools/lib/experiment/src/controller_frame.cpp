@@ -1,4 +1,4 @@
-// latchedControllerSoles: where the controller's world puts the soles (docs/controller.md "Base state observer").
+// controllerFrame: where the controller's world puts the soles (docs/controller.md "Base state observer").
 #include <algorithm>
 #include <array>
 
@@ -7,14 +7,15 @@
 
 namespace exoid::tools {
 
-bool latchedControllerSoles(const Model& controller_model, const controller::ControllerConfig& cc,
-                            const std::vector<RobotStateSample>& states, ControllerFrame& frame) {
+ControllerFrame controllerFrame(const Model& controller_model, const controller::ControllerConfig& cc,
+                                const std::vector<RobotStateSample>& states) {
+  ControllerFrame frame;
+  frame.latch_tick = cc.observer.latch_ticks - 1;  // the run's states start at tick 0
+  frame.base_xy = cc.observer.initial_base_xy;
+  frame.ground_height = cc.observer.ground_height;
   std::array<controller::SoleFrame, 2> soles;
   controller::SoleFrame imu;
-  if (!controller::resolveSoleFrame(controller_model, cc.contact.right_sole_frame, soles[0], nullptr) ||
-      !controller::resolveSoleFrame(controller_model, cc.contact.left_sole_frame, soles[1], nullptr))
-    return false;
-  if (controller_model.frameIndex("imu") >= 0) controller::resolveSoleFrame(controller_model, "imu", imu, nullptr);
+  if (!controller::resolveObserverFrames(controller_model, cc.contact, soles, imu, nullptr)) return frame;
   controller::BaseStateObserver observer(controller_model, cc.observer, cc.loop.period, soles, imu);
   std::vector<const RobotStateSample*> order;
   order.reserve(states.size());
@@ -30,10 +31,10 @@ bool latchedControllerSoles(const Model& controller_model, const controller::Con
     if (observer.latched()) {
       for (int f = 0; f < 2; ++f) frame.sole_xy[f] = observer.solePosition(f).head<2>();
       frame.has_soles = true;
-      return true;
+      break;
     }
   }
-  return false;
+  return frame;
 }
 
 }  // namespace exoid::tools

@@ -76,9 +76,6 @@ bool checkController(ExperimentPlan& plan, std::string* error) {
   // outlives the controller would apply zero torque at the end.
   plan.duration_s = controller::plannedRunDuration(cc);
   plan.estimate_lag_ticks = cc.estimate.lag_ticks;
-  plan.controller_frame.latch_tick = cc.observer.latch_ticks - 1;  // the run's states start at tick 0
-  plan.controller_frame.base_xy = cc.observer.initial_base_xy;
-  plan.controller_frame.ground_height = cc.observer.ground_height;
   plan.controller_config = cc;
   if (!buildModelFromUrdfFile(o.model, true, plan.model, error) ||
       !buildModelFromUrdfFile(o.controller_model, true, plan.controller_model, error))

@@ -396,9 +396,8 @@ ExperimentReport reportExperiment(const ExperimentPlan& plan, RunFacts facts) {
   const ExperimentOptions& o = plan.options;
   const std::filesystem::path out = o.out_dir;
   intake::RunLog log;
-  facts.controller_frame = plan.controller_frame;
   facts.log_readable = intake::readRunLog((out / "run.lcmlog").string(), plan.model.joint_names, log, &facts.log_error);
-  if (facts.log_readable) latchedControllerSoles(plan.controller_model, plan.controller_config, log.states, facts.controller_frame);
+  facts.controller_frame = controllerFrame(plan.controller_model, plan.controller_config, log.states);
   ExperimentReport r;
   r.summary = summarizeExperiment(plan.model, log, facts);
   // Online vs batch on this run's log (the estimator's default options plus the --effects sidecar if given, the

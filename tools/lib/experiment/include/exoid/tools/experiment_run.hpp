@@ -54,8 +54,7 @@ struct ExperimentPlan {
   Model controller_model;            ///< the controller's and the estimator's prior
   double duration_s = 0.0;           ///< the controller's planned run (start-up latch, moves, holds)
   int estimate_lag_ticks = 0;        ///< the controller configuration's estimate.lag_ticks (the lockstep wait)
-  ControllerFrame controller_frame;  ///< the controller configuration's world (the summary's true-CoM figures)
-  controller::ControllerConfig controller_config;  ///< as loaded (its observer replayed: latchedControllerSoles)
+  controller::ControllerConfig controller_config;  ///< as loaded (its world for the summary: controllerFrame)
   bool use_plugin = true, lockstep = true;
   Injection inject;
   std::vector<std::string> estimator_words;  ///< exo_estimator's extra arguments (--effects made absolute)
@@ -64,12 +63,13 @@ struct ExperimentPlan {
   std::string wearer_prior;  ///< the table prior written for a wearer scenario (ExperimentOptions::model_given); "" none
 };
 
-/// The controller's latched soles (ControllerFrame::sole_xy, has_soles): its base state observer (the controller's
-/// model, cc.observer, cc.loop.period, the sole and IMU frames it resolves) replayed over the logged states, in
+/// The controller's world for the summary's true-CoM figures: from cc.observer its latch tick, initial_base_xy and
+/// ground_height, and the soles where it latched them (ControllerFrame::sole_xy, has_soles): its base state observer
+/// (the controller's model, cc.observer, cc.loop.period, resolveObserverFrames) replayed over the logged states, in
 /// tick order, until it latches. The controller ran the same observer on the same samples (lockstep and plugin:
-/// every state; a state it refused would be missing here too). False, frame unchanged, when the log latches nothing.
-bool latchedControllerSoles(const Model& controller_model, const controller::ControllerConfig& cc,
-                            const std::vector<RobotStateSample>& states, ControllerFrame& frame);
+/// every state; a state it refused would be missing here too). has_soles false when the log latches nothing.
+ControllerFrame controllerFrame(const Model& controller_model, const controller::ControllerConfig& cc,
+                                const std::vector<RobotStateSample>& states);
 
 /// Checks every input and fills *plan; false with a one-line *error naming the option or file.
 bool planExperiment(const ExperimentOptions& options, ExperimentPlan& plan, std::string* error);

@@ -23,7 +23,7 @@ struct ControllerFrame {
   Eigen::Vector2d base_xy = Eigen::Vector2d::Zero();  ///< observer.initial_base_xy
   double ground_height = 0.0;                         ///< observer.ground_height
   /// The soles where the controller latched them in its world (right, left; x-y), from replaying its base state
-  /// observer over the logged states (latchedControllerSoles). With them the two worlds are aligned by the soles,
+  /// observer over the logged states (controllerFrame). With them the two worlds are aligned by the soles,
   /// the points the controller's world is built on; without, by the base at the latch tick, which is off by the
   /// latch window's orientation error times the legs' length (0.2-0.6 mm with the realistic IMU, docs/wearer.md).
   bool has_soles = false;
