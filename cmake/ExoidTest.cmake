@@ -1,6 +1,6 @@
 # exoid_add_test: the one way a test executable is declared (every folder's tests use it).
 #
-#   exoid_add_test(NAME SOURCES... [SANITIZED | ALSO_SANITIZED] [PROPERTIES ctest-properties...])
+#   exoid_add_test(NAME SOURCES... [SANITIZED] [PROPERTIES ctest-properties...])
 #
 # Links GoogleTest's main, defines EXOID_CONFIG_DIR / EXOID_DATA_DIR / EXOID_BIN_DIR (the repository's config/ and
 # data/, the build's bin/), and registers the executable's tests with ctest (gtest_discover_tests) with the given
@@ -8,13 +8,12 @@
 #
 # Where CI runs it (scripts/test.sh; docs/testing.md "Which build runs which test"): every test runs once,
 #   SANITIZED       in the sanitizer build only (AddressSanitizer + UndefinedBehaviorSanitizer, clang -O1): the
-#                   readers, the messages, the model and the real-time code's unit tests, short under ASan;
-#   ALSO_SANITIZED  in both: the sanitizer run skips its few slow tests by name (scripts/test-sanitize.sh), which
-#                   the Release run covers;
-#   (neither)       in the Release build only: the closed-loop, multi-process and command-line tests, and the
+#                   readers, the messages, the model, the numerics' unit tests and the real-time code's, short
+#                   under ASan;
+#   (unmarked)      in the Release build only: the closed-loop, multi-process and command-line tests, and the
 #                   numerics that take long under ASan.
 # EXOID_TEST_SET chooses what a build directory builds and registers: all (the default: every test, for
-# developers), sanitized (SANITIZED + ALSO_SANITIZED: the sanitizer build) or unsanitized (all but SANITIZED: CI's
+# developers), sanitized (SANITIZED: the sanitizer build) or unsanitized (all but SANITIZED: CI's
 # Release build). A test left out is EXCLUDE_FROM_ALL and unregistered; `exoid_sanitized` builds the sanitized set.
 set(EXOID_TEST_SET "all" CACHE STRING "tests built and registered: all | sanitized | unsanitized (docs/testing.md)")
 set_property(CACHE EXOID_TEST_SET PROPERTY STRINGS all sanitized unsanitized)
@@ -25,9 +24,9 @@ add_custom_target(exoid_sanitized)
 include(GoogleTest)
 
 function(exoid_add_test name)
-  cmake_parse_arguments(ARG "SANITIZED;ALSO_SANITIZED" "" "PROPERTIES" ${ARGN})
+  cmake_parse_arguments(ARG "SANITIZED" "" "PROPERTIES" ${ARGN})
   set(in_set ON)
-  if(EXOID_TEST_SET STREQUAL "sanitized" AND NOT (ARG_SANITIZED OR ARG_ALSO_SANITIZED))
+  if(EXOID_TEST_SET STREQUAL "sanitized" AND NOT ARG_SANITIZED)
     set(in_set OFF)
   elseif(EXOID_TEST_SET STREQUAL "unsanitized" AND ARG_SANITIZED)
     set(in_set OFF)
@@ -43,7 +42,7 @@ function(exoid_add_test name)
                                              EXOID_DATA_DIR="${EXOID_DATA_DIR}"
                                              EXOID_BIN_DIR="${CMAKE_RUNTIME_OUTPUT_DIRECTORY}")
   target_link_libraries(${name} PRIVATE GTest::gtest_main)
-  if(ARG_SANITIZED OR ARG_ALSO_SANITIZED)
+  if(ARG_SANITIZED)
     add_dependencies(exoid_sanitized ${name})
   endif()
   if(in_set)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Configures and builds the checking build in build-sanitize/ (clang, AddressSanitizer + UndefinedBehavior-
 # Sanitizer, libFuzzer targets; docs/testing.md). Arguments: targets to build (default: exoid_sanitized, the tests
-# marked SANITIZED or ALSO_SANITIZED, cmake/ExoidTest.cmake; the others are not even registered there).
+# marked SANITIZED, cmake/ExoidTest.cmake; the others are not even registered there).
 # The main build (scripts/build.sh, build/) stays GCC Release.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -1,10 +1,8 @@
 #!/usr/bin/env bash
 # Builds build-sanitize/ (clang, AddressSanitizer + UndefinedBehaviorSanitizer on every target, every report
-# fatal) and runs the tests marked SANITIZED or ALSO_SANITIZED there (cmake/ExoidTest.cmake; docs/testing.md "Which
-# build runs which test"): the readers, messages, model and real-time code's unit tests. Skipped here by name, and
-# run by the Release build instead: the slow tests of the ALSO_SANITIZED executables (the dense-SVD check of every
-# solver, three whole-run dataset filters, two XGBoost fits, ten million and a standing minute of RLS updates, the
-# plugin's bit-for-bit closed loop and its run to completion), and the Java jar check. Arguments go to ctest.
+# fatal) and runs the tests marked SANITIZED there (cmake/ExoidTest.cmake; docs/testing.md "Which build runs which
+# test"): the readers, messages, model, numerics and real-time code's unit tests. The Java jar check, registered in
+# every build, is left to the Release build. Arguments go to ctest.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$here/scripts/build-sanitize.sh" exoid_sanitized
@@ -13,11 +11,4 @@ export LSAN_OPTIONS="suppressions=$here/fuzz/lsan.supp:print_suppressions=0${LSA
 export ASAN_OPTIONS="detect_leaks=1:strict_init_order=1:check_initialization_order=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1${UBSAN_OPTIONS:+:$UBSAN_OPTIONS}"
 cd "$here/build-sanitize"
-slow='BatchSolvers\.EveryMethodAtEveryRankEqualsTheDenseSvdOfTheStackedProblem'
-slow+='|Dataset\.(TrimmedEdgesAreTheFiltersSettlingTimeAndTheOtherRowsAreUnchanged|FusedBaseOrientationRemovesImuNoiseAndLegBias'
-slow+='|BlockwiseZeroPhaseFilteringEqualsFilteringTheWholeRun)'
-slow+='|ResidualPredictability\.(NoiseIndependentOfTheStateIsNeverNamed|AnEffectOutsideTheLibraryIsNamedWithItsVariables)'
-slow+='|RecursiveLs\.(TenMillionUpdatesStayPositiveDefiniteAndFinite|StandingStillWithForgettingKeepsTheUncertaintyBounded)'
-slow+='|BalancePlugin\.SameCommandsAsTheControllerBitForBitWithoutAllocating|PluginCli\.WithoutDurationTheRunEndsWhenThePluginFinishes'
-slow+='|lcmtypes_jar_contains_robot_state'
-ctest --output-on-failure -j "$(nproc)" -LE '^system$' -E "^($slow)$" --timeout 900 "$@"
+ctest --output-on-failure -j "$(nproc)" -LE '^system$' -E '^lcmtypes_jar_contains_robot_state$' --timeout 900 "$@"

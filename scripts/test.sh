@@ -2,7 +2,7 @@
 # Runs every test (what CI runs, .ci/run): installs what is missing, then
 #   1. builds build/ (GCC, Release) and runs its tests: all but those marked SANITIZED (cmake/ExoidTest.cmake),
 #   2. builds build-sanitize/ (clang, AddressSanitizer + UndefinedBehaviorSanitizer) and runs the tests marked
-#      SANITIZED or ALSO_SANITIZED there (scripts/test-sanitize.sh): every test runs at least once,
+#      SANITIZED there (scripts/test-sanitize.sh): every test runs once,
 #   3. runs every libFuzzer target for a bounded time (scripts/fuzz.sh),
 # and prints the time each step took. docs/testing.md describes the steps, labels and variables.
 # Steps 2 and 3 build in build-sanitize/, which does not depend on step 1: that build starts beside step 1's ctest

@@ -8,14 +8,15 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_base_params {  // this file's own names: the exoid binary is a unity build
 // The stacked regressor (samples * nv rows x p columns of doubles) must fit comfortably in memory.
 constexpr double kMaxStackedBytes = 2.0 * (1 << 30);
 
 int fail(const std::string& msg) { return common::badInput("exoid base-params", msg); }
-}  // namespace
+}  // namespace cmd_base_params
 
 int cmdBaseParams(int argc, char** argv) {
+  using namespace cmd_base_params;
   CLI::App app{
       "Structural base parameters (thesis section II-E, Gautier 1990): the regressor is stacked over N random\n"
       "states (any configuration, velocity, acceleration and base motion) and factorised by column-pivoted QR.\n"

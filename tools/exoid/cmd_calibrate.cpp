@@ -15,7 +15,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_calibrate {  // this file's own names: the exoid binary is a unity build
 int fail(const std::string& msg) { return common::badInput("exoid calibrate", msg); }
 
 constexpr char kDescription[] =
@@ -30,9 +30,10 @@ constexpr char kDescription[] =
     "Runs in process (no LCM traffic): about 0.5 s for the default 40 s. Docs: docs/diagnose.md \"Calibration run\".\n\n"
     "Writes DIR/run.lcmlog (EXO_STATE, EXO_PLATE_RIGHT/LEFT, EXO_TRUTH, EXO_COMMAND, as `exoid experiment`) and\n"
     "DIR/calibration.txt (the figures printed). Fails (exit 2) when a foot touches a plate.";
-}  // namespace
+}  // namespace cmd_calibrate
 
 int cmdCalibrate(int argc, char** argv) {
+  using namespace cmd_calibrate;
   const std::string config = EXOID_CONFIG_DIR;
   CLI::App app{kDescription, "exoid calibrate"};
   common::configureCli(app);

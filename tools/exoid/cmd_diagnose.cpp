@@ -15,10 +15,10 @@
 
 namespace exoid::cli {
 
-namespace {
 namespace est = exoid::estimator;
 namespace fs = std::filesystem;
 
+namespace cmd_diagnose {  // this file's own names: the exoid binary is a unity build
 constexpr char kDescription[] =
     "Finds what the declared rigid-body model leaves out (docs/diagnose.md). Identifies the declared model on\n"
     "the training data, analyses the residual per joint (size against the noise, autocorrelation, correlation\n"
@@ -235,9 +235,10 @@ bool makeSources(const Model& model, const DiagnoseArgs& a, est::DiagnoseOptions
   for (const std::string& f : in.val_calib_files) src.validate.push_back(src.segment(model, f, k++, true));
   return true;
 }
-}  // namespace
+}  // namespace cmd_diagnose
 
 int cmdDiagnose(int argc, char** argv) {
+  using namespace cmd_diagnose;
   CLI::App app(kDescription, "exoid diagnose");
   common::configureCli(app);
   DiagnoseArgs a;

@@ -15,7 +15,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_experiment {  // this file's own names: the exoid binary is a unity build
 constexpr char kDescription[] =
     "Runs the closed loop: exo_sim (MuJoCo, lockstep) with the centroidal balance QP doing the thesis's CoM\n"
     "moves, either inside the sim's loop as a plugin (default) or as the separate exo_controller process, and\n"
@@ -155,9 +155,10 @@ bool writeReport(const tools::ExperimentReport& r, const std::filesystem::path& 
   }
   return true;
 }
-}  // namespace
+}  // namespace cmd_experiment
 
 int cmdExperiment(int argc, char** argv) {
+  using namespace cmd_experiment;
   const std::string config = EXOID_CONFIG_DIR;
   CLI::App app{kDescription, "exoid experiment"};
   common::configureCli(app);

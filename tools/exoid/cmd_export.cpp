@@ -12,7 +12,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_export {  // this file's own names: the exoid binary is a unity build
 constexpr char kDescription[] =
     "Turns a logged run into one CSV row per control tick (1 kHz). Every channel is aligned by tick; a tick\n"
     "missing a needed message is skipped and counted (reported on stderr), never interpolated. A damaged log\n"
@@ -58,9 +58,10 @@ bool writeTable(const tools::RunTable& table, const std::string& path, std::stri
   }
   return out.commit(err);
 }
-}  // namespace
+}  // namespace cmd_export
 
 int cmdExport(int argc, char** argv) {
+  using namespace cmd_export;
   CLI::App app{kDescription, "exoid export"};
   common::configureCli(app);
   std::string log_path, out_path, model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";

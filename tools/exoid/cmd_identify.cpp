@@ -17,7 +17,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_identify {  // this file's own names: the exoid binary is a unity build
 constexpr char kDescription[] =
     "Batch identification of the inertial parameters and joint friction (thesis chapter 3) from one data set:\n"
     "LCM logs of `exoid experiment` or CSVs of measured data (docs/identification.md). W and y are streamed\n"
@@ -277,9 +277,10 @@ bool writeOutputs(const tools::IdentifyRun& run, const tools::IdentifyRunOptions
   std::ofstream(out_dir + "/summary.json") << j.dump(2) << "\n";
   return true;
 }
-}  // namespace
+}  // namespace cmd_identify
 
 int cmdIdentify(int argc, char** argv) {
+  using namespace cmd_identify;
   CLI::App app(kDescription, "exoid identify");
   common::configureCli(app);
   tools::IdentifyRunOptions o;

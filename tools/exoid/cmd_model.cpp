@@ -15,7 +15,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_model {  // this file's own names: the exoid binary is a unity build
 
 // exoid model perturb: a +-r prior URDF (tools/perturb_inertials.hpp).
 int cmdModelPerturb(int argc, char** argv) {
@@ -161,9 +161,10 @@ void printStandingCom(const Model& model) {
   }
 }
 
-}  // namespace
+}  // namespace cmd_model
 
 int cmdModel(int argc, char** argv) {
+  using namespace cmd_model;
   if (argc >= 3 && std::strcmp(argv[2], "perturb") == 0) return cmdModelPerturb(argc - 1, argv + 1);
   if (argc >= 3 && std::strcmp(argv[2], "wearer") == 0) return cmdModelWearer(argc - 1, argv + 1);
   CLI::App app{

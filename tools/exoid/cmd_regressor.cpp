@@ -10,7 +10,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_regressor {  // this file's own names: the exoid binary is a unity build
 int fail(const std::string& msg) { return common::badInput("exoid regressor", msg); }
 
 /// W for every sample: one CSV row per sample and generalized coordinate (atomically).
@@ -37,9 +37,10 @@ bool writeRegressor(const Model& model, const tools::CsvTable& table, const tool
   }
   return out.commit(err);
 }
-}  // namespace
+}  // namespace cmd_regressor
 
 int cmdRegressor(int argc, char** argv) {
+  using namespace cmd_regressor;
   CLI::App app{
       "Evaluates the joint torque regressor K(q, v, dv) of the seed thesis (eqs. 10-14 with the friction\n"
       "columns of eqs. 2.48-2.49) for every sample of STATES.csv and writes the stacked W, so that W * phi\n"

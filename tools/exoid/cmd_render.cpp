@@ -13,7 +13,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_render {  // this file's own names: the exoid binary is a unity build
 int fail(const std::string& msg) {
   std::fprintf(stderr, "exoid render: error: %s\n", msg.c_str());
   return 2;
@@ -50,9 +50,10 @@ render::RenderProgress progressBar(bool quiet) {
     last = pct;
   };
 }
-}  // namespace
+}  // namespace cmd_render
 
 int cmdRender(int argc, char** argv) {
+  using namespace cmd_render;
   CLI::App app{
       "Renders a logged run with MuJoCo's renderer, headless (EGL; no display needed): the robot in the pose of the\n"
       "truth channel (EXO_TRUTH), the true CoM (red sphere), the controller's reference (green cross) and its own CoM\n"

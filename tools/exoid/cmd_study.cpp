@@ -18,7 +18,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace cmd_study {  // this file's own names: the exoid binary is a unity build
 constexpr char kDescription[] =
     "The thesis's comparison protocol (chapter 3 IV, Tables II and C.1; chapter 4 Table D.1's absolute priors)\n"
     "on exoid's runs: per input pipeline (thesis protocol: ground-truth states with 9e-6 rad encoder noise,\n"
@@ -158,11 +158,12 @@ bool resolveStudyOptions(const StudyArgs& a, tools::StudyOptions& o, std::string
   }
   return true;
 }
-}  // namespace
+}  // namespace cmd_study
 
 // table2.md's last section: the runs the study used, each as its keyframe strip (start, largest CoM excursion, end;
 // `exoid render --keyframes`), or why it is not drawn. False with *err when table2.md cannot be appended to.
 static bool appendRunKeyframes(const tools::StudyOptions& o, const std::string& scene, std::string* err) {
+  using namespace cmd_study;
   Model model;
   std::string why;
   const bool have_model = buildModelFromUrdfFile(o.model_path, true, model, &why);
@@ -176,6 +177,7 @@ static bool appendRunKeyframes(const tools::StudyOptions& o, const std::string& 
 }
 
 int cmdStudy(int argc, char** argv) {
+  using namespace cmd_study;
   CLI::App app(kDescription, "exoid study");
   tools::StudyOptions o;
   o.model_path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf";

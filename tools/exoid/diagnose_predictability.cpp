@@ -12,9 +12,10 @@
 
 namespace exoid::cli {
 
-namespace {
 namespace fs = std::filesystem;
+namespace est = exoid::estimator;
 
+namespace diagnose_predictability {  // this file's own names: the exoid binary is a unity build
 // Per joint: the held-out residual against the stage's predictions over time (validation segments, else the
 // cross-fitted training segments), and the predictable shares with their standard errors as bars.
 constexpr char kPlotScript[] = R"PY(#!/usr/bin/env python3
@@ -73,7 +74,6 @@ std::string pct(double x) {
   return b;
 }
 
-namespace est = exoid::estimator;
 
 // The reported method's variable weights ("name:percent ...") and the sparse terms ("+coef*term ...").
 std::string variablesText(const est::JointPredictability& j) {
@@ -209,11 +209,12 @@ void predictabilityReport(const Model& model, const est::PredictabilityResult& r
   if (report) *report = md.str();
   if (console) *console = con.str();
 }
-}  // namespace
+}  // namespace diagnose_predictability
 
 bool writePredictability(const std::string& out_dir, const Model& model, const estimator::PredictabilityResult& res,
                          const estimator::PredictabilityOptions& opt, bool plot, const std::string& python,
                          nlohmann::json& js, std::string* report, std::string* console, std::string* error) {
+  using namespace diagnose_predictability;
   if (!res.ran) {
     js["predictability"] = {{"ran", false}};
     if (report) *report = "";

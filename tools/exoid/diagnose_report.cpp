@@ -19,9 +19,10 @@
 
 namespace exoid::cli {
 
-namespace {
 namespace est = exoid::estimator;
 namespace fs = std::filesystem;
+
+namespace diagnose_report {  // this file's own names: the exoid binary is a unity build
 // A candidate with less of its signal than this outside the declared model's span is reported as not visible.
 constexpr double kHiddenSeparable = 0.01;
 
@@ -511,9 +512,10 @@ void printSummary(const est::DiagnosisResult& res, const est::OnlineComparison& 
                 "%.4f -> %.4f N m with the sidecar's columns\n", online.before, online.after);
   std::printf("report: %s\n", (out / "report.md").string().c_str());
 }
-}  // namespace
+}  // namespace diagnose_report
 
 bool openOut(const fs::path& out, const std::string& name, std::ofstream& f, std::string* error) {
+  using namespace diagnose_report;
   f.open(out / name);
   if (!f && error) *error = "cannot write '" + (out / name).string() + "'";
   return static_cast<bool>(f);
@@ -521,6 +523,7 @@ bool openOut(const fs::path& out, const std::string& name, std::ofstream& f, std
 
 bool writePlotScript(const std::string& out_dir, const std::string& name, const char* script, bool run,
                      const std::string& python, const std::string& args, bool* plotted, std::string* error) {
+  using namespace diagnose_report;
   const fs::path out(out_dir);
   {
     std::ofstream f;
@@ -536,6 +539,7 @@ bool writePlotScript(const std::string& out_dir, const std::string& name, const 
 }
 
 est::EffectSet effectSetOf(const std::string& model_path, const est::DiagnoseOptions& opt, const est::DiagnosisResult& res) {
+  using namespace diagnose_report;
   est::EffectSet set;
   set.model = fs::path(model_path).filename().string();
   set.shape = opt.shape;
@@ -547,6 +551,7 @@ est::EffectSet effectSetOf(const std::string& model_path, const est::DiagnoseOpt
 bool writeDiagnosis(const Model& model, const Model& declared_model, const est::DiagnoseOptions& opt,
                     const DiagnoseInputs& in, const std::vector<intake::InputStats>& stats, const est::DiagnosisResult& res,
                     const est::OnlineComparison& online, std::string* error) {
+  using namespace diagnose_report;
   std::vector<std::string> files = in.train_files;
   for (const auto* v : {&in.calib_files, &in.val_files, &in.val_calib_files}) files.insert(files.end(), v->begin(), v->end());
   nlohmann::json js_inputs;

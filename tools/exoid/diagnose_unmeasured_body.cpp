@@ -10,10 +10,10 @@
 
 namespace exoid::cli {
 
-namespace {
 namespace fs = std::filesystem;
 namespace est = exoid::estimator;
 
+namespace diagnose_unmeasured_body {  // this file's own names: the exoid binary is a unity build
 // Per plane: the moment row's held-out residual against the body's and the null's predictions over time (the first
 // validation segment, else the first cross-fitted training segment).
 constexpr char kPlotScript[] = R"PY(#!/usr/bin/env python3
@@ -165,11 +165,12 @@ void unmeasuredBodyReport(const est::UnmeasuredBodyResult& res, const est::Unmea
   if (report) *report = md.str();
   if (console) *console = con.str();
 }
-}  // namespace
+}  // namespace diagnose_unmeasured_body
 
 bool writeUnmeasuredBody(const std::string& out_dir, const est::UnmeasuredBodyResult& res,
                          const est::UnmeasuredBodyOptions& opt, bool plot, const std::string& python, nlohmann::json& js,
                          std::string* report, std::string* console, std::string* error) {
+  using namespace diagnose_unmeasured_body;
   if (!res.ran) {
     js["unmeasured_body"] = {{"ran", false}};
     if (report) *report = "";

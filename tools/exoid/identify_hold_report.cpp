@@ -10,7 +10,7 @@
 
 namespace exoid::cli {
 
-namespace {
+namespace identify_hold_report {  // this file's own names: the exoid binary is a unity build
 
 constexpr char kPlotScript[] = R"PY(#!/usr/bin/env python3
 # wearer.png from wearer.csv next to this script (written by `exoid identify --hold`; docs/wearer.md).
@@ -68,9 +68,10 @@ nlohmann::json massComJson(const Vector10d& phi) {
                                                                   : nlohmann::json(nullptr)}};
 }
 
-}  // namespace
+}  // namespace identify_hold_report
 
 void printHoldReport(const tools::IdentifyRun& run) {
+  using namespace identify_hold_report;
   const tools::SystemComCheck& c = run.system_com;
   if (c.samples > 0) {
     std::printf("system CoM against the truth channel over %ld validation samples, RMSE 3-D (horizontal): prior %.2f "
@@ -105,6 +106,7 @@ void printHoldReport(const tools::IdentifyRun& run) {
 }
 
 void holdJson(const tools::IdentifyRun& run, nlohmann::json& j) {
+  using namespace identify_hold_report;
   const tools::SystemComCheck& c = run.system_com;
   auto mm = [](double v) { return v >= 0.0 ? nlohmann::json(v) : nlohmann::json(nullptr); };
   j["system_com"] = c.samples == 0 ? nlohmann::json(nullptr)
@@ -129,6 +131,7 @@ void holdJson(const tools::IdentifyRun& run, nlohmann::json& j) {
 
 bool writeHoldOutputs(const tools::IdentifyRun& run, const std::string& out_dir, bool plot, const std::string& python,
                       std::string* error) {
+  using namespace identify_hold_report;
   if (run.added.empty()) return true;
   tools::AtomicCsvWriter w;
   if (!w.open(out_dir + "/wearer.csv", error)) return false;
