@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace exoid {
 
@@ -89,6 +90,78 @@ Eigen::MatrixXd filtfilt(const Biquad& c, const Eigen::MatrixXd& signal) {
     out.col(col) = y.segment(pad, n);
   }
   return out;
+}
+
+namespace {
+// One biquad step of the channels [from, to) of a row, in place (restrict: the state rows and the signal row never
+// overlap, so the loop vectorizes; per value the operations of onePass, in its order).
+void biquadStep(const Biquad& c, double* __restrict v, double* __restrict x1, double* __restrict x2,
+                double* __restrict y1, double* __restrict y2, Eigen::Index from, Eigen::Index to) {
+  for (Eigen::Index k = from; k < to; ++k) {
+    const double in = v[k];
+    const double y = c.b0 * in + c.b1 * x1[k] + c.b2 * x2[k] - c.a1 * y1[k] - c.a2 * y2[k];
+    x2[k] = x1[k], x1[k] = in, y2[k] = y1[k], y1[k] = y;
+    v[k] = y;
+  }
+}
+}  // namespace
+
+void filtfiltInPlace(const Biquad& c, SampleMajorMatrix& x, SampleMajorMatrix& scratch) {
+  const Eigen::Index n = x.rows(), w = x.cols();
+  if (n == 0 || w == 0) return;
+  const Eigen::Index pad = std::min<Eigen::Index>(6, n > 1 ? n - 1 : 0);
+  // Channels that are zero throughout stay zero and are skipped (a regressor's structural zeros, about half of the
+  // exoskeleton's): the runs of the others, [begin, end) pairs.
+  std::vector<Eigen::Index> runs;
+  {
+    std::vector<char> nonzero(static_cast<size_t>(w), 0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double* r = x.row(i).data();
+      for (Eigen::Index k = 0; k < w; ++k) nonzero[static_cast<size_t>(k)] |= r[k] != 0.0;
+    }
+    for (Eigen::Index k = 0; k < w;) {
+      if (!nonzero[static_cast<size_t>(k)]) {
+        ++k;
+        continue;
+      }
+      const Eigen::Index begin = k;
+      while (k < w && nonzero[static_cast<size_t>(k)]) ++k;
+      runs.push_back(begin), runs.push_back(k);
+    }
+  }
+  // Rows of scratch: the state x1, x2, y1, y2, then the forward pass's values over the reflected head (pad rows) and
+  // tail (pad rows). The middle n samples' forward values overwrite x itself.
+  scratch.resize(4 + 2 * pad, w);
+  double* x1 = scratch.row(0).data();
+  double* x2 = scratch.row(1).data();
+  double* y1 = scratch.row(2).data();
+  double* y2 = scratch.row(3).data();
+  const auto head = [&](Eigen::Index i) { return scratch.row(4 + i).data(); };        // extended sample i < pad
+  const auto tail = [&](Eigen::Index i) { return scratch.row(4 + pad + i).data(); };  // extended sample n + pad + i
+  const double* first = x.row(0).data();
+  const double* last = x.row(n - 1).data();
+  // The reflected ends, as filtfilt builds them (written before the signal is overwritten).
+  for (Eigen::Index i = 0; i < pad; ++i) {
+    const double* a = x.row(pad - i).data();
+    const double* b = x.row(n - 2 - i).data();
+    double* h = head(i);
+    double* t = tail(i);
+    for (Eigen::Index k = 0; k < w; ++k) h[k] = 2.0 * first[k] - a[k], t[k] = 2.0 * last[k] - b[k];
+  }
+  // One pass of the biquad over the extended rows e(0..n + 2 pad), in place; dir +1 forward, -1 backward.
+  const auto row = [&](Eigen::Index e) { return e < pad ? head(e) : e < n + pad ? x.row(e - pad).data() : tail(e - n - pad); };
+  const auto pass = [&](Eigen::Index e0, Eigen::Index e1, Eigen::Index dir) {
+    const double* s0 = row(e0);
+    for (Eigen::Index k = 0; k < w; ++k) x1[k] = x2[k] = y1[k] = y2[k] = s0[k];  // steady state at the first value
+    for (Eigen::Index e = e0;; e += dir) {
+      double* v = row(e);
+      for (size_t r = 0; r < runs.size(); r += 2) biquadStep(c, v, x1, x2, y1, y2, runs[r], runs[r + 1]);
+      if (e == e1) break;
+    }
+  };
+  const Eigen::Index end = n + 2 * pad - 1;
+  pass(0, end, 1);
+  pass(end, 0, -1);
 }
 
 Eigen::MatrixXd differentiate(const Eigen::MatrixXd& s, double dt) {

@@ -17,6 +17,7 @@
 #include "exoid/estimator/tick_assembly.hpp"
 #include "exoid/model/model.hpp"
 #include "exoid/samples.hpp"
+#include "exoid/signal/filters.hpp"
 
 namespace exoid::estimator {
 
@@ -192,7 +193,7 @@ class DatasetBuilder {
   void setSensorTorque(const Eigen::VectorXd& tau);  ///< joint torques into sensor_torque_ [nv]
   /// K and y of every sample to emit (or, parallel filtering, of the whole window into Kall_, Yall_, Tall_).
   void regressWindow(const BlockSignals& b, bool last, int emit_end);
-  /// Parallel filtering: W, y and tau of the window filtered column by column, [head_, emit_end) emitted.
+  /// Parallel filtering: W, y and tau of the window filtered (zero phase, every channel), [head_, emit_end) emitted.
   void emitFilteredWindow(const BlockSignals& b, bool last, int emit_end);
   const Model& model_;
   DatasetOptions opt_;
@@ -204,7 +205,9 @@ class DatasetBuilder {
   long trimmed_ = 0;
   int edge_ = 0;   ///< samples trimmed at each end of the run (trim_edges with a filter)
   int head_ = 0;  ///< samples at the front of buffer_ already emitted (history)
-  Eigen::MatrixXd Kall_, Yall_, Tall_;  ///< parallel filtering: W, y and tau over the window, kept between blocks
+  /// Parallel filtering: W [window x nv p] (sample i's row c of K at columns c p..c p + p - 1), y [window x nv] and
+  /// tau [window x nj] over the window, sample-major (one sample's values contiguous), kept between blocks.
+  SampleMajorMatrix Kall_, Yall_, Tall_, filter_scratch_;
   Eigen::VectorXd sensor_torque_;       ///< see sensorTorque()
   int margin_ = 0;
   uint64_t rng_ = 0;

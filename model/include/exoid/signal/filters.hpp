@@ -49,6 +49,15 @@ class LowPassFilter {
 /// started from the odd reflection of the signal's ends (6 samples beyond each end, as filtfilt's 3 x order).
 Eigen::MatrixXd filtfilt(const Biquad& coefficients, const Eigen::MatrixXd& signal);
 
+/// Sample-major signal [samples x width], row-major: one sample's channels contiguous.
+using SampleMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// filtfilt of every column of a sample-major signal, in place: per value the same operations in the same order, so
+/// the result equals filtfilt's bit for bit, but all channels advance together through contiguous rows (a wide
+/// signal such as a window of regressor rows, [samples x nv p], is filtered without a strided pass per column).
+/// scratch: resized as needed, reused between calls ([4 + 2 x 6, width]).
+void filtfiltInPlace(const Biquad& coefficients, SampleMajorMatrix& signal, SampleMajorMatrix& scratch);
+
 /// Derivative of every column by central differences (one-sided at the ends), uniform sample time dt.
 Eigen::MatrixXd differentiate(const Eigen::MatrixXd& signal, double dt);
 
