@@ -143,7 +143,11 @@ void newtonModel(const Model& model, const QuadraticTarget& target, const Eigen:
     AD.middleCols<kParamsPerBody>(i) = target.A.middleCols<kParamsPerBody>(i) *
                                        logCholeskyJacobian(x.segment<kParamsPerBody>(i));
   }
-  H.noalias() = AD.transpose() * AD;
+  // The Gauss-Newton matrix (AD)^T AD, symmetric: its lower triangle by a rank update (half a general product's work),
+  // mirrored.
+  H.setZero();
+  H.selfadjointView<Eigen::Lower>().rankUpdate(AD.transpose());
+  H.triangularView<Eigen::StrictlyUpper>() = H.transpose();
   H.diagonal().array() += gamma;
   const Eigen::VectorXd w = target.A.transpose() * cur.r;  // dF/dphi / 2
   g.noalias() = AD.transpose() * cur.r;
