@@ -110,8 +110,8 @@ void filtfiltInPlace(const Biquad& c, SampleMajorMatrix& x, SampleMajorMatrix& s
   const Eigen::Index n = x.rows(), w = x.cols();
   if (n == 0 || w == 0) return;
   const Eigen::Index pad = std::min<Eigen::Index>(6, n > 1 ? n - 1 : 0);
-  // Channels that are zero throughout stay zero and are skipped (a regressor's structural zeros, about half of the
-  // exoskeleton's): the runs of the others, [begin, end) pairs.
+  // Channels that are zero throughout stay zero and are skipped (a regressor's structural zeros): the runs of the
+  // others, [begin, end) pairs.
   std::vector<Eigen::Index> runs;
   {
     std::vector<char> nonzero(static_cast<size_t>(w), 0);

@@ -206,7 +206,8 @@ class DatasetBuilder {
   int edge_ = 0;   ///< samples trimmed at each end of the run (trim_edges with a filter)
   int head_ = 0;  ///< samples at the front of buffer_ already emitted (history)
   /// Parallel filtering: W [window x nv p] (sample i's row c of K at columns c p..c p + p - 1), y [window x nv] and
-  /// tau [window x nj] over the window, sample-major (one sample's values contiguous), kept between blocks.
+  /// tau [window x nj] over the window, sample-major (one sample's values contiguous), kept between blocks;
+  /// filter_scratch_: filtfiltInPlace's.
   SampleMajorMatrix Kall_, Yall_, Tall_, filter_scratch_;
   Eigen::VectorXd sensor_torque_;       ///< see sensorTorque()
   int margin_ = 0;
