@@ -448,8 +448,8 @@ void DatasetBuilder::emitFilteredWindow(const BlockSignals& b, bool last, int em
   const int nv = model_.nv, p = model_.nparams();
   const SampleMajorMatrix& Kall = Kall_;
   const SampleMajorMatrix& Yall = Yall_;
-  // In place, every channel at once through contiguous rows (filtfilt's values bit for bit): column by column the
-  // window's 2080 strided columns (exoskeleton) cost more than the regressor itself.
+  // In place, every channel at once through contiguous rows: column by column the window's 2080 strided columns
+  // (exoskeleton) cost more than the regressor itself.
   filtfiltInPlace(b.lp, Kall_, filter_scratch_);
   filtfiltInPlace(b.lp, Yall_, filter_scratch_);
   filtfiltInPlace(b.lp, Tall_, filter_scratch_);

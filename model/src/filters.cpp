@@ -60,41 +60,8 @@ void LowPassFilter::filter(const Eigen::Ref<const Eigen::VectorXd>& in, Eigen::R
 }
 
 namespace {
-Eigen::VectorXd onePass(const Biquad& c, const Eigen::VectorXd& x) {
-  Eigen::VectorXd y(x.size());
-  double x1 = x[0], x2 = x[0], y1 = x[0], y2 = x[0];  // steady state at the first value
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    y[i] = c.b0 * x[i] + c.b1 * x1 + c.b2 * x2 - c.a1 * y1 - c.a2 * y2;
-    x2 = x1, x1 = x[i], y2 = y1, y1 = y[i];
-  }
-  return y;
-}
-}  // namespace
-
-Eigen::MatrixXd filtfilt(const Biquad& c, const Eigen::MatrixXd& signal) {
-  const Eigen::Index n = signal.rows();
-  const Eigen::Index pad = std::min<Eigen::Index>(6, n > 1 ? n - 1 : 0);
-  Eigen::MatrixXd out(n, signal.cols());
-  for (Eigen::Index col = 0; col < signal.cols(); ++col) {
-    const Eigen::VectorXd x = signal.col(col);
-    Eigen::VectorXd ext(n + 2 * pad);
-    for (Eigen::Index i = 0; i < pad; ++i) {
-      ext[i] = 2.0 * x[0] - x[pad - i];
-      ext[n + pad + i] = 2.0 * x[n - 1] - x[n - 2 - i];
-    }
-    ext.segment(pad, n) = x;
-    Eigen::VectorXd y = onePass(c, ext);
-    y.reverseInPlace();
-    y = onePass(c, y);
-    y.reverseInPlace();
-    out.col(col) = y.segment(pad, n);
-  }
-  return out;
-}
-
-namespace {
 // One biquad step of the channels [from, to) of a row, in place (restrict: the state rows and the signal row never
-// overlap, so the loop vectorizes; per value the operations of onePass, in its order).
+// overlap, so the loop vectorizes).
 void biquadStep(const Biquad& c, double* __restrict v, double* __restrict x1, double* __restrict x2,
                 double* __restrict y1, double* __restrict y2, Eigen::Index from, Eigen::Index to) {
   for (Eigen::Index k = from; k < to; ++k) {
@@ -162,6 +129,12 @@ void filtfiltInPlace(const Biquad& c, SampleMajorMatrix& x, SampleMajorMatrix& s
   const Eigen::Index end = n + 2 * pad - 1;
   pass(0, end, 1);
   pass(end, 0, -1);
+}
+
+Eigen::MatrixXd filtfilt(const Biquad& c, const Eigen::MatrixXd& signal) {
+  SampleMajorMatrix x = signal, scratch;
+  filtfiltInPlace(c, x, scratch);
+  return x;
 }
 
 Eigen::MatrixXd differentiate(const Eigen::MatrixXd& s, double dt) {

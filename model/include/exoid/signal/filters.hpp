@@ -52,11 +52,10 @@ Eigen::MatrixXd filtfilt(const Biquad& coefficients, const Eigen::MatrixXd& sign
 /// Sample-major signal [samples x width], row-major: one sample's channels contiguous.
 using SampleMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-/// filtfilt of every column of a sample-major signal, in place: per value the same operations in the same order, so
-/// the result equals filtfilt's (bit for bit unless the compiler fuses multiply-adds differently in the two loops),
-/// but all channels advance together through contiguous rows (a wide
-/// signal such as a window of regressor rows, [samples x nv p], is filtered without a strided pass per column).
-/// scratch: resized as needed, reused between calls ([4 + 2 x 6, width]).
+/// filtfilt of a sample-major signal, in place (filtfilt itself is this on a copy): all channels advance together
+/// through contiguous rows, so a wide signal such as a window of regressor rows, [samples x nv p], is filtered without
+/// a strided pass per column; channels that are zero throughout are skipped. scratch: resized as needed, reused
+/// between calls ([4 + 2 x 6, width]).
 void filtfiltInPlace(const Biquad& coefficients, SampleMajorMatrix& signal, SampleMajorMatrix& scratch);
 
 /// Derivative of every column by central differences (one-sided at the ends), uniform sample time dt.
