@@ -28,9 +28,10 @@ bool sameBits(const Eigen::Ref<const Eigen::VectorXd>& a, const Eigen::Ref<const
 
 // The shipped controller configuration with estimate.lag_ticks at its smallest, 69 (docs/estimator.md "Why 70"),
 // written into dir. The first estimate (tick 39) needs the state of tick 69, and the loop asks for an estimate
-// with tick >= 0 right after publishing that state: at 69 the loop must wait there, on any machine, however
+// with tick >= 0 right after publishing that state: at 69 the plugin loop must wait there, on any machine, however
 // fast the estimator (at the shipped 70 a fast machine's estimator can be ahead of it the whole run, and the
-// waiting, the point of this test, would go untested).
+// waiting, the point of this test, would go untested). The controller process waits there unless it is scheduled
+// after the estimator has answered (runExperiment).
 std::string configWithTheSmallestLag(const test::TempDir& dir) {
   const std::string shipped = test::slurp(test::configPath("controller.yaml"));
   const std::regex lag(R"((\n\s*lag_ticks:\s*)70\b)");
@@ -62,7 +63,15 @@ void runExperiment(const test::TempDir& dir, const std::string& scenario, const 
   EXPECT_EQ(log.rejected, 0) << log.first_rejection;
   const std::string waiter = test::slurp(out + (std::string(mode) == "plugin" ? "/sim.log" : "/controller.log"));
   EXPECT_EQ(waiter.find("not reproducible"), std::string::npos) << name << ": a wait for the estimate timed out";
-  EXPECT_GE(estimateWaits(waiter), 1) << name << ": the loop never waited\n" << waiter;
+  // Plugin mode must wait at tick 69: it drains the estimates at the start of each tick, before it publishes that
+  // tick's state, and the first estimate needs state 69. The controller process may not: it drains the estimates'
+  // socket before LCM's, so when it is scheduled late the estimator can have answered state 69 before the controller
+  // reads it (a loaded machine did). That run is still in lockstep (the estimate it applies is the same); it only
+  // did not need to wait.
+  if (std::string(mode) == "plugin")
+    EXPECT_GE(estimateWaits(waiter), 1) << name << ": the loop never waited\n" << waiter;
+  else
+    EXPECT_GE(estimateWaits(waiter), 0) << name << ": no summary line\n" << waiter;
 }
 
 void sameInBothModes(const std::string& scenario) {
