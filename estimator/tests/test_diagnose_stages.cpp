@@ -369,3 +369,148 @@ TEST(StudentT, BoostTailMatchesClosedForms) {
 
 }  // namespace
 }  // namespace exoid::estimator
+
+namespace exoid::estimator {
+namespace {
+
+// A source of n samples (K [3 x 4], y, tau [3], q [2] drawn from the seed; identical every pass) that counts its
+// passes, fails its next pass when asked, and can offer stream_state.
+struct CountingSource {
+  int n = 50, passes = 0;
+  bool fail_next = false;
+  static void sample(int k, Eigen::MatrixXd& K, Eigen::VectorXd& y, Eigen::VectorXd& tau, Eigen::VectorXd& q) {
+    std::mt19937_64 rng(1000 + k);
+    std::normal_distribution<double> g;
+    K.resize(3, 4), y.resize(3), tau.resize(3), q.resize(2);
+    for (Eigen::Index i = 0; i < K.size(); ++i) K.data()[i] = g(rng);
+    for (Eigen::Index i = 0; i < 3; ++i) y[i] = g(rng), tau[i] = g(rng);
+    for (Eigen::Index i = 0; i < 2; ++i) q[i] = g(rng);
+  }
+  bool run(const DiagnosisStateSink& sink, std::string* error) {
+    ++passes;
+    Eigen::MatrixXd K;
+    Eigen::VectorXd y, tau, q;
+    for (int k = 0; k < n; ++k) {
+      if (fail_next && k == n / 2) {
+        fail_next = false;
+        *error = "damaged";
+        return false;
+      }
+      sample(k, K, y, tau, q);
+      sink(0.001 * k, K, y, tau, q);
+    }
+    return true;
+  }
+  Segment segment(bool with_state) {
+    Segment s;
+    s.name = "counting";
+    s.stream = [this](const DiagnosisRowSink& sink, std::string* e) {
+      return run([&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau,
+                     const Eigen::VectorXd&) { sink(t, K, y, tau); },
+                 e);
+    };
+    if (with_state) s.stream_state = [this](const DiagnosisStateSink& sink, std::string* e) { return run(sink, e); };
+    return s;
+  }
+};
+
+// Every row a pass gives, bit for bit against the source's own sample k, and how many.
+int checkPass(const Segment& s, bool state, std::string* error, bool* ok) {
+  int k = 0;
+  Eigen::MatrixXd K;
+  Eigen::VectorXd y, tau, q;
+  const auto same = [&](double t, const Eigen::MatrixXd& Kp, const Eigen::VectorXd& yp, const Eigen::VectorXd& taup) {
+    CountingSource::sample(k, K, y, tau, q);
+    EXPECT_EQ(t, 0.001 * k);
+    EXPECT_TRUE(Kp == K && yp == y && taup == tau) << "row " << k;
+  };
+  *ok = state ? s.stream_state(
+                    [&](double t, const Eigen::MatrixXd& Kp, const Eigen::VectorXd& yp, const Eigen::VectorXd& taup,
+                        const Eigen::VectorXd& qp) {
+                      same(t, Kp, yp, taup);
+                      EXPECT_TRUE(qp == q) << "row " << k;
+                      ++k;
+                    },
+                    error)
+              : s.stream([&](double t, const Eigen::MatrixXd& Kp, const Eigen::VectorXd& yp,
+                             const Eigen::VectorXd& taup) { same(t, Kp, yp, taup), ++k; },
+                         error);
+  return k;
+}
+
+// keptInMemory: the source is read once and every later pass (rows, or rows with q) is its rows bit for bit; over the
+// budget, after a failed pass and without a budget the source is read at every pass, and the memory is given back.
+TEST(KeptInMemory, ReadsTheSourceOnceAndReplaysItsRowsBitForBit) {
+  const size_t sample_bytes = sizeof(double) * (1 + 12 + 3 + 3 + 2);  // t, K, y, tau, q
+  const size_t row_bytes = sizeof(double) * (1 + 12 + 3 + 3);         // a segment without stream_state: no q
+  bool ok = false;
+  std::string err;
+  {
+    CountingSource src;
+    auto memory = std::make_shared<RowMemory>();
+    memory->budget_bytes = 1 << 30;
+    const Segment s = keptInMemory(src.segment(true), memory);
+    EXPECT_EQ(s.name, "counting");
+    ASSERT_TRUE(s.stream_state);
+    EXPECT_EQ(checkPass(s, false, &err, &ok), src.n);  // the first pass reads through stream_state: q kept too
+    EXPECT_TRUE(ok);
+    for (int pass = 0; pass < 3; ++pass) {
+      EXPECT_EQ(checkPass(s, pass % 2 == 0, &err, &ok), src.n);
+      EXPECT_TRUE(ok);
+    }
+    EXPECT_EQ(src.passes, 1);
+    EXPECT_GE(memory->used_bytes, src.n * sample_bytes);
+  }
+  {  // a budget below one block of samples: never kept, every pass from the source, nothing held
+    CountingSource src;
+    auto memory = std::make_shared<RowMemory>();
+    memory->budget_bytes = 1024 * row_bytes - 1;
+    const Segment s = keptInMemory(src.segment(false), memory);
+    EXPECT_FALSE(s.stream_state);
+    for (int pass = 0; pass < 3; ++pass) EXPECT_EQ(checkPass(s, false, &err, &ok), src.n);
+    EXPECT_EQ(src.passes, 3);
+    EXPECT_EQ(memory->used_bytes, 0u);
+  }
+  {  // a failed first pass keeps nothing and says why; the next pass reads the source again and is kept
+    CountingSource src;
+    src.fail_next = true;
+    auto memory = std::make_shared<RowMemory>();
+    memory->budget_bytes = 1 << 30;
+    const Segment s = keptInMemory(src.segment(true), memory);
+    EXPECT_EQ(checkPass(s, true, &err, &ok), src.n / 2);
+    EXPECT_FALSE(ok);
+    EXPECT_EQ(err, "damaged");
+    EXPECT_EQ(memory->used_bytes, 0u);
+    for (int pass = 0; pass < 2; ++pass) {
+      EXPECT_EQ(checkPass(s, true, &err, &ok), src.n);
+      EXPECT_TRUE(ok);
+    }
+    EXPECT_EQ(src.passes, 2);
+  }
+  {  // two segments sharing a budget of one block: the first is kept, the second read at every pass; the memory is
+     // given back when the segments go
+    CountingSource a, b;
+    auto memory = std::make_shared<RowMemory>();
+    memory->budget_bytes = 1024 * sample_bytes + 1;
+    {
+      const Segment sa = keptInMemory(a.segment(true), memory), sb = keptInMemory(b.segment(true), memory);
+      for (int pass = 0; pass < 2; ++pass) {
+        EXPECT_EQ(checkPass(sa, true, &err, &ok), a.n);
+        EXPECT_EQ(checkPass(sb, true, &err, &ok), b.n);
+      }
+      EXPECT_EQ(a.passes, 1);
+      EXPECT_EQ(b.passes, 2);
+      EXPECT_EQ(memory->used_bytes, 1024 * sample_bytes);
+    }
+    EXPECT_EQ(memory->used_bytes, 0u);
+  }
+  {  // no memory: the source itself
+    CountingSource src;
+    const Segment s = keptInMemory(src.segment(true), std::make_shared<RowMemory>());
+    for (int pass = 0; pass < 2; ++pass) EXPECT_EQ(checkPass(s, true, &err, &ok), src.n);
+    EXPECT_EQ(src.passes, 2);
+  }
+}
+
+}  // namespace
+}  // namespace exoid::estimator

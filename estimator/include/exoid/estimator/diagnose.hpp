@@ -11,6 +11,7 @@
 // few per-sample signals (t, v, the declared model's prediction), O(samples x nv) doubles.
 #include <Eigen/Core>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,21 @@ struct Segment {
   /// stage (residual predictability) builds its dictionary from q; without it, only from v, a and their history.
   std::function<bool(const DiagnosisStateSink& sink, std::string* error)> stream_state = nullptr;
 };
+
+/// Memory shared by the segments kept in it (keptInMemory): what they may hold together, and hold now.
+struct RowMemory {
+  size_t budget_bytes = 0;
+  size_t used_bytes = 0;
+};
+
+/// The segment, its first complete pass kept in `memory` and every later pass replayed from there, bit for bit: per
+/// sample t, K [nv x p], y [nv], tau_sensor [nv] and, where the segment has stream_state, q [njoints] (8 (nv (p + 2)
+/// + njoints + 1) bytes: 16.8 kB on the exoskeleton, 317 MB for a 19 s run at 1 kHz). The diagnosis passes over each
+/// run four times (screening, selection, the report's residuals, the online comparison), and reading, filtering and
+/// regressing a log was half of its time. A pass that would take the memory over its budget stops keeping (what it
+/// kept is freed) and that segment is read from its source every time, as without it; so is one whose source fails
+/// or changes its rows' sizes. The first pass reads through stream_state where there is one (the same rows plus q).
+Segment keptInMemory(Segment source, const std::shared_ptr<RowMemory>& memory);
 
 /// Whether row `row` of the segment's samples is data: every row, except the unmeasured ones of a held-base segment
 /// (heldBaseRowMeasured), which come as zero rows.
