@@ -53,7 +53,7 @@ fi
 step "build (GCC, Release)" bash "$here/scripts/build.sh"
 step "ctest (build/)" bash -c 'cd "$1/build" && shift && ctest --output-on-failure -j "$(nproc)" "$@"' _ "$here" "$@"
 if [ -n "$early" ]; then
-  early_wait() {  # the sanitizer build begun beside the ctest: its result, its log
+  early_wait() {  # the sanitizer build begun beside step 1: its result, its log
     local rc=0
     wait "$early" || rc=$?
     early=""

@@ -504,9 +504,9 @@ TEST(KeptInMemory, ReadsTheSourceOnceAndReplaysItsRowsBitForBit) {
     }
     EXPECT_EQ(memory->used_bytes, 0u);
   }
-  {  // no memory: the source itself
+  for (const auto& none : {std::make_shared<RowMemory>(), std::shared_ptr<RowMemory>()}) {  // no memory: the source
     CountingSource src;
-    const Segment s = keptInMemory(src.segment(true), std::make_shared<RowMemory>());
+    const Segment s = keptInMemory(src.segment(true), none);
     for (int pass = 0; pass < 2; ++pass) EXPECT_EQ(checkPass(s, true, &err, &ok), src.n);
     EXPECT_EQ(src.passes, 2);
   }

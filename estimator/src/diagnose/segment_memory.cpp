@@ -105,13 +105,13 @@ struct KeptSegment {
 }  // namespace
 
 Segment keptInMemory(Segment source, const std::shared_ptr<RowMemory>& memory) {
+  if (!memory || memory->budget_bytes == 0) return source;
   auto kept = std::make_shared<KeptSegment>();
   kept->source = std::move(source);
   kept->memory = memory;
   Segment s;
   s.name = kept->source.name;
   s.held_base = kept->source.held_base;
-  if (!memory || memory->budget_bytes == 0) return kept->source;
   s.stream = [kept](const DiagnosisRowSink& sink, std::string* error) {
     return kept->pass([&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y, const Eigen::VectorXd& tau,
                           const Eigen::VectorXd&) { sink(t, K, y, tau); },
