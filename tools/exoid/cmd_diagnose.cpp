@@ -185,6 +185,7 @@ struct DiagnoseSources {
   std::vector<intake::InputStats> stats;
   std::vector<est::Segment> train, validate;
   std::set<std::string> names;  // segment names name the residual_<name>.csv files: unique
+  std::shared_ptr<est::RowMemory> memory = std::make_shared<est::RowMemory>();  // --row-memory-mb: every segment's
   DiagnoseSources() = default;
   DiagnoseSources(const DiagnoseSources&) = delete;
 
@@ -204,7 +205,7 @@ struct DiagnoseSources {
       stats[k] = intake::InputStats{};
       return tools::streamFileStateRows(path, model, held ? so_held : so, sink, stats[k], e);
     };
-    return s;
+    return est::keptInMemory(std::move(s), memory);  // read once, replayed at the diagnosis's later passes
   }
 };
 
@@ -233,14 +234,12 @@ bool makeSources(const Model& model, const DiagnoseArgs& a, est::DiagnoseOptions
   src.so_held = src.so;
   src.so_held.held_base = true;
   src.stats.resize(in.train_files.size() + in.calib_files.size() + in.val_files.size() + in.val_calib_files.size());
-  auto memory = std::make_shared<est::RowMemory>();
-  memory->budget_bytes = a.row_memory_mb << 20;
-  const auto kept = [&](est::Segment s) { return est::keptInMemory(std::move(s), memory); };
+  src.memory->budget_bytes = a.row_memory_mb << 20;
   size_t k = 0;
-  for (const std::string& f : in.train_files) src.train.push_back(kept(src.segment(model, f, k++, false)));
-  for (const std::string& f : in.calib_files) src.train.push_back(kept(src.segment(model, f, k++, true)));
-  for (const std::string& f : in.val_files) src.validate.push_back(kept(src.segment(model, f, k++, false)));
-  for (const std::string& f : in.val_calib_files) src.validate.push_back(kept(src.segment(model, f, k++, true)));
+  for (const std::string& f : in.train_files) src.train.push_back(src.segment(model, f, k++, false));
+  for (const std::string& f : in.calib_files) src.train.push_back(src.segment(model, f, k++, true));
+  for (const std::string& f : in.val_files) src.validate.push_back(src.segment(model, f, k++, false));
+  for (const std::string& f : in.val_calib_files) src.validate.push_back(src.segment(model, f, k++, true));
   return true;
 }
 }  // namespace cmd_diagnose

@@ -126,7 +126,7 @@ struct RowMemory {
 
 /// The segment, its first complete pass kept in `memory` and every later pass replayed from there, bit for bit: per
 /// sample t, K [nv x p], y [nv], tau_sensor [nv] and, where the segment has stream_state, q [njoints] (8 (nv (p + 2)
-/// + njoints + 1) bytes: 16.8 kB on the exoskeleton, 317 MB for a 19 s run at 1 kHz). The diagnosis passes over each
+/// + njoints + 1) bytes: 17.0 kB on the exoskeleton, 323 MB for a 19 s run at 1 kHz). The diagnosis passes over each
 /// run four times (screening, selection, the report's residuals, the online comparison), and reading, filtering and
 /// regressing a log was half of its time. A pass that would take the memory over its budget stops keeping (what it
 /// kept is freed) and that segment is read from its source every time, as without it; so is one whose source fails
