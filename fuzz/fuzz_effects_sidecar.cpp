@@ -1,8 +1,8 @@
 // The diagnosis's sidecar (estimator::readEffects, `effects.yaml`: what `exoid identify --effects` and `exo_estimator
 // --effects` read). Properties: a rejection is one line naming the file; an accepted set holds only what its consumers
 // can use (known joints, finite values, the kind's own keys: a positive tanh width on dry friction only, a finite
-// center on the elastic kinds, a nonzero scale on elastic_exp, another joint's angle on elastic_coupled, positive shape
-// constants); written back by writeEffects it reads back to the same set, value for value.
+// center on the elastic kinds, a nonzero scale on elastic_exp and elastic_exp_coupled, another joint's angle on the
+// coupled kinds, a finite ratio and neighbour's center on elastic_exp_coupled only, positive shape constants); written back by writeEffects it reads back to the same set, value for value.
 #include <unistd.h>
 
 #include <cmath>
@@ -25,7 +25,7 @@ const exoid::Model& exo() {
 
 bool sameEffect(const exoid::estimator::Effect& a, const exoid::estimator::Effect& b) {
   return a.kind == b.kind && a.joint == b.joint && a.value == b.value && a.width == b.width && a.center == b.center &&
-         a.coupled == b.coupled;
+         a.coupled == b.coupled && a.ratio == b.ratio && a.coupled_center == b.coupled_center;
 }
 }  // namespace
 
@@ -48,13 +48,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     EXOID_FUZZ_CHECK(std::isfinite(e.value), "a finite value");
     EXOID_FUZZ_CHECK(std::isfinite(e.width) && std::isfinite(e.center), "finite shape values");
     if (isDryFriction(e.kind)) EXOID_FUZZ_CHECK(e.width >= 0.0, "a dry-friction width is positive (or the set's)");
-    if (e.kind == EffectKind::ElasticExp) EXOID_FUZZ_CHECK(e.width != 0.0, "an exponential spring has its scale");
-    if (!isDryFriction(e.kind) && e.kind != EffectKind::ElasticExp) EXOID_FUZZ_CHECK(e.width == 0.0, "no stray width");
+    const bool exponential = e.kind == EffectKind::ElasticExp || e.kind == EffectKind::ElasticExpCoupled;
+    if (exponential) EXOID_FUZZ_CHECK(e.width != 0.0, "an exponential spring has its scale");
+    if (!isDryFriction(e.kind) && !exponential) EXOID_FUZZ_CHECK(e.width == 0.0, "no stray width");
     if (!isElastic(e.kind)) EXOID_FUZZ_CHECK(e.center == 0.0, "no stray center");
-    if (e.kind == EffectKind::ElasticCoupled)
+    if (isCoupled(e.kind))
       EXOID_FUZZ_CHECK(e.coupled >= 0 && e.coupled < model.njoints && e.coupled != e.joint, "another joint's angle");
     else
       EXOID_FUZZ_CHECK(e.coupled == -1, "no stray angle_of");
+    if (e.kind == EffectKind::ElasticExpCoupled)
+      EXOID_FUZZ_CHECK(std::isfinite(e.ratio) && std::isfinite(e.coupled_center), "a finite ratio and neighbour's center");
+    else
+      EXOID_FUZZ_CHECK(e.ratio == 0.0 && e.coupled_center == 0.0, "no stray ratio or angle_of_center");
   }
   // Written back, read back: the same set.
   static const std::string out = "/tmp/exoid_fuzz_effects_" + std::to_string(::getpid()) + ".yaml";

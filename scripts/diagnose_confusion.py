@@ -45,14 +45,14 @@ import time
 import yaml
 
 KINDS = ["viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp",
-         "elastic_coupled", "passive", "moving_body", "payload"]
+         "elastic_coupled", "elastic_exp_coupled", "passive", "moving_body", "payload"]
 # Seeded kinds no finding has: a wearer's passive moments (named as PASSIVE_KINDS), a payload (absorbed by the identified
 # link). The trunk, a body moving on the base, is found as "moving_body" on "base" by the unmeasured-body stage (summary.json
 # "unmeasured_body": one pseudo-finding per plane named, value its resonance in Hz, share the passed signature's gain).
 SEEDED_ONLY = ("passive", "payload")
 # A wearer's passive joint moments (Riener & Edrich's elastic law, its biarticular coupling, damping) are found as any of
 # these kinds.
-PASSIVE_KINDS = ("elastic", "elastic_exp", "elastic_coupled", "viscous")
+PASSIVE_KINDS = ("elastic", "elastic_exp", "elastic_coupled", "elastic_exp_coupled", "viscous")
 
 
 def seeded(path):

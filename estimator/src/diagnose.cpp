@@ -10,13 +10,16 @@ namespace exoid::estimator {
 
 namespace {
 constexpr const char* kNames[kEffectKinds] = {"viscous", "coulomb", "stribeck", "offset",      "armature",
-                                              "gain",    "delay",   "elastic",  "elastic_exp", "elastic_coupled"};
+                                              "gain",    "delay",   "elastic",  "elastic_exp", "elastic_coupled",
+                                              "elastic_exp_coupled"};
 constexpr const char* kWords[kEffectKinds] = {"viscous friction",     "Coulomb friction", "Stribeck friction (static excess)",
                                               "constant torque offset", "armature (rotor inertia)",
                                               "torque-sensor gain error", "time delay of the torque",
                                               "joint elasticity (linear spring)", "joint elasticity (exponential spring)",
-                                              "biarticular elasticity"};
-constexpr const char* kUnits[kEffectKinds] = {"N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad", "N m/rad"};
+                                              "biarticular elasticity",
+                                              "biarticular elasticity (exponential of two angles)"};
+constexpr const char* kUnits[kEffectKinds] = {"N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad", "N m/rad",
+                                              "N m/rad"};
 }  // namespace
 
 const char* effectKindName(EffectKind k) { return kNames[static_cast<int>(k)]; }
@@ -30,10 +33,17 @@ bool parseEffectKind(const std::string& name, EffectKind& k) {
 bool isMeasurementEffect(EffectKind k) { return k == EffectKind::GainError || k == EffectKind::Delay; }
 bool isDryFriction(EffectKind k) { return k == EffectKind::Coulomb || k == EffectKind::Stribeck; }
 bool isElastic(EffectKind k) {
-  return k == EffectKind::Elastic || k == EffectKind::ElasticExp || k == EffectKind::ElasticCoupled;
+  return k == EffectKind::Elastic || k == EffectKind::ElasticExp || k == EffectKind::ElasticCoupled ||
+         k == EffectKind::ElasticExpCoupled;
 }
+bool isCoupled(EffectKind k) { return k == EffectKind::ElasticCoupled || k == EffectKind::ElasticExpCoupled; }
 EffectKind refinedKind(EffectKind k) {
-  return k == EffectKind::Stribeck ? EffectKind::Coulomb : k == EffectKind::ElasticExp ? EffectKind::Elastic : k;
+  switch (k) {
+    case EffectKind::Stribeck: return EffectKind::Coulomb;
+    case EffectKind::ElasticExp: return EffectKind::Elastic;
+    case EffectKind::ElasticExpCoupled: return EffectKind::ElasticExp;
+    default: return k;
+  }
 }
 bool admissibleValue(EffectKind k, double value) {
   switch (k) {
@@ -43,6 +53,7 @@ bool admissibleValue(EffectKind k, double value) {
     case EffectKind::Armature:
     case EffectKind::Elastic:
     case EffectKind::ElasticExp:
+    case EffectKind::ElasticExpCoupled:
       return value >= 0.0;
     case EffectKind::Delay:
       return std::fabs(value) <= kMaxLinearisedDelay;
@@ -56,7 +67,7 @@ EffectShape effectShape(const EffectShape& shape, const Effect& effect) {
   if (effect.width > 0.0 && isDryFriction(effect.kind))
     s.coulomb_width = effect.width;
   if (isElastic(effect.kind)) s.center = effect.center;
-  if (effect.kind == EffectKind::ElasticExp) s.elastic_scale = effect.width;
+  if (effect.kind == EffectKind::ElasticExp || effect.kind == EffectKind::ElasticExpCoupled) s.elastic_scale = effect.width;
   return s;
 }
 
@@ -75,7 +86,8 @@ double effectSignal(EffectKind k, const EffectShape& shape, double q, double v, 
     case EffectKind::Delay: return -dtau_model;
     case EffectKind::Elastic:
     case EffectKind::ElasticCoupled: return q - shape.center;  // q: the coupled joint's (signalJoint)
-    case EffectKind::ElasticExp: {
+    case EffectKind::ElasticExp:
+    case EffectKind::ElasticExpCoupled: {  // q: effectAngle's q_j + r (q_c - coupled_center)
       // Slope 1 at the center, the linear spring as |s| grows. The exponent is capped at 50 (e^50 ~ 5e21): a posture that
       // far past the scale is outside any tissue's range, and an overflow would poison every fit the column enters.
       const double sc = shape.elastic_scale, x = q - shape.center;
@@ -118,6 +130,7 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
   if (!trainingPass(model, opt, data, out, error) || !declaredFit(data, out, error)) return false;
   profileCoulombWidths(data);
   profileElasticScales(opt, data);
+  profileCoupledElasticShapes(opt, data);
   if (!declaredPrediction(model, data, out, error)) return false;
   rowWeights(model, data);
   candidateSignals(model, opt, data, out);

@@ -102,7 +102,7 @@ void addDiagnoseOptions(CLI::App& app, DiagnoseArgs& a) {
   app.add_option("--payload-com-bound", a.opt.payload_com_bound, "m: an admissible payload's CoM lies within this distance "
                  "of its link frame's origin (default 0.5)")->transform(common::strictNumber(1e-6, 1e3));
   app.add_option("--effects", a.kinds, "candidate kinds to test (default all): viscous coulomb stribeck offset armature gain delay elastic "
-                 "elastic_exp elastic_coupled");
+                 "elastic_exp elastic_coupled elastic_exp_coupled");
   app.add_option("--alpha", a.opt.alpha, "false-alarm rate per data set (family-wise per selection step; default 0.01)")
       ->transform(common::strictNumber(1e-9, 0.5));
   app.add_option("--folds", a.folds, "time-block folds for the held-out test (default 20)")

@@ -104,9 +104,9 @@ std::string safeName(std::string s) {
   return s;
 }
 
-std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
-  char buf[128];
-  switch (k) {
+std::string signalLabel(const Model& model, const est::Effect& e, const est::EffectShape& shape) {
+  char buf[512];
+  switch (e.kind) {
     case est::EffectKind::Viscous: return "v (rad/s)";
     case est::EffectKind::Coulomb: std::snprintf(buf, sizeof buf, "tanh(v / %g)", shape.coulomb_width); return buf;
     case est::EffectKind::Stribeck:
@@ -117,40 +117,43 @@ std::string signalLabel(est::EffectKind k, const est::EffectShape& shape) {
     case est::EffectKind::GainError: return "model torque (N m)";
     case est::EffectKind::Delay: return "-d/dt model torque (N m/s)";
     case est::EffectKind::Elastic: std::snprintf(buf, sizeof buf, "q - %.3g (rad)", shape.center); return buf;
-    case est::EffectKind::ElasticCoupled:  // not plotted (plotSignals: v instead); named for completeness
-      std::snprintf(buf, sizeof buf, "q of a neighbour - %.3g (rad)", shape.center);
+    case est::EffectKind::ElasticCoupled:
+      std::snprintf(buf, sizeof buf, "q_%s - %.3g (rad)", model.joint_names[e.coupled].c_str(), shape.center);
       return buf;
     case est::EffectKind::ElasticExp:
       std::snprintf(buf, sizeof buf, "%g (exp((q - %.3g)/%g) - 1) (rad)", shape.elastic_scale, shape.center,
                     shape.elastic_scale);
+      return buf;
+    case est::EffectKind::ElasticExpCoupled:
+      std::snprintf(buf, sizeof buf, "%g (exp((q - %.3g %+.3g (q_%s - %.3g))/%g) - 1) (rad)", shape.elastic_scale,
+                    shape.center, e.ratio, model.joint_names[e.coupled].c_str(), e.coupled_center, shape.elastic_scale);
       return buf;
   }
   return "";
 }
 
 // Which signal to plot per coordinate: its first finding, else the best-correlated candidate (velocity for an
-// offset: a constant), with the plotted effect's own Coulomb width.
+// offset: a constant), with the plotted effect's own shape (width, scale, center, neighbour).
 struct PlotSignals {
-  std::vector<est::EffectKind> kind;
+  std::vector<est::Effect> effect;
   std::vector<est::EffectShape> shape;
 };
 PlotSignals plotSignals(const Model& model, const est::DiagnoseOptions& opt, const est::DiagnosisResult& res) {
   const int nv = model.nv;
-  PlotSignals ps{std::vector<est::EffectKind>(nv, est::EffectKind::Viscous), std::vector<est::EffectShape>(nv, opt.shape)};
+  PlotSignals ps{std::vector<est::Effect>(nv, est::Effect{est::EffectKind::Viscous}), std::vector<est::EffectShape>(nv, opt.shape)};
   std::vector<bool> from_finding(nv, false);
-  for (int r = 0; r < nv; ++r) {
-    ps.kind[r] = res.coordinates[r].best_kind;
-    ps.shape[r] = est::effectShape(opt.shape, est::Effect{ps.kind[r], -1, 0.0, res.coordinates[r].best_width,
-                                                          res.coordinates[r].best_center});
-  }
+  for (int r = 0; r < nv; ++r) ps.effect[r] = res.coordinates[r].best_candidate;
   for (const est::Finding& f : res.findings) {
     const int r = model.jointRow(f.effect.joint);
-    if (!from_finding[r]) ps.kind[r] = f.effect.kind, ps.shape[r] = est::effectShape(opt.shape, f.effect), from_finding[r] = true;
+    if (!from_finding[r]) ps.effect[r] = f.effect, from_finding[r] = true;
   }
-  for (int r = 0; r < nv; ++r)
-    // A constant (offset) or another joint's angle (elastic_coupled): no signal of this joint to plot against; v instead.
-    if (ps.kind[r] == est::EffectKind::Offset || ps.kind[r] == est::EffectKind::ElasticCoupled)
-      ps.kind[r] = est::EffectKind::Viscous;
+  for (int r = 0; r < nv; ++r) {
+    // A constant (offset): no signal to plot against; v instead. So for a row without a joint (a floating base's).
+    if (ps.effect[r].kind == est::EffectKind::Offset || ps.effect[r].joint < 0 ||
+        (est::isCoupled(ps.effect[r].kind) && ps.effect[r].coupled < 0))
+      ps.effect[r] = est::Effect{est::EffectKind::Viscous};
+    ps.shape[r] = est::effectShape(opt.shape, ps.effect[r]);
+  }
   return ps;
 }
 
@@ -223,7 +226,7 @@ bool writeResidualCsvs(const fs::path& out, const Model& model, const est::Diagn
   sf << "coordinate,kind,label\n";
   for (int j = 0; j < model.njoints; ++j) {
     const int r = model.jointRow(j);
-    sf << model.joint_names[j] << ',' << est::effectKindName(ps.kind[r]) << ",\"" << signalLabel(ps.kind[r], ps.shape[r]) << "\"\n";
+    sf << model.joint_names[j] << ',' << est::effectKindName(ps.effect[r].kind) << ",\"" << signalLabel(model, ps.effect[r], ps.shape[r]) << "\"\n";
   }
   for (const est::ResidualSeries& rs : res.series) {
     if (rs.validation != res.has_validation) continue;
@@ -243,8 +246,9 @@ bool writeResidualCsvs(const fs::path& out, const Model& model, const est::Diagn
         const double dtau = (i > 0 && i + 1 < rs.t.size())
                                 ? (rs.tau_model(i + 1, r) - rs.tau_model(i - 1, r)) / (rs.t[i + 1] - rs.t[i - 1])
                                 : 0.0;
-        const double q = rs.q.rows() > i ? rs.q(i, j) : 0.0;
-        const double s = est::effectSignal(ps.kind[r], ps.shape[r], q, rs.v(i, j), rs.a(i, j), rs.tau_model(i, r), dtau);
+        const est::Effect& e = ps.effect[r];
+        const double q = rs.q.rows() > i ? est::effectAngle(e, rs.q(i, j), rs.q(i, est::isCoupled(e.kind) ? e.coupled : j)) : 0.0;
+        const double s = est::effectSignal(e.kind, ps.shape[r], q, rs.v(i, j), rs.a(i, j), rs.tau_model(i, r), dtau);
         std::snprintf(buf, sizeof buf, ",%.6g,%.6g,%.6g,%.6g", rs.before(i, r), rs.after(i, r), s, rs.v(i, j));
         f << buf;
       }
@@ -313,7 +317,11 @@ nlohmann::json summaryJson(const Model& model, const est::DiagnoseOptions& opt, 
                               {"tested", f.tested}, {"sentence", f.sentence}});
     if (f.effect.width != 0.0) js["findings"].back()["width"] = f.effect.width;  // Coulomb, Stribeck: rad/s; elastic_exp: rad
     if (est::isElastic(f.effect.kind)) js["findings"].back()["center"] = f.effect.center;  // rad
-    if (f.effect.kind == est::EffectKind::ElasticCoupled) js["findings"].back()["angle_of"] = model.joint_names[f.effect.coupled];
+    if (est::isCoupled(f.effect.kind)) js["findings"].back()["angle_of"] = model.joint_names[f.effect.coupled];
+    if (f.effect.kind == est::EffectKind::ElasticExpCoupled) {
+      js["findings"].back()["ratio"] = f.effect.ratio;                      // rad/rad
+      js["findings"].back()["angle_of_center"] = f.effect.coupled_center;  // rad
+    }
   }
   js["declared_model"] = in.declared_model_path.empty() ? nlohmann::json(nullptr) : nlohmann::json(in.declared_model_path);
   js["payloads"] = nlohmann::json::array();
@@ -411,7 +419,7 @@ void reportRmse(std::ostringstream& md, const est::DiagnoseOptions& opt, const e
   for (const est::CoordinateSummary& c : res.coordinates) {
     if (c.joint < 0) continue;
     std::snprintf(buf, sizeof buf, "| %s | %.1f | %s | %+.2f |\n", c.name.c_str(),
-                  c.noise_floor > 0 ? c.rms_before / c.noise_floor : 0.0, est::effectKindWords(c.best_kind), c.best_correlation);
+                  c.noise_floor > 0 ? c.rms_before / c.noise_floor : 0.0, est::effectKindWords(c.best_candidate.kind), c.best_correlation);
     md << buf;
   }
 }

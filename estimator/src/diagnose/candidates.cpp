@@ -26,6 +26,13 @@ void candidateSignals(const Model& model, const DiagnoseOptions& opt, DiagnoseDa
         for (int c : neighbours[js]) data.cands.push_back({k, j, r, 0.0, data.center_of[static_cast<size_t>(c)], c});
         continue;
       }
+      if (k == EffectKind::ElasticExpCoupled) {  // one per profiled (joint, neighbour) pair: its scale and ratio
+        for (size_t pi = 0; pi < data.cprofile.size(); ++pi)
+          if (const int c = data.cprofile[pi].coupled; data.cprofile[pi].joint == j)
+            data.cands.push_back({k, j, r, data.cscale_of[pi], data.center_of[js], c, data.cratio_of[pi],
+                                  data.center_of[static_cast<size_t>(c)]});
+        continue;
+      }
       const double width = isDryFriction(k)                ? data.width_of[2 * js + (k == EffectKind::Stribeck)]
                            : k == EffectKind::ElasticExp ? data.scale_of[js]
                                                          : 0.0;
@@ -62,9 +69,9 @@ double candidateSignal(const Model& model, const DiagnoseOptions& opt, const Dia
   const SegmentSignals& c = data.caches[s];
   // Gain and delay act on the torque sensor only: the model's prediction of the sensor's part of y (y minus what the
   // plates contribute; all of y for a fixed base).
-  const int qj = cd.coupled >= 0 ? cd.coupled : cd.joint;
-  return effectSignal(cd.kind, effectShape(opt.shape, Effect{cd.kind, cd.joint, 0.0, cd.width, cd.center, cd.coupled}),
-                      c.q.rows() > i ? c.q(i, qj) : 0.0, c.v(i, cd.joint), c.a(i, cd.joint),
+  const Effect e = candidateEffect(cd, 0.0);
+  const double angle = c.q.rows() > i ? effectAngle(e, c.q(i, cd.joint), c.q(i, signalJoint(e))) : 0.0;
+  return effectSignal(cd.kind, effectShape(opt.shape, e), angle, c.v(i, cd.joint), c.a(i, cd.joint),
                       c.tau(i, cd.coord) - c.ext(i, cd.coord), c.dtau(i, cd.coord) - c.dext(i, cd.coord));
 }
 

@@ -123,6 +123,32 @@ void addElasticProfile(const Model& model, const DiagnoseOptions& opt, DiagnoseD
   }
 }
 
+// One training sample's ElasticExpCoupled-profile sums on every (joint, neighbour) pair whose joint row is measured
+// (CoupledElasticProfileSums; q_ref set by addElasticProfile).
+void addCoupledProfile(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data, size_t s, const Eigen::MatrixXd& K,
+                       const Eigen::VectorXd& y, const Eigen::VectorXd& q, Eigen::VectorXd& z) {
+  const int ns = static_cast<int>(opt.coupled_elastic_scales.size()), nr = static_cast<int>(opt.coupled_elastic_ratios.size());
+  const int ng = ns * nr;
+  for (CoupledElasticProfileSums& pr : data.cprofile) {
+    const int r = model.jointRow(pr.joint);
+    if (data.unmeasured(model, s, r)) continue;
+    const double xj = q[pr.joint] - data.q_ref[static_cast<size_t>(pr.joint)];
+    const double xc = q[pr.coupled] - data.q_ref[static_cast<size_t>(pr.coupled)];
+    for (int a = 0; a < ns; ++a) {
+      EffectShape sh;
+      sh.elastic_scale = opt.coupled_elastic_scales[a];
+      for (int b = 0; b < nr; ++b)
+        z[a * nr + b] = effectSignal(EffectKind::ElasticExpCoupled, sh, xj + opt.coupled_elastic_ratios[b] * xc, 0, 0, 0, 0);
+    }
+    z[ng] = xj, z[ng + 1] = xc, z[ng + 2] = 1.0;
+    for (int c = 0; c < data.md; ++c)
+      if (const double k = K(r, data.decl[c]); k != 0.0) pr.B.row(c) += k * z.transpose();
+    pr.G.col(0) += z.cwiseAbs2();
+    pr.G.col(1) += xj * z, pr.G.col(2) += xc * z, pr.G.col(3) += z;
+    pr.zy += y[r] * z;
+  }
+}
+
 // One training sample's rows into the declared factor, with the (coordinate, column) and payload excitation.
 void addDeclaredRows(const Model& model, DiagnoseData& data, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
   const int md = data.md;
@@ -163,6 +189,24 @@ bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& 
     pr.zy = Eigen::VectorXd::Zero(ne + 2);
   }
   Eigen::VectorXd z(ne + 2);
+  // The coupled-exponential profile: one sum per (joint, kinematic neighbour), signals zc [ns nr + 3].
+  const int nzc = static_cast<int>(opt.coupled_elastic_scales.size() * opt.coupled_elastic_ratios.size()) + 3;
+  data.cprofile.clear();
+  const bool coupled_exp = data.has_q && nzc > 3 &&
+                           std::find(opt.kinds.begin(), opt.kinds.end(), EffectKind::ElasticExpCoupled) != opt.kinds.end();
+  if (coupled_exp) {
+    const std::vector<std::vector<int>> neighbours = kinematicNeighbours(model);
+    for (int j = 0; j < nj; ++j)
+      for (int c : neighbours[static_cast<size_t>(j)]) {
+        CoupledElasticProfileSums pr;
+        pr.joint = j, pr.coupled = c;
+        pr.B = Eigen::MatrixXd::Zero(data.md, nzc);
+        pr.G = Eigen::MatrixXd::Zero(nzc, 4);
+        pr.zy = Eigen::VectorXd::Zero(nzc);
+        data.cprofile.push_back(std::move(pr));
+      }
+  }
+  Eigen::VectorXd zc(nzc);
   std::string size_error;
   for (size_t s = 0; s < data.ntrain; ++s) {
     SegmentSignals& cache = data.caches[s];
@@ -178,8 +222,11 @@ bool trainingPass(const Model& model, const DiagnoseOptions& opt, DiagnoseData& 
           cache.t.push_back(t);
           for (int j = 0; j < nj; ++j) vs.push_back(K(model.jointRow(j), model.frictionParamIndex(j)));
           if (data.nw > 1) addWidthProfile(model, opt, data, s, K, y, sig);
-          if (data.has_q)
-            addElasticProfile(model, opt, data, s, K, y, Eigen::Map<const Eigen::VectorXd>(qs.data() + qs.size() - nj, nj), z);
+          if (data.has_q) {
+            const Eigen::Map<const Eigen::VectorXd> q(qs.data() + qs.size() - nj, nj);
+            addElasticProfile(model, opt, data, s, K, y, q, z);
+            if (coupled_exp) addCoupledProfile(model, opt, data, s, K, y, q, zc);
+          }
           for (int r = 0; r < nv; ++r) ys.push_back(y[r]), es.push_back(y[r] - tau_sensor[r]);
           addDeclaredRows(model, data, K, y);
         },

@@ -134,8 +134,7 @@ void summarizeCoordinates(const Model& model, const DiagnoseOptions& opt, const 
     cs.lag1_after = lag1(ha);
     for (const CandidateScore& sc : out.first_step)
       if (model.jointRow(sc.effect.joint) == r && std::fabs(sc.correlation) > std::fabs(cs.best_correlation))
-        cs.best_correlation = sc.correlation, cs.best_kind = sc.effect.kind, cs.best_width = sc.effect.width,
-        cs.best_center = sc.effect.center;
+        cs.best_correlation = sc.correlation, cs.best_candidate = sc.effect;
     out.coordinates.push_back(cs);
   }
   out.pooled_before = std::sqrt(pb / std::max(nh, 1L));
@@ -171,16 +170,24 @@ void describeFindings(const Model& model, const DiagnoseOptions& opt, DiagnosisR
     if (f.effect.kind == EffectKind::ElasticCoupled) {
       std::snprintf(width, sizeof width, " per rad of %s (about its mean angle %.3f rad)",
                     model.joint_names[f.effect.coupled].c_str(), f.effect.center);
+    } else if (f.effect.kind == EffectKind::ElasticExpCoupled) {
+      std::snprintf(width, sizeof width,
+                    " at the mean angles, stiffening toward %s q with scale %g rad, the exponent moved by %+.3g rad per rad of "
+                    "%s (about its mean angle %.3f rad; its own %.3f rad)",
+                    f.effect.width > 0 ? "+" : "-", std::fabs(f.effect.width), f.effect.ratio,
+                    model.joint_names[f.effect.coupled].c_str(), f.effect.coupled_center, f.effect.center);
     } else if (isElastic(f.effect.kind)) {
       // k (q - q0) = k (q - c) + k (c - q0): the rest angle comes from an offset found on the same joint, if any, and
-      // the joint's stiffness at c, k the sum of its own springs' values (the linear and the exponential one both have
-      // slope 1 at c).
+      // the joint's stiffness at c, k the sum of its own springs' values (the linear and the exponential ones all have
+      // slope 1 in q_j at c).
       const Finding* offset = nullptr;
       double k = 0.0;
       for (const Finding& g : out.findings) {
         if (g.effect.joint != f.effect.joint) continue;
         if (g.effect.kind == EffectKind::Offset) offset = &g;
-        if (g.effect.kind == EffectKind::Elastic || g.effect.kind == EffectKind::ElasticExp) k += g.effect.value;
+        if (g.effect.kind == EffectKind::Elastic || g.effect.kind == EffectKind::ElasticExp ||
+            g.effect.kind == EffectKind::ElasticExpCoupled)
+          k += g.effect.value;
       }
       char scale[64] = "";
       if (f.effect.kind == EffectKind::ElasticExp)

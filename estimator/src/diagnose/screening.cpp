@@ -101,7 +101,7 @@ std::vector<CandidateEval> screenCandidates(const Model&, const DiagnoseOptions&
       data.excluded[c] = 1;
       if (step == 0) {
         CandidateScore sc;
-        sc.effect = {cd.kind, cd.joint, 0.0, cd.width, cd.center, cd.coupled};
+        sc.effect = candidateEffect(cd, 0.0);
         sc.separable = col.squaredNorm() > 0.0 ? nrc / col.squaredNorm() : 0.0;
         sc.std_error = INFINITY;
         sc.status = "not separable from the declared model";
@@ -121,7 +121,7 @@ std::vector<CandidateEval> screenCandidates(const Model&, const DiagnoseOptions&
     // Delete-one-fold jackknife of the value: the time-block folds keep the residual's correlation (filtered data: the
     // white-noise error below is ~10x optimistic at 5 Hz) out of it.
     ev.jackknife_se = std::sqrt((F - 1.0) / F * (bfold.array() - bfold.mean()).square().sum());
-    ev.f.effect = {cd.kind, cd.joint, beta, cd.width, cd.center, cd.coupled};
+    ev.f.effect = candidateEffect(cd, beta);
     ev.f.std_error = std::sqrt(std::max(sse_all, 0.0) / std::max(fits.dof_res, 1.0) / nrc);
     if (std::getenv("EXOID_DIAGNOSE_DEBUG"))
       std::fprintf(stderr, "step %d %s j%d beta %.4g gain %.4g t %.4g p %.3g expl %.3f\n", step, effectKindName(cd.kind),

@@ -45,12 +45,17 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
   };
   for (const CandidateEval& ev : evals)
     if (competes(ev) && ev.gain > ch.best_gain) ch.best_gain = ev.gain, ch.best = ev.c, ch.best_finding = ev.f;
-  if (ch.best >= 0 && refinedKind(data.cands[ch.best].kind) != data.cands[ch.best].kind) {
-    const DiagnosisCandidate& refinement = data.cands[ch.best];
+  // Down the chain of refinements (the two-angle exponential, the one-angle one, the linear spring), each step taken
+  // when the kind refined comes within the margin of the one chosen so far.
+  for (double chosen_gain = ch.best_gain; ch.best >= 0 && refinedKind(data.cands[ch.best].kind) != data.cands[ch.best].kind;) {
+    const DiagnosisCandidate refinement = data.cands[ch.best];
+    int coarser = -1;
     for (const CandidateEval& ev : evals)
       if (competes(ev) && data.cands[ev.c].kind == refinedKind(refinement.kind) && data.cands[ev.c].joint == refinement.joint &&
-          ev.gain * (1.0 + opt.refinement_margin) >= ch.best_gain)
-        ch.best = ev.c, ch.best_finding = ev.f;
+          ev.gain * (1.0 + opt.refinement_margin) >= chosen_gain && (coarser < 0 || ev.gain > evals[coarser].gain))
+        coarser = static_cast<int>(&ev - evals.data());
+    if (coarser < 0) break;
+    ch.best = evals[coarser].c, ch.best_finding = evals[coarser].f, chosen_gain = evals[coarser].gain;
   }
   const auto pusable = [&](const PayloadEval& pe) { return pe.admissible && pe.gain > 0 && pe.f.explained >= opt.min_explained; };
   for (size_t k = 0; k < pevals.size(); ++k)

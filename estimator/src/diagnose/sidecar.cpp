@@ -24,6 +24,15 @@ std::string quotedYaml(const std::string& text) {
   }
   return "\"" + oneLine(escaped) + "\"";  // control characters as \n, \r, \t, \xNN: YAML's escapes too
 }
+
+// printf into a string of the size it needs.
+template <class... Args>
+std::string formatted(const char* format, Args... args) {
+  const int n = std::snprintf(nullptr, 0, format, args...);
+  std::string out(n > 0 ? static_cast<size_t>(n) : 0, '\0');
+  if (n > 0) std::snprintf(out.data(), out.size() + 1, format, args...);
+  return out;
+}
 }  // namespace
 
 bool writeEffects(const std::string& path, const Model& model, const EffectSet& set, std::string* error) {
@@ -36,7 +45,9 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
          "# Dynamics effects add a column on their joint's row: viscous v, coulomb tanh(v / width),\n"
          "# stribeck tanh(v / width) exp(-(v / stribeck_velocity)^2) (width: the effect's, else coulomb_width),\n"
          "# offset 1, armature dv/dt, elastic q - center, elastic_exp width (exp((q - center) / width) - 1),\n"
-         "# elastic_coupled q_(angle_of) - center (q in rad; the elastic values are stiffnesses at center, N m/rad).\n"
+         "# elastic_coupled q_(angle_of) - center, elastic_exp_coupled width (exp(x / width) - 1) with\n"
+         "# x = q - center + ratio (q_(angle_of) - angle_of_center) (q in rad; the elastic values are stiffnesses at\n"
+         "# center, N m/rad).\n"
          "# Measurement effects correct the torque: gain g (measured = (1 + g) true), delay d (s, measured(t) =\n"
          "# true(t - d)).\n";
     f << "model: " << quotedYaml(set.model) << "\n";
@@ -49,27 +60,34 @@ bool writeEffects(const std::string& path, const Model& model, const EffectSet& 
     f << buf;
     if (set.effects.empty()) f << "  []\n";
     for (const Effect& e : set.effects) {
+      std::string line;  // sized to the joint names (a user's URDF may have long ones)
       if (e.joint < 0 || e.joint >= model.njoints) return common::fail(error, "effect on an unknown joint");
-      if (e.kind == EffectKind::ElasticCoupled && (e.coupled < 0 || e.coupled >= model.njoints))
-        return common::fail(error, "elastic_coupled effect without its joint");
+      if (isCoupled(e.kind) && (e.coupled < 0 || e.coupled >= model.njoints))
+        return common::fail(error, std::string(effectKindName(e.kind)) + " effect without its joint");
       if (e.width > 0.0 && isDryFriction(e.kind))
-        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
-                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
+        line = formatted("  - {joint: %s, kind: %s, value: %.17g, width: %.17g}  # %s, rad/s\n",
+                         quotedYaml(model.joint_names[e.joint]).c_str(), effectKindName(e.kind), e.value, e.width, effectUnit(e.kind));
       else if (e.kind == EffectKind::Elastic)
-        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g}  # %s, rad\n",
-                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center, effectUnit(e.kind));
+        line = formatted("  - {joint: %s, kind: %s, value: %.17g, center: %.17g}  # %s, rad\n",
+                         quotedYaml(model.joint_names[e.joint]).c_str(), effectKindName(e.kind), e.value, e.center, effectUnit(e.kind));
       else if (e.kind == EffectKind::ElasticCoupled)
-        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g, angle_of: %s}  # %s, rad\n",
-                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center,
-                      model.joint_names[e.coupled].c_str(), effectUnit(e.kind));
+        line = formatted("  - {joint: %s, kind: %s, value: %.17g, center: %.17g, angle_of: %s}  # %s, rad\n",
+                         quotedYaml(model.joint_names[e.joint]).c_str(), effectKindName(e.kind), e.value, e.center,
+                         quotedYaml(model.joint_names[e.coupled]).c_str(), effectUnit(e.kind));
+      else if (e.kind == EffectKind::ElasticExpCoupled)
+        line = formatted(
+                         "  - {joint: %s, kind: %s, value: %.17g, center: %.17g, width: %.17g, angle_of: %s, ratio: %.17g, "
+                         "angle_of_center: %.17g}  # %s, rad, rad, -, rad, rad/rad, rad\n",
+                         quotedYaml(model.joint_names[e.joint]).c_str(), effectKindName(e.kind), e.value, e.center, e.width,
+                         quotedYaml(model.joint_names[e.coupled]).c_str(), e.ratio, e.coupled_center, effectUnit(e.kind));
       else if (e.kind == EffectKind::ElasticExp)
-        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g, center: %.17g, width: %.17g}  # %s, rad, rad\n",
-                      model.joint_names[e.joint].c_str(), effectKindName(e.kind), e.value, e.center, e.width,
-                      effectUnit(e.kind));
+        line = formatted("  - {joint: %s, kind: %s, value: %.17g, center: %.17g, width: %.17g}  # %s, rad, rad\n",
+                         quotedYaml(model.joint_names[e.joint]).c_str(), effectKindName(e.kind), e.value, e.center, e.width,
+                         effectUnit(e.kind));
       else
-        std::snprintf(buf, sizeof buf, "  - {joint: %s, kind: %s, value: %.17g}  # %s\n", model.joint_names[e.joint].c_str(),
-                      effectKindName(e.kind), e.value, effectUnit(e.kind));
-      f << buf;
+        line = formatted("  - {joint: %s, kind: %s, value: %.17g}  # %s\n", quotedYaml(model.joint_names[e.joint]).c_str(),
+                         effectKindName(e.kind), e.value, effectUnit(e.kind));
+      f << line;
     }
     if (!f.good()) return common::fail(error, "write failed on '" + tmp + "'");
   }
@@ -117,16 +135,28 @@ std::string readEffect(const YAML::Node& e, const std::string& where, const Mode
   if (!std::isfinite(ef.value)) return where + ": value is not finite";
   for (auto kv = e.begin(); kv != e.end(); ++kv) {
     const std::string k = kv->first.as<std::string>();
-    if (k != "joint" && k != "kind" && k != "value" && k != "width" && k != "center" && k != "angle_of")
+    if (k != "joint" && k != "kind" && k != "value" && k != "width" && k != "center" && k != "angle_of" && k != "ratio" &&
+        k != "angle_of_center")
       return where + ": unknown key '" + k + "'";
   }
+  const std::string kind = effectKindName(ef.kind);
   if (e["angle_of"]) {
-    if (ef.kind != EffectKind::ElasticCoupled) return where + ": angle_of belongs to elastic_coupled effects only";
+    if (!isCoupled(ef.kind)) return where + ": angle_of belongs to elastic_coupled and elastic_exp_coupled effects only";
     ef.coupled = model.jointIndex(e["angle_of"].as<std::string>());
     if (ef.coupled < 0 || ef.coupled == ef.joint)
       return where + ": angle_of must name another joint of the model ('" + e["angle_of"].as<std::string>() + "')";
-  } else if (ef.kind == EffectKind::ElasticCoupled) {
-    return where + ": an elastic_coupled effect needs angle_of (the joint whose angle it reads)";
+  } else if (isCoupled(ef.kind)) {
+    return where + ": an " + kind + " effect needs angle_of (the joint whose angle it reads)";
+  }
+  for (const char* key : {"ratio", "angle_of_center"}) {
+    if (!e[key]) {
+      if (ef.kind == EffectKind::ElasticExpCoupled) return where + ": an elastic_exp_coupled effect needs its " + key;
+      continue;
+    }
+    if (ef.kind != EffectKind::ElasticExpCoupled) return where + ": " + key + " belongs to elastic_exp_coupled effects only";
+    const double x = e[key].as<double>();
+    if (!std::isfinite(x)) return where + ": " + key + " is not finite";
+    (std::string(key) == "ratio" ? ef.ratio : ef.coupled_center) = x;
   }
   if (e["center"]) {
     if (!isElastic(ef.kind)) return where + ": a center belongs to the elastic kinds only";
@@ -135,8 +165,8 @@ std::string readEffect(const YAML::Node& e, const std::string& where, const Mode
   } else if (isElastic(ef.kind)) {
     return where + ": an elastic effect needs its center (rad)";
   }
-  if (ef.kind == EffectKind::ElasticExp) {
-    if (!e["width"]) return where + ": an elastic_exp effect needs its width (the exponential's scale, rad)";
+  if (ef.kind == EffectKind::ElasticExp || ef.kind == EffectKind::ElasticExpCoupled) {
+    if (!e["width"]) return where + ": an " + kind + " effect needs its width (the exponential's scale, rad)";
     ef.width = e["width"].as<double>();
     if (ef.width == 0.0 || !std::isfinite(ef.width)) return where + ": width must be nonzero and finite";
     return "";
@@ -144,7 +174,8 @@ std::string readEffect(const YAML::Node& e, const std::string& where, const Mode
   if (!e["width"]) return "";
   ef.width = e["width"].as<double>();
   if (!(ef.width > 0) || !std::isfinite(ef.width)) return where + ": width must be positive and finite";
-  if (!isDryFriction(ef.kind)) return where + ": a width belongs to coulomb, stribeck and elastic_exp effects only";
+  if (!isDryFriction(ef.kind))
+    return where + ": a width belongs to coulomb, stribeck, elastic_exp and elastic_exp_coupled effects only";
   return "";
 }
 }  // namespace
@@ -193,8 +224,8 @@ void effectColumns(const Model& model, const EffectSet& set, const Eigen::Ref<co
   int col = 0;
   for (const Effect& e : set.effects) {
     if (isMeasurementEffect(e.kind)) continue;
-    E(model.jointRow(e.joint), col++) =
-        effectSignal(e.kind, effectShape(set.shape, e), q[signalJoint(e)], v[e.joint], a[e.joint], 0.0, 0.0);
+    E(model.jointRow(e.joint), col++) = effectSignal(e.kind, effectShape(set.shape, e), effectAngle(e, q[e.joint], q[signalJoint(e)]),
+                                                     v[e.joint], a[e.joint], 0.0, 0.0);
   }
 }
 

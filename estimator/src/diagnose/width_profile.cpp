@@ -87,4 +87,46 @@ void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data) {
   }
 }
 
+void profileCoupledElasticShapes(const DiagnoseOptions& opt, DiagnoseData& data) {
+  const size_t np = data.cprofile.size();
+  const int ns = static_cast<int>(opt.coupled_elastic_scales.size()), nr = static_cast<int>(opt.coupled_elastic_ratios.size());
+  const int ng = ns * nr, nz = ng + 3;
+  data.cscale_of.assign(np, ns > 0 ? opt.coupled_elastic_scales[0] : 0.0);
+  data.cratio_of.assign(np, nr > 0 ? opt.coupled_elastic_ratios[0] : 0.0);
+  if (np == 0) return;
+  const int mk = static_cast<int>(data.keep.size());
+  const Eigen::MatrixXd R1 = mk > 0 ? Eigen::MatrixXd(data.A_keep.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>())
+                                    : Eigen::MatrixXd();
+  for (size_t k = 0; k < np; ++k) {
+    const CoupledElasticProfileSums& pr = data.cprofile[k];
+    Eigen::MatrixXd B(mk, nz);
+    for (int a = 0; a < mk; ++a) B.row(a) = pr.B.row(data.keep[a]);
+    const Eigen::MatrixXd Z = mk > 0 ? Eigen::MatrixXd(R1.transpose().triangularView<Eigen::Lower>().solve(B))
+                                     : Eigen::MatrixXd::Zero(0, nz);
+    const Eigen::VectorXd ze = mk > 0 ? Eigen::VectorXd(pr.zy - B.transpose() * data.x0) : pr.zy;
+    // The three linear signals' block of the Gram off the declared span: the same for every grid signal.
+    Eigen::Matrix3d L;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) L(a, b) = pr.G(ng + a, 1 + b) - Z.col(ng + a).dot(Z.col(ng + b));
+    double best = -1.0;
+    for (int g = 0; g < ng; ++g) {
+      Eigen::Matrix4d Ms;
+      Eigen::Vector4d gv;
+      Ms.bottomRightCorner<3, 3>() = L;
+      Ms(0, 0) = pr.G(g, 0) - Z.col(g).squaredNorm();
+      for (int b = 0; b < 3; ++b) Ms(0, 1 + b) = Ms(1 + b, 0) = pr.G(g, 1 + b) - Z.col(g).dot(Z.col(ng + b));
+      gv[0] = ze[g];
+      for (int b = 0; b < 3; ++b) gv[1 + b] = ze[ng + b];
+      // g^T M^+ g over the directions M resolves, as in profileElasticScales.
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> es(Ms);
+      const double top = es.eigenvalues().cwiseAbs().maxCoeff();
+      double score = 0.0;
+      for (int a = 0; a < 4; ++a)
+        if (es.eigenvalues()[a] > 1e-10 * top) score += std::pow(es.eigenvectors().col(a).dot(gv), 2) / es.eigenvalues()[a];
+      if (std::isfinite(score) && score > best)
+        best = score, data.cscale_of[k] = opt.coupled_elastic_scales[g / nr], data.cratio_of[k] = opt.coupled_elastic_ratios[g % nr];
+    }
+  }
+}
+
 }  // namespace exoid::estimator

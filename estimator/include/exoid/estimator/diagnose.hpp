@@ -42,9 +42,17 @@ enum class EffectKind {
   /// signal q_c - center on joint j's row, c = Effect::coupled a kinematic neighbour of j; value N m/rad (either sign):
   /// a biarticular spring, the moment on j that depends on the neighbour's angle (a muscle across both joints)
   ElasticCoupled,
+  /// signal s (exp(x / s) - 1), x = (q_j - center) + r (q_c - coupled_center), s = width, r = ratio, c = Effect::coupled
+  /// a kinematic neighbour of j; value k, N m/rad (>= 0), the stiffness about j at the two centers: the exponential
+  /// of passive tissue whose exponent a biarticular muscle makes a sum of two angles, as in every term of Riener &
+  /// Edrich's law (the hip's exp(1.3403 - 0.0226 phi_K + 0.0305 phi_H): s = 0.57 rad, r = -0.74 on the knee). Over a
+  /// knee swing of 1.3 rad the neighbour changes that term's stiffness e^1.7 times, which neither the joint's own
+  /// exponential nor a linear coupling spans. Refines ElasticExp (r = 0).
+  ElasticExpCoupled,
 };
-inline constexpr int kEffectKinds = 10;
-/// "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp", "elastic_coupled"
+inline constexpr int kEffectKinds = 11;
+/// "viscous", "coulomb", "stribeck", "offset", "armature", "gain", "delay", "elastic", "elastic_exp", "elastic_coupled",
+/// "elastic_exp_coupled"
 const char* effectKindName(EffectKind k);
 const char* effectKindWords(EffectKind k);  ///< "viscous friction", ..., "time delay", "joint elasticity", ...
 const char* effectUnit(EffectKind k);       ///< "N m s/rad", "N m", "N m", "N m", "kg m^2", "", "s", "N m/rad", "N m/rad"
@@ -53,10 +61,13 @@ bool parseEffectKind(const std::string& name, EffectKind& k);
 bool isMeasurementEffect(EffectKind k);
 /// Coulomb and Stribeck: signals tanh(v / width) (...), the kinds an Effect's width applies to.
 bool isDryFriction(EffectKind k);
-/// Elastic, ElasticExp and ElasticCoupled: signals of a joint position about the effect's center.
+/// Elastic, ElasticExp, ElasticCoupled and ElasticExpCoupled: signals of joint positions about the effect's center.
 bool isElastic(EffectKind k);
-/// The kind a refinement kind refines (Stribeck: Coulomb; ElasticExp: Elastic); k itself otherwise. A refinement is
-/// named only when it predicts the held-out data clearly better than the kind it refines (DiagnoseOptions).
+/// ElasticCoupled and ElasticExpCoupled: signals that read a neighbour's angle (Effect::coupled).
+bool isCoupled(EffectKind k);
+/// The kind a refinement kind refines (Stribeck: Coulomb; ElasticExp: Elastic; ElasticExpCoupled: ElasticExp); k itself
+/// otherwise. A refinement is named only when it predicts the held-out data clearly better than the kind it refines
+/// (DiagnoseOptions).
 EffectKind refinedKind(EffectKind k);
 /// s: the largest time delay the linearised column -d dtau/dt stands for. tau(t - d) = tau(t) - d dtau/dt + O(d^2 w^2):
 /// at the ~1 Hz of the motions the second-order term reaches 5 % of the first at 50 ms; a larger fitted "delay" is some
@@ -71,11 +82,12 @@ struct EffectShape {
   double coulomb_width = 0.03;      ///< rad/s: tanh(v / width) reaches 0.76 at |v| = width
   double stribeck_velocity = 0.1;   ///< rad/s: the static-friction excess decays as exp(-(v / vs)^2)
   double center = 0.0;              ///< rad: the elastic kinds' reference angle (one effect's: effectShape)
-  double elastic_scale = 0.0;       ///< rad, signed: ElasticExp's s (one effect's: effectShape); 0: linear
+  double elastic_scale = 0.0;       ///< rad, signed: ElasticExp's and ElasticExpCoupled's s (effectShape); 0: linear
 };
 
-/// Signal of an effect at one sample of its joint (see EffectKind): q, v, a the joint's position, velocity and
-/// acceleration, tau_model the model torque and dtau_model its d/dt.
+/// Signal of an effect at one sample of its joint (see EffectKind): q the angle the signal reads (effectAngle: the
+/// joint's own, a neighbour's, or ElasticExpCoupled's sum of both), v, a the joint's velocity and acceleration,
+/// tau_model the model torque and dtau_model its d/dt.
 double effectSignal(EffectKind k, const EffectShape& shape, double q, double v, double a, double tau_model,
                     double dtau_model);
 
@@ -87,11 +99,25 @@ struct Effect {
   /// shape.coulomb_width). ElasticExp: the exponential's signed scale s, rad (fitted per joint; never 0).
   double width = 0.0;
   double center = 0.0;  ///< rad, the elastic kinds: the reference angle of the signal q - center
-  int coupled = -1;     ///< ElasticCoupled: the model joint whose angle the signal is (a kinematic neighbour of joint)
+  /// ElasticCoupled: the model joint whose angle the signal is; ElasticExpCoupled: the joint whose angle enters the
+  /// exponent beside the effect's own (a kinematic neighbour of joint); -1 otherwise
+  int coupled = -1;
+  double ratio = 0.0;           ///< ElasticExpCoupled: r, the neighbour's angle's weight in the exponent (rad/rad)
+  double coupled_center = 0.0;  ///< ElasticExpCoupled: rad, the neighbour's reference angle
 };
 
-/// The joint whose angle an effect's signal reads: Effect::coupled for ElasticCoupled, else the effect's own joint.
-inline int signalJoint(const Effect& e) { return e.kind == EffectKind::ElasticCoupled ? e.coupled : e.joint; }
+/// The joint whose angle an effect's signal reads: Effect::coupled for the coupled kinds (ElasticExpCoupled reads its
+/// own joint's too), else the effect's own joint.
+inline int signalJoint(const Effect& e) { return isCoupled(e.kind) ? e.coupled : e.joint; }
+
+/// The angle effectSignal takes for effect e, rad, from its joint's angle q_joint and the neighbour's q_coupled
+/// (q[signalJoint(e)]): q_coupled for ElasticCoupled, q_joint + r (q_coupled - coupled_center) for ElasticExpCoupled
+/// (the signal subtracts the center), q_joint otherwise.
+inline double effectAngle(const Effect& e, double q_joint, double q_coupled) {
+  if (e.kind == EffectKind::ElasticCoupled) return q_coupled;
+  if (e.kind == EffectKind::ElasticExpCoupled) return q_joint + e.ratio * (q_coupled - e.coupled_center);
+  return q_joint;
+}
 
 /// The shape an effect's signal uses: `shape` with the effect's own Coulomb width, center and scale where it has them.
 EffectShape effectShape(const EffectShape& shape, const Effect& effect);
@@ -141,6 +167,9 @@ inline bool segmentRowMeasured(const Model& model, const Segment& segment, int r
 
 struct DiagnoseOptions {
   /// The elastic kinds need the joint positions: they are tested only when every segment has Segment::stream_state.
+  /// ElasticExpCoupled is not tested unless named here (`exoid diagnose --effects`): on a wearer's calibration swing it
+  /// named the ankles' knee coupling as one term but added wrong names elsewhere (docs/diagnose.md "Two-angle
+  /// exponential").
   std::vector<EffectKind> kinds = {EffectKind::Viscous,   EffectKind::Coulomb,    EffectKind::Stribeck,
                                    EffectKind::Offset,    EffectKind::Armature,   EffectKind::GainError,
                                    EffectKind::Delay,     EffectKind::Elastic,    EffectKind::ElasticExp,
@@ -165,6 +194,13 @@ struct DiagnoseOptions {
   /// rad, signed: the ElasticExp scales tried per joint (the one whose signal, beside q, explains the most of the
   /// declared model's training residual on the joint's row is tested; docs/diagnose.md).
   std::vector<double> elastic_scales = {-0.4, -0.2, -0.1, -0.05, 0.05, 0.1, 0.2, 0.4};
+  /// rad, signed, and rad/rad: the ElasticExpCoupled grid, scale s x ratio r, profiled per (joint, neighbour) like
+  /// the scales (beside the joint's own and the neighbour's angle and a constant), when kinds has ElasticExpCoupled.
+  /// Riener & Edrich's terms span s 0.12-0.68 rad and r -0.2 to -1.3 (docs/diagnose.md); the grid covers either sign
+  /// of both. Empty: not tested.
+  std::vector<double> coupled_elastic_scales = {-0.8, -0.4, -0.2, -0.1, 0.1, 0.2, 0.4, 0.8};
+  std::vector<double> coupled_elastic_ratios = {-2.0, -1.4, -1.0, -0.7, -0.5, -0.35, -0.25, -0.125,
+                                                0.125, 0.25, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0};
   int max_effects = 30;
   double torque_noise = -1.0;      ///< known torque noise sigma (N m) for the size check; < 0: estimated
   /// The declared model's rigid-body parameters are held, not identified: the caller streams y - K phi_declared
@@ -245,9 +281,8 @@ struct CoordinateSummary {
   double noise_floor = 0.0;   ///< torque_noise if given, else sqrt(mean(diff(r)^2) / 2) of the validation residual
   double lag1_before = 0.0, lag1_after = 0.0;  ///< lag-1 autocorrelation of the residual (white noise: ~0)
   double best_correlation = 0.0;               ///< largest |correlation| with a candidate signal, before
-  EffectKind best_kind = EffectKind::Offset;   ///< which candidate signal that is
-  double best_width = 0.0;                     ///< its Coulomb width (Coulomb, Stribeck; 0: the shape's) or scale
-  double best_center = 0.0;                    ///< its reference angle (elastic kinds)
+  /// which candidate that is (its kind and shape: width or scale, center, neighbour; the value unset)
+  Effect best_candidate;
 };
 
 /// Per-sample residuals of one segment (for plots and reports).

@@ -25,10 +25,19 @@ struct DiagnosisCandidate {
   EffectKind kind;
   int joint;
   int coord;
-  double width;   ///< Coulomb, Stribeck: the joint's profiled width (0: the shape's); ElasticExp: its profiled scale
+  double width;   ///< Coulomb, Stribeck: the joint's profiled width (0: the shape's); ElasticExp(Coupled): its scale
   double center;  ///< the elastic kinds: the mean training angle (rad) of the joint the signal reads
-  int coupled;    ///< ElasticCoupled: the neighbour joint whose angle the signal reads; -1 otherwise
+  int coupled;    ///< the coupled kinds: the neighbour joint whose angle the signal reads; -1 otherwise
+  double ratio = 0.0;           ///< ElasticExpCoupled: the profiled ratio r
+  double coupled_center = 0.0;  ///< ElasticExpCoupled: the neighbour's mean training angle
 };
+
+/// The effect a candidate stands for, with the value `value`.
+inline Effect candidateEffect(const DiagnosisCandidate& cd, double value) {
+  Effect e{cd.kind, cd.joint, value, cd.width, cd.center, cd.coupled};
+  e.ratio = cd.ratio, e.coupled_center = cd.coupled_center;
+  return e;
+}
 
 /// Per-sample signals of one segment, [n x nv] unless noted.
 struct SegmentSignals {
@@ -57,6 +66,16 @@ struct ElasticProfileSums {
   Eigen::VectorXd zy;  ///< [ne + 2] z^T y_j
   double qsum = 0.0;   ///< sum of q over the training samples (the center is its mean)
   long n = 0;
+};
+
+/// One (joint j, neighbour c) pair's sums for the ElasticExpCoupled profile over the grid of ns scales x nr ratios:
+/// signals z = [s (exp(x / s) - 1) per (s, r), x = (q_j - q_ref,j) + r (q_c - q_ref,c); q_j - q_ref,j; q_c - q_ref,c; 1]
+/// (nz = ns nr + 3). Each grid signal is scored beside the last three only, so only those products are kept.
+struct CoupledElasticProfileSums {
+  int joint = -1, coupled = -1;
+  Eigen::MatrixXd B;   ///< [md x nz] K_j^T z
+  Eigen::MatrixXd G;   ///< [nz x 4] z^T [z_k, the three linear signals]: column 0 z_k^T z_k, columns 1-3 z^T (x_j, x_c, 1)
+  Eigen::VectorXd zy;  ///< [nz] z^T y_j
 };
 
 /// The fits of the current model (columns S) on each training factor f = 0..F (F: all folds; f < F: all but f).
@@ -111,6 +130,8 @@ struct DiagnoseData {
   std::vector<double> q_ref;               ///< [nj] the first training sample's q (reference of the profile's signals)
   std::vector<ElasticProfileSums> eprofile;  ///< [nj] (has_q only)
   std::vector<double> center_of, scale_of; ///< [nj] each joint's mean training angle, profiled ElasticExp scale
+  std::vector<CoupledElasticProfileSums> cprofile;  ///< [pairs] (joint, kinematic neighbour), has_q only
+  std::vector<double> cscale_of, cratio_of;         ///< [pairs] profiled ElasticExpCoupled scale and ratio
   Eigen::VectorXd sigma, rows0;            ///< [nv] row weight 1/sigma's sigma, measured training rows
   long total_rows = 0;
   std::vector<DiagnosisCandidate> cands;
@@ -162,6 +183,10 @@ void profileCoulombWidths(DiagnoseData& data);
 /// the constant beside it the score does not depend on the signal's reference angle), and the joint's center, its mean
 /// training angle (data.center_of, data.scale_of; nothing without q).
 void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data);
+/// Per (joint, kinematic neighbour) pair, the ElasticExpCoupled (scale, ratio) of the grid whose signal, beside both
+/// angles and a constant, removes the most of the declared fit's training residual (the same score as
+/// profileElasticScales'; data.cscale_of, data.cratio_of). After profileElasticScales (the centers).
+void profileCoupledElasticShapes(const DiagnoseOptions& opt, DiagnoseData& data);
 /// Pass B (every segment): the declared model's prediction tau0 = K_decl x0 and its d/dt; the validation segments'
 /// t, v, y; q where the segment streams it (data.has_q: every segment does); a floating base's motion (alpha, s).
 /// False on a stream error or data that changed between two reads.
