@@ -58,9 +58,10 @@ struct Prepared {
   DiagnoseOptions opt;
   DiagnoseData data;
   DiagnosisResult out;
-  Prepared() {
+  explicit Prepared(bool two_angle = false) {
     const Model& model = kuka();
     tr = {segmentOf(model, train, "train")}, va = {segmentOf(model, val, "val")};
+    if (two_angle) opt.kinds.push_back(EffectKind::ElasticExpCoupled);
     opt.folds = 5;
     opt.chunk_seconds = 0.5;
     std::string err;
@@ -69,6 +70,7 @@ struct Prepared {
     EXPECT_TRUE(declaredFit(data, out, &err)) << err;
     profileCoulombWidths(data);
     profileElasticScales(opt, data);
+    profileCoupledElasticShapes(opt, data);
     EXPECT_TRUE(declaredPrediction(model, data, out, &err)) << err;
     rowWeights(model, data);
     candidateSignals(model, opt, data, out);
@@ -194,6 +196,57 @@ TEST(DiagnoseStages, ElasticScaleProfileMaximisesTheDenseGain) {
         p.opt.elastic_scales.begin());
     ASSERT_LT(chosen, gain.size()) << j;
     EXPECT_GE(gain[chosen], best - 1e-6 * std::fabs(best)) << "joint " << j << ": scale " << p.data.scale_of[static_cast<size_t>(j)];
+  }
+}
+
+// The ElasticExpCoupled (scale, ratio) of each (joint, neighbour) pair maximises, over the grid, the dense
+// least-squares gain of [s (exp(((q_j - c_j) + r (q_i - c_i)) / s) - 1), q_j - c_j, q_i - c_i, 1] on the joint's row
+// beside the declared columns, computed here by residualising against W's thin QR (the stage accumulates normal-equation
+// sums in pass A instead); each pair's candidate carries that shape and both centers.
+TEST(DiagnoseStages, TwoAngleProfileMaximisesTheDenseGain) {
+  const Prepared p(true);
+  Eigen::MatrixXd W;
+  Eigen::VectorXd y;
+  p.dense(W, y);
+  const long n = static_cast<long>(p.train.states.size());
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(W);
+  const Eigen::MatrixXd Q = qr.householderQ() * Eigen::MatrixXd::Identity(W.rows(), W.cols());
+  const Eigen::VectorXd e = y - Q * (Q.transpose() * y);
+  ASSERT_EQ(p.data.cprofile.size(), 12u);  // the arm's chain: 6 joints with two neighbours, 2 with one
+  int candidates = 0;
+  for (const DiagnosisCandidate& cd : p.data.cands) candidates += cd.kind == EffectKind::ElasticExpCoupled;
+  EXPECT_EQ(candidates, 12);
+  for (size_t k = 0; k < p.data.cprofile.size(); ++k) {
+    const int j = p.data.cprofile[k].joint, c = p.data.cprofile[k].coupled;
+    const double cj = p.data.center_of[static_cast<size_t>(j)], cc = p.data.center_of[static_cast<size_t>(c)];
+    double best = -1.0, chosen = -1.0;
+    for (double sc : p.opt.coupled_elastic_scales)
+      for (double r : p.opt.coupled_elastic_ratios) {
+        Eigen::MatrixXd Z = Eigen::MatrixXd::Zero(W.rows(), 4);
+        for (long i = 0; i < n; ++i) {
+          const Eigen::VectorXd& q = p.train.states[static_cast<size_t>(i)].q;
+          const double xj = q[j] - cj, xc = q[c] - cc;
+          Z.row(i * 7 + j) << sc * std::expm1((xj + r * xc) / sc), xj, xc, 1.0;
+        }
+        Z -= Q * (Q.transpose() * Z);
+        const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> zq(Z);
+        const double gain = (Z * zq.solve(e)).squaredNorm();
+        best = std::max(best, gain);
+        if (sc == p.data.cscale_of[k] && r == p.data.cratio_of[k]) chosen = gain;
+      }
+    ASSERT_GE(chosen, 0.0) << "pair " << j << "-" << c << ": the chosen shape is not on the grid";
+    EXPECT_GE(chosen, best - 1e-6 * best) << "pair " << j << "-" << c << ": scale " << p.data.cscale_of[k] << " ratio "
+                                          << p.data.cratio_of[k];
+    bool found = false;
+    for (const DiagnosisCandidate& cd : p.data.cands)
+      if (cd.kind == EffectKind::ElasticExpCoupled && cd.joint == j && cd.coupled == c) {
+        found = true;
+        EXPECT_EQ(cd.width, p.data.cscale_of[k]);
+        EXPECT_EQ(cd.ratio, p.data.cratio_of[k]);
+        EXPECT_EQ(cd.center, cj);
+        EXPECT_EQ(cd.coupled_center, cc);
+      }
+    EXPECT_TRUE(found) << j << "-" << c;
   }
 }
 

@@ -48,6 +48,19 @@ void profileCoulombWidths(DiagnoseData& data) {
   }
 }
 
+namespace {
+// g^T M^+ g over the directions the Gram M resolves (a column inside the declared span has none of its own).
+template <int N>
+double resolvedGain(const Eigen::Matrix<double, N, N>& M, const Eigen::Matrix<double, N, 1>& g) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> es(M);
+  const double top = es.eigenvalues().cwiseAbs().maxCoeff();
+  double score = 0.0;
+  for (int a = 0; a < N; ++a)
+    if (es.eigenvalues()[a] > 1e-10 * top) score += std::pow(es.eigenvectors().col(a).dot(g), 2) / es.eigenvalues()[a];
+  return score;
+}
+}  // namespace
+
 void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data) {
   const int nj = data.nj, ne = static_cast<int>(opt.elastic_scales.size());
   data.center_of.assign(static_cast<size_t>(nj), 0.0);
@@ -76,12 +89,7 @@ void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data) {
         g[a] = ze[idx[a]];
         for (int b = 0; b < 3; ++b) Ms(a, b) = M(idx[a], idx[b]);
       }
-      // g^T M^+ g over the directions M resolves (a column inside the declared span has none of its own).
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(Ms);
-      const double top = es.eigenvalues().cwiseAbs().maxCoeff();
-      double score = 0.0;
-      for (int a = 0; a < 3; ++a)
-        if (es.eigenvalues()[a] > 1e-10 * top) score += std::pow(es.eigenvectors().col(a).dot(g), 2) / es.eigenvalues()[a];
+      const double score = resolvedGain(Ms, g);
       if (std::isfinite(score) && score > best) best = score, data.scale_of[static_cast<size_t>(j)] = opt.elastic_scales[k];
     }
   }
@@ -117,12 +125,7 @@ void profileCoupledElasticShapes(const DiagnoseOptions& opt, DiagnoseData& data)
       for (int b = 0; b < 3; ++b) Ms(0, 1 + b) = Ms(1 + b, 0) = pr.G(g, 1 + b) - Z.col(g).dot(Z.col(ng + b));
       gv[0] = ze[g];
       for (int b = 0; b < 3; ++b) gv[1 + b] = ze[ng + b];
-      // g^T M^+ g over the directions M resolves, as in profileElasticScales.
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> es(Ms);
-      const double top = es.eigenvalues().cwiseAbs().maxCoeff();
-      double score = 0.0;
-      for (int a = 0; a < 4; ++a)
-        if (es.eigenvalues()[a] > 1e-10 * top) score += std::pow(es.eigenvectors().col(a).dot(gv), 2) / es.eigenvalues()[a];
+      const double score = resolvedGain(Ms, gv);
       if (std::isfinite(score) && score > best)
         best = score, data.cscale_of[k] = opt.coupled_elastic_scales[g / nr], data.cratio_of[k] = opt.coupled_elastic_ratios[g % nr];
     }
