@@ -202,18 +202,33 @@ bool writeRmseCsv(const fs::path& out, const est::DiagnosisResult& res, std::str
 }
 
 // candidates.csv: every candidate of the first step, then every payload candidate (the row names the link; value =
-// mass, std_error = its jackknife error, com = CoM in the link frame).
+// mass, std_error = its jackknife error, com = CoM in the link frame). The last columns are the candidate's shape, empty
+// where its kind has none: width (Coulomb, Stribeck: rad/s; the exponential springs' scale, rad), center (rad),
+// angle_of (the coupled kinds' neighbour), ratio and angle_of_center (elastic_exp_coupled).
 bool writeCandidatesCsv(const fs::path& out, const Model& model, const est::DiagnosisResult& res, std::string* error) {
   std::ofstream f;
   if (!openOut(out, "candidates.csv", f, error)) return false;
-  f << "joint,kind,value,unit,correlation,explained,p_value,separable,status,std_error,com_x,com_y,com_z\n";
-  for (const est::CandidateScore& c : res.first_step)
-    f << model.joint_names[c.effect.joint] << ',' << est::effectKindName(c.effect.kind) << ',' << c.effect.value << ','
-      << est::effectUnit(c.effect.kind) << ',' << c.correlation << ',' << c.explained << ',' << c.p_value << ','
-      << c.separable << ",\"" << c.status << "\"," << c.std_error << ",,,\n";
+  f << "joint,kind,value,unit,correlation,explained,p_value,separable,status,std_error,com_x,com_y,com_z,width,center,"
+       "angle_of,ratio,angle_of_center\n";
+  for (const est::CandidateScore& c : res.first_step) {
+    const est::Effect& e = c.effect;
+    f << model.joint_names[e.joint] << ',' << est::effectKindName(e.kind) << ',' << e.value << ','
+      << est::effectUnit(e.kind) << ',' << c.correlation << ',' << c.explained << ',' << c.p_value << ','
+      << c.separable << ",\"" << c.status << "\"," << c.std_error << ",,,,";
+    if (e.width != 0.0) f << e.width;
+    f << ',';
+    if (est::isElastic(e.kind)) f << e.center;
+    f << ',';
+    if (est::isCoupled(e.kind)) f << model.joint_names[e.coupled];
+    f << ',';
+    if (e.kind == est::EffectKind::ElasticExpCoupled) f << e.ratio << ',' << e.coupled_center;
+    else f << ',';
+    f << '\n';
+  }
   for (const est::PayloadFinding& c : res.payload_first_step)
     f << model.body_names[c.link] << ",payload," << c.mass << ",kg,," << c.explained << ',' << c.p_value << ','
-      << c.separable << ",\"" << c.status << "\"," << c.mass_se << ',' << c.com[0] << ',' << c.com[1] << ',' << c.com[2] << "\n";
+      << c.separable << ",\"" << c.status << "\"," << c.mass_se << ',' << c.com[0] << ',' << c.com[1] << ',' << c.com[2]
+      << ",,,,,\n";
   return true;
 }
 
