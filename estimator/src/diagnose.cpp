@@ -112,6 +112,42 @@ double studentTUpperTail(double t, double dof) {
   return std::isfinite(p) ? p : 1.0;
 }
 
+double signedRankUpperTail(const Eigen::VectorXd& d) {
+  if (!d.allFinite()) return 1.0;
+  std::vector<double> x;  // the nonzero values (Wilcoxon: zeros carry no sign)
+  for (int i = 0; i < d.size(); ++i)
+    if (d[i] != 0.0) x.push_back(d[i]);
+  const int n = static_cast<int>(x.size());
+  if (n == 0) return 1.0;
+  std::sort(x.begin(), x.end(), [](double a, double b) { return std::fabs(a) < std::fabs(b); });
+  // Ranks in doubled units, so that a tie's mean rank (i + j + 2) / 2 stays an integer; the statistic 2 W+.
+  std::vector<int> rank2(static_cast<size_t>(n));
+  int w2 = 0;
+  for (int i = 0; i < n;) {
+    int j = i;
+    while (j + 1 < n && std::fabs(x[static_cast<size_t>(j + 1)]) == std::fabs(x[static_cast<size_t>(i)])) ++j;
+    for (int k = i; k <= j; ++k) rank2[static_cast<size_t>(k)] = i + j + 2;
+    i = j + 1;
+  }
+  int reach = 0;
+  for (int i = 0; i < n; ++i) {
+    reach += rank2[static_cast<size_t>(i)];
+    if (x[static_cast<size_t>(i)] > 0) w2 += rank2[static_cast<size_t>(i)];
+  }
+  // The number of sign patterns giving each value of 2 W+: each rank in or out.
+  std::vector<double> count(static_cast<size_t>(reach + 1), 0.0);
+  count[0] = 1.0;
+  int at = 0;
+  for (int i = 0; i < n; ++i) {
+    const int r = rank2[static_cast<size_t>(i)];
+    for (int s = at; s >= 0; --s) count[static_cast<size_t>(s + r)] += count[static_cast<size_t>(s)];
+    at += r;
+  }
+  double upper = 0.0;
+  for (int s = w2; s <= reach; ++s) upper += count[static_cast<size_t>(s)];
+  return std::min(1.0, upper / std::ldexp(1.0, n));
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // The diagnosis: the stages of diagnose_stages.hpp, in order.
 bool diagnose(const Model& model, const std::vector<Segment>& train, const std::vector<Segment>& validate,

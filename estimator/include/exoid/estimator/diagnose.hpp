@@ -328,6 +328,12 @@ bool diagnose(const Model& model, const std::vector<Segment>& train, const std::
 /// One-sided p-value P(T >= t) of Student's t with dof degrees of freedom (Boost.Math); 1 for a NaN t or dof <= 0.
 double studentTUpperTail(double t, double dof);
 
+/// One-sided p-value of Wilcoxon's signed-rank test that the values d [n] lie above 0: P(W+ >= w+) under the null of
+/// signs independent and equally likely given the magnitudes, W+ the sum of the ranks (1 = smallest |d|) of the
+/// positive values; exact (a count over the 2^n sign patterns, O(n^3)). Ties in |d| share their mean rank; zeros are
+/// left out (they carry no sign). 1 with no nonzero value or a non-finite one.
+double signedRankUpperTail(const Eigen::VectorXd& d);
+
 /// The augmented model's sidecar (docs/diagnose.md): YAML with the shape constants and one entry per effect.
 struct EffectSet {
   std::string model;  ///< URDF file name the effects belong to
