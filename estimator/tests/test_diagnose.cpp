@@ -106,6 +106,15 @@ Run makeRun(const Model& model, uint64_t seed, double duration, double sigma, co
 
 
 
+// The mean joint angles over runDiagnosis(seed, ...)'s two training runs: the elastic candidates' centers.
+Eigen::VectorXd meanTrainingAngles(const Model& model, uint64_t seed, double sigma) {
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(model.njoints);
+  long n = 0;
+  for (uint64_t rs : {seed * 3 + 1, seed * 3 + 2})
+    for (const State& st : makeRun(model, rs, 20.0, sigma, {}, EffectShape{}).states) c += st.q, ++n;
+  return c / static_cast<double>(n);
+}
+
 DiagnosisResult runDiagnosis(uint64_t seed, double sigma, const std::vector<Injected>& effects,
                              const DiagnoseOptions& opt = {}) {
   const Model& model = kuka();
@@ -396,11 +405,7 @@ TEST(Diagnose, JointElasticityIsNamedWithItsStiffnessAndShape) {
   EXPECT_LT(lin.coordinates[3].rms_after, 1.1 * sigma);
   // The exponential spring's stiffness at the training mean: k exp((c - c_inj) / s) with c_inj = c here.
   const uint64_t seed = 43;
-  double c = 0.0;
-  long n = 0;
-  for (uint64_t k : {seed * 3 + 1, seed * 3 + 2})
-    for (const State& s : makeRun(model, k, 20.0, sigma, {}, EffectShape{}).states) c += s.q[4], ++n;
-  c /= static_cast<double>(n);
+  const double c = meanTrainingAngles(model, seed, sigma)[4];
   const DiagnosisResult ex = runDiagnosis(seed, sigma, {{EffectKind::ElasticExp, 4, 1.5, 0.05, c}});
   ASSERT_FALSE(ex.findings.empty());
   for (const Finding& f : ex.findings) std::printf("exponential: %s\n", f.sentence.c_str());
@@ -425,11 +430,7 @@ TEST(Diagnose, ATwoAngleExponentialSpringIsNamedWithItsNeighbourScaleAndRatio) {
   const Model& model = kuka();
   const double sigma = 0.05, k = 1.5, s = 0.1, r = -0.7;
   const uint64_t seed = 47;
-  Eigen::VectorXd c = Eigen::VectorXd::Zero(model.njoints);
-  long n = 0;
-  for (uint64_t rs : {seed * 3 + 1, seed * 3 + 2})
-    for (const State& st : makeRun(model, rs, 20.0, sigma, {}, EffectShape{}).states) c += st.q, ++n;
-  c /= static_cast<double>(n);
+  const Eigen::VectorXd c = meanTrainingAngles(model, seed, sigma);
   DiagnoseOptions opt;
   opt.kinds.push_back(EffectKind::ElasticExpCoupled);
   Injected two{EffectKind::ElasticExpCoupled, 4, k, s, 0.0};
