@@ -2,7 +2,7 @@
 // Diagnosis of what a rigid-body model leaves out (docs/diagnose.md): identify the declared model, analyse
 // the residual per generalized coordinate, test a library of candidate effects per joint as extra regressor
 // columns (or, for a torque-sensor gain error and a time delay, as a linearised correction of the
-// measurement), choose them by forward selection with a paired t-test over held-out time-block folds, and
+// measurement), choose them by forward selection with paired tests over held-out time-block folds, and
 // re-identify with the accepted effects.
 //
 // Data come as segments (runs) that stream their rows (K [nv x p], y [nv]) on request, so the diagnosis
@@ -247,7 +247,7 @@ struct Finding {
   Effect effect;
   double std_error = 0.0;  ///< standard error of the value (training fit, white-noise assumption: optimistic)
   double explained = 0.0;  ///< fraction of its joint's held-out-fold residual it removed when added
-  double p_value = 1.0;    ///< one-sided paired t-test over the folds (before the Bonferroni factor)
+  double p_value = 1.0;    ///< one-sided test over the folds: 2 min(t-test, signed-rank) (before the step's Bonferroni)
   double t_stat = 0.0;
   int tested = 0;          ///< candidates tested in its step (Bonferroni factor)
   std::string sentence;    ///< the finding in words

@@ -212,8 +212,9 @@ Eigen::MatrixXd mergeFoldFactors(const DiagnoseData& data, const std::vector<std
 /// (fold, coordinate): ||R_{f,c} [x_f; -1]||^2 over the coordinate's active columns.
 void currentFits(const DiagnoseOptions& opt, const DiagnoseData& data, CurrentFits& fits);
 /// Screening of the single candidate columns against the current fit: training estimate, separable share, the
-/// held-out gain per fold d_f (refit without fold f), the one-sided paired t-test of mean(d) over the F folds
-/// (t = mean / (sd / sqrt F), p = studentTUpperTail(t, F - 1)), the jackknife error. Candidates inside the current
+/// held-out gain per fold d_f (refit without fold f), the one-sided tests that the d_f lie above 0 (the paired
+/// t-test, t = mean / (sd / sqrt F), and Wilcoxon's signed-rank test; p = 2 min(studentTUpperTail(t, F - 1),
+/// signedRankUpperTail(d))), the jackknife error. Candidates inside the current
 /// span are excluded (in step 0 recorded in out.first_step as not separable).
 std::vector<CandidateEval> screenCandidates(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data,
                                             const CurrentFits& fits, int step, DiagnosisResult& out);
