@@ -106,6 +106,17 @@ Run makeRun(const Model& model, uint64_t seed, double duration, double sigma, co
 
 
 
+// Prints every finding under `label` and checks the first one's kind, joint and width (scale); returns it. The caller
+// has asserted that there is one.
+const Finding& expectFirstFinding(const DiagnosisResult& res, const char* label, EffectKind kind, int joint, double width) {
+  for (const Finding& g : res.findings) std::printf("%s: %s\n", label, g.sentence.c_str());
+  const Finding& f = res.findings.front();
+  EXPECT_EQ(f.effect.kind, kind) << f.sentence;
+  EXPECT_EQ(f.effect.joint, joint) << f.sentence;
+  EXPECT_EQ(f.effect.width, width) << f.sentence;
+  return f;
+}
+
 // The mean joint angles over runDiagnosis(seed, ...)'s two training runs: the elastic candidates' centers.
 Eigen::VectorXd meanTrainingAngles(const Model& model, uint64_t seed, double sigma) {
   Eigen::VectorXd c = Eigen::VectorXd::Zero(model.njoints);
@@ -408,11 +419,7 @@ TEST(Diagnose, JointElasticityIsNamedWithItsStiffnessAndShape) {
   const double c = meanTrainingAngles(model, seed, sigma)[4];
   const DiagnosisResult ex = runDiagnosis(seed, sigma, {{EffectKind::ElasticExp, 4, 1.5, 0.05, c}});
   ASSERT_FALSE(ex.findings.empty());
-  for (const Finding& f : ex.findings) std::printf("exponential: %s\n", f.sentence.c_str());
-  const Finding& fe = ex.findings.front();
-  EXPECT_EQ(fe.effect.kind, EffectKind::ElasticExp) << fe.sentence;
-  EXPECT_EQ(fe.effect.joint, 4) << fe.sentence;
-  EXPECT_EQ(fe.effect.width, 0.05) << fe.sentence;
+  const Finding& fe = expectFirstFinding(ex, "exponential", EffectKind::ElasticExp, 4, 0.05);
   EXPECT_NEAR(fe.effect.center, c, 1e-12);
   EXPECT_NEAR(fe.effect.value, 1.5, 0.075) << fe.sentence;
   EXPECT_LT(ex.coordinates[4].rms_after, 1.1 * sigma);
@@ -437,12 +444,8 @@ TEST(Diagnose, ATwoAngleExponentialSpringIsNamedWithItsNeighbourScaleAndRatio) {
   two.coupled = 3, two.ratio = r;
   const DiagnosisResult res = runDiagnosis(seed, sigma, {two}, opt);
   ASSERT_FALSE(res.findings.empty());
-  for (const Finding& f : res.findings) std::printf("two-angle: %s\n", f.sentence.c_str());
-  const Finding& f = res.findings.front();
-  EXPECT_EQ(f.effect.kind, EffectKind::ElasticExpCoupled) << f.sentence;
-  EXPECT_EQ(f.effect.joint, 4) << f.sentence;
+  const Finding& f = expectFirstFinding(res, "two-angle", EffectKind::ElasticExpCoupled, 4, s);
   EXPECT_EQ(f.effect.coupled, 3) << f.sentence;
-  EXPECT_EQ(f.effect.width, s) << f.sentence;
   EXPECT_EQ(f.effect.ratio, r) << f.sentence;
   EXPECT_NEAR(f.effect.center, c[4], 1e-12);
   EXPECT_NEAR(f.effect.coupled_center, c[3], 1e-12);
