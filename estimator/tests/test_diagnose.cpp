@@ -721,6 +721,23 @@ TEST(Diagnose, SidecarRoundTripsAndRejectsBadEntries) {
   EXPECT_EQ(back.effects[1].joint, 4);
   EXPECT_EQ(back.effects[1].value, -0.031);
   EXPECT_EQ(back.shape.coulomb_width, 0.02);
+  // Joint names as a user's URDF may have them: 600 characters (the lines were once cut at 512 bytes, silently) and
+  // YAML's own characters; written quoted, they read back to the same set.
+  {
+    Model named = model;
+    named.joint_names[4] = std::string(600, 'j') + "_4";
+    named.joint_names[3] = "lwr: \"3\", {x}";
+    ASSERT_TRUE(writeEffects(path, named, set, &err)) << err;
+    EffectSet again;
+    ASSERT_TRUE(readEffects(path, named, again, &err)) << err;
+    ASSERT_EQ(again.effects.size(), set.effects.size());
+    for (size_t i = 0; i < set.effects.size(); ++i) {
+      EXPECT_EQ(again.effects[i].joint, set.effects[i].joint) << i;
+      EXPECT_EQ(again.effects[i].coupled, set.effects[i].coupled) << i;
+      EXPECT_EQ(again.effects[i].value, set.effects[i].value) << i;
+      EXPECT_EQ(again.effects[i].ratio, set.effects[i].ratio) << i;
+    }
+  }
   // Found by fuzz_effects_sidecar: a model name with a quote is written so that it reads back; a YAML error quoting a
   // control character is still one line.
   set.model = "exo \"v2\".urdf";
