@@ -8,6 +8,39 @@
 
 namespace exoid::estimator {
 
+namespace {
+// The declared (kept) columns' Gram A^T A = R1^T R1, R1 [mk x mk] the triangle of A_keep's QR (empty without kept
+// columns).
+Eigen::MatrixXd declaredGramFactor(const DiagnoseData& data) {
+  const int mk = static_cast<int>(data.keep.size());
+  return mk > 0 ? Eigen::MatrixXd(data.A_keep.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>())
+                : Eigen::MatrixXd();
+}
+
+// Signals s of one joint row, from their training sums B = K_j^T s [md x n] and sy = s^T y_j [n], against the declared
+// fit: Z [mk x n] with R1^T Z = B's kept rows, so that s_a^T P s_b = Z_a . Z_b (P the projection on the declared span),
+// and se = s^T e = sy - B_keep^T x0 (e the declared fit's residual).
+void offDeclaredSpan(const DiagnoseData& data, const Eigen::MatrixXd& R1, const Eigen::MatrixXd& B, const Eigen::VectorXd& sy,
+                     Eigen::MatrixXd& Z, Eigen::VectorXd& se) {
+  const int mk = static_cast<int>(data.keep.size()), n = static_cast<int>(B.cols());
+  Eigen::MatrixXd Bk(mk, n);
+  for (int a = 0; a < mk; ++a) Bk.row(a) = B.row(data.keep[a]);
+  Z = mk > 0 ? Eigen::MatrixXd(R1.transpose().triangularView<Eigen::Lower>().solve(Bk)) : Eigen::MatrixXd::Zero(0, n);
+  se = mk > 0 ? Eigen::VectorXd(sy - Bk.transpose() * data.x0) : sy;
+}
+
+// g^T M^+ g over the directions the Gram M resolves (a column inside the declared span has none of its own).
+template <int N>
+double resolvedGain(const Eigen::Matrix<double, N, N>& M, const Eigen::Matrix<double, N, 1>& g) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> es(M);
+  const double top = es.eigenvalues().cwiseAbs().maxCoeff();
+  double score = 0.0;
+  for (int a = 0; a < N; ++a)
+    if (es.eigenvalues()[a] > 1e-10 * top) score += std::pow(es.eigenvectors().col(a).dot(g), 2) / es.eigenvalues()[a];
+  return score;
+}
+}  // namespace
+
 // Per joint and dry-friction kind, the width whose signal s, together with the viscous signal v (on the joint's row),
 // would remove the most of the declared fit's training residual e: the least-squares gain g^T M^-1 g of the two
 // columns made orthogonal to the declared columns of every row (their Gram from the declared factor), M their Gram,
@@ -18,18 +51,12 @@ void profileCoulombWidths(DiagnoseData& data) {
   const int nw = data.nw, ns2 = 2 * nw;
   data.width_of.assign(static_cast<size_t>(2 * data.nj), data.widths[0]);  // the one width; with a grid, overwritten
   if (nw <= 1) return;
-  // The declared (kept) columns' Gram is A^T A (A: their columns of the factor); R1^T R1 with R1 from its QR.
-  const int mk = static_cast<int>(data.keep.size());
-  const Eigen::MatrixXd R1 = mk > 0 ? Eigen::MatrixXd(data.A_keep.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>())
-                                    : Eigen::MatrixXd();
+  const Eigen::MatrixXd R1 = declaredGramFactor(data);
+  Eigen::MatrixXd Z;
+  Eigen::VectorXd se;  // s^T e (v^T e last)
   for (int j = 0; j < data.nj; ++j) {
     const WidthProfileSums& pr = data.profile[static_cast<size_t>(j)];
-    Eigen::MatrixXd B(mk, ns2 + 1);
-    for (int a = 0; a < mk; ++a) B.row(a) = pr.B.row(data.keep[a]);
-    // Projections on the declared span: s_a^T P s_b = Z_a . Z_b with R1^T Z = B.
-    const Eigen::MatrixXd Z = mk > 0 ? Eigen::MatrixXd(R1.transpose().triangularView<Eigen::Lower>().solve(B))
-                                     : Eigen::MatrixXd::Zero(0, ns2 + 1);
-    const Eigen::VectorXd se = mk > 0 ? Eigen::VectorXd(pr.cy - B.transpose() * data.x0) : pr.cy;  // s^T e (v^T e last)
+    offDeclaredSpan(data, R1, pr.B, pr.cy, Z, se);
     const double vv = pr.cc[ns2] - Z.col(ns2).squaredNorm();
     for (int kind = 0; kind < 2; ++kind) {
       double best = -1.0;
@@ -48,38 +75,22 @@ void profileCoulombWidths(DiagnoseData& data) {
   }
 }
 
-namespace {
-// g^T M^+ g over the directions the Gram M resolves (a column inside the declared span has none of its own).
-template <int N>
-double resolvedGain(const Eigen::Matrix<double, N, N>& M, const Eigen::Matrix<double, N, 1>& g) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> es(M);
-  const double top = es.eigenvalues().cwiseAbs().maxCoeff();
-  double score = 0.0;
-  for (int a = 0; a < N; ++a)
-    if (es.eigenvalues()[a] > 1e-10 * top) score += std::pow(es.eigenvectors().col(a).dot(g), 2) / es.eigenvalues()[a];
-  return score;
-}
-}  // namespace
 
 void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data) {
   const int nj = data.nj, ne = static_cast<int>(opt.elastic_scales.size());
   data.center_of.assign(static_cast<size_t>(nj), 0.0);
   data.scale_of.assign(static_cast<size_t>(nj), ne > 0 ? opt.elastic_scales[0] : 0.0);
   if (!data.has_q || data.eprofile.empty()) return;
-  const int mk = static_cast<int>(data.keep.size());
-  const Eigen::MatrixXd R1 = mk > 0 ? Eigen::MatrixXd(data.A_keep.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>())
-                                    : Eigen::MatrixXd();
+  const Eigen::MatrixXd R1 = declaredGramFactor(data);
+  Eigen::MatrixXd Z;
+  Eigen::VectorXd ze;  // z^T e
   for (int j = 0; j < nj; ++j) {
     const ElasticProfileSums& pr = data.eprofile[static_cast<size_t>(j)];
     if (pr.n == 0) continue;
     data.center_of[static_cast<size_t>(j)] = pr.qsum / static_cast<double>(pr.n);
-    Eigen::MatrixXd B(mk, ne + 2);
-    for (int a = 0; a < mk; ++a) B.row(a) = pr.B.row(data.keep[a]);
-    const Eigen::MatrixXd Z = mk > 0 ? Eigen::MatrixXd(R1.transpose().triangularView<Eigen::Lower>().solve(B))
-                                     : Eigen::MatrixXd::Zero(0, ne + 2);
-    // The Gram of z off the declared span, and z^T e.
+    offDeclaredSpan(data, R1, pr.B, pr.zy, Z, ze);
+    // The Gram of z off the declared span.
     const Eigen::MatrixXd M = Eigen::MatrixXd(pr.G.selfadjointView<Eigen::Lower>()) - Z.transpose() * Z;
-    const Eigen::VectorXd ze = mk > 0 ? Eigen::VectorXd(pr.zy - B.transpose() * data.x0) : pr.zy;
     double best = -1.0;
     for (int k = 0; k < ne; ++k) {
       const int idx[3] = {k, ne, ne + 1};
@@ -98,20 +109,16 @@ void profileElasticScales(const DiagnoseOptions& opt, DiagnoseData& data) {
 void profileCoupledElasticShapes(const DiagnoseOptions& opt, DiagnoseData& data) {
   const size_t np = data.cprofile.size();
   const int ns = static_cast<int>(opt.coupled_elastic_scales.size()), nr = static_cast<int>(opt.coupled_elastic_ratios.size());
-  const int ng = ns * nr, nz = ng + 3;
+  const int ng = ns * nr;
   data.cscale_of.assign(np, ns > 0 ? opt.coupled_elastic_scales[0] : 0.0);
   data.cratio_of.assign(np, nr > 0 ? opt.coupled_elastic_ratios[0] : 0.0);
   if (np == 0) return;
-  const int mk = static_cast<int>(data.keep.size());
-  const Eigen::MatrixXd R1 = mk > 0 ? Eigen::MatrixXd(data.A_keep.householderQr().matrixQR().topRows(mk).triangularView<Eigen::Upper>())
-                                    : Eigen::MatrixXd();
+  const Eigen::MatrixXd R1 = declaredGramFactor(data);
+  Eigen::MatrixXd Z;
+  Eigen::VectorXd ze;  // z^T e
   for (size_t k = 0; k < np; ++k) {
     const CoupledElasticProfileSums& pr = data.cprofile[k];
-    Eigen::MatrixXd B(mk, nz);
-    for (int a = 0; a < mk; ++a) B.row(a) = pr.B.row(data.keep[a]);
-    const Eigen::MatrixXd Z = mk > 0 ? Eigen::MatrixXd(R1.transpose().triangularView<Eigen::Lower>().solve(B))
-                                     : Eigen::MatrixXd::Zero(0, nz);
-    const Eigen::VectorXd ze = mk > 0 ? Eigen::VectorXd(pr.zy - B.transpose() * data.x0) : pr.zy;
+    offDeclaredSpan(data, R1, pr.B, pr.zy, Z, ze);
     // The three linear signals' block of the Gram off the declared span: the same for every grid signal.
     Eigen::Matrix3d L;
     for (int a = 0; a < 3; ++a)
