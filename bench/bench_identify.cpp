@@ -56,8 +56,9 @@ void BM_IdentifyLog(benchmark::State& state) {
     const BaseParameters base = computeBaseParameters(model);
     estimator::AccumulatorOptions ao;
     estimator::LsqAccumulator acc(model, base, ao);
-    tools::SourceOptions so;  // sensors pipeline, no filter, base orientation fused (exoid identify's default)
-    so.dataset.orientation_from_legs = true;
+    tools::SourceOptions so;  // sensors pipeline, no filter, base orientation fused and rate from the legs
+    so.dataset.orientation_from_legs = true;  // (exoid identify's defaults)
+    so.dataset.base_rate_from_legs = true;
     for (int i = 0; i < state.range(0); ++i) {
       intake::InputStats st;
       std::string err;

@@ -252,10 +252,12 @@ struct DatasetBuilder::BlockSignals {
   bool filter = false;    ///< a cutoff is set
   bool parallel = false;  ///< FilterMode::Parallel: inputs only differenced, W and y filtered
   bool fuse = false;      ///< base orientation from the legs and the IMU
+  bool legs_rate = false; ///< base angular velocity and acceleration from the legs (base_rate_from_legs)
   double input_cutoff = 0.0;
   Eigen::MatrixXd q, v, a;    ///< [n x nj]
   Eigen::MatrixXd w, dw, acc; ///< [n x 3] base angular velocity, acceleration, classical linear acceleration
   std::vector<Eigen::Quaterniond> legs;  ///< [n] fused base orientation (fuse), else empty
+  std::vector<Eigen::Matrix3d> legs_rotation;  ///< [n] R_wb from the legs alone (fuse or legs_rate), else empty
   /// The zero-phase input filter where the inputs are filtered (not parallel), else x itself.
   Eigen::MatrixXd inputs(const Eigen::MatrixXd& x) const { return filter && !parallel ? filtfilt(lp, x) : x; }
 };
@@ -268,6 +270,8 @@ bool DatasetBuilder::designFilters(BlockSignals& b, int& want, std::string* erro
   b.filter = opt_.cutoff_hz > 0.0;
   b.fuse = model.floating_base && opt_.orientation_from_legs && !opt_.footholds.empty() && !buffer_.empty() &&
            !buffer_.front().has_base_position;
+  b.legs_rate = model.floating_base && opt_.base_rate_from_legs && !opt_.footholds.empty() && !buffer_.empty() &&
+                !buffer_.front().has_base_position;
   want = 0;
   if (b.filter) {
     if (!(dt > 0.0) || opt_.cutoff_hz >= 0.5 / dt) {
@@ -337,7 +341,20 @@ void DatasetBuilder::baseSignals(BlockSignals& b) const {
   }
 }
 
-void DatasetBuilder::fuseOrientation(BlockSignals& b) {
+namespace {
+Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& M) {  // chordal mean
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return svd.matrixU() * D * svd.matrixV().transpose();
+}
+
+Eigen::Vector3d veeOfSkewPart(const Eigen::Matrix3d& M) {
+  return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
+}
+}  // namespace
+
+void DatasetBuilder::legsRotations(BlockSignals& b) {
   const Model& model = model_;
   const int n = b.n;
   const int nf = static_cast<int>(opt_.footholds.size());
@@ -350,12 +367,6 @@ void DatasetBuilder::fuseOrientation(BlockSignals& b) {
     for (int f = 0; f < nf; ++f)
       Rbs[i * nf + f] = fk.R[opt_.footholds[f].body] * opt_.footholds[f].rotation_in_body;
   }
-  auto project = [](const Eigen::Matrix3d& M) {  // nearest rotation (chordal mean)
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-    D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-    return Eigen::Matrix3d(svd.matrixU() * D * svd.matrixV().transpose());
-  };
   if (sole_world_.empty()) {
     // From the first kOrientationSamples samples (a fixed count, so that the block size does not matter;
     // the first window holds at least the block plus the fusion filter's margin).
@@ -363,15 +374,24 @@ void DatasetBuilder::fuseOrientation(BlockSignals& b) {
     sole_world_.assign(nf, Eigen::Matrix3d::Zero());
     for (int i = 0; i < std::min(n, kOrientationSamples); ++i)
       for (int f = 0; f < nf; ++f) sole_world_[f] += buffer_[i].base_orientation.toRotationMatrix() * Rbs[i * nf + f];
-    for (int f = 0; f < nf; ++f) sole_world_[f] = project(sole_world_[f]);
+    for (int f = 0; f < nf; ++f) sole_world_[f] = nearestRotation(sole_world_[f]);
   }
+  b.legs_rotation.resize(n);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+    for (int f = 0; f < nf; ++f) M += sole_world_[f] * Rbs[i * nf + f].transpose();
+    b.legs_rotation[i] = nearestRotation(M);
+  }
+}
+
+void DatasetBuilder::fuseOrientation(BlockSignals& b) const {
+  const Model& model = model_;
+  const int n = b.n;
   std::vector<Eigen::Quaterniond>& legs = b.legs;
   legs.resize(n);
   Eigen::MatrixXd e(n, 3);  // log(R_legs^T R_IMU): the IMU's correction, low-passed below
   for (int i = 0; i < n; ++i) {
-    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-    for (int f = 0; f < nf; ++f) M += sole_world_[f] * Rbs[i * nf + f].transpose();
-    legs[i] = Eigen::Quaterniond(project(M));
+    legs[i] = Eigen::Quaterniond(b.legs_rotation[i]);
     const Eigen::AngleAxisd d(legs[i].conjugate() * buffer_[i].base_orientation);
     e.row(i) = (d.angle() * d.axis()).transpose();
   }
@@ -383,6 +403,25 @@ void DatasetBuilder::fuseOrientation(BlockSignals& b) {
       // accelerometer + R^T g with the IMU's R, re-based: + (R_legs^T - R_imu^T) g.
       b.acc.row(i) += (legs[i].conjugate() * model.gravity - buffer_[i].base_orientation.conjugate() * model.gravity).transpose();
     }
+  }
+}
+
+void DatasetBuilder::legsRate(BlockSignals& b) const {
+  // R^T R' = [omega] for a rotation; of the differentiated (filtered) entries only the skew part is kept, and
+  // d/dt (R^T R') = R'^T R' + R^T R'' whose first term is symmetric: [domega] = skew(R^T R'').
+  const int n = b.n;
+  Eigen::MatrixXd r(n, 9), rf, dr, ddr;
+  for (int i = 0; i < n; ++i) r.row(i) = Eigen::Map<const Eigen::Matrix<double, 1, 9>>(b.legs_rotation[i].data());
+  if (b.parallel && opt_.derivative_half_window > 1) {
+    savitzkyGolay(r, b.dt, opt_.derivative_half_window, &rf, &dr, &ddr);
+  } else {
+    filterAndDifferentiate(r, b.dt, b.input_cutoff, &rf, &dr, &ddr);
+  }
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Matrix<double, 1, 9> r0 = rf.row(i), d1 = dr.row(i), d2 = ddr.row(i);
+    const Eigen::Map<const Eigen::Matrix3d> R(r0.data()), dR(d1.data()), ddR(d2.data());
+    b.w.row(i) = veeOfSkewPart(R.transpose() * dR).transpose();
+    b.dw.row(i) = veeOfSkewPart(R.transpose() * ddR).transpose();
   }
 }
 
@@ -479,7 +518,9 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   // Base orientation fused from the legs and the IMU (DatasetOptions::orientation_from_legs): R_bs(q) per
   // sample and foot from the (filtered) encoders, R_ws once from the first 1000 samples, R_legs per sample, the
   // IMU's low-passed correction on top; the accelerometer's gravity term re-based on it before filtering.
+  if (b.fuse || b.legs_rate) legsRotations(b);
   if (b.fuse) fuseOrientation(b);
+  if (b.legs_rate) legsRate(b);
   if (model_.floating_base) b.acc = b.inputs(b.acc);
   // trim_edges (keepSample): the run's first edge_ samples and, in the last block, its last edge_ are not
   // emitted. Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With

@@ -268,6 +268,86 @@ TEST(Dataset, FusedBaseOrientationRemovesImuNoiseAndLegBias) {
   EXPECT_LT(worst, 1e-12);
 }
 
+TEST(Dataset, BaseRateFromTheLegsIsTheBaseRotationsDerivative) {
+  // One sole fixed on the ground, the base turning as the legs say. The truth's omega and domega come from
+  // differencing R_wb(t) = R_ws R_bs(q(t))^T at a 1e-4 s step (independent of the pipeline's filters and
+  // sampling); the gyro reports omega with white noise (3.6e-3 rad/s, the simulated IMU's). The rows from the
+  // legs' rate (joints' v, a measured, no filter: central differences at 1 kHz) equal the truth's to O(dt^2),
+  // those from the gyro carry its differentiated noise.
+  const Model m = exo();
+  const int sole = m.frameIndex("right_sole");
+  ASSERT_GE(sole, 0);
+  const Model::Frame& fr = m.frames[static_cast<size_t>(sole)];
+  DatasetOptions::Foothold f;
+  f.body = fr.body, f.point_in_body = fr.position, f.rotation_in_body = fr.rotation;
+  f.world = Eigen::Vector3d(0.1, -0.1, 0.0);
+  const Eigen::Matrix3d Rws = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  Data kin(m);
+  State st = State::zero(m);
+  auto baseRotation = [&](double t) {
+    st.q = sampleAt(m, t).q;
+    forwardKinematics(m, kin, st);
+    return Eigen::Matrix3d(Rws * (kin.R[f.body] * f.rotation_in_body).transpose());
+  };
+  auto vee = [](const Eigen::Matrix3d& M) {
+    return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
+  };
+  const int n = 4000;
+  const double dt = 1e-3, h = 1e-4;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 3.6e-3);
+  std::vector<MeasuredSample> truth(n), sensors(n);
+  for (int i = 0; i < n; ++i) {
+    const double t = i * dt;
+    MeasuredSample s = sampleAt(m, t);
+    const Eigen::Matrix3d R = baseRotation(t), Rp = baseRotation(t + h), Rm = baseRotation(t - h);
+    s.base_orientation = Eigen::Quaterniond(R);
+    s.base_omega = vee(R.transpose() * (Rp - Rm) / (2.0 * h));
+    s.base_domega = vee(R.transpose() * (Rp - 2.0 * R + Rm) / (h * h));
+    truth[i] = s;
+    MeasuredSample x = s;
+    x.base_omega += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    x.base_domega.setZero();
+    x.has_base_position = x.has_base_domega = false;
+    sensors[i] = x;
+  }
+  auto rows = [&](const std::vector<MeasuredSample>& in, const DatasetOptions& o) {
+    Rows r;
+    DatasetBuilder b(m, o, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { r.K.push_back(K), r.y.push_back(y); });
+    std::string err;
+    for (const MeasuredSample& x : in) EXPECT_TRUE(b.add(x, &err)) << err;
+    EXPECT_TRUE(b.finish(&err)) << err;
+    return r;
+  };
+  auto error = [&](const Rows& r, const Rows& ref, int edge) {  // largest base-row K error over its scale
+    double e = 0.0, scale = 0.0;
+    for (int i = edge; i < n - edge; ++i) {
+      e = std::max(e, (r.K[i] - ref.K[i]).topRows<6>().cwiseAbs().maxCoeff());
+      scale = std::max(scale, ref.K[i].topRows<6>().cwiseAbs().maxCoeff());
+    }
+    return e / scale;
+  };
+  DatasetOptions gyro;
+  gyro.footholds = {f};
+  DatasetOptions legs = gyro;
+  legs.base_rate_from_legs = true;
+  const Rows t = rows(truth, {}), g = rows(sensors, gyro), l = rows(sensors, legs);
+  ASSERT_EQ(l.K.size(), static_cast<size_t>(n));
+  const double e_gyro = error(g, t, 50), e_legs = error(l, t, 50);
+  std::printf("base-row K error, no filter: gyro %.3g, legs %.3g\n", e_gyro, e_legs);
+  EXPECT_LT(e_legs, 1e-5);
+  EXPECT_GT(e_gyro, 1e3 * e_legs);
+  // With a 30 Hz zero-phase filter the legs' rate passes the filter as the joints' q (same attenuation): against
+  // the truth's rows through the same filter the base rows stay far closer than the gyro's.
+  DatasetOptions gyro30 = gyro, legs30 = legs, truth30;
+  gyro30.cutoff_hz = legs30.cutoff_hz = truth30.cutoff_hz = 30.0;
+  gyro30.derive = legs30.derive = truth30.derive = true;
+  const Rows t30 = rows(truth, truth30), g30 = rows(sensors, gyro30), l30 = rows(sensors, legs30);
+  const double e_gyro30 = error(g30, t30, 500), e_legs30 = error(l30, t30, 500);  // past the filters' start-up
+  std::printf("base-row K error, 30 Hz: gyro %.3g, legs %.3g\n", e_gyro30, e_legs30);
+  EXPECT_LT(e_legs30, 0.05 * e_gyro30);
+}
+
 TEST(Dataset, CutoffAboveNyquistIsAnError) {
   const Model m = exo();
   DatasetOptions o;

@@ -50,6 +50,10 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
   app.add_option("--base-orientation", o.orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with the "
                  "feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) or the "
                  "'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
+  app.add_option("--base-rate", o.base_rate, "sensors pipeline: the base's angular velocity and acceleration from the 'legs' "
+                 "(feet flat and still on the plates: the rotation the encoders give, differentiated as the joints' "
+                 "angles; default) or the 'gyro' (its white noise differentiated is the larger error)")
+      ->check(CLI::IsMember({"legs", "gyro"}));
   app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
                  "which the legs give the orientation (default 5)")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
   app.add_flag("--derive", o.derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
@@ -67,13 +71,14 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
   app.add_option("--rank", o.rank, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
                  "choice), or from the training data alone: 'jackknife' (default: the directions of least expected "
                  "error: each one's time-block jackknife variance, plus how far it moves when the same data are "
-                 "processed another way (half the cutoff; with --filter-mode parallel, filtering the inputs; the "
-                 "IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
+                 "processed another way (half the cutoff; with --filter-mode parallel, filtering the inputs; with "
+                 "--base-rate gyro, the IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
                  "--prior-uncertainty; z is the number kept), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them; with --only-links the default is 'full'");
   app.add_flag("--no-processing-check", o.no_processing_check, "--rank jackknife: leave out the processing term (the "
                "training data are then read once instead of once per other processing: with --cutoff, half the "
-               "cutoff, and filtering the inputs where --filter-mode is parallel; with the fused orientation, the IMU's)");
+               "cutoff, and filtering the inputs where --filter-mode is parallel; with the fused orientation and --base-rate gyro, "
+               "the IMU's orientation)");
   app.add_option("--prior-uncertainty", o.prior_uncertainty, "--rank jackknife: the prior's parameters that it states (the "
                  "URDF's inertials, any kind with a nonzero entry) are within +-this relative error of the truth "
                  "(default 0.25); a kind the prior leaves at zero throughout (friction without a --prior for it) is "
@@ -244,7 +249,7 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
   j["warnings"] = differ.empty() ? nlohmann::json::array() : nlohmann::json::array({differ});
   j["inputs"] = inputsJson(run);
   j["options"] = {{"pipeline", o.pipeline}, {"cutoff_hz", o.cutoff_hz}, {"filter_mode", o.filter_mode}, {"noise", o.noise},
-                  {"base_orientation", o.orientation}, {"orientation_cutoff_hz", o.orientation_cutoff_hz},
+                  {"base_orientation", o.orientation}, {"base_rate", o.base_rate}, {"orientation_cutoff_hz", o.orientation_cutoff_hz},
                   {"folds", o.folds}, {"chunk_seconds", o.chunk_s}, {"prior_perturb", o.prior_perturb}};
   if (!o.only_links.empty()) j["options"]["only_links"] = o.only_links;  // the other links held at the prior
   if (!o.hold_path.empty()) j["options"]["hold"] = o.hold_path;

@@ -124,6 +124,14 @@ struct DatasetOptions {
   /// R_wb^T g).
   bool orientation_from_legs = false;
   double orientation_cutoff_hz = 5.0;
+  /// The base's angular velocity and acceleration from the legs instead of the gyro (samples without a base
+  /// position only, footholds given): with the soles flat and still, R_wb = R_ws R_bs(q)^T (chordal mean over the
+  /// feet, R_ws as above), so omega = vee(R^T dR/dt) and domega = vee(R^T d2R/dt2) (base frame, as the gyro's),
+  /// the nine entries of R differentiated exactly as the joints' q (filterAndDifferentiate, or the Savitzky-Golay
+  /// fit in parallel mode): the encoders' precision (9e-6 rad) instead of the gyro's white noise (3.6e-3 rad/s),
+  /// which differentiated through the filter was the largest processing error of the exoskeleton's sensor runs
+  /// (docs/identification.md). A foot that rolls on its plate breaks the assumption.
+  bool base_rate_from_legs = false;
   int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
   /// With a filter: drop the samples within the filter's settling time (transient below e^-14, ~1e-6) of the
   /// run's first and last sample. A zero-phase filter has neither past nor future there; with differenced
@@ -185,9 +193,14 @@ class DatasetBuilder {
   void jointSignals(BlockSignals& b) const;
   /// Floating base: omega, domega (measured or differentiated) and the classical acceleration [n x 3].
   void baseSignals(BlockSignals& b) const;
-  /// The base orientation from the legs (R_ws of the soles from the first 1000 samples) with the IMU's
-  /// low-passed correction; the accelerometer's gravity term re-based on it.
-  void fuseOrientation(BlockSignals& b);
+  /// R_wb from the legs alone per sample (R_ws of the soles from the first 1000 samples' IMU orientation):
+  /// b.legs_rotation [n], for fuseOrientation and legsRate.
+  void legsRotations(BlockSignals& b);
+  /// The base orientation from the legs with the IMU's low-passed correction; the accelerometer's gravity term
+  /// re-based on it.
+  void fuseOrientation(BlockSignals& b) const;
+  /// base_rate_from_legs: b.w, b.dw from b.legs_rotation, differentiated as the joints' q are.
+  void legsRate(BlockSignals& b) const;
   /// trim_edges: false for the run's first edge_ samples and, in the last block, its last edge_ (counted).
   bool keepSample(int i, int n, bool last);
   void setSensorTorque(const Eigen::VectorXd& tau);  ///< joint torques into sensor_torque_ [nv]

@@ -19,6 +19,9 @@ struct IdentifyRunOptions {
   std::vector<std::string> data, validate, only_links;
   std::string model_path, pipeline = "sensors", validate_pipeline, filter_mode = "inputs", method = "WLS-RC-PC",
                           rank = "jackknife", prior_path, effects_path, orientation = "fused";
+  /// Sensors pipeline, floating base: the base's angular velocity and acceleration from "legs" (feet flat on the
+  /// plates: DatasetOptions::base_rate_from_legs) or the "gyro".
+  std::string base_rate = "legs";
   /// --hold: a URDF of the robot without what is to be identified (the empty exoskeleton's identification);
   /// --truth-model: the true system (simulated runs) for the added bodies' and the CoM's errors.
   std::string hold_path, truth_model_path;
