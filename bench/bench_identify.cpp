@@ -59,6 +59,7 @@ void BM_IdentifyLog(benchmark::State& state) {
     tools::SourceOptions so;  // sensors pipeline, no filter, base orientation fused and rate from the legs
     so.dataset.orientation_from_legs = true;  // (exoid identify's defaults)
     so.dataset.base_rate_from_legs = true;
+    so.dataset.base_acceleration_from_legs = true;
     for (int i = 0; i < state.range(0); ++i) {
       intake::InputStats st;
       std::string err;

@@ -253,11 +253,13 @@ struct DatasetBuilder::BlockSignals {
   bool parallel = false;  ///< FilterMode::Parallel: inputs only differenced, W and y filtered
   bool fuse = false;      ///< base orientation from the legs and the IMU
   bool legs_rate = false; ///< base angular velocity and acceleration from the legs (base_rate_from_legs)
+  bool legs_acc = false;  ///< base linear acceleration from the legs (base_acceleration_from_legs)
   double input_cutoff = 0.0;
   Eigen::MatrixXd q, v, a;    ///< [n x nj]
   Eigen::MatrixXd w, dw, acc; ///< [n x 3] base angular velocity, acceleration, classical linear acceleration
   std::vector<Eigen::Quaterniond> legs;  ///< [n] fused base orientation (fuse), else empty
   std::vector<Eigen::Matrix3d> legs_rotation;  ///< [n] R_wb from the legs alone (fuse or legs_rate), else empty
+  std::vector<Eigen::Vector3d> sole_in_base;   ///< [n] mean of the footholds' points in base coordinates (same)
   /// The zero-phase input filter where the inputs are filtered (not parallel), else x itself.
   Eigen::MatrixXd inputs(const Eigen::MatrixXd& x) const { return filter && !parallel ? filtfilt(lp, x) : x; }
 };
@@ -270,8 +272,10 @@ bool DatasetBuilder::designFilters(BlockSignals& b, int& want, std::string* erro
   b.filter = opt_.cutoff_hz > 0.0;
   b.fuse = model.floating_base && opt_.orientation_from_legs && !opt_.footholds.empty() && !buffer_.empty() &&
            !buffer_.front().has_base_position;
-  b.legs_rate = model.floating_base && opt_.base_rate_from_legs && !opt_.footholds.empty() && !buffer_.empty() &&
-                !buffer_.front().has_base_position;
+  const bool legs_usable = model.floating_base && !opt_.footholds.empty() && !buffer_.empty() &&
+                           !buffer_.front().has_base_position;
+  b.legs_rate = legs_usable && opt_.base_rate_from_legs;
+  b.legs_acc = legs_usable && opt_.base_acceleration_from_legs;
   want = 0;
   if (b.filter) {
     if (!(dt > 0.0) || opt_.cutoff_hz >= 0.5 / dt) {
@@ -361,11 +365,16 @@ void DatasetBuilder::legsRotations(BlockSignals& b) {
   Data fk(model);
   State sf = State::zero(model);
   std::vector<Eigen::Matrix3d> Rbs(static_cast<size_t>(n * nf));
+  b.sole_in_base.resize(n);
   for (int i = 0; i < n; ++i) {
     sf.q = b.q.row(i).transpose();
     forwardKinematics(model, fk, sf);
-    for (int f = 0; f < nf; ++f)
+    Eigen::Vector3d pb = Eigen::Vector3d::Zero();
+    for (int f = 0; f < nf; ++f) {
       Rbs[i * nf + f] = fk.R[opt_.footholds[f].body] * opt_.footholds[f].rotation_in_body;
+      pb += fk.p[opt_.footholds[f].body] + fk.R[opt_.footholds[f].body] * opt_.footholds[f].point_in_body;
+    }
+    b.sole_in_base[i] = pb / nf;
   }
   if (sole_world_.empty()) {
     // From the first kOrientationSamples samples (a fixed count, so that the block size does not matter;
@@ -417,12 +426,37 @@ void DatasetBuilder::legsRate(BlockSignals& b) const {
   } else {
     filterAndDifferentiate(r, b.dt, b.input_cutoff, &rf, &dr, &ddr);
   }
+  // Not fused with the gyro below the orientation's cutoff by default (imu_below_fusion_cutoff): the gyro's share
+  // below 5 Hz still cost the exoskeleton's nominal run a third more held-out error (docs/identification.md).
+  Eigen::MatrixXd w(n, 3), dw(n, 3);
   for (int i = 0; i < n; ++i) {
     const Eigen::Matrix<double, 1, 9> r0 = rf.row(i), d1 = dr.row(i), d2 = ddr.row(i);
     const Eigen::Map<const Eigen::Matrix3d> R(r0.data()), dR(d1.data()), ddR(d2.data());
-    b.w.row(i) = veeOfSkewPart(R.transpose() * dR).transpose();
-    b.dw.row(i) = veeOfSkewPart(R.transpose() * ddR).transpose();
+    w.row(i) = veeOfSkewPart(R.transpose() * dR).transpose();
+    dw.row(i) = veeOfSkewPart(R.transpose() * ddR).transpose();
   }
+  if (b.fuse && opt_.imu_below_fusion_cutoff) {
+    b.w = w + filtfilt(b.lp_orientation, Eigen::MatrixXd(b.w - w));
+    b.dw = dw + filtfilt(b.lp_orientation, Eigen::MatrixXd(b.dw - dw));
+  } else {
+    b.w = w;
+    b.dw = dw;
+  }
+}
+
+void DatasetBuilder::legsAcceleration(BlockSignals& b) const {
+  // p_b = p_sole - R_wb p_sole^b(q) (the plates do not move; the constant drops out of p_b''), in base coordinates.
+  const int n = b.n;
+  Eigen::MatrixXd p(n, 3), ddp;
+  for (int i = 0; i < n; ++i) p.row(i) = (-(b.legs_rotation[i] * b.sole_in_base[i])).transpose();
+  if (b.parallel && opt_.derivative_half_window > 1) {
+    savitzkyGolay(p, b.dt, opt_.derivative_half_window, nullptr, nullptr, &ddp);
+  } else {
+    filterAndDifferentiate(p, b.dt, b.input_cutoff, nullptr, nullptr, &ddp);
+  }
+  Eigen::MatrixXd acc(n, 3);
+  for (int i = 0; i < n; ++i) acc.row(i) = (b.legs_rotation[i].transpose() * ddp.row(i).transpose()).transpose();
+  b.acc = b.fuse && opt_.imu_below_fusion_cutoff ? Eigen::MatrixXd(acc + filtfilt(b.lp_orientation, Eigen::MatrixXd(b.acc - acc))) : acc;
 }
 
 bool DatasetBuilder::keepSample(int i, int n, bool last) {
@@ -518,10 +552,13 @@ bool DatasetBuilder::processBlock(bool last, std::string* error) {
   // Base orientation fused from the legs and the IMU (DatasetOptions::orientation_from_legs): R_bs(q) per
   // sample and foot from the (filtered) encoders, R_ws once from the first 1000 samples, R_legs per sample, the
   // IMU's low-passed correction on top; the accelerometer's gravity term re-based on it before filtering.
-  if (b.fuse || b.legs_rate) legsRotations(b);
+  if (b.fuse || b.legs_rate || b.legs_acc) legsRotations(b);
   if (b.fuse) fuseOrientation(b);
-  if (b.legs_rate) legsRate(b);
   if (model_.floating_base) b.acc = b.inputs(b.acc);
+  // The base's rate and linear acceleration from the legs (base_rate_from_legs, base_acceleration_from_legs):
+  // differentiated as q is, in place of the gyro's and the accelerometer's.
+  if (b.legs_rate) legsRate(b);
+  if (b.legs_acc) legsAcceleration(b);
   // trim_edges (keepSample): the run's first edge_ samples and, in the last block, its last edge_ are not
   // emitted. Regressor and generalized forces over the window; only [head_, emit_end) are emitted. With
   // parallel filtering every sample of the window is computed, then W and y filtered column by column.

@@ -268,12 +268,13 @@ TEST(Dataset, FusedBaseOrientationRemovesImuNoiseAndLegBias) {
   EXPECT_LT(worst, 1e-12);
 }
 
-TEST(Dataset, BaseRateFromTheLegsIsTheBaseRotationsDerivative) {
-  // One sole fixed on the ground, the base turning as the legs say. The truth's omega and domega come from
-  // differencing R_wb(t) = R_ws R_bs(q(t))^T at a 1e-4 s step (independent of the pipeline's filters and
-  // sampling); the gyro reports omega with white noise (3.6e-3 rad/s, the simulated IMU's). The rows from the
-  // legs' rate (joints' v, a measured, no filter: central differences at 1 kHz) equal the truth's to O(dt^2),
-  // those from the gyro carry its differentiated noise.
+TEST(Dataset, BaseMotionFromTheLegsIsTheBaseTrajectorysDerivatives) {
+  // One sole fixed on the ground, the base moving as the legs say. The truth's omega, domega and classical
+  // acceleration R^T p'' come from differencing R_wb(t) = R_ws R_bs(q(t))^T and p_b(t) = p_sole - R_wb(t) p_bs(q(t))
+  // at a 1e-4 s step (independent of the pipeline's filters and sampling); the gyro reports omega with white
+  // noise (3.6e-3 rad/s), the accelerometer the acceleration with 0.02 m/s^2 (the simulated IMU's). Rows from the
+  // legs (joints' v, a measured, no filter: central differences at 1 kHz) equal the truth's to O(dt^2), those
+  // from the IMU carry its differentiated noise.
   const Model m = exo();
   const int sole = m.frameIndex("right_sole");
   ASSERT_GE(sole, 0);
@@ -284,10 +285,17 @@ TEST(Dataset, BaseRateFromTheLegsIsTheBaseRotationsDerivative) {
   const Eigen::Matrix3d Rws = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   Data kin(m);
   State st = State::zero(m);
-  auto baseRotation = [&](double t) {
+  struct Pose {
+    Eigen::Matrix3d R;
+    Eigen::Vector3d p;
+  };
+  auto basePose = [&](double t) {
     st.q = sampleAt(m, t).q;
     forwardKinematics(m, kin, st);
-    return Eigen::Matrix3d(Rws * (kin.R[f.body] * f.rotation_in_body).transpose());
+    Pose x;
+    x.R = Rws * (kin.R[f.body] * f.rotation_in_body).transpose();
+    x.p = f.world - x.R * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
+    return x;
   };
   auto vee = [](const Eigen::Matrix3d& M) {
     return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
@@ -295,21 +303,24 @@ TEST(Dataset, BaseRateFromTheLegsIsTheBaseRotationsDerivative) {
   const int n = 4000;
   const double dt = 1e-3, h = 1e-4;
   std::mt19937_64 rng(5);
-  std::normal_distribution<double> noise(0.0, 3.6e-3);
+  std::normal_distribution<double> gyro_noise(0.0, 3.6e-3), accel_noise(0.0, 0.02);
   std::vector<MeasuredSample> truth(n), sensors(n);
   for (int i = 0; i < n; ++i) {
     const double t = i * dt;
     MeasuredSample s = sampleAt(m, t);
-    const Eigen::Matrix3d R = baseRotation(t), Rp = baseRotation(t + h), Rm = baseRotation(t - h);
-    s.base_orientation = Eigen::Quaterniond(R);
-    s.base_omega = vee(R.transpose() * (Rp - Rm) / (2.0 * h));
-    s.base_domega = vee(R.transpose() * (Rp - 2.0 * R + Rm) / (h * h));
+    const Pose x = basePose(t), xp = basePose(t + h), xm = basePose(t - h);
+    s.base_orientation = Eigen::Quaterniond(x.R);
+    s.base_position = x.p;
+    s.base_omega = vee(x.R.transpose() * (xp.R - xm.R) / (2.0 * h));
+    s.base_domega = vee(x.R.transpose() * (xp.R - 2.0 * x.R + xm.R) / (h * h));
+    s.base_acceleration = x.R.transpose() * (xp.p - 2.0 * x.p + xm.p) / (h * h);
     truth[i] = s;
-    MeasuredSample x = s;
-    x.base_omega += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
-    x.base_domega.setZero();
-    x.has_base_position = x.has_base_domega = false;
-    sensors[i] = x;
+    MeasuredSample y = s;
+    y.base_omega += Eigen::Vector3d(gyro_noise(rng), gyro_noise(rng), gyro_noise(rng));
+    y.base_acceleration += Eigen::Vector3d(accel_noise(rng), accel_noise(rng), accel_noise(rng));
+    y.base_domega.setZero();
+    y.has_base_position = y.has_base_domega = false;
+    sensors[i] = y;
   }
   auto rows = [&](const std::vector<MeasuredSample>& in, const DatasetOptions& o) {
     Rows r;
@@ -327,25 +338,115 @@ TEST(Dataset, BaseRateFromTheLegsIsTheBaseRotationsDerivative) {
     }
     return e / scale;
   };
-  DatasetOptions gyro;
-  gyro.footholds = {f};
-  DatasetOptions legs = gyro;
-  legs.base_rate_from_legs = true;
-  const Rows t = rows(truth, {}), g = rows(sensors, gyro), l = rows(sensors, legs);
+  DatasetOptions imu;
+  imu.footholds = {f};
+  DatasetOptions rate = imu, motion = imu;
+  rate.base_rate_from_legs = true;
+  motion.base_rate_from_legs = motion.base_acceleration_from_legs = true;
+  const Rows t = rows(truth, {}), a = rows(sensors, imu), r = rows(sensors, rate), l = rows(sensors, motion);
   ASSERT_EQ(l.K.size(), static_cast<size_t>(n));
-  const double e_gyro = error(g, t, 50), e_legs = error(l, t, 50);
-  std::printf("base-row K error, no filter: gyro %.3g, legs %.3g\n", e_gyro, e_legs);
+  const double e_imu = error(a, t, 50), e_rate = error(r, t, 50), e_legs = error(l, t, 50);
+  std::printf("base-row K error, no filter: IMU %.3g, legs' rate %.3g, legs' rate and acceleration %.3g\n", e_imu,
+              e_rate, e_legs);
   EXPECT_LT(e_legs, 1e-5);
-  EXPECT_GT(e_gyro, 1e3 * e_legs);
-  // With a 30 Hz zero-phase filter the legs' rate passes the filter as the joints' q (same attenuation): against
-  // the truth's rows through the same filter the base rows stay far closer than the gyro's.
-  DatasetOptions gyro30 = gyro, legs30 = legs, truth30;
-  gyro30.cutoff_hz = legs30.cutoff_hz = truth30.cutoff_hz = 30.0;
-  gyro30.derive = legs30.derive = truth30.derive = true;
-  const Rows t30 = rows(truth, truth30), g30 = rows(sensors, gyro30), l30 = rows(sensors, legs30);
-  const double e_gyro30 = error(g30, t30, 500), e_legs30 = error(l30, t30, 500);  // past the filters' start-up
-  std::printf("base-row K error, 30 Hz: gyro %.3g, legs %.3g\n", e_gyro30, e_legs30);
-  EXPECT_LT(e_legs30, 0.05 * e_gyro30);
+  EXPECT_GT(e_imu, 1e3 * e_legs);
+  // The rate alone leaves the accelerometer's noise: between the two.
+  EXPECT_GT(e_rate, 100.0 * e_legs);
+  EXPECT_LT(e_rate, 0.2 * e_imu);
+  // With a 30 Hz zero-phase filter the legs' signals pass the filter as the joints' q (same attenuation): against
+  // the truth's rows through the same filter the base rows stay far closer than the IMU's.
+  DatasetOptions imu30 = imu, legs30 = motion, truth30;
+  imu30.cutoff_hz = legs30.cutoff_hz = truth30.cutoff_hz = 30.0;
+  imu30.derive = legs30.derive = truth30.derive = true;
+  const Rows t30 = rows(truth, truth30), a30 = rows(sensors, imu30), l30 = rows(sensors, legs30);
+  const double e_imu30 = error(a30, t30, 500), e_legs30 = error(l30, t30, 500);  // past the filters' start-up
+  std::printf("base-row K error, 30 Hz: IMU %.3g, legs %.3g\n", e_imu30, e_legs30);
+  EXPECT_LT(e_legs30, 0.05 * e_imu30);
+  // Blockwise equals one block (the filters' margins carry the legs' signals across the blocks too).
+  DatasetOptions small = legs30;
+  small.block = 300;
+  const Rows c = rows(sensors, small);
+  double worst = 0.0;
+  for (int i = 0; i < n; ++i) worst = std::max(worst, (c.K[i] - l30.K[i]).cwiseAbs().maxCoeff() / l30.K[i].cwiseAbs().maxCoeff());
+  std::printf("block 300 vs 4096: max relative K difference %.3g\n", worst);
+  EXPECT_LT(worst, 1e-10);  // rounding of p_b (1e-16 m) differentiated twice at 1 kHz: ~1e-10 m/s^2
+}
+
+TEST(Dataset, TheImuBelowTheFusionCutoffGivesBackTheFeetsTilt) {
+  // The sole's world orientation tilts slowly (0.13 Hz, 20 mrad: contact compliance), which the legs cannot see:
+  // their rate and acceleration miss the tilt's derivatives. The IMU (exact here) sees them; taken below the
+  // fusion cutoff (imu_below_fusion_cutoff, the rank rule's processing alternative) the rows come back to the
+  // truth's, while the IMU's share above it stays the legs'.
+  const Model m = exo();
+  const int sole = m.frameIndex("right_sole");
+  ASSERT_GE(sole, 0);
+  const Model::Frame& fr = m.frames[static_cast<size_t>(sole)];
+  DatasetOptions::Foothold f;
+  f.body = fr.body, f.point_in_body = fr.position, f.rotation_in_body = fr.rotation;
+  f.world = Eigen::Vector3d(0.1, -0.1, 0.0);
+  Data kin(m);
+  State st = State::zero(m);
+  struct Pose {
+    Eigen::Matrix3d R;
+    Eigen::Vector3d p;
+  };
+  auto basePose = [&](double t) {
+    st.q = sampleAt(m, t).q;
+    forwardKinematics(m, kin, st);
+    const Eigen::Matrix3d Rws = Eigen::AngleAxisd(0.02 * std::sin(0.8 * t), Eigen::Vector3d::UnitX()).toRotationMatrix();
+    Pose x;
+    x.R = Rws * (kin.R[f.body] * f.rotation_in_body).transpose();
+    x.p = f.world - x.R * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
+    return x;
+  };
+  auto vee = [](const Eigen::Matrix3d& M) {
+    return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
+  };
+  const int n = 6000;
+  const double dt = 1e-3, h = 1e-4;
+  std::vector<MeasuredSample> truth(n), sensors(n);
+  for (int i = 0; i < n; ++i) {
+    const double t = i * dt;
+    MeasuredSample s = sampleAt(m, t);
+    const Pose x = basePose(t), xp = basePose(t + h), xm = basePose(t - h);
+    s.base_orientation = Eigen::Quaterniond(x.R);
+    s.base_position = x.p;
+    s.base_omega = vee(x.R.transpose() * (xp.R - xm.R) / (2.0 * h));
+    s.base_domega = vee(x.R.transpose() * (xp.R - 2.0 * x.R + xm.R) / (h * h));
+    s.base_acceleration = x.R.transpose() * (xp.p - 2.0 * x.p + xm.p) / (h * h);
+    truth[i] = s;
+    MeasuredSample y = s;
+    y.base_domega.setZero();
+    y.has_base_position = y.has_base_domega = false;
+    sensors[i] = y;
+  }
+  auto rows = [&](const std::vector<MeasuredSample>& in, const DatasetOptions& o) {
+    Rows r;
+    DatasetBuilder b(m, o, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { r.K.push_back(K), r.y.push_back(y); });
+    std::string err;
+    for (const MeasuredSample& x : in) EXPECT_TRUE(b.add(x, &err)) << err;
+    EXPECT_TRUE(b.finish(&err)) << err;
+    return r;
+  };
+  auto error = [&](const Rows& r, const Rows& ref) {  // RMS of the base rows' K error over its RMS, past the start-up
+    double e = 0.0, scale = 0.0;
+    for (int i = 1000; i < n - 1000; ++i) {
+      e += (r.K[i] - ref.K[i]).topRows<6>().squaredNorm();
+      scale += ref.K[i].topRows<6>().squaredNorm();
+    }
+    return std::sqrt(e / scale);
+  };
+  DatasetOptions legs, truth30;
+  legs.footholds = {f};
+  legs.cutoff_hz = truth30.cutoff_hz = 30.0;
+  legs.derive = truth30.derive = true;
+  legs.orientation_from_legs = legs.base_rate_from_legs = legs.base_acceleration_from_legs = true;
+  DatasetOptions fused = legs;
+  fused.imu_below_fusion_cutoff = true;
+  const Rows t = rows(truth, truth30), l = rows(sensors, legs), u = rows(sensors, fused);
+  const double e_legs = error(l, t), e_fused = error(u, t);
+  std::printf("base-row K error with a tilting sole: legs %.3g, IMU below the fusion cutoff %.3g\n", e_legs, e_fused);
+  EXPECT_LT(e_fused, 0.1 * e_legs);
 }
 
 TEST(Dataset, CutoffAboveNyquistIsAnError) {

@@ -189,3 +189,33 @@ TEST(RankRule, HeldOutToTrainingRatioWarnsWhenTheValidationRunCarriesALoad) {
   EXPECT_TRUE(r1.data_differ) << r1.heldout_ratio;
   EXPECT_GT(r1.heldout_ratio, 2.0);
 }
+
+TEST(RankRule, ProcessingAlternativesChangeOneChoiceEach) {
+  // exoid identify's sensors pipeline on a floating base's logs: half the cutoff, and the IMU below the fusion
+  // cutoff (the legs' rate and acceleration are the default); with the gyro's rate, the IMU's orientation; a CSV
+  // (its orientation recorded) or an unfiltered run has fewer.
+  tools::SourceOptions so;
+  so.dataset.cutoff_hz = 30.0;
+  so.dataset.orientation_from_legs = so.dataset.base_rate_from_legs = so.dataset.base_acceleration_from_legs = true;
+  auto names = [](const std::vector<tools::ProcessingAlternative>& a) {
+    std::vector<std::string> n;
+    for (const tools::ProcessingAlternative& x : a) n.push_back(x.what);
+    return n;
+  };
+  const std::vector<tools::ProcessingAlternative> legs = tools::processingAlternatives(so, true);
+  ASSERT_EQ(names(legs), (std::vector<std::string>{"cutoff 15 Hz", "IMU below the fusion cutoff"}));
+  EXPECT_EQ(legs[0].source.dataset.cutoff_hz, 15.0);
+  EXPECT_TRUE(legs[0].source.dataset.base_rate_from_legs && !legs[0].source.dataset.imu_below_fusion_cutoff);
+  EXPECT_TRUE(legs[1].source.dataset.imu_below_fusion_cutoff);
+  EXPECT_EQ(legs[1].source.dataset.cutoff_hz, 30.0);
+  EXPECT_TRUE(legs[1].source.dataset.orientation_from_legs && legs[1].source.dataset.base_rate_from_legs);
+  EXPECT_EQ(names(tools::processingAlternatives(so, false)), (std::vector<std::string>{"cutoff 15 Hz"}));
+  tools::SourceOptions gyro = so;
+  gyro.dataset.base_rate_from_legs = gyro.dataset.base_acceleration_from_legs = false;
+  const std::vector<tools::ProcessingAlternative> g = tools::processingAlternatives(gyro, true);
+  ASSERT_EQ(names(g), (std::vector<std::string>{"cutoff 15 Hz", "IMU orientation"}));
+  EXPECT_FALSE(g[1].source.dataset.orientation_from_legs);
+  tools::SourceOptions unfiltered = so;
+  unfiltered.dataset.cutoff_hz = 0.0;
+  EXPECT_EQ(names(tools::processingAlternatives(unfiltered, true)), (std::vector<std::string>{"IMU below the fusion cutoff"}));
+}

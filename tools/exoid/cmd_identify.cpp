@@ -54,6 +54,10 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
                  "(feet flat and still on the plates: the rotation the encoders give, differentiated as the joints' "
                  "angles; default) or the 'gyro' (its white noise differentiated is the larger error)")
       ->check(CLI::IsMember({"legs", "gyro"}));
+  app.add_option("--base-acceleration", o.base_acceleration, "sensors pipeline: the base's linear acceleration from the "
+                 "'legs' (the base position the feet give, differentiated twice as the joints' angles; gravity and the "
+                 "plates' wrenches then turn with the same orientation; default) or the 'accelerometer'")
+      ->check(CLI::IsMember({"legs", "accelerometer"}));
   app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
                  "which the legs give the orientation (default 5)")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
   app.add_flag("--derive", o.derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
@@ -249,7 +253,7 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
   j["warnings"] = differ.empty() ? nlohmann::json::array() : nlohmann::json::array({differ});
   j["inputs"] = inputsJson(run);
   j["options"] = {{"pipeline", o.pipeline}, {"cutoff_hz", o.cutoff_hz}, {"filter_mode", o.filter_mode}, {"noise", o.noise},
-                  {"base_orientation", o.orientation}, {"base_rate", o.base_rate}, {"orientation_cutoff_hz", o.orientation_cutoff_hz},
+                  {"base_orientation", o.orientation}, {"base_rate", o.base_rate}, {"base_acceleration", o.base_acceleration}, {"orientation_cutoff_hz", o.orientation_cutoff_hz},
                   {"folds", o.folds}, {"chunk_seconds", o.chunk_s}, {"prior_perturb", o.prior_perturb}};
   if (!o.only_links.empty()) j["options"]["only_links"] = o.only_links;  // the other links held at the prior
   if (!o.hold_path.empty()) j["options"]["hold"] = o.hold_path;

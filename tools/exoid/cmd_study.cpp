@@ -87,7 +87,7 @@ bool parseList(const std::string& s, std::vector<T>& out) {
 /// The study's options as given: the lists still text, --runs and its moves.
 struct StudyArgs {
   std::string cutoffs = "0,10,15,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
-  std::string runs, sensors_filter = "inputs", orientation = "fused", base_rate = "legs";
+  std::string runs, sensors_filter = "inputs", orientation = "fused", base_rate = "legs", base_acceleration = "legs";
   std::string scene = std::string(EXOID_CONFIG_DIR) + "/exo.xml";
   int moves = 0;
   bool no_keyframes = false;
@@ -121,6 +121,8 @@ void addStudyOptions(CLI::App& app, tools::StudyOptions& o, StudyArgs& a) {
                  "or the 'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
   app.add_option("--base-rate", a.base_rate, "sensors pipeline: the base's angular velocity and acceleration from the "
                  "'legs' (feet flat and still on the plates; default) or the 'gyro'")->check(CLI::IsMember({"legs", "gyro"}));
+  app.add_option("--base-acceleration", a.base_acceleration, "sensors pipeline: the base's linear acceleration from the "
+                 "'legs' (default) or the 'accelerometer'")->check(CLI::IsMember({"legs", "accelerometer"}));
   app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, "
                  "above which the legs give the orientation (default 5)")->check(CLI::Range(0.01, 400.0));
   app.add_option("--threads", o.threads, "workers over the (pipeline, cutoff) jobs (default 2)")->check(CLI::Range(1, 64));
@@ -145,6 +147,7 @@ bool resolveStudyOptions(const StudyArgs& a, tools::StudyOptions& o, std::string
   o.parallel_filter = a.sensors_filter == "parallel";
   o.orientation_from_legs = a.orientation == "fused";
   o.base_rate_from_legs = a.base_rate == "legs";
+  o.base_acceleration_from_legs = a.base_acceleration == "legs";
   if (!parseList(a.cutoffs, o.cutoffs)) return *error = "--cutoffs must be a comma-separated list of numbers", false;
   for (double c : o.cutoffs)
     if (!(c >= 0.0) || c >= 500.0) return *error = "--cutoffs: " + std::to_string(c) + " is not in [0, 500) Hz", false;

@@ -132,6 +132,16 @@ struct DatasetOptions {
   /// which differentiated through the filter was the largest processing error of the exoskeleton's sensor runs
   /// (docs/identification.md). A foot that rolls on its plate breaks the assumption.
   bool base_rate_from_legs = false;
+  /// The base origin's classical acceleration from the legs instead of the accelerometer (same conditions): the
+  /// base position the plate moments use, p_b = p_sole - R_wb p_sole^b(q) with R_wb from the legs alone (above),
+  /// differentiated twice as q is, in base coordinates R^T p_b''. Gravity and the plates' wrenches then enter the
+  /// base rows through the same R, so an orientation error leaves a standing robot's statics balanced; the
+  /// accelerometer's specific force holds the true R, the wrenches the estimated one (docs/identification.md).
+  bool base_acceleration_from_legs = false;
+  /// With orientation_from_legs: the legs' rate and acceleration (above) take the IMU's (gyro, accelerometer) below
+  /// orientation_cutoff_hz, as the orientation does. Not the default (the gyro's share below 5 Hz still costs
+  /// more than the feet's tilt on their contacts); the rank rule's processing check compares it.
+  bool imu_below_fusion_cutoff = false;
   int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
   /// With a filter: drop the samples within the filter's settling time (transient below e^-14, ~1e-6) of the
   /// run's first and last sample. A zero-phase filter has neither past nor future there; with differenced
@@ -194,13 +204,16 @@ class DatasetBuilder {
   /// Floating base: omega, domega (measured or differentiated) and the classical acceleration [n x 3].
   void baseSignals(BlockSignals& b) const;
   /// R_wb from the legs alone per sample (R_ws of the soles from the first 1000 samples' IMU orientation):
-  /// b.legs_rotation [n], for fuseOrientation and legsRate.
+  /// b.legs_rotation [n] and the footholds' mean point in base coordinates b.sole_in_base [n], for
+  /// fuseOrientation, legsRate and legsAcceleration.
   void legsRotations(BlockSignals& b);
   /// The base orientation from the legs with the IMU's low-passed correction; the accelerometer's gravity term
   /// re-based on it.
   void fuseOrientation(BlockSignals& b) const;
   /// base_rate_from_legs: b.w, b.dw from b.legs_rotation, differentiated as the joints' q are.
   void legsRate(BlockSignals& b) const;
+  /// base_acceleration_from_legs: b.acc from b.legs_rotation and b.sole_in_base, differentiated as q is.
+  void legsAcceleration(BlockSignals& b) const;
   /// trim_edges: false for the run's first edge_ samples and, in the last block, its last edge_ (counted).
   bool keepSample(int i, int n, bool last);
   void setSensorTorque(const Eigen::VectorXd& tau);  ///< joint torques into sensor_torque_ [nv]

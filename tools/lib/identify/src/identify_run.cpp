@@ -204,6 +204,7 @@ SourceOptions trainingSource(const IdentifyRunOptions& o) {
   so.dataset.orientation_from_legs = o.pipeline == "sensors" && o.orientation == "fused";
   so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
   so.dataset.base_rate_from_legs = o.pipeline == "sensors" && o.base_rate == "legs";
+  so.dataset.base_acceleration_from_legs = o.pipeline == "sensors" && o.base_acceleration == "legs";
   so.dataset.encoder_noise = o.noise;
   so.dataset.noise_seed = o.seed;
   so.skip_bad_rows = o.skip_bad_rows;
@@ -224,6 +225,7 @@ SourceOptions validationSource(const IdentifyRunOptions& o, const SourceOptions&
   vo.dataset.encoder_noise = 0.0;
   vo.dataset.orientation_from_legs = vo.pipeline == intake::LogPipeline::Sensors && o.orientation == "fused";
   vo.dataset.base_rate_from_legs = vo.pipeline == intake::LogPipeline::Sensors && o.base_rate == "legs";
+  vo.dataset.base_acceleration_from_legs = vo.pipeline == intake::LogPipeline::Sensors && o.base_acceleration == "legs";
   vo.dataset.derive = o.derive;
   const bool ideal = vo.pipeline == intake::LogPipeline::Truth && !o.validate.empty() && !isCsvPath(o.validate.front());
   vo.dataset.cutoff_hz = ideal ? 0.0 : training.dataset.cutoff_hz;

@@ -470,6 +470,7 @@ void runJob(Study& st, Job& job, int workers) {
   if (pipe == "sensors" && o.parallel_filter) so.dataset.filter = estimator::FilterMode::Parallel;
   so.dataset.orientation_from_legs = pipe == "sensors" && o.orientation_from_legs;
   so.dataset.base_rate_from_legs = pipe == "sensors" && o.base_rate_from_legs;
+  so.dataset.base_acceleration_from_legs = pipe == "sensors" && o.base_acceleration_from_legs;
   so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
   if (pipe == "thesis") {  // thesis III-E: encoder noise on q, filtered, differentiated
     so.dataset.encoder_noise = 9e-6;

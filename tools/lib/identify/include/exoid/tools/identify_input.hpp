@@ -61,9 +61,10 @@ struct ProcessingAlternative {
 };
 /// The alternatives of a training pipeline: with a filter (cutoff > 0), half its cutoff, and with parallel filtering
 /// also filtering the inputs (not the reverse: the parallel filter never changed the kept set on the exoskeleton's
-/// runs and holds every column of the run in memory); with the legs' orientation (SourceOptions::dataset.orientation_from_legs) and the
-/// gyro's rate (not base_rate_from_legs) on LCM logs of a floating-base robot (logs_on_floating_base; a CSV carries
-/// its orientation), the IMU's orientation. Empty where the processing
+/// runs and holds every column of the run in memory); on LCM logs of a floating-base robot (logs_on_floating_base; a
+/// CSV carries its orientation) with the legs' orientation (SourceOptions::dataset.orientation_from_legs): with the
+/// legs' rate or acceleration, the IMU's below the fusion cutoff (imu_below_fusion_cutoff), with the gyro's rate, the
+/// IMU's orientation. Empty where the processing
 /// has nothing to choose (unfiltered CSV data with recorded velocities and accelerations).
 std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& training, bool logs_on_floating_base);
 

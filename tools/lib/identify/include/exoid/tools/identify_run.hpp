@@ -22,6 +22,9 @@ struct IdentifyRunOptions {
   /// Sensors pipeline, floating base: the base's angular velocity and acceleration from "legs" (feet flat on the
   /// plates: DatasetOptions::base_rate_from_legs) or the "gyro".
   std::string base_rate = "legs";
+  /// Sensors pipeline, floating base: the base's linear acceleration from "legs" (DatasetOptions::
+  /// base_acceleration_from_legs) or the "accelerometer".
+  std::string base_acceleration = "legs";
   /// --hold: a URDF of the robot without what is to be identified (the empty exoskeleton's identification);
   /// --truth-model: the true system (simulated runs) for the added bodies' and the CoM's errors.
   std::string hold_path, truth_model_path;

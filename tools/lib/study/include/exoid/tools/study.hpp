@@ -39,6 +39,7 @@ struct StudyOptions {
   bool parallel_filter = false;  ///< sensors pipeline: parallel filtering (W and y) instead of filtering the inputs
   bool orientation_from_legs = true;  ///< sensors pipeline: base orientation fused from legs and IMU (dataset.hpp)
   bool base_rate_from_legs = true;    ///< sensors pipeline: base angular velocity and acceleration from the legs
+  bool base_acceleration_from_legs = true;  ///< sensors pipeline: base linear acceleration from the legs
   double orientation_cutoff_hz = 5.0;  ///< its complementary cut (IMU below, legs above)
   int stride = 10;             ///< validation/test metric samples: every stride-th tick (thesis figures: 0.02 s)
   int pc_iterations = 100;     ///< Newton iterations of WLS-RC-PC per estimate
