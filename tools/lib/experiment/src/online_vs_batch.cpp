@@ -64,7 +64,8 @@ struct Comparison {
   Eigen::VectorXd prior_sigma;  ///< the online estimator's prior stddev of the base parameters (the last replay's)
 };
 
-/// Batch: exoid identify's sensors pipeline (inputs filtered at 30 Hz), ticks [from, to) into acc; the rows
+/// Batch: the sensors pipeline (inputs filtered at 30 Hz; the IMU's orientation, gyro and accelerometer, not exoid
+/// identify's legs: the comparison's figures in docs/estimator.md were measured so), ticks [from, to) into acc; the rows
 /// added (-1: the pipeline refused a sample). With `effects`, the rows go through EffectCorrector first (the
 /// effects at their values subtracted from y, gains divided out), so the accumulated residual is that of the
 /// rigid part plus the effects.
