@@ -1,11 +1,13 @@
 // Dataset assembly: block-wise zero-phase filtering equals filtering the whole run at once; without a
 // filter the pipeline reproduces K(q, v, dv) and y exactly; the base position from leg kinematics equals
 // the true one when the feet are where the footholds say; the base orientation fused from legs and IMU removes
-// the IMU noise and the legs' tilt bias.
+// the IMU noise and the legs' tilt bias; the base's rate and acceleration from the legs are the derivatives of the
+// base's trajectory, and the IMU below the fusion cutoff gives back what a tilting sole hides from the legs.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <random>
 
 #include "exoid/estimator/dataset.hpp"
@@ -59,6 +61,77 @@ struct Rows {
   std::vector<Eigen::MatrixXd> K;
   std::vector<Eigen::VectorXd> y;
 };
+
+// The right sole as a foothold at a fixed world point.
+DatasetOptions::Foothold rightSole(const Model& m) {
+  const int sole = m.frameIndex("right_sole");
+  EXPECT_GE(sole, 0);
+  const Model::Frame& fr = m.frames[static_cast<size_t>(std::max(sole, 0))];
+  DatasetOptions::Foothold f;
+  f.body = fr.body, f.point_in_body = fr.position, f.rotation_in_body = fr.rotation;
+  f.world = Eigen::Vector3d(0.1, -0.1, 0.0);
+  return f;
+}
+
+// The rows of a sequence of samples.
+Rows rowsOf(const Model& m, const std::vector<MeasuredSample>& in, const DatasetOptions& o) {
+  Rows r;
+  DatasetBuilder b(m, o, [&](double t, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+    r.t.push_back(t), r.K.push_back(K), r.y.push_back(y);
+  });
+  std::string err;
+  for (const MeasuredSample& x : in) EXPECT_TRUE(b.add(x, &err)) << err;
+  EXPECT_TRUE(b.finish(&err)) << err;
+  return r;
+}
+
+// The base moving as the legs of sampleAt say, one sole f fixed on a ground whose orientation is sole_world(t).
+// truth: the base's orientation, position, omega, domega and classical acceleration R^T p'' from differencing R_wb(t)
+// and p_b(t) at a 1e-4 s step (independent of the pipeline's filters and sampling); sensors: the same with the
+// base's position and angular acceleration left to the pipeline, gyro_sigma / accel_sigma white noise on the rate
+// and the acceleration.
+void legsDrivenRun(const Model& m, const DatasetOptions::Foothold& f,
+                   const std::function<Eigen::Matrix3d(double)>& sole_world, int n, double gyro_sigma,
+                   double accel_sigma, std::vector<MeasuredSample>& truth, std::vector<MeasuredSample>& sensors) {
+  Data kin(m);
+  State st = State::zero(m);
+  struct Pose {
+    Eigen::Matrix3d R;
+    Eigen::Vector3d p;
+  };
+  auto basePose = [&](double t) {
+    st.q = sampleAt(m, t).q;
+    forwardKinematics(m, kin, st);
+    Pose x;
+    x.R = sole_world(t) * (kin.R[f.body] * f.rotation_in_body).transpose();
+    x.p = f.world - x.R * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
+    return x;
+  };
+  auto vee = [](const Eigen::Matrix3d& M) {
+    return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
+  };
+  const double dt = 1e-3, h = 1e-4;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  truth.resize(n), sensors.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const double t = i * dt;
+    MeasuredSample s = sampleAt(m, t);
+    const Pose x = basePose(t), xp = basePose(t + h), xm = basePose(t - h);
+    s.base_orientation = Eigen::Quaterniond(x.R);
+    s.base_position = x.p;
+    s.base_omega = vee(x.R.transpose() * (xp.R - xm.R) / (2.0 * h));
+    s.base_domega = vee(x.R.transpose() * (xp.R - 2.0 * x.R + xm.R) / (h * h));
+    s.base_acceleration = x.R.transpose() * (xp.p - 2.0 * x.p + xm.p) / (h * h);
+    truth[i] = s;
+    MeasuredSample y = s;
+    y.base_omega += gyro_sigma * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+    y.base_acceleration += accel_sigma * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
+    y.base_domega.setZero();
+    y.has_base_position = y.has_base_domega = false;
+    sensors[i] = y;
+  }
+}
 
 Rows run(const Model& m, const DatasetOptions& o, int n, double dt, bool measured_va) {
   Rows r;
@@ -204,12 +277,7 @@ TEST(Dataset, FusedBaseOrientationRemovesImuNoiseAndLegBias) {
   // with white noise (3.5 mrad), the accelerometer's gravity term with the same error. Rows from the fused
   // orientation must be far closer to the true rows than rows from the IMU alone.
   const Model m = exo();
-  const int sole = m.frameIndex("right_sole");
-  ASSERT_GE(sole, 0);
-  const Model::Frame& fr = m.frames[static_cast<size_t>(sole)];
-  DatasetOptions::Foothold f;
-  f.body = fr.body, f.point_in_body = fr.position, f.rotation_in_body = fr.rotation;
-  f.world = Eigen::Vector3d(0.1, -0.1, 0.0);
+  const DatasetOptions::Foothold f = rightSole(m);
   const int n = 6000;
   const double dt = 1e-3;
   std::mt19937_64 rng(3);
@@ -236,14 +304,7 @@ TEST(Dataset, FusedBaseOrientationRemovesImuNoiseAndLegBias) {
     x.has_base_position = false;
     imu[i] = x;
   }
-  auto rows = [&](const std::vector<MeasuredSample>& in, const DatasetOptions& o) {
-    Rows r;
-    DatasetBuilder b(m, o, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { r.K.push_back(K), r.y.push_back(y); });
-    std::string err;
-    for (const MeasuredSample& x : in) EXPECT_TRUE(b.add(x, &err)) << err;
-    EXPECT_TRUE(b.finish(&err)) << err;
-    return r;
-  };
+  auto rows = [&](const std::vector<MeasuredSample>& in, const DatasetOptions& o) { return rowsOf(m, in, o); };
   DatasetOptions plain;
   plain.footholds = {f};
   DatasetOptions fused = plain;
@@ -269,67 +330,16 @@ TEST(Dataset, FusedBaseOrientationRemovesImuNoiseAndLegBias) {
 }
 
 TEST(Dataset, BaseMotionFromTheLegsIsTheBaseTrajectorysDerivatives) {
-  // One sole fixed on the ground, the base moving as the legs say. The truth's omega, domega and classical
-  // acceleration R^T p'' come from differencing R_wb(t) = R_ws R_bs(q(t))^T and p_b(t) = p_sole - R_wb(t) p_bs(q(t))
-  // at a 1e-4 s step (independent of the pipeline's filters and sampling); the gyro reports omega with white
-  // noise (3.6e-3 rad/s), the accelerometer the acceleration with 0.02 m/s^2 (the simulated IMU's). Rows from the
-  // legs (joints' v, a measured, no filter: central differences at 1 kHz) equal the truth's to O(dt^2), those
-  // from the IMU carry its differentiated noise.
+  // One sole fixed on level ground, the base moving as the legs say; the gyro reports omega with white noise
+  // (3.6e-3 rad/s), the accelerometer the acceleration with 0.02 m/s^2 (the simulated IMU's). Rows from the legs
+  // (joints' v, a measured, no filter: central differences at 1 kHz) equal the truth's (legsDrivenRun) to O(dt^2),
+  // those from the IMU carry its differentiated noise.
   const Model m = exo();
-  const int sole = m.frameIndex("right_sole");
-  ASSERT_GE(sole, 0);
-  const Model::Frame& fr = m.frames[static_cast<size_t>(sole)];
-  DatasetOptions::Foothold f;
-  f.body = fr.body, f.point_in_body = fr.position, f.rotation_in_body = fr.rotation;
-  f.world = Eigen::Vector3d(0.1, -0.1, 0.0);
-  const Eigen::Matrix3d Rws = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  Data kin(m);
-  State st = State::zero(m);
-  struct Pose {
-    Eigen::Matrix3d R;
-    Eigen::Vector3d p;
-  };
-  auto basePose = [&](double t) {
-    st.q = sampleAt(m, t).q;
-    forwardKinematics(m, kin, st);
-    Pose x;
-    x.R = Rws * (kin.R[f.body] * f.rotation_in_body).transpose();
-    x.p = f.world - x.R * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
-    return x;
-  };
-  auto vee = [](const Eigen::Matrix3d& M) {
-    return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
-  };
+  const DatasetOptions::Foothold f = rightSole(m);
   const int n = 4000;
-  const double dt = 1e-3, h = 1e-4;
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> gyro_noise(0.0, 3.6e-3), accel_noise(0.0, 0.02);
-  std::vector<MeasuredSample> truth(n), sensors(n);
-  for (int i = 0; i < n; ++i) {
-    const double t = i * dt;
-    MeasuredSample s = sampleAt(m, t);
-    const Pose x = basePose(t), xp = basePose(t + h), xm = basePose(t - h);
-    s.base_orientation = Eigen::Quaterniond(x.R);
-    s.base_position = x.p;
-    s.base_omega = vee(x.R.transpose() * (xp.R - xm.R) / (2.0 * h));
-    s.base_domega = vee(x.R.transpose() * (xp.R - 2.0 * x.R + xm.R) / (h * h));
-    s.base_acceleration = x.R.transpose() * (xp.p - 2.0 * x.p + xm.p) / (h * h);
-    truth[i] = s;
-    MeasuredSample y = s;
-    y.base_omega += Eigen::Vector3d(gyro_noise(rng), gyro_noise(rng), gyro_noise(rng));
-    y.base_acceleration += Eigen::Vector3d(accel_noise(rng), accel_noise(rng), accel_noise(rng));
-    y.base_domega.setZero();
-    y.has_base_position = y.has_base_domega = false;
-    sensors[i] = y;
-  }
-  auto rows = [&](const std::vector<MeasuredSample>& in, const DatasetOptions& o) {
-    Rows r;
-    DatasetBuilder b(m, o, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { r.K.push_back(K), r.y.push_back(y); });
-    std::string err;
-    for (const MeasuredSample& x : in) EXPECT_TRUE(b.add(x, &err)) << err;
-    EXPECT_TRUE(b.finish(&err)) << err;
-    return r;
-  };
+  std::vector<MeasuredSample> truth, sensors;
+  legsDrivenRun(m, f, [](double) { return Eigen::Matrix3d(Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ())); }, n,
+                3.6e-3, 0.02, truth, sensors);
   auto error = [&](const Rows& r, const Rows& ref, int edge) {  // largest base-row K error over its scale
     double e = 0.0, scale = 0.0;
     for (int i = edge; i < n - edge; ++i) {
@@ -343,7 +353,8 @@ TEST(Dataset, BaseMotionFromTheLegsIsTheBaseTrajectorysDerivatives) {
   DatasetOptions rate = imu, motion = imu;
   rate.base_rate_from_legs = true;
   motion.base_rate_from_legs = motion.base_acceleration_from_legs = true;
-  const Rows t = rows(truth, {}), a = rows(sensors, imu), r = rows(sensors, rate), l = rows(sensors, motion);
+  const Rows t = rowsOf(m, truth, {}), a = rowsOf(m, sensors, imu), r = rowsOf(m, sensors, rate),
+             l = rowsOf(m, sensors, motion);
   ASSERT_EQ(l.K.size(), static_cast<size_t>(n));
   const double e_imu = error(a, t, 50), e_rate = error(r, t, 50), e_legs = error(l, t, 50);
   std::printf("base-row K error, no filter: IMU %.3g, legs' rate %.3g, legs' rate and acceleration %.3g\n", e_imu,
@@ -358,14 +369,14 @@ TEST(Dataset, BaseMotionFromTheLegsIsTheBaseTrajectorysDerivatives) {
   DatasetOptions imu30 = imu, legs30 = motion, truth30;
   imu30.cutoff_hz = legs30.cutoff_hz = truth30.cutoff_hz = 30.0;
   imu30.derive = legs30.derive = truth30.derive = true;
-  const Rows t30 = rows(truth, truth30), a30 = rows(sensors, imu30), l30 = rows(sensors, legs30);
+  const Rows t30 = rowsOf(m, truth, truth30), a30 = rowsOf(m, sensors, imu30), l30 = rowsOf(m, sensors, legs30);
   const double e_imu30 = error(a30, t30, 500), e_legs30 = error(l30, t30, 500);  // past the filters' start-up
   std::printf("base-row K error, 30 Hz: IMU %.3g, legs %.3g\n", e_imu30, e_legs30);
   EXPECT_LT(e_legs30, 0.05 * e_imu30);
   // Blockwise equals one block (the filters' margins carry the legs' signals across the blocks too).
   DatasetOptions small = legs30;
   small.block = 300;
-  const Rows c = rows(sensors, small);
+  const Rows c = rowsOf(m, sensors, small);
   double worst = 0.0;
   for (int i = 0; i < n; ++i) worst = std::max(worst, (c.K[i] - l30.K[i]).cwiseAbs().maxCoeff() / l30.K[i].cwiseAbs().maxCoeff());
   std::printf("block 300 vs 4096: max relative K difference %.3g\n", worst);
@@ -378,56 +389,11 @@ TEST(Dataset, TheImuBelowTheFusionCutoffGivesBackTheFeetsTilt) {
   // fusion cutoff (imu_below_fusion_cutoff, the rank rule's processing alternative) the rows come back to the
   // truth's, while the IMU's share above it stays the legs'.
   const Model m = exo();
-  const int sole = m.frameIndex("right_sole");
-  ASSERT_GE(sole, 0);
-  const Model::Frame& fr = m.frames[static_cast<size_t>(sole)];
-  DatasetOptions::Foothold f;
-  f.body = fr.body, f.point_in_body = fr.position, f.rotation_in_body = fr.rotation;
-  f.world = Eigen::Vector3d(0.1, -0.1, 0.0);
-  Data kin(m);
-  State st = State::zero(m);
-  struct Pose {
-    Eigen::Matrix3d R;
-    Eigen::Vector3d p;
-  };
-  auto basePose = [&](double t) {
-    st.q = sampleAt(m, t).q;
-    forwardKinematics(m, kin, st);
-    const Eigen::Matrix3d Rws = Eigen::AngleAxisd(0.02 * std::sin(0.8 * t), Eigen::Vector3d::UnitX()).toRotationMatrix();
-    Pose x;
-    x.R = Rws * (kin.R[f.body] * f.rotation_in_body).transpose();
-    x.p = f.world - x.R * (kin.p[f.body] + kin.R[f.body] * f.point_in_body);
-    return x;
-  };
-  auto vee = [](const Eigen::Matrix3d& M) {
-    return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
-  };
+  const DatasetOptions::Foothold f = rightSole(m);
   const int n = 6000;
-  const double dt = 1e-3, h = 1e-4;
-  std::vector<MeasuredSample> truth(n), sensors(n);
-  for (int i = 0; i < n; ++i) {
-    const double t = i * dt;
-    MeasuredSample s = sampleAt(m, t);
-    const Pose x = basePose(t), xp = basePose(t + h), xm = basePose(t - h);
-    s.base_orientation = Eigen::Quaterniond(x.R);
-    s.base_position = x.p;
-    s.base_omega = vee(x.R.transpose() * (xp.R - xm.R) / (2.0 * h));
-    s.base_domega = vee(x.R.transpose() * (xp.R - 2.0 * x.R + xm.R) / (h * h));
-    s.base_acceleration = x.R.transpose() * (xp.p - 2.0 * x.p + xm.p) / (h * h);
-    truth[i] = s;
-    MeasuredSample y = s;
-    y.base_domega.setZero();
-    y.has_base_position = y.has_base_domega = false;
-    sensors[i] = y;
-  }
-  auto rows = [&](const std::vector<MeasuredSample>& in, const DatasetOptions& o) {
-    Rows r;
-    DatasetBuilder b(m, o, [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) { r.K.push_back(K), r.y.push_back(y); });
-    std::string err;
-    for (const MeasuredSample& x : in) EXPECT_TRUE(b.add(x, &err)) << err;
-    EXPECT_TRUE(b.finish(&err)) << err;
-    return r;
-  };
+  std::vector<MeasuredSample> truth, sensors;
+  legsDrivenRun(m, f, [](double t) { return Eigen::Matrix3d(Eigen::AngleAxisd(0.02 * std::sin(0.8 * t), Eigen::Vector3d::UnitX())); },
+                n, 0.0, 0.0, truth, sensors);
   auto error = [&](const Rows& r, const Rows& ref) {  // RMS of the base rows' K error over its RMS, past the start-up
     double e = 0.0, scale = 0.0;
     for (int i = 1000; i < n - 1000; ++i) {
@@ -443,7 +409,7 @@ TEST(Dataset, TheImuBelowTheFusionCutoffGivesBackTheFeetsTilt) {
   legs.orientation_from_legs = legs.base_rate_from_legs = legs.base_acceleration_from_legs = true;
   DatasetOptions fused = legs;
   fused.imu_below_fusion_cutoff = true;
-  const Rows t = rows(truth, truth30), l = rows(sensors, legs), u = rows(sensors, fused);
+  const Rows t = rowsOf(m, truth, truth30), l = rowsOf(m, sensors, legs), u = rowsOf(m, sensors, fused);
   const double e_legs = error(l, t), e_fused = error(u, t);
   std::printf("base-row K error with a tilting sole: legs %.3g, IMU below the fusion cutoff %.3g\n", e_legs, e_fused);
   EXPECT_LT(e_fused, 0.1 * e_legs);
