@@ -59,7 +59,8 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
                  "plates' wrenches then turn with the same orientation; default) or the 'accelerometer'")
       ->check(CLI::IsMember({"legs", "accelerometer"}));
   app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
-                 "which the legs give the orientation (default 5)")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
+                 "which the legs give the orientation (default 5); the processing check's IMU alternative uses it for "
+                 "the rate and acceleration too")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
   app.add_flag("--derive", o.derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
   app.add_option("--noise", o.noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");
@@ -75,14 +76,15 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
   app.add_option("--rank", o.rank, "truncation rank z: a number, 'full', 'validation' (needs --validate; the thesis's "
                  "choice), or from the training data alone: 'jackknife' (default: the directions of least expected "
                  "error: each one's time-block jackknife variance, plus how far it moves when the same data are "
-                 "processed another way (half the cutoff; with --filter-mode parallel, filtering the inputs; with "
-                 "--base-rate gyro, the IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
+                 "processed another way (half the cutoff; with --filter-mode parallel, filtering the inputs; with the "
+                 "legs' base rate or acceleration, the IMU's below --orientation-cutoff; with --base-rate gyro, the "
+                 "IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
                  "--prior-uncertainty; z is the number kept), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them; with --only-links the default is 'full'");
   app.add_flag("--no-processing-check", o.no_processing_check, "--rank jackknife: leave out the processing term (the "
                "training data are then read once instead of once per other processing: with --cutoff, half the "
-               "cutoff, and filtering the inputs where --filter-mode is parallel; with the fused orientation and --base-rate gyro, "
-               "the IMU's orientation)");
+               "cutoff, and filtering the inputs where --filter-mode is parallel; with the fused orientation, the IMU below "
+               "--orientation-cutoff (the legs' rate or acceleration) or the IMU's orientation (--base-rate gyro))");
   app.add_option("--prior-uncertainty", o.prior_uncertainty, "--rank jackknife: the prior's parameters that it states (the "
                  "URDF's inertials, any kind with a nonzero entry) are within +-this relative error of the truth "
                  "(default 0.25); a kind the prior leaves at zero throughout (friction without a --prior for it) is "
