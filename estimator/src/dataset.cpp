@@ -258,7 +258,7 @@ struct DatasetBuilder::BlockSignals {
   Eigen::MatrixXd q, v, a;    ///< [n x nj]
   Eigen::MatrixXd w, dw, acc; ///< [n x 3] base angular velocity, acceleration, classical linear acceleration
   std::vector<Eigen::Quaterniond> legs;  ///< [n] fused base orientation (fuse), else empty
-  std::vector<Eigen::Matrix3d> legs_rotation;  ///< [n] R_wb from the legs alone (fuse or legs_rate), else empty
+  std::vector<Eigen::Matrix3d> legs_rotation;  ///< [n] R_wb from the legs alone (fuse, legs_rate or legs_acc), else empty
   std::vector<Eigen::Vector3d> sole_in_base;   ///< [n] mean of the footholds' points in base coordinates (same)
   /// The zero-phase input filter where the inputs are filtered (not parallel), else x itself.
   Eigen::MatrixXd inputs(const Eigen::MatrixXd& x) const { return filter && !parallel ? filtfilt(lp, x) : x; }

@@ -35,8 +35,8 @@ std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& t
   // resampling sees; the IMU is unbiased but noisy, mostly above a few Hz. So the alternative takes the IMU's
   // below the orientation's fusion cutoff, as the orientation does: it moves what the legs' bias moves, plus the
   // IMU's small low-band noise. The IMU's whole orientation or rate would move weak directions by the IMU's own
-  // noise (400 times the encoders'), not the default's error (ten prior draws on the nominal run at 30 Hz: 4 of 10
-  // within 10 % of the validation choice with the IMU's orientation as the alternative, 9 of 10 with this one;
+  // noise (400 times the encoders'), not the default's error (ten prior draws on one nominal run pair at 30 Hz: 4 of
+  // 10 within 10 % of the validation choice with the IMU's orientation as the alternative, 9 of 10 with this one;
   // docs/identification.md). With the gyro's rate the IMU's orientation stays the alternative (as measured then).
   if (d.orientation_from_legs && (d.base_rate_from_legs || d.base_acceleration_from_legs) && logs_on_floating_base) {
     ProcessingAlternative imu{"IMU below the fusion cutoff", training};
