@@ -302,6 +302,15 @@ bool DatasetBuilder::designFilters(BlockSignals& b, int& want, std::string* erro
   return true;
 }
 
+void DatasetBuilder::derivatives(const BlockSignals& b, const Eigen::MatrixXd& x, Eigen::MatrixXd* value,
+                                 Eigen::MatrixXd* first, Eigen::MatrixXd* second) const {
+  if (b.parallel && opt_.derivative_half_window > 1) {
+    savitzkyGolay(x, b.dt, opt_.derivative_half_window, value, first, second);
+  } else {
+    filterAndDifferentiate(x, b.dt, b.input_cutoff, value, first, second);
+  }
+}
+
 void DatasetBuilder::jointSignals(BlockSignals& b) const {
   const int n = b.n, nj = model_.njoints;
   Eigen::MatrixXd &q = b.q, &v = b.v, &a = b.a;
@@ -316,10 +325,9 @@ void DatasetBuilder::jointSignals(BlockSignals& b) const {
     q = b.inputs(q);
     v = b.inputs(v);
     a = b.inputs(a);
-  } else if (b.parallel && opt_.derivative_half_window > 1) {
-    savitzkyGolay(q, b.dt, opt_.derivative_half_window, nullptr, &v, &a);  // q itself: its noise is never squared
   } else {
-    filterAndDifferentiate(q, b.dt, b.input_cutoff, &q, &v, &a);
+    // Parallel mode keeps q itself (its noise is never squared); filtering the inputs filters it.
+    derivatives(b, q, b.parallel ? nullptr : &q, &v, &a);
   }
 }
 
@@ -338,10 +346,8 @@ void DatasetBuilder::baseSignals(BlockSignals& b) const {
   if (measured_dw) {
     w = b.inputs(w);
     dw = b.inputs(dw);
-  } else if (b.parallel && opt_.derivative_half_window > 1) {
-    savitzkyGolay(w, b.dt, opt_.derivative_half_window, &w, &dw, nullptr);  // in place: outputs written last
   } else {
-    filterAndDifferentiate(w, b.dt, b.input_cutoff, &w, &dw, nullptr);
+    derivatives(b, w, &w, &dw, nullptr);  // in place: outputs written last
   }
 }
 
@@ -415,17 +421,19 @@ void DatasetBuilder::fuseOrientation(BlockSignals& b) const {
   }
 }
 
+Eigen::MatrixXd DatasetBuilder::withImuBelowFusionCutoff(const BlockSignals& b, const Eigen::MatrixXd& legs,
+                                                         const Eigen::MatrixXd& imu) const {
+  if (!(b.fuse && opt_.imu_below_fusion_cutoff)) return legs;
+  return legs + filtfilt(b.lp_orientation, Eigen::MatrixXd(imu - legs));
+}
+
 void DatasetBuilder::legsRate(BlockSignals& b) const {
   // R^T R' = [omega] for a rotation; of the differentiated (filtered) entries only the skew part is kept, and
   // d/dt (R^T R') = R'^T R' + R^T R'' whose first term is symmetric: [domega] = skew(R^T R'').
   const int n = b.n;
   Eigen::MatrixXd r(n, 9), rf, dr, ddr;
   for (int i = 0; i < n; ++i) r.row(i) = Eigen::Map<const Eigen::Matrix<double, 1, 9>>(b.legs_rotation[i].data());
-  if (b.parallel && opt_.derivative_half_window > 1) {
-    savitzkyGolay(r, b.dt, opt_.derivative_half_window, &rf, &dr, &ddr);
-  } else {
-    filterAndDifferentiate(r, b.dt, b.input_cutoff, &rf, &dr, &ddr);
-  }
+  derivatives(b, r, &rf, &dr, &ddr);
   // Not fused with the gyro below the orientation's cutoff by default (imu_below_fusion_cutoff): the gyro's share
   // below 5 Hz still cost the exoskeleton's nominal run a third more held-out error (docs/identification.md).
   Eigen::MatrixXd w(n, 3), dw(n, 3);
@@ -435,13 +443,8 @@ void DatasetBuilder::legsRate(BlockSignals& b) const {
     w.row(i) = veeOfSkewPart(R.transpose() * dR).transpose();
     dw.row(i) = veeOfSkewPart(R.transpose() * ddR).transpose();
   }
-  if (b.fuse && opt_.imu_below_fusion_cutoff) {
-    b.w = w + filtfilt(b.lp_orientation, Eigen::MatrixXd(b.w - w));
-    b.dw = dw + filtfilt(b.lp_orientation, Eigen::MatrixXd(b.dw - dw));
-  } else {
-    b.w = w;
-    b.dw = dw;
-  }
+  b.w = withImuBelowFusionCutoff(b, w, b.w);
+  b.dw = withImuBelowFusionCutoff(b, dw, b.dw);
 }
 
 void DatasetBuilder::legsAcceleration(BlockSignals& b) const {
@@ -449,14 +452,10 @@ void DatasetBuilder::legsAcceleration(BlockSignals& b) const {
   const int n = b.n;
   Eigen::MatrixXd p(n, 3), ddp;
   for (int i = 0; i < n; ++i) p.row(i) = (-(b.legs_rotation[i] * b.sole_in_base[i])).transpose();
-  if (b.parallel && opt_.derivative_half_window > 1) {
-    savitzkyGolay(p, b.dt, opt_.derivative_half_window, nullptr, nullptr, &ddp);
-  } else {
-    filterAndDifferentiate(p, b.dt, b.input_cutoff, nullptr, nullptr, &ddp);
-  }
+  derivatives(b, p, nullptr, nullptr, &ddp);
   Eigen::MatrixXd acc(n, 3);
   for (int i = 0; i < n; ++i) acc.row(i) = (b.legs_rotation[i].transpose() * ddp.row(i).transpose()).transpose();
-  b.acc = b.fuse && opt_.imu_below_fusion_cutoff ? Eigen::MatrixXd(acc + filtfilt(b.lp_orientation, Eigen::MatrixXd(b.acc - acc))) : acc;
+  b.acc = withImuBelowFusionCutoff(b, acc, b.acc);
 }
 
 bool DatasetBuilder::keepSample(int i, int n, bool last) {

@@ -199,7 +199,11 @@ class DatasetBuilder {
   /// The filters for the window's median step, the lookahead they need (want) and edge_ (trim_edges); false
   /// on a cutoff at or above Nyquist.
   bool designFilters(BlockSignals& b, int& want, std::string* error);
-  /// q, v, a [n x nj]: measured (filtered) or differentiated (filterAndDifferentiate / Savitzky-Golay).
+  /// A signal [n x channels] differentiated as q is: the Savitzky-Golay fit in parallel mode (derivative_half_window
+  /// > 1), else filterAndDifferentiate at the input cutoff. Any output may be null, or x itself.
+  void derivatives(const BlockSignals& b, const Eigen::MatrixXd& x, Eigen::MatrixXd* value, Eigen::MatrixXd* first,
+                   Eigen::MatrixXd* second) const;
+  /// q, v, a [n x nj]: measured (filtered) or differentiated (derivatives).
   void jointSignals(BlockSignals& b) const;
   /// Floating base: omega, domega (measured or differentiated) and the classical acceleration [n x 3].
   void baseSignals(BlockSignals& b) const;
@@ -214,6 +218,9 @@ class DatasetBuilder {
   void legsRate(BlockSignals& b) const;
   /// base_acceleration_from_legs: b.acc from b.legs_rotation and b.sole_in_base, differentiated as q is.
   void legsAcceleration(BlockSignals& b) const;
+  /// A legs' signal with the IMU's below the orientation's fusion cutoff (imu_below_fusion_cutoff with the fused
+  /// orientation): legs + LP(imu - legs); else legs itself.
+  Eigen::MatrixXd withImuBelowFusionCutoff(const BlockSignals& b, const Eigen::MatrixXd& legs, const Eigen::MatrixXd& imu) const;
   /// trim_edges: false for the run's first edge_ samples and, in the last block, its last edge_ (counted).
   bool keepSample(int i, int n, bool last);
   void setSensorTorque(const Eigen::VectorXd& tau);  ///< joint torques into sensor_torque_ [nv]
