@@ -194,7 +194,7 @@ bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
     p.params = e.params;
     // Each entry of the correction as far as it stands out of its own uncertainty, then bounded.
     for (int r = 0; r < model_.nv; ++r)
-      p.ff[r] = trustWeight(e.tau_correction[r], e.tau_correction_stddev[r]) * e.tau_correction[r];
+      p.ff[r] = trustWeight(e.tau_correction[r], e.tau_correction_stddev[r], cfg_.estimate.trust_sigmas) * e.tau_correction[r];
     p.ff = p.ff.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
     p.com_stddev = e.com_stddev;
     p.mass_stddev = e.mass_stddev;
@@ -272,21 +272,23 @@ void BalanceController::updateDynamics(const State& state) {
   // momentum follow their axis's CoM: their change comes from the same parameters). The height only when asked
   // (use_com_height, the default; docs/controller.md).
   Eigen::Vector3d t;
-  for (int i = 0; i < 3; ++i) t[i] = w * trustWeight(com[i] - dyn_.com[i], com_stddev_[i]);
+  for (int i = 0; i < 3; ++i)
+    t[i] = w * trustWeight(com[i] - dyn_.com[i], com_stddev_[i],
+                           i < 2 ? cfg_.estimate.trust_sigmas_horizontal_com : cfg_.estimate.trust_sigmas);
   if (!cfg_.estimate.use_com_height) t.z() = 0.0;
   // A vertical CoM offset taken from the estimate moves the reference height with it: with straight knees the
   // stance, not the controller, sets the height, so only the horizontal CoM changes what is tracked.
   vertical_shift_ = t.z() * (com.z() - dyn_.com.z());
   vertical_shift_rate_ = t.z() * (com_velocity.z() - dyn_.com_velocity.z());
-  dyn_.mass += w * trustWeight(mass - dyn_.mass, mass_stddev_) * (mass - dyn_.mass);
+  dyn_.mass += w * trustWeight(mass - dyn_.mass, mass_stddev_, cfg_.estimate.trust_sigmas) * (mass - dyn_.mass);
   dyn_.com += t.cwiseProduct(com - dyn_.com);
   dyn_.com_velocity += t.cwiseProduct(com_velocity - dyn_.com_velocity);
   dyn_.momentum.head<3>() += t.cwiseProduct(momentum.head<3>() - dyn_.momentum.head<3>());
   dyn_.momentum.tail<3>() += t.cwiseProduct(momentum.tail<3>() - dyn_.momentum.tail<3>());
 }
 
-double BalanceController::trustWeight(double change, double stddev) const {
-  const double k = cfg_.estimate.trust_sigmas, a = std::abs(change);
+double BalanceController::trustWeight(double change, double stddev, double k) {
+  const double a = std::abs(change);
   if (k <= 0.0) return 1.0;
   if (!(a > k * stddev)) return 0.0;  // within k sigma of the model (and 0 = 0): the model stands
   const double r = k * stddev / a;

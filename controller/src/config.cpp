@@ -282,7 +282,8 @@ void readEstimateSection(Reader& r, const YAML::Node& root, ControllerConfig& c)
   const char* n = "estimate";
   const auto s = r.section(root, n,
                            {"enabled", "use_feedforward", "use_com", "use_com_height", "max_abs", "max_age_ticks", "lag_ticks",
-                            "blend_time", "max_relative_mass_change", "trust_sigmas"});
+                            "blend_time", "max_relative_mass_change", "trust_sigmas",
+                            "trust_sigmas_horizontal_com"});
   r.boolean(s, n, "enabled", c.estimate.enabled);
   r.boolean(s, n, "use_feedforward", c.estimate.use_feedforward);
   r.boolean(s, n, "use_com", c.estimate.use_com);
@@ -293,6 +294,7 @@ void readEstimateSection(Reader& r, const YAML::Node& root, ControllerConfig& c)
   r.number(s, n, "blend_time", c.estimate.blend_time);
   r.number(s, n, "max_relative_mass_change", c.estimate.max_relative_mass_change);
   r.number(s, n, "trust_sigmas", c.estimate.trust_sigmas);
+  r.number(s, n, "trust_sigmas_horizontal_com", c.estimate.trust_sigmas_horizontal_com);
 }
 
 /// The `disturbance` section: the disturbance observer.
@@ -441,6 +443,7 @@ bool validateControllerConfig(const ControllerConfig& c, std::string* error) {
          nonneg(c.estimate.blend_time, "estimate.blend_time") &&
          positive(c.estimate.max_relative_mass_change, "estimate.max_relative_mass_change") &&
          nonneg(c.estimate.trust_sigmas, "estimate.trust_sigmas") &&
+         nonneg(c.estimate.trust_sigmas_horizontal_com, "estimate.trust_sigmas_horizontal_com") &&
          positive(c.disturbance.time_constant, "disturbance.time_constant") &&
          nonneg(c.disturbance.max_abs, "disturbance.max_abs") &&
          (c.disturbance.max_plate_age_ticks >= 0 ? true

@@ -52,6 +52,8 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_EQ(c.estimate.lag_ticks, 70);
   EXPECT_DOUBLE_EQ(c.estimate.blend_time, 1.0);
   EXPECT_DOUBLE_EQ(c.estimate.max_relative_mass_change, 0.5);
+  EXPECT_DOUBLE_EQ(c.estimate.trust_sigmas, 3.0);
+  EXPECT_DOUBLE_EQ(c.estimate.trust_sigmas_horizontal_com, 1.0);
   EXPECT_TRUE(c.com_observer.enabled);
   EXPECT_DOUBLE_EQ(c.com_observer.crossover_hz, 0.2);
   EXPECT_DOUBLE_EQ(c.com_observer.anchor_time_constant, 5.0);
@@ -85,6 +87,11 @@ TEST(ControllerConfig, ErrorsNameTheField) {
   EXPECT_FALSE(parseControllerConfig(withLine(text, "max_relative_mass_change", "max_relative_mass_change: 0"), "cfg",
                                      c, &err));
   EXPECT_NE(err.find("estimate.max_relative_mass_change: must be > 0"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "trust_sigmas_horizontal_com", "trust_sigmas_horizontal_com: -1"),
+                                     "cfg", c, &err));
+  EXPECT_NE(err.find("estimate.trust_sigmas_horizontal_com: must be >= 0"), std::string::npos) << err;
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "trust_sigmas_horizontal_com", ""), "cfg", c, &err));
+  EXPECT_EQ(err, "cfg: estimate.trust_sigmas_horizontal_com: missing");
   EXPECT_FALSE(parseControllerConfig(withLine(text, "use_com", "use_centre: true"), "cfg", c, &err));
   EXPECT_NE(err.find("estimate.use_centre: unknown key"), std::string::npos) << err;
   EXPECT_FALSE(parseControllerConfig(withLine(text, "use_feedforward", "use_feedforward: maybe"), "cfg", c, &err));

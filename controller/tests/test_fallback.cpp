@@ -257,68 +257,91 @@ TEST_F(FallbackTest, EstimateFeedforwardIsAppliedReportedAndAgesOut) {
 
 TEST_F(FallbackTest, TrustUsesOnlyWhatStandsOutOfTheEstimatesUncertainty) {
   // Issue 20: each quantity the estimate changes enters with weight max(0, 1 - (k sigma / |change|)^2), k =
-  // estimate.trust_sigmas (3), sigma the estimate's own one-sigma. A hand-made estimate: the model plus 2 kg on the
-  // base link (the CoM moves on every axis), two joint corrections; sigmas chosen to put each quantity on a known
-  // side of the threshold. Expected values computed here from the parameters (centroidalWorld).
+  // estimate.trust_sigmas (3) for every tau_correction entry, the mass and the CoM height, and
+  // estimate.trust_sigmas_horizontal_com (1) for the CoM's horizontal axes; sigma the estimate's own one-sigma. A
+  // hand-made estimate: the model plus 2 kg on the base link (the CoM moves on every axis), two joint corrections;
+  // sigmas chosen to put each quantity on a known side of the threshold. Expected values computed here from the
+  // parameters (centroidalWorld).
   ControllerConfig cfg = cfg_;
   cfg.estimate.blend_time = 0.0;
-  ASSERT_EQ(cfg.estimate.trust_sigmas, 3.0);  // the shipped configuration
-  make(cfg);
-  int64_t k = settle();
-  tick(k++);
-  EstimatorOutputSample e = modelEstimate(model_, k);
-  e.params.segment<kParamsPerBody>(model_.bodyParamIndex(0)) += paramsFromInertial(
-      2.0, Eigen::Vector3d(0.08, 0.05, 0.1), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
+  ASSERT_EQ(cfg.estimate.trust_sigmas, 3.0);                 // the shipped configuration
+  ASSERT_EQ(cfg.estimate.trust_sigmas_horizontal_com, 1.0);
   const int knee = model_.jointIndex("left_knee"), hip = model_.jointIndex("right_hip_fe");
   ASSERT_GE(knee, 0);
   ASSERT_GE(hip, 0);
-  e.tau_correction[model_.jointRow(knee)] = 2.5;  // 2.5 sigma: not used
-  e.tau_correction_stddev[model_.jointRow(knee)] = 1.0;
-  e.tau_correction[model_.jointRow(hip)] = 5.0;   // 5 sigma: weight 1 - (3/5)^2 = 0.64
-  e.tau_correction_stddev[model_.jointRow(hip)] = 1.0;
-  // The CoM change at the current state (the state barely moves in one tick: recomputed after it below).
-  controller::RobotDynamicsData d = ctrl_->dynamics();
-  double m0, m1;
-  Eigen::Vector3d c0, c1, v;
-  LinearAngular6d h;
-  controller::centroidalWorld(model_, model_.phi, d, m0, c0, v, h);
-  controller::centroidalWorld(model_, e.params, d, m1, c1, v, h);
-  const Eigen::Vector3d change = c1 - c0;
-  ASSERT_GT(change.cwiseAbs().minCoeff(), 1e-4);
-  e.com_stddev = Eigen::Vector3d(std::abs(change.x()) / 10.0,  // 10 sigma: weight 0.91
-                                 std::abs(change.y()) / 2.0,   // 2 sigma: not used
-                                 0.0);                         // exact: used whole
-  e.mass_stddev = 2.0;  // 1 sigma: the mass change is not used
-  ASSERT_TRUE(ctrl_->setEstimate(e));
-  tick(k++);
-  d = ctrl_->dynamics();
-  controller::RobotDynamicsData scratch = d;
-  controller::centroidalWorld(model_, model_.phi, scratch, m0, c0, v, h);
-  controller::centroidalWorld(model_, e.params, scratch, m1, c1, v, h);
-  const Eigen::Vector3d used = d.com - c0, full = c1 - c0;
-  EXPECT_NEAR(used.x(), 0.91 * full.x(), 1e-9);
-  EXPECT_NEAR(used.y(), 0.0, 1e-12);
-  EXPECT_NEAR(used.z(), full.z(), 1e-9);
-  EXPECT_NEAR(d.mass, m0, 1e-9);  // within 1 sigma: the model's mass
-  EXPECT_NEAR(d.tau_correction[model_.jointRow(knee)] - ctrl_->disturbanceObserver().estimate()[model_.jointRow(knee)],
-              0.0, 1e-12);
-  EXPECT_NEAR(d.tau_correction[model_.jointRow(hip)] - ctrl_->disturbanceObserver().estimate()[model_.jointRow(hip)],
-              0.64 * 5.0, 1e-12);
-  // trust_sigmas 0: everything as it is.
-  cfg.estimate.trust_sigmas = 0.0;
-  make(cfg);
-  k = settle();
-  tick(k++);
-  e.tick = k;
-  ASSERT_TRUE(ctrl_->setEstimate(e));
-  tick(k++);
-  d = ctrl_->dynamics();
-  scratch = d;
-  controller::centroidalWorld(model_, e.params, scratch, m1, c1, v, h);
-  EXPECT_NEAR((d.com - c1).norm(), 0.0, 1e-9);
-  EXPECT_NEAR(d.mass, m1, 1e-9);
-  EXPECT_NEAR(d.tau_correction[model_.jointRow(knee)] - ctrl_->disturbanceObserver().estimate()[model_.jointRow(knee)],
-              2.5, 1e-12);
+  // One run: the controller at its settled state, this estimate with CoM sigmas (change / ratio) per axis (ratio
+  // 0: sigma 0); returns the CoM change used, the full change, and the controller's dynamics.
+  struct Used {
+    Eigen::Vector3d used, full;
+    double mass = 0.0, mass_model = 0.0, mass_estimate = 0.0;
+    Eigen::VectorXd tau_correction;  // [nv]
+  };
+  const auto run = [&](const ControllerConfig& c, const Eigen::Vector3d& ratio) {
+    make(c);
+    int64_t k = settle();
+    tick(k++);
+    EstimatorOutputSample e = modelEstimate(model_, k);
+    e.params.segment<kParamsPerBody>(model_.bodyParamIndex(0)) += paramsFromInertial(
+        2.0, Eigen::Vector3d(0.08, 0.05, 0.1), Eigen::Matrix3d::Identity(), 0.01 * Eigen::Matrix3d::Identity());
+    e.tau_correction[model_.jointRow(knee)] = 2.5;  // 2.5 sigma: not used at k = 3
+    e.tau_correction_stddev[model_.jointRow(knee)] = 1.0;
+    e.tau_correction[model_.jointRow(hip)] = 5.0;   // 5 sigma: weight 1 - (3/5)^2 = 0.64
+    e.tau_correction_stddev[model_.jointRow(hip)] = 1.0;
+    // The CoM change at the current state (the state barely moves in one tick: recomputed after it below).
+    controller::RobotDynamicsData d = ctrl_->dynamics();
+    double m0, m1;
+    Eigen::Vector3d c0, c1, v;
+    LinearAngular6d h;
+    controller::centroidalWorld(model_, model_.phi, d, m0, c0, v, h);
+    controller::centroidalWorld(model_, e.params, d, m1, c1, v, h);
+    const Eigen::Vector3d change = c1 - c0;
+    EXPECT_GT(change.cwiseAbs().minCoeff(), 1e-4);
+    for (int a = 0; a < 3; ++a) e.com_stddev[a] = ratio[a] > 0.0 ? std::abs(change[a]) / ratio[a] : 0.0;
+    e.mass_stddev = 2.0;  // 1 sigma: the mass change is not used at k = 3
+    EXPECT_TRUE(ctrl_->setEstimate(e));
+    tick(k++);
+    d = ctrl_->dynamics();
+    controller::RobotDynamicsData scratch = d;
+    controller::centroidalWorld(model_, model_.phi, scratch, m0, c0, v, h);
+    controller::centroidalWorld(model_, e.params, scratch, m1, c1, v, h);
+    Used u;
+    u.used = d.com - c0;
+    u.mass = d.mass;
+    u.tau_correction = d.tau_correction;
+    u.full = c1 - c0;
+    u.mass_model = m0;
+    u.mass_estimate = m1;
+    return u;
+  };
+  const auto ff = [&](const Used& u, int joint) {
+    return u.tau_correction[model_.jointRow(joint)] -
+           ctrl_->disturbanceObserver().estimate()[model_.jointRow(joint)];
+  };
+  // Shipped: x at 10 sigma (weight 1 - 1/100), y and z at 2 sigma: y used at 1 - 1/4 (k = 1), z not (k = 3).
+  Used u = run(cfg, Eigen::Vector3d(10.0, 2.0, 2.0));
+  EXPECT_NEAR(u.used.x(), 0.99 * u.full.x(), 1e-9);
+  EXPECT_NEAR(u.used.y(), 0.75 * u.full.y(), 1e-9);
+  EXPECT_NEAR(u.used.z(), 0.0, 1e-12);
+  EXPECT_NEAR(u.mass, u.mass_model, 1e-9);  // within 1 sigma: the model's mass
+  EXPECT_NEAR(ff(u, knee), 0.0, 1e-12);
+  EXPECT_NEAR(ff(u, hip), 0.64 * 5.0, 1e-12);
+  // The horizontal axes at k = 3 too (the rule before 2026-12-06): 10 sigma 0.91, 2 sigma not used; a zero sigma
+  // (exact) is used whole.
+  ControllerConfig three = cfg;
+  three.estimate.trust_sigmas_horizontal_com = 3.0;
+  u = run(three, Eigen::Vector3d(10.0, 2.0, 0.0));
+  EXPECT_NEAR(u.used.x(), 0.91 * u.full.x(), 1e-9);
+  EXPECT_NEAR(u.used.y(), 0.0, 1e-12);
+  EXPECT_NEAR(u.used.z(), u.full.z(), 1e-9);
+  // trust_sigmas 0 for both: everything as it is.
+  ControllerConfig none = cfg;
+  none.estimate.trust_sigmas = 0.0;
+  none.estimate.trust_sigmas_horizontal_com = 0.0;
+  u = run(none, Eigen::Vector3d(10.0, 2.0, 2.0));
+  EXPECT_NEAR((u.used - u.full).norm(), 0.0, 1e-9);
+  EXPECT_NEAR(u.mass, u.mass_estimate, 1e-9);
+  EXPECT_NEAR(ff(u, knee), 2.5, 1e-12);
+  EXPECT_NEAR(ff(u, hip), 5.0, 1e-12);
 }
 TEST_F(FallbackTest, UnusableEstimatesAreRefusedByReasonAndWithdrawTheCurrentOne) {
   int64_t k = settle();

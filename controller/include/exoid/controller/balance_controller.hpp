@@ -143,8 +143,9 @@ class BalanceController {
   bool runQp();
   void updateDynamics(const State& state);  // model dynamics, then the blend toward the estimate
   /// Weight of an estimated change from the model with one-sigma `stddev`: max(0, 1 - (k stddev / |change|)^2),
-  /// k = estimate.trust_sigmas (1 when k is 0). Zero within k sigma; -> 1 as the change stands out.
-  double trustWeight(double change, double stddev) const;
+  /// k = estimate.trust_sigmas or trust_sigmas_horizontal_com (1 when k is 0). Zero within k sigma; -> 1 as the
+  /// change stands out.
+  static double trustWeight(double change, double stddev, double k);
   void advanceEstimateBlend(int64_t tick);
   // The estimate's fixed lag (setEstimate queues, the tick applies):
   /// The verdict on an estimate (None: usable) and its total mass; the checks of setEstimate.

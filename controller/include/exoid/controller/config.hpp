@@ -114,6 +114,9 @@ struct EstimateConfig {
   /// weight max(0, 1 - (k sigma / |change|)^2) with k = trust_sigmas; 0: everything used as it is
   /// (docs/controller.md, "Trust").
   double trust_sigmas = 0.0;
+  /// k of the same rule for the CoM's horizontal axes (x, y and their velocity and momentum), which set the
+  /// balance: the positive-part James-Stein weight at k = 1 (docs/controller.md, "Trust"); 0: used as it is.
+  double trust_sigmas_horizontal_com = 0.0;
 };
 
 /// Disturbance observer: the generalized force the model misses (docs/controller.md, "Model error").
