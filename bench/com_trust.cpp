@@ -8,7 +8,8 @@
 // CoM height change from the model each body carries.
 // An evaluation tool: it reads the ground truth, the estimator never does.
 //
-// usage: exoid_com_trust LOG [PERIOD_S [K [URDF [moving]]]]   (K: the trust threshold in sigmas, default 3; URDF:
+// usage: exoid_com_trust LOG [PERIOD_S [K [URDF [moving]]]]   (K: the trust threshold in sigmas, default 3 on every
+// axis, or KXY,KZ for the horizontal axes and the height, e.g. 1,3 as the controller ships; URDF:
 // the estimator's prior and the model, default config/exo.urdf, e.g. `exoid model wearer`'s for a wearer run;
 // "moving": OnlineEstimatorOptions::base_body_moves, as `exoid experiment` sets it for a wearer)
 #include <algorithm>
@@ -53,7 +54,13 @@ int main(int argc, char** argv) {
   const long first_tick = run.ticks.front().state->tick;
   double sum_z2[3] = {0, 0, 0}, sum_e2[3] = {0, 0, 0}, z_max[3] = {0, 0, 0}, leak2[3] = {0, 0, 0};
   long over3[3] = {0, 0, 0};
-  const double k = argc > 3 ? std::atof(argv[3]) : 3.0;
+  double k_axis[3] = {3.0, 3.0, 3.0};  // KXY,KZ or one K for all (controller estimate.trust_sigmas[_horizontal_com])
+  if (argc > 3) {
+    const std::string a = argv[3];
+    const size_t comma = a.find(',');
+    k_axis[0] = k_axis[1] = std::atof(a.substr(0, comma).c_str());
+    k_axis[2] = comma == std::string::npos ? k_axis[0] : std::atof(a.substr(comma + 1).c_str());
+  }
   long n = 0, printed = -1;
   for (const auto& t : run.ticks) {
     est.addState(*t.state);
@@ -76,6 +83,7 @@ int main(int argc, char** argv) {
       sum_e2[i] += e[i] * e[i];
       const double z = std::abs(e[i] / sd[i]);
       z_max[i] = std::max(z_max[i], z);
+      const double k = k_axis[i];
       if (z > k) ++over3[i];
       const double w = z > k ? 1.0 - (k / z) * (k / z) : 0.0;  // the trust rule's weight
       leak2[i] += (w * e[i]) * (w * e[i]);
@@ -114,8 +122,8 @@ int main(int argc, char** argv) {
     }
   }
   if (n > 0)
-    std::printf("k %.1f: max |z| %.2f %.2f %.2f, publications over k %ld %ld %ld, RMS of the error let through %.3f "
-                "%.3f %.3f mm\n", k, z_max[0], z_max[1], z_max[2], over3[0], over3[1], over3[2], std::sqrt(leak2[0] / n),
+    std::printf("k %.1f %.1f %.1f: max |z| %.2f %.2f %.2f, publications over k %ld %ld %ld, RMS of the error let "
+                "through %.3f %.3f %.3f mm\n", k_axis[0], k_axis[1], k_axis[2], z_max[0], z_max[1], z_max[2], over3[0], over3[1], over3[2], std::sqrt(leak2[0] / n),
                 std::sqrt(leak2[1] / n), std::sqrt(leak2[2] / n));
   if (n > 0)
     std::printf("over %ld publications: RMS error %.3f %.3f %.3f mm, RMS z %.2f %.2f %.2f\n", n,
