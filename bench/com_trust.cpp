@@ -123,8 +123,9 @@ int main(int argc, char** argv) {
   }
   if (n > 0)
     std::printf("k %.1f %.1f %.1f: max |z| %.2f %.2f %.2f, publications over k %ld %ld %ld, RMS of the error let "
-                "through %.3f %.3f %.3f mm\n", k_axis[0], k_axis[1], k_axis[2], z_max[0], z_max[1], z_max[2], over3[0], over3[1], over3[2], std::sqrt(leak2[0] / n),
-                std::sqrt(leak2[1] / n), std::sqrt(leak2[2] / n));
+                "through %.3f %.3f %.3f mm\n",
+                k_axis[0], k_axis[1], k_axis[2], z_max[0], z_max[1], z_max[2], over3[0], over3[1], over3[2],
+                std::sqrt(leak2[0] / n), std::sqrt(leak2[1] / n), std::sqrt(leak2[2] / n));
   if (n > 0)
     std::printf("over %ld publications: RMS error %.3f %.3f %.3f mm, RMS z %.2f %.2f %.2f\n", n,
                 std::sqrt(sum_e2[0] / n), std::sqrt(sum_e2[1] / n), std::sqrt(sum_e2[2] / n), std::sqrt(sum_z2[0] / n),

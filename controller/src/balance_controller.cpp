@@ -194,7 +194,8 @@ bool BalanceController::setEstimate(const EstimatorOutputSample& e) {
     p.params = e.params;
     // Each entry of the correction as far as it stands out of its own uncertainty, then bounded.
     for (int r = 0; r < model_.nv; ++r)
-      p.ff[r] = trustWeight(e.tau_correction[r], e.tau_correction_stddev[r], cfg_.estimate.trust_sigmas) * e.tau_correction[r];
+      p.ff[r] = trustWeight(e.tau_correction[r], e.tau_correction_stddev[r], cfg_.estimate.trust_sigmas) *
+                e.tau_correction[r];
     p.ff = p.ff.cwiseMax(-cfg_.estimate.max_abs).cwiseMin(cfg_.estimate.max_abs);
     p.com_stddev = e.com_stddev;
     p.mass_stddev = e.mass_stddev;
@@ -268,9 +269,9 @@ void BalanceController::updateDynamics(const State& state) {
   Eigen::Vector3d com, com_velocity;
   LinearAngular6d momentum;
   centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
-  // Trust per world axis: the CoM's change from the model's against its uncertainty (the velocity and the
-  // momentum follow their axis's CoM: their change comes from the same parameters). The height only when asked
-  // (use_com_height, the default; docs/controller.md).
+  // Trust per world axis: the CoM's change from the model's against its uncertainty, k = 1 horizontally (the
+  // James-Stein weight) and 3 for the height (the velocity and the momentum follow their axis's CoM: their change
+  // comes from the same parameters). The height only when asked (use_com_height, the default; docs/controller.md).
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i)
     t[i] = w * trustWeight(com[i] - dyn_.com[i], com_stddev_[i],

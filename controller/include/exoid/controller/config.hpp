@@ -109,7 +109,8 @@ struct EstimateConfig {
   int lag_ticks = 0;
   double blend_time = 0.0;       ///< s, switching in and out blends over this time (0: at once)
   double max_relative_mass_change = 0.0;  ///< refuse an estimate whose total mass differs more from the model's
-  /// Each quantity the estimate changes (every tau_correction entry, the mass, each world axis of the CoM) is
+  /// Each quantity the estimate changes (every tau_correction entry, the mass, the CoM height; the horizontal CoM
+  /// with trust_sigmas_horizontal_com) is
   /// used only as far as its change from the model stands out of the estimate's own one-sigma uncertainty:
   /// weight max(0, 1 - (k sigma / |change|)^2) with k = trust_sigmas; 0: everything used as it is
   /// (docs/controller.md, "Trust").
