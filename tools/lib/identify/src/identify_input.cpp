@@ -38,12 +38,13 @@ std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& t
   // noise (400 times the encoders'), not the default's error (ten prior draws on one nominal run pair at 30 Hz: 4 of
   // 10 within 10 % of the validation choice with the IMU's orientation as the alternative, 9 of 10 with this one;
   // docs/identification.md). With the gyro's rate the IMU's orientation stays the alternative (as measured then).
-  if (d.orientation_from_legs && (d.base_rate_from_legs || d.base_acceleration_from_legs) && logs_on_floating_base) {
+  if (!d.orientation_from_legs || !logs_on_floating_base) return out;
+  if (d.base_rate_from_legs || d.base_acceleration_from_legs) {
     ProcessingAlternative imu{"IMU below the fusion cutoff", training};
     imu.source.dataset.imu_below_fusion_cutoff = true;
     out.push_back(imu);
   }
-  if (d.orientation_from_legs && !d.base_rate_from_legs && logs_on_floating_base) {
+  if (!d.base_rate_from_legs) {
     ProcessingAlternative imu{"IMU orientation", training};
     imu.source.dataset.orientation_from_legs = false;
     out.push_back(imu);

@@ -194,6 +194,15 @@ bool modelAndPrior(const IdentifyRunOptions& o, IdentifyRun& run, Eigen::VectorX
   return true;
 }
 
+/// Where the base's orientation, rate and linear acceleration come from (--base-orientation, --base-rate,
+/// --base-acceleration): the legs only in the sensors pipeline (the truth pipeline records the base's motion).
+void setBaseSignals(const IdentifyRunOptions& o, intake::LogPipeline pipeline, estimator::DatasetOptions& d) {
+  const bool sensors = pipeline == intake::LogPipeline::Sensors;
+  d.orientation_from_legs = sensors && o.orientation == "fused";
+  d.base_rate_from_legs = sensors && o.base_rate == "legs";
+  d.base_acceleration_from_legs = sensors && o.base_acceleration == "legs";
+}
+
 /// The training data's dataset pipeline.
 SourceOptions trainingSource(const IdentifyRunOptions& o) {
   SourceOptions so;
@@ -201,10 +210,8 @@ SourceOptions trainingSource(const IdentifyRunOptions& o) {
   so.dataset.cutoff_hz = o.cutoff_hz;
   so.dataset.filter = o.filter_mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
   so.dataset.derive = o.derive || o.noise > 0.0;
-  so.dataset.orientation_from_legs = o.pipeline == "sensors" && o.orientation == "fused";
+  setBaseSignals(o, so.pipeline, so.dataset);
   so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
-  so.dataset.base_rate_from_legs = o.pipeline == "sensors" && o.base_rate == "legs";
-  so.dataset.base_acceleration_from_legs = o.pipeline == "sensors" && o.base_acceleration == "legs";
   so.dataset.encoder_noise = o.noise;
   so.dataset.noise_seed = o.seed;
   so.skip_bad_rows = o.skip_bad_rows;
@@ -223,9 +230,7 @@ SourceOptions validationSource(const IdentifyRunOptions& o, const SourceOptions&
   vo.pipeline = (o.validate_pipeline.empty() ? "truth" : o.validate_pipeline) == "truth" ? intake::LogPipeline::Truth
                                                                                          : intake::LogPipeline::Sensors;
   vo.dataset.encoder_noise = 0.0;
-  vo.dataset.orientation_from_legs = vo.pipeline == intake::LogPipeline::Sensors && o.orientation == "fused";
-  vo.dataset.base_rate_from_legs = vo.pipeline == intake::LogPipeline::Sensors && o.base_rate == "legs";
-  vo.dataset.base_acceleration_from_legs = vo.pipeline == intake::LogPipeline::Sensors && o.base_acceleration == "legs";
+  setBaseSignals(o, vo.pipeline, vo.dataset);
   vo.dataset.derive = o.derive;
   const bool ideal = vo.pipeline == intake::LogPipeline::Truth && !o.validate.empty() && !isCsvPath(o.validate.front());
   vo.dataset.cutoff_hz = ideal ? 0.0 : training.dataset.cutoff_hz;
