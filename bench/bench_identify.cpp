@@ -58,6 +58,7 @@ void BM_IdentifyLog(benchmark::State& state) {
     estimator::LsqAccumulator acc(model, base, ao);
     tools::SourceOptions so;  // sensors pipeline, no filter, base orientation fused and rate from the legs
     so.dataset.orientation_from_legs = true;  // (exoid identify's defaults)
+    so.fit_sole_tilt = true;
     so.dataset.base_rate_from_legs = true;
     so.dataset.base_acceleration_from_legs = true;
     for (int i = 0; i < state.range(0); ++i) {

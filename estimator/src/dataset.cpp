@@ -6,6 +6,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "exoid/estimator/sole_tilt.hpp"
 #include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
 #include "exoid/signal/filters.hpp"
@@ -352,13 +353,6 @@ void DatasetBuilder::baseSignals(BlockSignals& b) const {
 }
 
 namespace {
-Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& M) {  // chordal mean
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  return svd.matrixU() * D * svd.matrixV().transpose();
-}
-
 Eigen::Vector3d veeOfSkewPart(const Eigen::Matrix3d& M) {
   return Eigen::Vector3d(0.5 * (M(2, 1) - M(1, 2)), 0.5 * (M(0, 2) - M(2, 0)), 0.5 * (M(1, 0) - M(0, 1)));
 }
@@ -410,7 +404,11 @@ void DatasetBuilder::fuseOrientation(BlockSignals& b) const {
     const Eigen::AngleAxisd d(legs[i].conjugate() * buffer_[i].base_orientation);
     e.row(i) = (d.angle() * d.axis()).transpose();
   }
-  e = filtfilt(b.lp_orientation, e);
+  if (opt_.sole_tilt.fitted) {  // the soles' tilt from the plates, fitted over the run (sole_tilt.hpp)
+    for (int i = 0; i < n; ++i) e.row(i) = (opt_.sole_tilt.coefficients * soleTiltRegressor(buffer_[i])).transpose();
+  } else {
+    e = filtfilt(b.lp_orientation, e);
+  }
   for (int i = 0; i < n; ++i) {
     const double angle = e.row(i).norm();
     if (angle > 0.0) legs[i] = (legs[i] * Eigen::Quaterniond(Eigen::AngleAxisd(angle, e.row(i).transpose() / angle))).normalized();

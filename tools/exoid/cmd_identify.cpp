@@ -10,6 +10,7 @@
 #include "exoid/common/cli.hpp"
 #include "exoid/common/process_main.hpp"
 #include "exoid/estimator/batch/identify.hpp"
+#include "exoid/estimator/sole_tilt.hpp"
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/identify_run.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
@@ -47,9 +48,11 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
       ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
   app.add_option("--filter-mode", o.filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
                  "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
-  app.add_option("--base-orientation", o.orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with the "
-                 "feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) or the "
-                 "'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
+  app.add_option("--base-orientation", o.orientation, "sensors pipeline: base orientation from leg kinematics (the feet "
+                 "flat and still on the plates) corrected for the soles' tilt on their contacts, which the IMU sees: "
+                 "'plates' (the tilt a linear function of the plates' wrenches, its coefficients fitted to the IMU over "
+                 "the whole file, each axis's columns chosen by BIC; default), 'fused' (the IMU's correction below "
+                 "--orientation-cutoff), or the 'imu' alone")->check(CLI::IsMember({"plates", "fused", "imu"}));
   app.add_option("--base-rate", o.base_rate, "sensors pipeline: the base's angular velocity and acceleration from the 'legs' "
                  "(feet flat and still on the plates: the rotation the encoders give, differentiated as the joints' "
                  "angles; default) or the 'gyro' (its white noise differentiated is the larger error)")
@@ -60,7 +63,7 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
       ->check(CLI::IsMember({"legs", "accelerometer"}));
   app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
                  "which the legs give the orientation (default 5); the processing check's IMU alternative uses it for "
-                 "the rate and acceleration too")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
+                 "the rate and acceleration with every --base-orientation")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
   app.add_flag("--derive", o.derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
   app.add_option("--noise", o.noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");
@@ -212,6 +215,20 @@ nlohmann::json inputsJson(const tools::IdentifyRun& run) {
                       {"rejected_log_events", st.rejected_events}});
     if (!st.first_skip.empty()) inputs.back()["first_skipped"] = st.first_skip;
     if (!st.damage_report.empty()) inputs.back()["damage"] = st.damage_report;  // read with --allow-partial
+    if (st.sole_tilt.fitted) {  // --base-orientation plates
+      nlohmann::json cols = nlohmann::json::array();
+      for (int a = 0; a < 3; ++a) {
+        nlohmann::json c = nlohmann::json::array();
+        for (int k = 0; k < estimator::kSoleTiltRegressors; ++k)
+          if (st.sole_tilt.columns[a] & (1 << k)) c.push_back(estimator::soleTiltColumnName(k));
+        cols.push_back(c);
+      }
+      const auto vec = [](const Eigen::Vector3d& v) { return std::vector<double>{v[0], v[1], v[2]}; };
+      inputs.back()["sole_tilt"] = {{"columns_per_axis", cols},
+                                    {"explained_rms_rad", vec(st.sole_tilt.explained_rms)},
+                                    {"imu_correction_rms_rad", vec(st.sole_tilt.correction_rms)},
+                                    {"residual_rms_rad", vec(st.sole_tilt.residual_rms)}};
+    }
   }
   return inputs;
 }

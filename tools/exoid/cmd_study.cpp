@@ -87,7 +87,7 @@ bool parseList(const std::string& s, std::vector<T>& out) {
 /// The study's options as given: the lists still text, --runs and its moves.
 struct StudyArgs {
   std::string cutoffs = "0,10,15,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
-  std::string runs, sensors_filter = "inputs", orientation = "fused", base_rate = "legs", base_acceleration = "legs";
+  std::string runs, sensors_filter = "inputs", orientation = "plates", base_rate = "legs", base_acceleration = "legs";
   std::string scene = std::string(EXOID_CONFIG_DIR) + "/exo.xml";
   int moves = 0;
   bool no_keyframes = false;
@@ -116,9 +116,11 @@ void addStudyOptions(CLI::App& app, tools::StudyOptions& o, StudyArgs& a) {
   app.add_option("--sensors-filter", a.sensors_filter, "sensors pipeline: 'inputs' (filter q and the gyro, differentiate; "
                  "default) or 'parallel' (the same zero-phase filter on every column of W and on y)")
       ->check(CLI::IsMember({"inputs", "parallel"}));
-  app.add_option("--base-orientation", a.orientation, "sensors pipeline: base orientation 'fused' (leg kinematics with "
-                 "the feet flat and still on the plates, corrected below --orientation-cutoff by the IMU; default) "
-                 "or the 'imu' alone")->check(CLI::IsMember({"fused", "imu"}));
+  app.add_option("--base-orientation", a.orientation, "sensors pipeline: base orientation from leg kinematics (the feet "
+                 "flat and still on the plates) corrected for the soles' tilt, which the IMU sees: 'plates' (the tilt "
+                 "a linear function of the plates' wrenches fitted to the IMU over the run; default), 'fused' (the "
+                 "IMU's correction below --orientation-cutoff), or the 'imu' alone")
+      ->check(CLI::IsMember({"plates", "fused", "imu"}));
   app.add_option("--base-rate", a.base_rate, "sensors pipeline: the base's angular velocity and acceleration from the "
                  "'legs' (feet flat and still on the plates; default) or the 'gyro'")->check(CLI::IsMember({"legs", "gyro"}));
   app.add_option("--base-acceleration", a.base_acceleration, "sensors pipeline: the base's linear acceleration from the "
@@ -145,7 +147,8 @@ bool resolveStudyOptions(const StudyArgs& a, tools::StudyOptions& o, std::string
   if (!a.runs.empty() && (!o.train.empty() || !o.validation.empty() || !o.test.empty()))
     return *error = "--runs records/reuses its own runs: do not combine it with --train, --validation or --test", false;
   o.parallel_filter = a.sensors_filter == "parallel";
-  o.orientation_from_legs = a.orientation == "fused";
+  o.orientation_from_legs = a.orientation == "plates" || a.orientation == "fused";
+  o.fit_sole_tilt = a.orientation == "plates";
   o.base_rate_from_legs = a.base_rate == "legs";
   o.base_acceleration_from_legs = a.base_acceleration == "legs";
   if (!parseList(a.cutoffs, o.cutoffs)) return *error = "--cutoffs must be a comma-separated list of numbers", false;

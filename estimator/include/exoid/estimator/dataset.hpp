@@ -88,6 +88,19 @@ void measuredFromSensors(const Model& model, const RobotStateSample& state, cons
 void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_hz, Eigen::MatrixXd* xf,
                             Eigen::MatrixXd* dx, Eigen::MatrixXd* ddx);
 
+/// The soles' tilt on their contacts as a linear function of the plates' wrenches (sole_tilt.hpp, SoleTiltFit): the
+/// legs' orientation error e = log(R_legs^T R_wb) (base coordinates) ~ coefficients x, x [13] = [1, f_0, n_0, f_1, n_1].
+struct SoleTilt {
+  bool fitted = false;
+  /// Per axis (x, y, z of the base), a bit per column of x kept by the selection (bit 0: the constant).
+  int columns[3] = {0, 0, 0};
+  Eigen::Matrix<double, 3, 13> coefficients = Eigen::Matrix<double, 3, 13>::Zero();
+  long samples = 0;
+  Eigen::Vector3d correction_rms = Eigen::Vector3d::Zero();  ///< rad, RMS of the IMU's correction e per axis
+  Eigen::Vector3d explained_rms = Eigen::Vector3d::Zero();   ///< rad, RMS of the fit C x about its mean
+  Eigen::Vector3d residual_rms = Eigen::Vector3d::Zero();    ///< rad, what it leaves: the IMU's noise, what is not linear
+};
+
 enum class FilterMode {
   Inputs,    ///< thesis III-E: filter q (and the gyro), differentiate, filter the derivatives; y untouched
   Parallel,  ///< inputs only differentiated (no filter; the short zero-phase fit of derivative_half_window), then
@@ -124,6 +137,11 @@ struct DatasetOptions {
   /// R_wb^T g).
   bool orientation_from_legs = false;
   double orientation_cutoff_hz = 5.0;
+  /// With orientation_from_legs, where fitted: the legs' error from this fit of the IMU's correction to the plates'
+  /// wrenches (SoleTiltFit over the same run first; the tools' readers do it, tools::SourceOptions::fit_sole_tilt)
+  /// instead of the IMU's band below orientation_cutoff_hz: the IMU's noise is then averaged over the run, not
+  /// passed below the cutoff. R_wb = R_legs exp(coefficients x).
+  SoleTilt sole_tilt;
   /// The base's angular velocity and acceleration from the legs instead of the gyro (samples without a base
   /// position only, footholds given): with the soles flat and still, R_wb = R_ws R_bs(q)^T (chordal mean over the
   /// feet, R_ws as above), so omega = vee(R^T dR/dt) and domega = vee(R^T d2R/dt2) (base frame, as the gyro's),

@@ -11,6 +11,8 @@
 #include <sstream>
 #include <vector>
 
+#include "exoid/estimator/sole_tilt.hpp"
+
 
 namespace exoid::tools {
 
@@ -118,6 +120,13 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
     dopt.base_rate_from_legs = false;
     dopt.base_acceleration_from_legs = false;
   }
+  if (options.fit_sole_tilt && dopt.orientation_from_legs && model.floating_base && !options.held_base) {
+    estimator::SoleTiltFit fit(model, dopt.footholds);
+    intake::InputStats first;  // the same file is read again below, counted there
+    const intake::SampleSink pass = [&](const estimator::MeasuredSample& s, std::string*) { return fit.add(s), true; };
+    if (!readFile(path, model, options, feet, pass, first, error)) return stats = first, false;
+    dopt.sole_tilt = fit.finish();
+  }
   if (options.held_function && (options.held_function->c.size() != model.nparams() || options.held_function->j < 0 ||
                                  options.held_function->j >= model.nparams())) {
     if (error) *error = path + ": the held function does not match the model's size";
@@ -161,6 +170,7 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
     return builder.add(held, err);
   };
   if (!readFile(path, model, options, feet, sink, stats, error)) return false;
+  stats.sole_tilt = dopt.sole_tilt;  // the reader starts its statistics afresh
   std::string err;
   if (!builder.finish(&err)) {
     if (error) *error = path + ": " + err;
@@ -233,6 +243,11 @@ bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, co
   int feet[2];
   estimator::DatasetOptions dopt;
   if (!datasetSetup(model, options, feet, dopt, error)) return false;
+  if (options.fit_sole_tilt && dopt.orientation_from_legs && model.floating_base) {
+    estimator::SoleTiltFit fit(model, dopt.footholds);
+    for (const estimator::MeasuredSample& s : samples) fit.add(s);
+    dopt.sole_tilt = stats.sole_tilt = fit.finish();
+  }
   long nonfinite = 0;
   estimator::DatasetBuilder builder(model, dopt, accumulatorSink(acc, nonfinite));
   for (const estimator::MeasuredSample& s : samples)

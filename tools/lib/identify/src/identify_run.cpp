@@ -13,6 +13,7 @@
 #include "exoid/common/strict_number.hpp"
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/diagnose.hpp"
+#include "exoid/estimator/sole_tilt.hpp"
 #include "exoid/intake/run_log.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/kinematics.hpp"
@@ -196,9 +197,11 @@ bool modelAndPrior(const IdentifyRunOptions& o, IdentifyRun& run, Eigen::VectorX
 
 /// Where the base's orientation, rate and linear acceleration come from (--base-orientation, --base-rate,
 /// --base-acceleration): the legs only in the sensors pipeline (the truth pipeline records the base's motion).
-void setBaseSignals(const IdentifyRunOptions& o, intake::LogPipeline pipeline, estimator::DatasetOptions& d) {
-  const bool sensors = pipeline == intake::LogPipeline::Sensors;
-  d.orientation_from_legs = sensors && o.orientation == "fused";
+void setBaseSignals(const IdentifyRunOptions& o, SourceOptions& so) {
+  const bool sensors = so.pipeline == intake::LogPipeline::Sensors;
+  estimator::DatasetOptions& d = so.dataset;
+  d.orientation_from_legs = sensors && (o.orientation == "plates" || o.orientation == "fused");
+  so.fit_sole_tilt = sensors && o.orientation == "plates";
   d.base_rate_from_legs = sensors && o.base_rate == "legs";
   d.base_acceleration_from_legs = sensors && o.base_acceleration == "legs";
 }
@@ -210,7 +213,7 @@ SourceOptions trainingSource(const IdentifyRunOptions& o) {
   so.dataset.cutoff_hz = o.cutoff_hz;
   so.dataset.filter = o.filter_mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
   so.dataset.derive = o.derive || o.noise > 0.0;
-  setBaseSignals(o, so.pipeline, so.dataset);
+  setBaseSignals(o, so);
   so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
   so.dataset.encoder_noise = o.noise;
   so.dataset.noise_seed = o.seed;
@@ -230,7 +233,7 @@ SourceOptions validationSource(const IdentifyRunOptions& o, const SourceOptions&
   vo.pipeline = (o.validate_pipeline.empty() ? "truth" : o.validate_pipeline) == "truth" ? intake::LogPipeline::Truth
                                                                                          : intake::LogPipeline::Sensors;
   vo.dataset.encoder_noise = 0.0;
-  setBaseSignals(o, vo.pipeline, vo.dataset);
+  setBaseSignals(o, vo);
   vo.dataset.derive = o.derive;
   const bool ideal = vo.pipeline == intake::LogPipeline::Truth && !o.validate.empty() && !isCsvPath(o.validate.front());
   vo.dataset.cutoff_hz = ideal ? 0.0 : training.dataset.cutoff_hz;
@@ -262,6 +265,9 @@ bool load(const std::vector<std::string>& files, const SourceOptions& opt, estim
     run.inputs.emplace_back(f, st);
     std::fprintf(stderr, "exoid identify: %s: %ld samples, %ld skipped%s%s\n", f.c_str(), st.samples, st.skipped,
                  st.first_skip.empty() ? "" : " (first: ", st.first_skip.empty() ? "" : (st.first_skip + ")").c_str());
+    if (st.sole_tilt.fitted || st.sole_tilt.samples > 0)
+      std::fprintf(stderr, "exoid identify: %s: the soles' tilt from the plates: %s\n", f.c_str(),
+                   estimator::describeSoleTilt(st.sole_tilt).c_str());
     if (!st.damage_report.empty())
       std::fprintf(stderr, "exoid identify: warning: %s: damaged log, its readable part used: %s\n", f.c_str(),
                    st.damage_report.c_str());

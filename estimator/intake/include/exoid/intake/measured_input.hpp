@@ -29,6 +29,7 @@ struct InputStats {
   LogDamage damage;                 ///< LCM only: damage to the log's framing
   std::string damage_report;        ///< LCM only: damageReport() of the log, "" when intact
   bool refused_damaged = false;     ///< the read failed because the log is damaged (not allowed partial)
+  estimator::SoleTilt sole_tilt;    ///< the soles' tilt fitted over this file (tools::SourceOptions::fit_sole_tilt)
 
   /// Counts one skipped row/tick/event under `reason`; the first one skipped is remembered with `where`.
   void skip(const std::string& reason, const std::string& where) {

@@ -22,6 +22,10 @@ struct SourceOptions {
   intake::LogPipeline pipeline = intake::LogPipeline::Sensors;  ///< LCM logs only
   estimator::DatasetOptions dataset;
   bool skip_bad_rows = false;                   ///< CSV only
+  /// With dataset.orientation_from_legs on a floating base: fit the soles' tilt on their contacts to the plates'
+  /// wrenches over the whole file first (estimator::SoleTiltFit, one more pass over it), into dataset.sole_tilt and
+  /// the file's intake::InputStats::sole_tilt (`--base-orientation plates`, the default; docs/identification.md).
+  bool fit_sole_tilt = false;
   const estimator::EffectSet* effects = nullptr;  ///< a diagnose sidecar applied as known corrections (no delay)
   /// The run was recorded with the pelvis held still by a harness and the feet free (`exoid calibrate`): the base
   /// at rest (no velocity, no acceleration; orientation from the IMU, or the truth), no foot contact, and the rows

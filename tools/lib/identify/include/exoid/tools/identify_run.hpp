@@ -18,7 +18,7 @@ namespace exoid::tools {
 struct IdentifyRunOptions {
   std::vector<std::string> data, validate, only_links;
   std::string model_path, pipeline = "sensors", validate_pipeline, filter_mode = "inputs", method = "WLS-RC-PC",
-                          rank = "jackknife", prior_path, effects_path, orientation = "fused";
+                          rank = "jackknife", prior_path, effects_path, orientation = "plates";
   /// Sensors pipeline, floating base: the base's angular velocity and acceleration from "legs" (feet flat on the
   /// plates: DatasetOptions::base_rate_from_legs) or the "gyro".
   std::string base_rate = "legs";
