@@ -74,16 +74,19 @@ void SoleTiltFit::add(const MeasuredSample& s) {
   const Eigen::Matrix<double, kSoleTiltRegressors, 1> x = soleTiltRegressor(s);
   if (sole_world_.empty()) {
     early_.push_back({Rbs, s.base_orientation, x});
-    if (static_cast<int>(early_.size()) < kOrientationSamples) return;
-    sole_world_.assign(footholds_.size(), Eigen::Matrix3d::Zero());
-    for (const Early& e : early_)
-      for (size_t f = 0; f < footholds_.size(); ++f) sole_world_[f] += e.imu.toRotationMatrix() * e.Rbs[f];
-    for (Eigen::Matrix3d& R : sole_world_) R = nearestRotation(R);
-    for (const Early& e : early_) accumulate(e.Rbs, e.imu, e.x);
-    early_.clear();
+    if (static_cast<int>(early_.size()) == kOrientationSamples) flushEarly();
     return;
   }
   accumulate(Rbs, s.base_orientation, x);
+}
+
+void SoleTiltFit::flushEarly() {
+  sole_world_.assign(footholds_.size(), Eigen::Matrix3d::Zero());
+  for (const Early& e : early_)
+    for (size_t f = 0; f < footholds_.size(); ++f) sole_world_[f] += e.imu.toRotationMatrix() * e.Rbs[f];
+  for (Eigen::Matrix3d& R : sole_world_) R = nearestRotation(R);
+  for (const Early& e : early_) accumulate(e.Rbs, e.imu, e.x);
+  early_.clear();
 }
 
 void SoleTiltFit::accumulate(const std::vector<Eigen::Matrix3d>& Rbs, const Eigen::Quaterniond& imu,
@@ -100,14 +103,7 @@ void SoleTiltFit::accumulate(const std::vector<Eigen::Matrix3d>& Rbs, const Eige
 }
 
 SoleTilt SoleTiltFit::finish() {
-  if (sole_world_.empty() && !early_.empty()) {  // a run shorter than kOrientationSamples
-    sole_world_.assign(footholds_.size(), Eigen::Matrix3d::Zero());
-    for (const Early& e : early_)
-      for (size_t f = 0; f < footholds_.size(); ++f) sole_world_[f] += e.imu.toRotationMatrix() * e.Rbs[f];
-    for (Eigen::Matrix3d& R : sole_world_) R = nearestRotation(R);
-    for (const Early& e : early_) accumulate(e.Rbs, e.imu, e.x);
-    early_.clear();
-  }
+  if (sole_world_.empty() && !early_.empty()) flushEarly();  // a run shorter than kOrientationSamples
   SoleTilt out;
   out.samples = n_;
   if (n_ < kMinSamples) return out;

@@ -45,6 +45,8 @@ class SoleTiltFit {
   SoleTilt finish();
 
  private:
+  /// R_ws from the buffered first samples, then their rows accumulated.
+  void flushEarly();
   void accumulate(const std::vector<Eigen::Matrix3d>& Rbs, const Eigen::Quaterniond& imu,
                   const Eigen::Matrix<double, kSoleTiltRegressors, 1>& x);
   const Model& model_;
