@@ -36,9 +36,8 @@ std::string describeSoleTilt(const SoleTilt& t) {
     std::string cols;
     for (int k = 1; k < kSoleTiltRegressors; ++k)
       if (t.columns[a] & (1 << k)) cols += (cols.empty() ? "" : " ") + soleTiltColumnName(k);
-    std::snprintf(buf, sizeof buf, "%s%c %.3f mrad (%s)", a ? ", " : "", "xyz"[a], 1e3 * t.explained_rms[a],
-                  cols.empty() ? "constant" : cols.c_str());
-    out += buf;
+    std::snprintf(buf, sizeof buf, "%s%c %.3f mrad (", a ? ", " : "", "xyz"[a], 1e3 * t.explained_rms[a]);
+    out += buf + (cols.empty() ? std::string("constant") : cols) + ")";
   }
   std::snprintf(buf, sizeof buf, "; the IMU's correction left %.2f / %.2f / %.2f mrad RMS", 1e3 * t.residual_rms[0],
                 1e3 * t.residual_rms[1], 1e3 * t.residual_rms[2]);
