@@ -171,7 +171,8 @@ SoleTilt SoleTiltFit::finish() {
     out.explained_rms[a] = std::sqrt(std::max(0.0, fit2 - mean_fit * mean_fit));
     out.residual_rms[a] = std::sqrt(std::max(0.0, res2));
   }
-  out.fitted = true;
+  // Absurd wrenches (a plate's 1e200 N would square past the double range) leave the band to the caller.
+  out.fitted = out.coefficients.allFinite() && out.residual_rms.allFinite();
   return out;
 }
 

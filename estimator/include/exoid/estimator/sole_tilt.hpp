@@ -41,7 +41,7 @@ class SoleTiltFit {
  public:
   SoleTiltFit(const Model& model, const std::vector<DatasetOptions::Foothold>& footholds);
   void add(const MeasuredSample& s);
-  /// fitted false with fewer than 100 samples, or without footholds.
+  /// fitted false with fewer than 100 samples, without footholds, or when the fit is not finite.
   SoleTilt finish();
 
  private:
