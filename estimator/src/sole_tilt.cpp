@@ -162,17 +162,19 @@ SoleTilt SoleTiltFit::finish() {
   out.coefficients = C.transpose();
   const double n = static_cast<double>(n_);
   const Eigen::Matrix<double, kSoleTiltRegressors, 1> xm = xx_.col(0) / n;  // mean of x (x_0 = 1)
+  bool finite = true;
   for (int a = 0; a < 3; ++a) {
     const Eigen::Matrix<double, kSoleTiltRegressors, 1> c = C.col(a);
     const double fit2 = c.dot(xx_ * c) / n;             // mean of (C x)^2
     const double res2 = ee_(a, a) / n - 2.0 * c.dot(xe_.col(a)) / n + fit2;
     const double mean_fit = c.dot(xm);
+    finite = finite && std::isfinite(fit2) && std::isfinite(res2) && std::isfinite(mean_fit);  // max() hides a NaN
     out.correction_rms[a] = std::sqrt(std::max(0.0, ee_(a, a) / n));
     out.explained_rms[a] = std::sqrt(std::max(0.0, fit2 - mean_fit * mean_fit));
     out.residual_rms[a] = std::sqrt(std::max(0.0, res2));
   }
-  // Absurd wrenches (a plate's 1e200 N would square past the double range) leave the band to the caller.
-  out.fitted = out.coefficients.allFinite() && out.residual_rms.allFinite();
+  // A non-finite wrench (or one whose square leaves the double range) leaves the band to the caller.
+  out.fitted = finite && out.coefficients.allFinite();
   return out;
 }
 

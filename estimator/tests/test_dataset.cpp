@@ -395,6 +395,28 @@ TEST(Dataset, SoleTiltFittedToThePlatesRemovesTheImusLowBandNoise) {
   EXPECT_LT(e_fit, 0.3 * e_band);
 }
 
+TEST(Dataset, SoleTiltIsNotUsedWhereItCannotBeFitted) {
+  // Too few samples, no footholds, or a non-finite wrench (the intake never hands one on; a library caller might):
+  // not fitted, so the builder keeps the IMU's band (DatasetOptions::sole_tilt is used only where fitted).
+  const Model m = exo();
+  const DatasetOptions::Foothold f = rightSole(m);
+  SoleTiltFit few(m, {f}), none(m, {}), absurd(m, {f});
+  for (int i = 0; i < 300; ++i) {
+    MeasuredSample s = sampleAt(m, 1e-3 * i);
+    if (i < 50) few.add(s);
+    none.add(s);
+    if (i == 200) s.contact[0].force.z() = std::nan("");
+    absurd.add(s);
+  }
+  const SoleTilt a = few.finish(), b = none.finish(), c = absurd.finish();
+  EXPECT_FALSE(a.fitted);
+  EXPECT_EQ(a.samples, 50);
+  EXPECT_FALSE(b.fitted);
+  EXPECT_EQ(b.samples, 0);
+  EXPECT_FALSE(c.fitted) << describeSoleTilt(c);
+  EXPECT_EQ(describeSoleTilt(a), "not fitted (50 samples)");
+}
+
 TEST(Dataset, BaseMotionFromTheLegsIsTheBaseTrajectorysDerivatives) {
   // One sole fixed on level ground, the base moving as the legs say; the gyro reports omega with white noise
   // (3.6e-3 rad/s), the accelerometer the acceleration with 0.02 m/s^2 (the simulated IMU's). Rows from the legs
