@@ -10,7 +10,9 @@
 //   e(t) ~ C x(t),  x = [1, f_0, n_0, f_1, n_1]  [13]
 // f_k, n_k the force and moment on foot k about its plate's sensor origin (world axes; 0 where a sample has no
 // contact k). C [3 x 13] by least squares on columns scaled to unit RMS, minimum-norm where the columns are
-// dependent (the two vertical forces sum to the weight). docs/identification.md "The soles' tilt from the plates".
+// dependent (the two vertical forces sum to the weight), each axis's columns chosen by BIC (forward selection from
+// the constant: a column the tilt does not follow would only add the IMU's noise, sigma sqrt(k / n) per column).
+// docs/identification.md "The soles' tilt from the plates".
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -36,7 +38,8 @@ Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& M);
 
 /// Fits SoleTilt over a run, sample by sample (one pass; memory: the first 1000 samples' rotations).
 /// The legs' rotation as DatasetBuilder forms it: R_ws per foot the chordal mean of R_IMU R_bs(q) over the
-/// first 1000 samples, R_legs the chordal mean of R_ws R_bs(q)^T over the feet.
+/// first 1000 samples, R_legs the chordal mean of R_ws R_bs(q)^T over the feet (from the encoders as read; the
+/// builder's filtered q differ by the encoders' noise, and the fit's constant takes up any common offset).
 class SoleTiltFit {
  public:
   SoleTiltFit(const Model& model, const std::vector<DatasetOptions::Foothold>& footholds);
