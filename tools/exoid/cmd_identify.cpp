@@ -14,6 +14,7 @@
 #include "exoid/tools/csv.hpp"
 #include "exoid/tools/identify_run.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
+#include "base_signal_options.hpp"
 #include "identify_hold_report.hpp"
 
 namespace exoid::cli {
@@ -48,22 +49,7 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
       ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
   app.add_option("--filter-mode", o.filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
                  "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
-  app.add_option("--base-orientation", o.orientation, "sensors pipeline: base orientation from leg kinematics (the feet "
-                 "flat and still on the plates) corrected for the soles' tilt on their contacts, which the IMU sees: "
-                 "'plates' (the tilt a linear function of the plates' wrenches, its coefficients fitted to the IMU over "
-                 "the whole file, each axis's columns chosen by BIC; default), 'fused' (the IMU's correction below "
-                 "--orientation-cutoff), or the 'imu' alone")->check(CLI::IsMember({"plates", "fused", "imu"}));
-  app.add_option("--base-rate", o.base_rate, "sensors pipeline: the base's angular velocity and acceleration from the 'legs' "
-                 "(feet flat and still on the plates: the rotation the encoders give, differentiated as the joints' "
-                 "angles; default) or the 'gyro' (its white noise differentiated is the larger error)")
-      ->check(CLI::IsMember({"legs", "gyro"}));
-  app.add_option("--base-acceleration", o.base_acceleration, "sensors pipeline: the base's linear acceleration from the "
-                 "'legs' (the base position the feet give, differentiated twice as the joints' angles; gravity and the "
-                 "plates' wrenches then turn with the same orientation; default) or the 'accelerometer'")
-      ->check(CLI::IsMember({"legs", "accelerometer"}));
-  app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
-                 "which the legs give the orientation (default 5); the processing check's IMU alternative uses it for "
-                 "the rate and acceleration with every --base-orientation")->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
+  addBaseSignalOptions(app, o.orientation, o.base_rate, o.base_acceleration, o.orientation_cutoff_hz);
   app.add_flag("--derive", o.derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
   app.add_option("--noise", o.noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "base_signal_options.hpp"
 #include "commands.hpp"
 #include "exoid/common/cli.hpp"
 #include "exoid/common/process_main.hpp"
@@ -116,17 +117,7 @@ void addStudyOptions(CLI::App& app, tools::StudyOptions& o, StudyArgs& a) {
   app.add_option("--sensors-filter", a.sensors_filter, "sensors pipeline: 'inputs' (filter q and the gyro, differentiate; "
                  "default) or 'parallel' (the same zero-phase filter on every column of W and on y)")
       ->check(CLI::IsMember({"inputs", "parallel"}));
-  app.add_option("--base-orientation", a.orientation, "sensors pipeline: base orientation from leg kinematics (the feet "
-                 "flat and still on the plates) corrected for the soles' tilt, which the IMU sees: 'plates' (the tilt "
-                 "a linear function of the plates' wrenches fitted to the IMU over the run; default), 'fused' (the "
-                 "IMU's correction below --orientation-cutoff), or the 'imu' alone")
-      ->check(CLI::IsMember({"plates", "fused", "imu"}));
-  app.add_option("--base-rate", a.base_rate, "sensors pipeline: the base's angular velocity and acceleration from the "
-                 "'legs' (feet flat and still on the plates; default) or the 'gyro'")->check(CLI::IsMember({"legs", "gyro"}));
-  app.add_option("--base-acceleration", a.base_acceleration, "sensors pipeline: the base's linear acceleration from the "
-                 "'legs' (default) or the 'accelerometer'")->check(CLI::IsMember({"legs", "accelerometer"}));
-  app.add_option("--orientation-cutoff", o.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, "
-                 "above which the legs give the orientation (default 5)")->check(CLI::Range(0.01, 400.0));
+  addBaseSignalOptions(app, a.orientation, a.base_rate, a.base_acceleration, o.orientation_cutoff_hz);
   app.add_option("--threads", o.threads, "workers over the (pipeline, cutoff) jobs (default 2)")->check(CLI::Range(1, 64));
   app.add_option("--stride", o.stride, "score every N-th tick of the validation/test runs (default 10)")->check(CLI::Range(1, 1000));
   app.add_option("--pc-iterations", o.pc_iterations, "Newton iterations of WLS-RC-PC (default 100)")->check(CLI::Range(1, 10000));
