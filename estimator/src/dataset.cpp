@@ -377,20 +377,15 @@ void DatasetBuilder::legsRotations(BlockSignals& b) {
     b.sole_in_base[i] = pb / nf;
   }
   if (sole_world_.empty()) {
-    // From the first kOrientationSamples samples (a fixed count, so that the block size does not matter;
-    // the first window holds at least the block plus the fusion filter's margin).
-    constexpr int kOrientationSamples = 1000;
+    // From the first kSoleWorldSamples samples (the first window holds at least the block plus the fusion filter's
+    // margin).
     sole_world_.assign(nf, Eigen::Matrix3d::Zero());
-    for (int i = 0; i < std::min(n, kOrientationSamples); ++i)
+    for (int i = 0; i < std::min(n, kSoleWorldSamples); ++i)
       for (int f = 0; f < nf; ++f) sole_world_[f] += buffer_[i].base_orientation.toRotationMatrix() * Rbs[i * nf + f];
     for (int f = 0; f < nf; ++f) sole_world_[f] = nearestRotation(sole_world_[f]);
   }
   b.legs_rotation.resize(n);
-  for (int i = 0; i < n; ++i) {
-    Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-    for (int f = 0; f < nf; ++f) M += sole_world_[f] * Rbs[i * nf + f].transpose();
-    b.legs_rotation[i] = nearestRotation(M);
-  }
+  for (int i = 0; i < n; ++i) b.legs_rotation[i] = legsRotation(sole_world_, Rbs.data() + i * nf);
 }
 
 void DatasetBuilder::fuseOrientation(BlockSignals& b) const {
@@ -398,17 +393,17 @@ void DatasetBuilder::fuseOrientation(BlockSignals& b) const {
   const int n = b.n;
   std::vector<Eigen::Quaterniond>& legs = b.legs;
   legs.resize(n);
-  Eigen::MatrixXd e(n, 3);  // log(R_legs^T R_IMU): the IMU's correction, low-passed below
+  Eigen::MatrixXd e(n, 3);  // the legs' correction: the soles' tilt fitted to the plates, else the IMU's low band
   for (int i = 0; i < n; ++i) {
     legs[i] = Eigen::Quaterniond(b.legs_rotation[i]);
-    const Eigen::AngleAxisd d(legs[i].conjugate() * buffer_[i].base_orientation);
-    e.row(i) = (d.angle() * d.axis()).transpose();
+    if (opt_.sole_tilt.fitted) {  // sole_tilt.hpp
+      e.row(i) = (opt_.sole_tilt.coefficients * soleTiltRegressor(buffer_[i])).transpose();
+    } else {  // log(R_legs^T R_IMU), low-passed below
+      const Eigen::AngleAxisd d(legs[i].conjugate() * buffer_[i].base_orientation);
+      e.row(i) = (d.angle() * d.axis()).transpose();
+    }
   }
-  if (opt_.sole_tilt.fitted) {  // the soles' tilt from the plates, fitted over the run (sole_tilt.hpp)
-    for (int i = 0; i < n; ++i) e.row(i) = (opt_.sole_tilt.coefficients * soleTiltRegressor(buffer_[i])).transpose();
-  } else {
-    e = filtfilt(b.lp_orientation, e);
-  }
+  if (!opt_.sole_tilt.fitted) e = filtfilt(b.lp_orientation, e);
   for (int i = 0; i < n; ++i) {
     const double angle = e.row(i).norm();
     if (angle > 0.0) legs[i] = (legs[i] * Eigen::Quaterniond(Eigen::AngleAxisd(angle, e.row(i).transpose() / angle))).normalized();

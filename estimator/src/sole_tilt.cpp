@@ -11,7 +11,6 @@
 namespace exoid::estimator {
 
 namespace {
-constexpr int kOrientationSamples = 1000;  // R_ws from these, as DatasetBuilder::legsRotations
 constexpr long kMinSamples = 100;
 }  // namespace
 
@@ -20,6 +19,12 @@ Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& M) {
   Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
   D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
   return svd.matrixU() * D * svd.matrixV().transpose();
+}
+
+Eigen::Matrix3d legsRotation(const std::vector<Eigen::Matrix3d>& sole_world, const Eigen::Matrix3d* Rbs) {
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (size_t f = 0; f < sole_world.size(); ++f) M += sole_world[f] * Rbs[f].transpose();
+  return nearestRotation(M);
 }
 
 std::string soleTiltColumnName(int k) {
@@ -73,7 +78,7 @@ void SoleTiltFit::add(const MeasuredSample& s) {
   const Eigen::Matrix<double, kSoleTiltRegressors, 1> x = soleTiltRegressor(s);
   if (sole_world_.empty()) {
     early_.push_back({Rbs, s.base_orientation, x});
-    if (static_cast<int>(early_.size()) == kOrientationSamples) flushEarly();
+    if (static_cast<int>(early_.size()) == kSoleWorldSamples) flushEarly();
     return;
   }
   accumulate(Rbs, s.base_orientation, x);
@@ -90,10 +95,7 @@ void SoleTiltFit::flushEarly() {
 
 void SoleTiltFit::accumulate(const std::vector<Eigen::Matrix3d>& Rbs, const Eigen::Quaterniond& imu,
                              const Eigen::Matrix<double, kSoleTiltRegressors, 1>& x) {
-  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-  for (size_t f = 0; f < Rbs.size(); ++f) M += sole_world_[f] * Rbs[f].transpose();
-  const Eigen::Matrix3d legs = nearestRotation(M);
-  const Eigen::AngleAxisd d(legs.transpose() * imu.toRotationMatrix());
+  const Eigen::AngleAxisd d(legsRotation(sole_world_, Rbs.data()).transpose() * imu.toRotationMatrix());
   const Eigen::Vector3d e = d.angle() * d.axis();
   xx_.noalias() += x * x.transpose();
   xe_.noalias() += x * e.transpose();
@@ -102,7 +104,7 @@ void SoleTiltFit::accumulate(const std::vector<Eigen::Matrix3d>& Rbs, const Eige
 }
 
 SoleTilt SoleTiltFit::finish() {
-  if (sole_world_.empty() && !early_.empty()) flushEarly();  // a run shorter than kOrientationSamples
+  if (sole_world_.empty() && !early_.empty()) flushEarly();  // a run shorter than kSoleWorldSamples
   SoleTilt out;
   out.samples = n_;
   if (n_ < kMinSamples) return out;

@@ -87,6 +87,14 @@ Rows rowsOf(const Model& m, const std::vector<MeasuredSample>& in, const Dataset
   return r;
 }
 
+// RMS of the base rows' y error of r against the truth's rows t, 500 samples away from either end.
+double baseRowError(const Rows& r, const Rows& t) {
+  const int n = static_cast<int>(t.y.size());
+  double sse = 0.0;
+  for (int i = 500; i < n - 500; ++i) sse += (r.y[i] - t.y[i]).head<6>().squaredNorm();
+  return std::sqrt(sse / (n - 1000));
+}
+
 // The base moving as the legs of sampleAt say, one sole f fixed on a ground whose orientation is sole_world(t).
 // truth: the base's orientation, position, omega, domega and classical acceleration R^T p'' from differencing R_wb(t)
 // and p_b(t) at a 1e-4 s step (independent of the pipeline's filters and sampling); sensors: the same with the
@@ -313,11 +321,7 @@ TEST(Dataset, FusedBaseOrientationRemovesImuNoiseAndLegBias) {
   fused.orientation_from_legs = true;
   const Rows t = rows(truth, {}), a = rows(imu, plain), b = rows(imu, fused);
   ASSERT_EQ(b.y.size(), static_cast<size_t>(n));
-  auto error = [&](const Rows& r) {  // RMS of the base rows' y error, away from the ends
-    double sse = 0.0;
-    for (int i = 500; i < n - 500; ++i) sse += (r.y[i] - t.y[i]).head<6>().squaredNorm();
-    return std::sqrt(sse / (n - 1000));
-  };
+  auto error = [&](const Rows& r) { return baseRowError(r, t); };
   const double e_imu = error(a), e_fused = error(b);
   std::printf("base-row y error: IMU alone %.4g, fused %.4g\n", e_imu, e_fused);
   EXPECT_LT(e_fused, 0.2 * e_imu);
@@ -385,11 +389,7 @@ TEST(Dataset, SoleTiltFittedToThePlatesRemovesTheImusLowBandNoise) {
   fitted.sole_tilt = tilt;
   const Rows t = rowsOf(m, truth, {}), a = rowsOf(m, imu, band), b = rowsOf(m, imu, fitted);
   ASSERT_EQ(b.y.size(), static_cast<size_t>(n));
-  auto error = [&](const Rows& r) {  // RMS of the base rows' y error, away from the ends
-    double sse = 0.0;
-    for (int i = 500; i < n - 500; ++i) sse += (r.y[i] - t.y[i]).head<6>().squaredNorm();
-    return std::sqrt(sse / (n - 1000));
-  };
+  auto error = [&](const Rows& r) { return baseRowError(r, t); };
   const double e_band = error(a), e_fit = error(b);
   std::printf("base-row y error: the IMU's band below 5 Hz %.4g, the tilt fitted to the plates %.4g\n", e_band, e_fit);
   EXPECT_LT(e_fit, 0.3 * e_band);

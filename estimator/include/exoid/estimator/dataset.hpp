@@ -90,11 +90,16 @@ void filterAndDifferentiate(const Eigen::MatrixXd& x, double dt, double cutoff_h
 
 /// The soles' tilt on their contacts as a linear function of the plates' wrenches (sole_tilt.hpp, SoleTiltFit): the
 /// legs' orientation error e = log(R_legs^T R_wb) (base coordinates) ~ coefficients x, x [13] = [1, f_0, n_0, f_1, n_1].
+constexpr int kSoleTiltRegressors = 13;  ///< x's length
+/// The legs' orientation takes each sole's world orientation R_ws from this many first samples (DatasetBuilder and
+/// SoleTiltFit alike: a fixed count, so that the block size does not matter).
+constexpr int kSoleWorldSamples = 1000;
+
 struct SoleTilt {
   bool fitted = false;
   /// Per axis (x, y, z of the base), a bit per column of x kept by the selection (bit 0: the constant).
   int columns[3] = {0, 0, 0};
-  Eigen::Matrix<double, 3, 13> coefficients = Eigen::Matrix<double, 3, 13>::Zero();
+  Eigen::Matrix<double, 3, kSoleTiltRegressors> coefficients = Eigen::Matrix<double, 3, kSoleTiltRegressors>::Zero();
   long samples = 0;
   Eigen::Vector3d correction_rms = Eigen::Vector3d::Zero();  ///< rad, RMS of the IMU's correction e per axis
   Eigen::Vector3d explained_rms = Eigen::Vector3d::Zero();   ///< rad, RMS of the fit C x about its mean

@@ -22,8 +22,6 @@
 
 namespace exoid::estimator {
 
-constexpr int kSoleTiltRegressors = 13;
-
 /// x [13] of a sample: [1, f_0, n_0, f_1, n_1] (N, N m about the plate's sensor origin).
 Eigen::Matrix<double, kSoleTiltRegressors, 1> soleTiltRegressor(const MeasuredSample& s);
 
@@ -35,6 +33,9 @@ std::string describeSoleTilt(const SoleTilt& tilt);
 
 /// The chordal mean of rotations: the rotation nearest (Frobenius) to M, a sum of rotations.
 Eigen::Matrix3d nearestRotation(const Eigen::Matrix3d& M);
+
+/// R_wb from the legs: the chordal mean over the feet of R_ws R_bs^T. sole_world [feet] R_ws, Rbs [feet] R_bs(q).
+Eigen::Matrix3d legsRotation(const std::vector<Eigen::Matrix3d>& sole_world, const Eigen::Matrix3d* Rbs);
 
 /// Fits SoleTilt over a run, sample by sample (one pass; memory: the first 1000 samples' rotations).
 /// The legs' rotation as DatasetBuilder forms it: R_ws per foot the chordal mean of R_IMU R_bs(q) over the
