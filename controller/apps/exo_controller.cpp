@@ -163,6 +163,10 @@ int main(int argc, char** argv) {
   if (!a.quiet)
     std::fprintf(stderr, "exo_controller: seed %llu, %d moves, waiting for %s on %s\n", a.seed, cfg.trajectory.moves,
                  channels::kState, lcm->url().c_str());
+  const Eigen::Vector2d& lever = ctrl.comObserver().upperBodyLever();
+  if (!a.quiet && cfg.com_observer.enabled && !lever.isZero(0.0))
+    std::fprintf(stderr, "exo_controller: CoM observer: the upper body turns on the lumbar pivot, lever x %.3f m, y %.3f m\n",
+                 lever.x(), lever.y());
 
   // ---- the loop (ControllerNode: no allocation per tick) ------------------------------------------------
   const ControllerNode::Outcome outcome = node.run(a.idle_timeout_ms, stop);

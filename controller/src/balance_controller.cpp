@@ -78,7 +78,8 @@ BalanceController::BalanceController(const Model& model, const ControllerConfig&
       contact_left_(config.contact, BaseStateObserver::kLeft),
       formulation_(model, config.contact, config.torque),
       disturbance_(config.disturbance, config.loop.period, model.nv),
-      com_observer_(config.com_observer, config.loop.period, model.gravity.norm()),
+      com_observer_(config.com_observer, config.loop.period, model.gravity.norm(),
+                    config.com_observer.upper_body_momentum ? upperBodyLever(model) : Eigen::Vector2d::Zero()),
       solver_(std::move(solver)),
       dyn_(model) {
   std::string why;

@@ -3,10 +3,31 @@
 #include <algorithm>
 #include <cmath>
 
+#include "exoid/model/dynamics.hpp"
+#include "exoid/model/kinematics.hpp"
+#include "exoid/model/wearer_mount.hpp"
+
 namespace exoid::controller {
 
-ComObserver::ComObserver(const ComObserverConfig& config, double period, double gravity)
-    : cfg_(config), period_(period), gravity_(gravity) {
+Eigen::Vector2d upperBodyLever(const Model& model) {
+  MountedSegment body;
+  Eigen::Vector3d pivot;
+  if (!model.floating_base || !upperBodyFromModel(model, body, pivot)) return Eigen::Vector2d::Zero();
+  const double h = body.com.z() - pivot.z();
+  if (!(h > 1e-3)) return Eigen::Vector2d::Zero();  // a body not above its pivot is no upright trunk
+  DynamicsData dyn(model);
+  forwardKinematics(model, dyn.kin, State::zero(model));
+  centroidal(model, dyn);
+  const int pelvis = model.bodyIndex(exoPelvisLink());
+  const Eigen::Vector3d com_world =
+      dyn.kin.p[static_cast<size_t>(pelvis)] + dyn.kin.R[static_cast<size_t>(pelvis)] * body.com;
+  const double d = com_world.z() - dyn.com.z();
+  return Eigen::Vector2d(body.inertia_com(1, 1) / (body.mass * h) + d, body.inertia_com(0, 0) / (body.mass * h) + d);
+}
+
+ComObserver::ComObserver(const ComObserverConfig& config, double period, double gravity,
+                         const Eigen::Vector2d& upper_body_lever)
+    : cfg_(config), period_(period), gravity_(gravity), lever_(upper_body_lever) {
   const double w = 2.0 * M_PI * cfg_.crossover_hz;
   // 4th-order Butterworth: (s^2 + 2 sin(pi/8) w s + w^2)(s^2 + 2 cos(pi/8) w s + w^2).
   const double p = 2.0 * std::sin(M_PI / 8.0), q = 2.0 * std::cos(M_PI / 8.0);
@@ -29,18 +50,26 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
     return;
   }
   const double dt = static_cast<double>(ticks_since_last) * period_;
-  if (started_) {
-    const Eigen::Vector3d rate = (angular_momentum_urdf - previous_momentum_) / dt;
-    momentum_rate_ += std::min(1.0, dt / kAngularMomentumRateTimeConstant) * (rate - momentum_rate_);
-  } else {
-    momentum_rate_.setZero();
-  }
-  previous_momentum_ = angular_momentum_urdf;
   const Eigen::Vector3d& F = *force;
   const Eigen::Vector3d& M = *moment;
+  if (started_) {
+    const double k = std::min(1.0, dt / kAngularMomentumRateTimeConstant);
+    momentum_rate_ += k * ((angular_momentum_urdf - previous_momentum_) / dt - momentum_rate_);
+    com_acceleration_ += k * ((com_velocity_model - previous_com_velocity_) / dt - com_acceleration_);
+    force_low_passed_ += k * (F - force_low_passed_);
+  } else {
+    momentum_rate_.setZero();
+    force_low_passed_ = F;
+    com_acceleration_ = F / mass;  // no missing force at the start (only x and y are used)
+  }
+  previous_momentum_ = angular_momentum_urdf;
+  previous_com_velocity_ = com_velocity_model;
+  // What the model's dL/dt lacks: the upper body's turning, from the force its CoM acceleration lacks (header).
+  const Eigen::Vector3d missing_force = force_low_passed_ - mass * com_acceleration_;
+  const double dLy = momentum_rate_.y() + lever_.x() * missing_force.x();
+  const double dLx = momentum_rate_.x() - lever_.y() * missing_force.y();
   const double cz = com_model.z();
-  balance_com_ << (cz * F.x() - M.y() + momentum_rate_.y()) / F.z(), (M.x() + cz * F.y() - momentum_rate_.x()) / F.z(),
-      cz;
+  balance_com_ << (cz * F.x() - M.y() + dLy) / F.z(), (M.x() + cz * F.y() - dLx) / F.z(), cz;
   plates_com_.z() = cz;
   if (!started_) {  // the pair's steady state for a CoM at c_P moving at the model's velocity, no acceleration
     for (int i = 0; i < 2; ++i) {

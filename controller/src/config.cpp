@@ -312,8 +312,10 @@ void readDisturbanceSection(Reader& r, const YAML::Node& root, ControllerConfig&
 /// The `com_observer` section: the CoM the force plates measure, fused with the model's.
 void readComObserverSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
   const char* n = "com_observer";
-  const auto s = r.section(root, n, {"enabled", "crossover_hz", "anchor_time_constant", "settle_time"});
+  const auto s =
+      r.section(root, n, {"enabled", "upper_body_momentum", "crossover_hz", "anchor_time_constant", "settle_time"});
   r.boolean(s, n, "enabled", c.com_observer.enabled);
+  r.boolean(s, n, "upper_body_momentum", c.com_observer.upper_body_momentum);
   r.number(s, n, "crossover_hz", c.com_observer.crossover_hz);
   r.number(s, n, "anchor_time_constant", c.com_observer.anchor_time_constant);
   r.number(s, n, "settle_time", c.com_observer.settle_time);

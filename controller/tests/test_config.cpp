@@ -55,6 +55,7 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_DOUBLE_EQ(c.estimate.trust_sigmas, 3.0);
   EXPECT_DOUBLE_EQ(c.estimate.trust_sigmas_horizontal_com, 1.0);
   EXPECT_TRUE(c.com_observer.enabled);
+  EXPECT_TRUE(c.com_observer.upper_body_momentum);
   EXPECT_DOUBLE_EQ(c.com_observer.crossover_hz, 0.2);
   EXPECT_DOUBLE_EQ(c.com_observer.anchor_time_constant, 5.0);
   EXPECT_DOUBLE_EQ(c.com_observer.settle_time, 3.0);

@@ -4,12 +4,13 @@
 #include "exoid/model/inertial.hpp"
 
 namespace exoid {
-namespace {
 
 bool aboveLumbar(SegmentKind k) {
   return k == SegmentKind::Head || k == SegmentKind::UpperTrunk || k == SegmentKind::MiddleTrunk ||
          k == SegmentKind::UpperArm || k == SegmentKind::Forearm || k == SegmentKind::Hand;
 }
+
+namespace {
 
 // World CoM of a segment, standing, and the link it rides on (side index 0 right, 1 left).
 Eigen::Vector3d worldCom(const Wearer& w, const BodySegment& s, const ExoStanding& exo, const Eigen::Vector3d& midh,
@@ -38,6 +39,8 @@ Eigen::Vector3d worldCom(const Wearer& w, const BodySegment& s, const ExoStandin
 }  // namespace
 
 const char* exoPelvisLink() { return "body"; }
+
+const char* lumbarPivotFrame() { return "wearer_lumbar"; }
 
 std::string exoLegLink(const char* part, int side) { return std::string(side < 0 ? "right_" : "left_") + part; }
 
@@ -79,6 +82,36 @@ MountedSegment lumpAboveLumbar(const WearerMount& mount) {
   out.com = p.com;
   out.inertia_com = p.inertia_com;
   return out;
+}
+
+bool upperBodyFromModel(const Model& model, MountedSegment& body, Eigen::Vector3d& pivot) {
+  const int pelvis = model.bodyIndex(exoPelvisLink());
+  const int f = model.frameIndex(lumbarPivotFrame());
+  if (pelvis < 0 || f < 0 || model.frames[static_cast<size_t>(f)].body != pelvis) return false;
+  // "wearer_" + [side_] + kind name, the names `exoid model wearer` writes (tools/lib/io/src/wearer_urdf.cpp).
+  const std::string prefix = "wearer_";
+  auto above = [&](const std::string& frame) {
+    if (frame.compare(0, prefix.size(), prefix) != 0) return false;
+    std::string name = frame.substr(prefix.size());
+    for (const char* side : {"right_", "left_"})
+      if (name.compare(0, std::string(side).size(), side) == 0) name = name.substr(std::string(side).size());
+    for (int k = 0; k < kNumSegmentKinds; ++k)
+      if (name == segmentKindName(static_cast<SegmentKind>(k))) return aboveLumbar(static_cast<SegmentKind>(k));
+    return false;
+  };
+  Vector10d phi = Vector10d::Zero();
+  for (const Model::Frame& fr : model.frames)
+    if (fr.body == pelvis && above(fr.name)) phi += fr.phi;
+  InertialProperties p;
+  if (!inertialFromParams(phi, p)) return false;
+  body.segment = "upper_body";
+  body.link = exoPelvisLink();
+  body.above_lumbar = true;
+  body.mass = p.mass;
+  body.com = p.com;
+  body.inertia_com = p.inertia_com;
+  pivot = model.frames[static_cast<size_t>(f)].position;
+  return true;
 }
 
 }  // namespace exoid

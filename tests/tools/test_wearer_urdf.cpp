@@ -4,6 +4,7 @@
 // at y = -+0.11, knees 0.43 m lower, ankle axes 0.42 m lower, soles 0.09 m below the ankle axes).
 #include <gtest/gtest.h>
 
+#include "exoid/controller/com_observer.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/kinematics.hpp"
 #include "exoid/model/urdf.hpp"
@@ -58,6 +59,58 @@ TEST(WearerUrdf, PriorWeighsExoPlusWearerAndItsComMatchesTheSegments) {
     Eigen::Vector3d moment = m_exo * c_exo;
     for (const BodySegment& s : w.segments) moment += s.mass * handPlacedCom(w, s);
     EXPECT_LT((c_prior - moment / (m_exo + spec.mass_kg)).norm(), 1e-9) << spec.mass_kg;
+  }
+}
+
+// The prior carries the lumbar pivot (a massless frame) and its upper body: the same body as lumpAboveLumbar, the
+// pivot at the navel height above the mid-hip point (lower trunk's length above the hip axis, 0.1 m below the
+// pelvis origin). upperBodyLever against the angular momentum summed segment by segment: a small turn rate w about
+// the pivot's y axis gives each segment above the lumbar joint w = w y and c_i' = w y x (c_i - pivot), so
+// dL_y = sum I_i,yy w + m_i [(c_i - c) x c_i']_y about the system's CoM c, and dF_x = sum m_i (c_i - pivot)_z w'.
+TEST(WearerUrdf, ThePriorCarriesTheLumbarPivotAndItsUpperBodysLever) {
+  test::TempDir dir("wearer_urdf_lumbar");
+  const std::string urdf = test::configPath("exo.urdf");
+  for (const WearerSpec& spec : {WearerSpec{75.0, 1.78, Sex::Male, 1, 0.0}, WearerSpec{52.0, 1.55, Sex::Female, 3, 0.15},
+                                 WearerSpec{110.0, 1.95, Sex::Male, 9, 0.15}}) {
+    const std::string out = dir.file("prior.urdf");
+    std::string err;
+    WearerMount mount;
+    ASSERT_TRUE(tools::writeWearerPrior(urdf, spec, out, &mount, &err)) << err;
+    Model prior, exo;
+    ASSERT_TRUE(buildModelFromUrdfFile(out, true, prior, &err)) << err;
+    ASSERT_TRUE(buildModelFromUrdfFile(urdf, true, exo, &err)) << err;
+    Wearer w;
+    ASSERT_TRUE(buildWearer(spec, w, &err)) << err;
+    const double lower_trunk = w.segments[static_cast<size_t>(w.index("lower_trunk"))].length;
+    MountedSegment body;
+    Eigen::Vector3d pivot;
+    ASSERT_TRUE(upperBodyFromModel(prior, body, pivot));
+    EXPECT_LT((pivot - Eigen::Vector3d(0.0, 0.0, -0.1 + lower_trunk)).norm(), 1e-12);
+    const MountedSegment lumped = lumpAboveLumbar(mount);
+    EXPECT_NEAR(body.mass, lumped.mass, 1e-9);
+    EXPECT_LT((body.com - lumped.com).norm(), 1e-9);
+    EXPECT_LT((body.inertia_com - lumped.inertia_com).norm(), 1e-9);
+    EXPECT_FALSE(upperBodyFromModel(exo, body, pivot));  // no wearer
+    EXPECT_EQ(controller::upperBodyLever(exo), Eigen::Vector2d::Zero());
+
+    double mass = 0.0;
+    const Eigen::Vector3d c = standingCom(prior, &mass);
+    const Eigen::Vector3d p(0.0, 0.0, -0.1 + lower_trunk);  // the pelvis is the world at the zero state
+    Eigen::Vector2d dL = Eigen::Vector2d::Zero(), dF = Eigen::Vector2d::Zero();
+    for (const MountedSegment& s : mount.segments) {
+      if (!s.above_lumbar) continue;
+      for (int a : {1, 0}) {  // a turn about y moves along x; about x along -y
+        const Eigen::Vector3d axis = Eigen::Vector3d::Unit(a), v = axis.cross(s.com - p);
+        dL[1 - a] += s.inertia_com(a, a) + s.mass * (s.com - c).cross(v)[a];
+        dF[1 - a] += s.mass * v[1 - a];
+      }
+    }
+    const Eigen::Vector2d expected(dL[0] / dF[0], -dL[1] / dF[1]);
+    const Eigen::Vector2d lever = controller::upperBodyLever(prior);
+    // The formula lumps the segments and leaves out their horizontal offsets from the pivot (mm): 1e-3 relative.
+    EXPECT_NEAR(lever.x(), expected.x(), 1e-3 * expected.x()) << spec.mass_kg;
+    EXPECT_NEAR(lever.y(), expected.y(), 1e-3 * expected.y()) << spec.mass_kg;
+    EXPECT_GT(lever.minCoeff(), 0.3);
   }
 }
 

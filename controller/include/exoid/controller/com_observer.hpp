@@ -8,7 +8,10 @@
 //     robot, M about the world origin; L the angular momentum about the CoM, from the model):
 //        c_x = (c_z F_x - M_y + dL_y/dt) / F_z,   c_y = (M_x + c_z F_y - dL_x/dt) / F_z,
 //     exact at every frequency but for the part of dL/dt the model lacks (the trunk's own rotation), which grows
-//     with the frequency squared; c_z, a 1 cm error of which moves c by F_x / F_z cm, is the model's;
+//     with the frequency squared; c_z, a 1 cm error of which moves c by F_x / F_z cm, is the model's. That part
+//     is what the model's CoM acceleration lacks of the plates' force, times a lever (upperBodyLever):
+//        dL_y/dt += kappa_x (F_x - m c''_model,x),   dL_x/dt -= kappa_y (F_y - m c''_model,y),
+//     both sides through the same 20 ms low-pass as dL/dt;
 //  2. Newton, c'' = F_xy / m: exact at high frequency, useless at low (an offset integrates twice; in 1. a force
 //     offset is a constant, c_z offset / F_z, which the anchor below removes).
 // They are fused by a 4th-order complementary pair (D the Butterworth polynomial at w = 2 pi crossover_hz):
@@ -29,13 +32,27 @@
 #include <cstdint>
 
 #include "exoid/controller/config.hpp"
+#include "exoid/model/model.hpp"
 
 namespace exoid::controller {
+
+/// The lever [2] (m, world x and y) of a body that the model holds rigid on the pelvis link but that turns on it
+/// (a wearer's upper body on the lumbar joint: the model's frames "wearer_<segment>" above it and "wearer_lumbar",
+/// model/wearer_mount.hpp upperBodyFromModel). A body of mass m, inertia I about its CoM, its CoM h above the
+/// pivot and d above the system's CoM, turning by a small theta about the pivot's y axis, moves its CoM by h theta
+/// along x: the model lacks the force dF_x = m h theta'' and, about the system's CoM, the angular momentum
+/// dL_y = (I_yy + m d h) theta' (L = sum I_i w_i + m_i (c_i - c) x c_i'), so dL_y/dt = kappa_x dF_x with
+///        kappa_x = I_yy / (m h) + d,   and about x:  dL_x/dt = -kappa_y dF_y,  kappa_y = I_xx / (m h) + d.
+/// In the standing pose (the model's zero state: pelvis level, heading along the world's x). Zero where the model
+/// has no such body (the empty exoskeleton), so the observer is then unchanged.
+Eigen::Vector2d upperBodyLever(const Model& model);
 
 class ComObserver {
  public:
   /// period: s, the control period; gravity: m/s^2, the model's (its norm), for the plates' load check.
-  ComObserver(const ComObserverConfig& config, double period, double gravity);
+  /// upper_body_lever [2] m: upperBodyLever of the controller's model where `upper_body_momentum` is set, else 0.
+  ComObserver(const ComObserverConfig& config, double period, double gravity,
+              const Eigen::Vector2d& upper_body_lever = Eigen::Vector2d::Zero());
 
   /// Forget the state and the correction: the next update restarts (e.g. the controller's world was just fixed).
   void reset() {
@@ -55,6 +72,8 @@ class ComObserver {
   /// m and m/s, world [3]: what to add to the controller's CoM and CoM velocity (w delta; z always 0).
   const Eigen::Vector3d& correction() const { return delta_; }
   const Eigen::Vector3d& velocityCorrection() const { return delta_velocity_; }
+  /// m [2]: the lever in use (zero: no upper body, or `upper_body_momentum` off).
+  const Eigen::Vector2d& upperBodyLever() const { return lever_; }
   /// The moment balance's CoM c_1 and the fused plates' CoM c_P [3] (lab frame; z: the model's), the weight w of
   /// the last update.
   const Eigen::Vector3d& balanceCom() const { return balance_com_; }
@@ -63,7 +82,8 @@ class ComObserver {
   /// Whether the last update fused the plates (false: disabled, no plates, or restarting).
   bool fusing() const { return fusing_; }
 
-  /// s, time constant of the low-pass on the model's dL/dt (a difference of the encoders' velocities).
+  /// s, time constant of the low-pass on the model's dL/dt and CoM acceleration (differences of the encoders'
+  /// velocities) and on the plates' force beside the latter.
   static constexpr double kAngularMomentumRateTimeConstant = 0.02;
   /// Fusing needs the plates' vertical force above this fraction of the weight (feet on the plates).
   static constexpr double kMinLoadFraction = 0.5;
@@ -74,7 +94,10 @@ class ComObserver {
   double a0_ = 0.0, a1_ = 0.0, a2_ = 0.0, a3_ = 0.0;  // D(s) coefficients
   Eigen::Matrix<double, 4, 2> x_ = Eigen::Matrix<double, 4, 2>::Zero();  // the pair's states (rows) per axis x, y
   Eigen::Vector2d anchor_ = Eigen::Vector2d::Zero();      // m: the low-passed c_P - c_model
+  Eigen::Vector2d lever_;                                 // m: upperBodyLever, or zero
   Eigen::Vector3d previous_momentum_ = Eigen::Vector3d::Zero(), momentum_rate_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d previous_com_velocity_ = Eigen::Vector3d::Zero(), com_acceleration_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force_low_passed_ = Eigen::Vector3d::Zero();  // N: the plates' force through the same low-pass
   Eigen::Vector3d balance_com_ = Eigen::Vector3d::Zero(), plates_com_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d delta_ = Eigen::Vector3d::Zero(), delta_velocity_ = Eigen::Vector3d::Zero();
   double fused_time_ = 0.0, weight_ = 0.0;

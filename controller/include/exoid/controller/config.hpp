@@ -133,6 +133,7 @@ struct DisturbanceConfig {
 /// docs/controller.md, "The CoM observer").
 struct ComObserverConfig {
   bool enabled = false;               ///< the controller's horizontal CoM takes the plates' correction
+  bool upper_body_momentum = false;   ///< the moment balance takes the upper body's turning (upperBodyLever)
   double crossover_hz = 0.0;          ///< Hz: the plates' moment balance below, their acceleration above
   double anchor_time_constant = 0.0;  ///< s: the model's CoM below 1 / (2 pi this), the plates' above
   double settle_time = 0.0;           ///< s of fusing before the correction enters (in fully at twice this)

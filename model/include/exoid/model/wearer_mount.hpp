@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "exoid/model/anthropometry.hpp"
+#include "exoid/model/model.hpp"
 
 namespace exoid {
 
@@ -52,11 +53,23 @@ struct WearerMount {
   Eigen::Vector3d lumbar_pivot = Eigen::Vector3d::Zero();  ///< pelvis link frame
 };
 
+/// Whether a segment of this kind is above the lumbar joint (head, upper and middle trunk, arms).
+bool aboveLumbar(SegmentKind kind);
+
+/// The massless frame "wearer_lumbar" that the prior URDF carries at the lumbar pivot, on the pelvis link.
+const char* lumbarPivotFrame();
+
 /// Places every segment of `wearer` on `exo` (rules above).
 WearerMount mountWearer(const Wearer& wearer, const ExoStanding& exo);
 
 /// The segments above the lumbar joint lumped into one rigid body (mass, CoM and inertia about the CoM, pelvis link
 /// frame): the upper body that the sim puts on the lumbar joint.
 MountedSegment lumpAboveLumbar(const WearerMount& mount);
+
+/// The same upper body as a model holds it: the frames "wearer_<segment>" of the segments above the lumbar joint
+/// on the pelvis link, lumped (`body`: pelvis link frame), and the lumbar pivot frame's position (`pivot`, pelvis
+/// link frame). False, `body` and `pivot` untouched, where the model has no pivot frame on the pelvis link or no
+/// mass above it (no wearer, or a URDF written before the pivot frame existed).
+bool upperBodyFromModel(const Model& model, MountedSegment& body, Eigen::Vector3d& pivot);
 
 }  // namespace exoid

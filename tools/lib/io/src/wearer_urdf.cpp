@@ -77,6 +77,15 @@ bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const
                   I(1, 1), I(1, 2), I(2, 2), wearerLinkName(s).c_str(), s.link.c_str(), wearerLinkName(s).c_str());
     add += buf;
   }
+  // Massless: where the upper body turns on the pelvis in a person (the CoM observer's lever, com_observer.hpp).
+  char pivot[512];
+  const Eigen::Vector3d& o = mount.lumbar_pivot;
+  std::snprintf(pivot, sizeof pivot,
+                "  <link name=\"%s\"/>\n"
+                "  <joint name=\"%s_mount\" type=\"fixed\"><parent link=\"%s\"/><child link=\"%s\"/>"
+                "<origin xyz=\"%.17g %.17g %.17g\" rpy=\"0 0 0\"/></joint>\n",
+                lumbarPivotFrame(), lumbarPivotFrame(), exoPelvisLink(), lumbarPivotFrame(), o.x(), o.y(), o.z());
+  add += pivot;
   text.insert(end, add);
   AtomicCsvWriter out;  // atomic text file (the writer is not CSV-specific)
   if (!out.open(urdf_out, err)) return false;
