@@ -23,6 +23,7 @@
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/kinematics.hpp"
+#include "args.hpp"
 #include "truth_run.hpp"
 
 int main(int argc, char** argv) {
@@ -61,11 +62,20 @@ int main(int argc, char** argv) {
     const std::string spec = argv[a];
     auto has = [&](char c) { return spec.find(c) != std::string::npos; };
     estimator::OnlineEstimatorOptions opt;
-    opt.cutoff_hz = std::atof(argv[3]);
-    opt.filter_order = std::atoi(argv[4]);
-    opt.derivative_half_window = opt.gyro_half_window = std::atoi(argv[5]);
-    if (const char* colon = std::strchr(argv[5], ':')) opt.gyro_half_window = std::atoi(colon + 1);
-    opt.base_rate_from_legs = std::strstr(argv[5], "gyro") == nullptr;
+    // HALF_WINDOW: L, L:G or L:G:gyro (the header).
+    const std::string_view hw = argv[5];
+    const size_t c1 = hw.find(':'), c2 = c1 == std::string_view::npos ? c1 : hw.find(':', c1 + 1);
+    const char* prog = "exoid_com_budget";
+    if (!bench::numberArg(prog, "CUTOFF_HZ", argv[3], 0.0, 1e6, opt.cutoff_hz) ||
+        !bench::integerArg(prog, "ORDER", argv[4], 1, 8, opt.filter_order) ||
+        !bench::integerArg(prog, "HALF_WINDOW", hw.substr(0, c1), 0, 100000, opt.derivative_half_window))
+      return 2;
+    opt.gyro_half_window = opt.derivative_half_window;
+    if (c1 != std::string_view::npos &&
+        !bench::integerArg(prog, "HALF_WINDOW's gyro part", hw.substr(c1 + 1, c2 == std::string_view::npos ? c2 : c2 - c1 - 1),
+                           0, 100000, opt.gyro_half_window))
+      return 2;
+    opt.base_rate_from_legs = !(c2 != std::string_view::npos && hw.substr(c2 + 1) == "gyro");
     estimator::OnlineEstimator est(model, base, model.phi, opt);
     if (!est.ok()) {
       std::fprintf(stderr, "%s\n", est.error().c_str());

@@ -22,6 +22,7 @@
 #include "exoid/estimator/online/online_estimator.hpp"
 #include "exoid/model/dynamics.hpp"
 #include "exoid/model/kinematics.hpp"
+#include "args.hpp"
 #include "truth_run.hpp"
 
 int main(int argc, char** argv) {
@@ -33,7 +34,8 @@ int main(int argc, char** argv) {
   bench::TruthRun run;
   if (!bench::loadTruthRun(argv[1], run, argc > 4 ? argv[4] : nullptr)) return 2;
   const Model& model = run.model;
-  const double period = argc > 2 ? std::atof(argv[2]) : 1.0;
+  double period = 1.0;
+  if (argc > 2 && !bench::numberArg("exoid_com_trust", "PERIOD_S", argv[2], 1e-3, 1e6, period)) return 2;
   const BaseParameters base = computeBaseParameters(model);
   estimator::OnlineEstimatorOptions opt;
   opt.base_body_moves = argc > 5 && std::string(argv[5]) == "moving";
@@ -58,8 +60,12 @@ int main(int argc, char** argv) {
   if (argc > 3) {
     const std::string a = argv[3];
     const size_t comma = a.find(',');
-    k_axis[0] = k_axis[1] = std::atof(a.substr(0, comma).c_str());
-    k_axis[2] = comma == std::string::npos ? k_axis[0] : std::atof(a.substr(comma + 1).c_str());
+    if (!bench::numberArg("exoid_com_trust", "K", std::string_view(a).substr(0, comma), 0.0, 1e6, k_axis[0]))
+      return 2;
+    k_axis[1] = k_axis[2] = k_axis[0];
+    if (comma != std::string::npos &&
+        !bench::numberArg("exoid_com_trust", "KZ", std::string_view(a).substr(comma + 1), 0.0, 1e6, k_axis[2]))
+      return 2;
   }
   long n = 0, printed = -1;
   for (const auto& t : run.ticks) {

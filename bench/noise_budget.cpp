@@ -14,6 +14,7 @@
 #include <string>
 
 #include "exoid/estimator/dataset.hpp"
+#include "args.hpp"
 #include "truth_run.hpp"
 
 int main(int argc, char** argv) {
@@ -29,7 +30,7 @@ int main(int argc, char** argv) {
   std::string err;
   const int feet[2] = {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")};
   estimator::DatasetOptions opt;  // as exoid diagnose --floating-base (tools::streamFileRows's footholds)
-  opt.cutoff_hz = std::atof(argv[2]);
+  if (!bench::numberArg("exoid_noise_budget", "CUTOFF_HZ", argv[2], 0.0, 1e6, opt.cutoff_hz)) return 2;
   opt.filter = estimator::FilterMode::Parallel;
   opt.trim_edges = true;
   const char* soles[2] = {"right_sole", "left_sole"};
