@@ -192,10 +192,7 @@ int main(int argc, char** argv) {
     e.rate = 1000.0;
     e.train_options.pipeline = intake::LogPipeline::Sensors;
     e.train_options.dataset.cutoff_hz = 30.0;
-    e.train_options.dataset.orientation_from_legs = true;
-    e.train_options.fit_sole_tilt = true;
-    e.train_options.dataset.base_rate_from_legs = true;  // exoid identify's defaults
-    e.train_options.dataset.base_acceleration_from_legs = true;
+    tools::applyBaseSignals(tools::BaseSignals{}, e.train_options);  // exoid identify's defaults
     e.validate_options.pipeline = intake::LogPipeline::Truth;
     evaluate(e, rules);
   }

@@ -157,6 +157,11 @@ def main():
     ap.add_argument("--calibration-seconds", type=float, default=40.0,
                     help="length of the calibration run (`exoid calibrate`: pelvis held, legs swinging) added to the "
                          "training data (default 40; 0: balancing data only, as before stop 10)")
+    ap.add_argument("--diagnose-args", default="", metavar="ARGS",
+                    help="more options for every `exoid diagnose` call, one string (e.g. \"--base-orientation imu\")")
+    ap.add_argument("--reuse", action="store_true",
+                    help="keep the runs already in --out (run1, run2, calibration with their run.lcmlog) instead of "
+                         "recording them again: the same runs diagnosed another way")
     a = ap.parse_args()
     scenarios = a.scenarios or sorted(glob.glob(os.path.join(here, "config", "scenarios", "diagnose", "*.yaml")))
     if not scenarios:
@@ -174,17 +179,22 @@ def main():
         os.makedirs(d, exist_ok=True)
         effects = seeded(path)
         t0 = time.time()
+        def recorded(sub):
+            return a.reuse and os.path.exists(os.path.join(d, sub, "run.lcmlog"))
         for seed in (1, 2):
+            if recorded(f"run{seed}"):
+                continue
             run([exoid, "experiment", "--no-estimator", "--scenario", path, "--moves", str(a.moves), "--seed", str(seed),
                  "--out", os.path.join(d, f"run{seed}")], os.path.join(d, f"experiment{seed}.txt"))
         calibration = []
         if a.calibration_seconds > 0:
-            run([exoid, "calibrate", "--scenario", path, "--duration", f"{a.calibration_seconds:g}",
-                 "--out", os.path.join(d, "calibration")], os.path.join(d, "calibration.txt"))
+            if not recorded("calibration"):
+                run([exoid, "calibrate", "--scenario", path, "--duration", f"{a.calibration_seconds:g}",
+                     "--out", os.path.join(d, "calibration")], os.path.join(d, "calibration.txt"))
             calibration = ["--calibration", os.path.join(d, "calibration", "run.lcmlog")]
         run([exoid, "diagnose", "--model", urdf, "--floating-base", "--train", os.path.join(d, "run1", "run.lcmlog")] +
             calibration + ["--validate", os.path.join(d, "run2", "run.lcmlog"), "--no-plots",
-                           "--out", os.path.join(d, "diagnose")],
+                           "--out", os.path.join(d, "diagnose")] + a.diagnose_args.split(),
             os.path.join(d, "diagnose.txt"))
         with open(os.path.join(d, "diagnose", "summary.json")) as f:
             summary = json.load(f)

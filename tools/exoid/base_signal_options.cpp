@@ -4,23 +4,22 @@
 
 namespace exoid::cli {
 
-void addBaseSignalOptions(CLI::App& app, std::string& orientation, std::string& base_rate, std::string& base_acceleration,
-                          double& orientation_cutoff_hz) {
-  app.add_option("--base-orientation", orientation, "sensors pipeline: base orientation from leg kinematics (the feet "
+void addBaseSignalOptions(CLI::App& app, tools::BaseSignals& b) {
+  app.add_option("--base-orientation", b.orientation, "sensors pipeline: base orientation from leg kinematics (the feet "
                  "flat and still on the plates) corrected for the soles' tilt on their contacts, which the IMU sees: "
                  "'plates' (the tilt a linear function of the plates' wrenches, its coefficients fitted to the IMU over "
-                 "the whole file, each axis's columns chosen by BIC; default), 'fused' (the IMU's correction below "
+                 "the whole file, each axis's columns chosen by BIC), 'fused' (the IMU's correction below "
                  "--orientation-cutoff), or the 'imu' alone")->check(CLI::IsMember({"plates", "fused", "imu"}));
-  app.add_option("--base-rate", base_rate, "sensors pipeline: the base's angular velocity and acceleration from the 'legs' "
+  app.add_option("--base-rate", b.rate, "sensors pipeline: the base's angular velocity and acceleration from the 'legs' "
                  "(feet flat and still on the plates: the rotation the encoders give, differentiated as the joints' "
-                 "angles; default) or the 'gyro' (its white noise differentiated is the larger error)")
+                 "angles) or the 'gyro' (its white noise differentiated is the larger error)")
       ->check(CLI::IsMember({"legs", "gyro"}));
-  app.add_option("--base-acceleration", base_acceleration, "sensors pipeline: the base's linear acceleration from the "
+  app.add_option("--base-acceleration", b.acceleration, "sensors pipeline: the base's linear acceleration from the "
                  "'legs' (the base position the feet give, differentiated twice as the joints' angles; gravity and the "
-                 "plates' wrenches then turn with the same orientation; default) or the 'accelerometer'")
+                 "plates' wrenches then turn with the same orientation) or the 'accelerometer'")
       ->check(CLI::IsMember({"legs", "accelerometer"}));
-  app.add_option("--orientation-cutoff", orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
-                 "which the legs give the orientation (default 5); the rank rule's processing check uses it for the IMU's "
+  app.add_option("--orientation-cutoff", b.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
+                 "which the legs give the orientation; identify's rank rule's processing check uses it for the IMU's "
                  "rate and acceleration with every --base-orientation")
       ->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
 }

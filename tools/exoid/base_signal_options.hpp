@@ -1,14 +1,15 @@
 #pragma once
-// The sensors pipeline's base signals as `exoid identify` and `exoid study` take them (one set of options, one text;
-// docs/identification.md "Input pipelines" and "The soles' tilt from the plates").
+// The sensors pipeline's base signals as `exoid identify`, `exoid study` and `exoid diagnose` take them (one set of
+// options, one text; docs/identification.md "Input pipelines" and "The soles' tilt from the plates").
 #include <CLI/CLI.hpp>
-#include <string>
+
+#include "exoid/tools/identify_input.hpp"
 
 namespace exoid::cli {
 
 /// --base-orientation plates|fused|imu, --base-rate legs|gyro, --base-acceleration legs|accelerometer,
-/// --orientation-cutoff HZ into the given fields (their defaults stay as the caller set them).
-void addBaseSignalOptions(CLI::App& app, std::string& orientation, std::string& base_rate, std::string& base_acceleration,
-                          double& orientation_cutoff_hz);
+/// --orientation-cutoff HZ into `b`; its values are the defaults --help shows (identify and study: tools::BaseSignals's,
+/// diagnose: its own).
+void addBaseSignalOptions(CLI::App& app, tools::BaseSignals& b);
 
 }  // namespace exoid::cli

@@ -49,7 +49,7 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
       ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
   app.add_option("--filter-mode", o.filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
                  "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
-  addBaseSignalOptions(app, o.orientation, o.base_rate, o.base_acceleration, o.orientation_cutoff_hz);
+  addBaseSignalOptions(app, o.base_signals);
   app.add_flag("--derive", o.derive, "differentiate q (and the base angular velocity) even where v, a are recorded");
   app.add_option("--noise", o.noise, "encoder noise sigma (rad) added to the training q (thesis: 9e-6); implies --derive")
       ->transform(common::strictNumber(0.0, 1.0))->type_name("RAD");
@@ -258,7 +258,7 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
   j["warnings"] = differ.empty() ? nlohmann::json::array() : nlohmann::json::array({differ});
   j["inputs"] = inputsJson(run);
   j["options"] = {{"pipeline", o.pipeline}, {"cutoff_hz", o.cutoff_hz}, {"filter_mode", o.filter_mode}, {"noise", o.noise},
-                  {"base_orientation", o.orientation}, {"base_rate", o.base_rate}, {"base_acceleration", o.base_acceleration}, {"orientation_cutoff_hz", o.orientation_cutoff_hz},
+                  {"base_orientation", o.base_signals.orientation}, {"base_rate", o.base_signals.rate}, {"base_acceleration", o.base_signals.acceleration}, {"orientation_cutoff_hz", o.base_signals.orientation_cutoff_hz},
                   {"folds", o.folds}, {"chunk_seconds", o.chunk_s}, {"prior_perturb", o.prior_perturb}};
   if (!o.only_links.empty()) j["options"]["only_links"] = o.only_links;  // the other links held at the prior
   if (!o.hold_path.empty()) j["options"]["hold"] = o.hold_path;

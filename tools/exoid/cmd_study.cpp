@@ -88,7 +88,7 @@ bool parseList(const std::string& s, std::vector<T>& out) {
 /// The study's options as given: the lists still text, --runs and its moves.
 struct StudyArgs {
   std::string cutoffs = "0,10,15,30,50,70,100", pipelines = "thesis,sensors", ranges = "12.5%,25%,abs0.125";
-  std::string runs, sensors_filter = "inputs", orientation = "plates", base_rate = "legs", base_acceleration = "legs";
+  std::string runs, sensors_filter = "inputs";
   std::string scene = std::string(EXOID_CONFIG_DIR) + "/exo.xml";
   int moves = 0;
   bool no_keyframes = false;
@@ -117,7 +117,7 @@ void addStudyOptions(CLI::App& app, tools::StudyOptions& o, StudyArgs& a) {
   app.add_option("--sensors-filter", a.sensors_filter, "sensors pipeline: 'inputs' (filter q and the gyro, differentiate; "
                  "default) or 'parallel' (the same zero-phase filter on every column of W and on y)")
       ->check(CLI::IsMember({"inputs", "parallel"}));
-  addBaseSignalOptions(app, a.orientation, a.base_rate, a.base_acceleration, o.orientation_cutoff_hz);
+  addBaseSignalOptions(app, o.base_signals);
   app.add_option("--threads", o.threads, "workers over the (pipeline, cutoff) jobs (default 2)")->check(CLI::Range(1, 64));
   app.add_option("--stride", o.stride, "score every N-th tick of the validation/test runs (default 10)")->check(CLI::Range(1, 1000));
   app.add_option("--pc-iterations", o.pc_iterations, "Newton iterations of WLS-RC-PC (default 100)")->check(CLI::Range(1, 10000));
@@ -138,10 +138,6 @@ bool resolveStudyOptions(const StudyArgs& a, tools::StudyOptions& o, std::string
   if (!a.runs.empty() && (!o.train.empty() || !o.validation.empty() || !o.test.empty()))
     return *error = "--runs records/reuses its own runs: do not combine it with --train, --validation or --test", false;
   o.parallel_filter = a.sensors_filter == "parallel";
-  o.orientation_from_legs = a.orientation == "plates" || a.orientation == "fused";
-  o.fit_sole_tilt = a.orientation == "plates";
-  o.base_rate_from_legs = a.base_rate == "legs";
-  o.base_acceleration_from_legs = a.base_acceleration == "legs";
   if (!parseList(a.cutoffs, o.cutoffs)) return *error = "--cutoffs must be a comma-separated list of numbers", false;
   for (double c : o.cutoffs)
     if (!(c >= 0.0) || c >= 500.0) return *error = "--cutoffs: " + std::to_string(c) + " is not in [0, 500) Hz", false;

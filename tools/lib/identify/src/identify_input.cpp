@@ -16,6 +16,16 @@
 
 namespace exoid::tools {
 
+void applyBaseSignals(const BaseSignals& b, SourceOptions& so) {
+  const bool sensors = so.pipeline == intake::LogPipeline::Sensors;
+  estimator::DatasetOptions& d = so.dataset;
+  d.orientation_from_legs = sensors && (b.orientation == "plates" || b.orientation == "fused");
+  so.fit_sole_tilt = d.orientation_from_legs && b.orientation == "plates";
+  d.base_rate_from_legs = sensors && b.rate == "legs";
+  d.base_acceleration_from_legs = sensors && b.acceleration == "legs";
+  d.orientation_cutoff_hz = b.orientation_cutoff_hz;
+}
+
 std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& training, bool logs_on_floating_base) {
   std::vector<ProcessingAlternative> out;
   const estimator::DatasetOptions& d = training.dataset;

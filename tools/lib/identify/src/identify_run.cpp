@@ -195,17 +195,6 @@ bool modelAndPrior(const IdentifyRunOptions& o, IdentifyRun& run, Eigen::VectorX
   return true;
 }
 
-/// Where the base's orientation, rate and linear acceleration come from (--base-orientation, --base-rate,
-/// --base-acceleration): the legs only in the sensors pipeline (the truth pipeline records the base's motion).
-void setBaseSignals(const IdentifyRunOptions& o, SourceOptions& so) {
-  const bool sensors = so.pipeline == intake::LogPipeline::Sensors;
-  estimator::DatasetOptions& d = so.dataset;
-  d.orientation_from_legs = sensors && (o.orientation == "plates" || o.orientation == "fused");
-  so.fit_sole_tilt = sensors && o.orientation == "plates";
-  d.base_rate_from_legs = sensors && o.base_rate == "legs";
-  d.base_acceleration_from_legs = sensors && o.base_acceleration == "legs";
-}
-
 /// The training data's dataset pipeline.
 SourceOptions trainingSource(const IdentifyRunOptions& o) {
   SourceOptions so;
@@ -213,8 +202,7 @@ SourceOptions trainingSource(const IdentifyRunOptions& o) {
   so.dataset.cutoff_hz = o.cutoff_hz;
   so.dataset.filter = o.filter_mode == "parallel" ? estimator::FilterMode::Parallel : estimator::FilterMode::Inputs;
   so.dataset.derive = o.derive || o.noise > 0.0;
-  setBaseSignals(o, so);
-  so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
+  applyBaseSignals(o.base_signals, so);
   so.dataset.encoder_noise = o.noise;
   so.dataset.noise_seed = o.seed;
   so.skip_bad_rows = o.skip_bad_rows;
@@ -233,7 +221,7 @@ SourceOptions validationSource(const IdentifyRunOptions& o, const SourceOptions&
   vo.pipeline = (o.validate_pipeline.empty() ? "truth" : o.validate_pipeline) == "truth" ? intake::LogPipeline::Truth
                                                                                          : intake::LogPipeline::Sensors;
   vo.dataset.encoder_noise = 0.0;
-  setBaseSignals(o, vo);
+  applyBaseSignals(o.base_signals, vo);
   vo.dataset.derive = o.derive;
   const bool ideal = vo.pipeline == intake::LogPipeline::Truth && !o.validate.empty() && !isCsvPath(o.validate.front());
   vo.dataset.cutoff_hz = ideal ? 0.0 : training.dataset.cutoff_hz;

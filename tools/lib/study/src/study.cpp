@@ -468,11 +468,7 @@ void runJob(Study& st, Job& job, int workers) {
   so.allow_partial = o.allow_partial;
   so.dataset.cutoff_hz = job.cutoff;
   if (pipe == "sensors" && o.parallel_filter) so.dataset.filter = estimator::FilterMode::Parallel;
-  so.dataset.orientation_from_legs = pipe == "sensors" && o.orientation_from_legs;
-  so.fit_sole_tilt = so.dataset.orientation_from_legs && o.fit_sole_tilt;
-  so.dataset.base_rate_from_legs = pipe == "sensors" && o.base_rate_from_legs;
-  so.dataset.base_acceleration_from_legs = pipe == "sensors" && o.base_acceleration_from_legs;
-  so.dataset.orientation_cutoff_hz = o.orientation_cutoff_hz;
+  applyBaseSignals(o.base_signals, so);
   if (pipe == "thesis") {  // thesis III-E: encoder noise on q, filtered, differentiated
     so.dataset.encoder_noise = 9e-6;
     so.dataset.derive = true;

@@ -17,6 +17,23 @@
 
 namespace exoid::tools {
 
+/// Where the sensors pipeline takes a floating base's orientation, angular rate and linear acceleration from, as
+/// `exoid identify`, `study` and `diagnose` take them (--base-orientation, --base-rate, --base-acceleration,
+/// --orientation-cutoff; docs/identification.md "Input pipelines").
+struct BaseSignals {
+  /// "plates": the legs' orientation with the soles' tilt fitted to the plates' wrenches (SourceOptions::
+  /// fit_sole_tilt); "fused": the legs' with the IMU's correction below orientation_cutoff_hz; "imu": the IMU's.
+  std::string orientation = "plates";
+  std::string rate = "legs";          ///< "legs" (DatasetOptions::base_rate_from_legs) or "gyro"
+  std::string acceleration = "legs";  ///< "legs" (DatasetOptions::base_acceleration_from_legs) or "accelerometer"
+  double orientation_cutoff_hz = 5.0;
+};
+
+struct SourceOptions;
+/// `b` into so.dataset and so.fit_sole_tilt; the legs only in the sensors pipeline (the truth pipeline records the
+/// base's motion). Set so.pipeline first.
+void applyBaseSignals(const BaseSignals& b, SourceOptions& so);
+
 /// Options for turning one data file into rows of the accumulator.
 struct SourceOptions {
   intake::LogPipeline pipeline = intake::LogPipeline::Sensors;  ///< LCM logs only

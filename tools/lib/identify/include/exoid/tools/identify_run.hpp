@@ -11,6 +11,7 @@
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/intake/measured_input.hpp"
 #include "exoid/model/model.hpp"
+#include "exoid/tools/identify_input.hpp"
 
 namespace exoid::tools {
 
@@ -18,13 +19,8 @@ namespace exoid::tools {
 struct IdentifyRunOptions {
   std::vector<std::string> data, validate, only_links;
   std::string model_path, pipeline = "sensors", validate_pipeline, filter_mode = "inputs", method = "WLS-RC-PC",
-                          rank = "jackknife", prior_path, effects_path, orientation = "plates";
-  /// Sensors pipeline, floating base: the base's angular velocity and acceleration from "legs" (feet flat on the
-  /// plates: DatasetOptions::base_rate_from_legs) or the "gyro".
-  std::string base_rate = "legs";
-  /// Sensors pipeline, floating base: the base's linear acceleration from "legs" (DatasetOptions::
-  /// base_acceleration_from_legs) or the "accelerometer".
-  std::string base_acceleration = "legs";
+                          rank = "jackknife", prior_path, effects_path;
+  BaseSignals base_signals;  ///< sensors pipeline, floating base: where the base's motion comes from
   /// --hold: a URDF of the robot without what is to be identified (the empty exoskeleton's identification);
   /// --truth-model: the true system (simulated runs) for the added bodies' and the CoM's errors.
   std::string hold_path, truth_model_path;
@@ -37,8 +33,7 @@ struct IdentifyRunOptions {
   bool fixed_base = false, derive = false, skip_bad_rows = false, allow_partial = false;
   /// --no-processing-check: the jackknife rank rule without its processing term (processingAlternatives).
   bool no_processing_check = false;
-  double cutoff_hz = 0.0, noise = 0.0, prior_perturb = 0.0, chunk_s = 2.0, orientation_cutoff_hz = 5.0,
-         prior_uncertainty = 0.25;
+  double cutoff_hz = 0.0, noise = 0.0, prior_perturb = 0.0, chunk_s = 2.0, prior_uncertainty = 0.25;
   uint64_t seed = 1, prior_seed = 1;
   int folds = 5, threads = 2;
 };

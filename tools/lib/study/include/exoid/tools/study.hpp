@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "exoid/tools/identify_input.hpp"
+
 namespace exoid::tools {
 
 struct PriorRange {
@@ -37,11 +39,7 @@ struct StudyOptions {
   std::vector<std::string> pipelines{"thesis", "sensors"};     ///< thesis protocol / sensors only
   std::vector<PriorRange> ranges{{"12.5%", 0.125, false}, {"25%", 0.25, false}, {"abs0.125", 0.125, true}};
   bool parallel_filter = false;  ///< sensors pipeline: parallel filtering (W and y) instead of filtering the inputs
-  bool orientation_from_legs = true;  ///< sensors pipeline: base orientation from the legs, the soles' tilt from the IMU (dataset.hpp)
-  bool fit_sole_tilt = true;          ///< that tilt fitted to the plates' wrenches (SourceOptions::fit_sole_tilt), else the IMU's low band
-  bool base_rate_from_legs = true;    ///< sensors pipeline: base angular velocity and acceleration from the legs
-  bool base_acceleration_from_legs = true;  ///< sensors pipeline: base linear acceleration from the legs
-  double orientation_cutoff_hz = 5.0;  ///< its complementary cut (IMU below, legs above)
+  BaseSignals base_signals;  ///< sensors pipeline: where the base's orientation, rate and acceleration come from
   int stride = 10;             ///< validation/test metric samples: every stride-th tick (thesis figures: 0.02 s)
   int pc_iterations = 100;     ///< Newton iterations of WLS-RC-PC per estimate
   double pc_nullspace = 3e-2;  ///< WLS-RC-PC pull toward the prior in the unused directions, relative to s_z^2
