@@ -35,18 +35,31 @@ Eigen::Vector3d handPlacedCom(const Wearer& w, const BodySegment& s) {
   }
 }
 
+// The table person and two drawn ones, both tests below.
+const WearerSpec kSpecs[] = {WearerSpec{75.0, 1.78, Sex::Male, 1, 0.0}, WearerSpec{52.0, 1.55, Sex::Female, 3, 0.15},
+                             WearerSpec{110.0, 1.95, Sex::Male, 9, 0.15}};
+
+// A prior written by tools::writeWearerPrior into dir and loaded, with the exoskeleton alone and the wearer.
+struct WrittenPrior {
+  WearerMount mount;
+  Model exo, prior;
+  Wearer wearer;
+};
+::testing::AssertionResult writePrior(const WearerSpec& spec, const test::TempDir& dir, WrittenPrior& w) {
+  const std::string urdf = test::configPath("exo.urdf"), out = dir.file("prior.urdf");
+  std::string err;
+  if (!tools::writeWearerPrior(urdf, spec, out, &w.mount, &err) || !buildModelFromUrdfFile(urdf, true, w.exo, &err) ||
+      !buildModelFromUrdfFile(out, true, w.prior, &err) || !buildWearer(spec, w.wearer, &err))
+    return ::testing::AssertionFailure() << err;
+  return ::testing::AssertionSuccess();
+}
+
 TEST(WearerUrdf, PriorWeighsExoPlusWearerAndItsComMatchesTheSegments) {
   test::TempDir dir("wearer_urdf");
-  const std::string urdf = test::configPath("exo.urdf");
-  for (const WearerSpec& spec : {WearerSpec{75.0, 1.78, Sex::Male, 1, 0.0}, WearerSpec{52.0, 1.55, Sex::Female, 3, 0.15},
-                                 WearerSpec{110.0, 1.95, Sex::Male, 9, 0.15}}) {
-    const std::string out = dir.file("prior.urdf");
-    std::string err;
-    WearerMount mount;
-    ASSERT_TRUE(tools::writeWearerPrior(urdf, spec, out, &mount, &err)) << err;
-    Model exo, prior;
-    ASSERT_TRUE(buildModelFromUrdfFile(urdf, true, exo, &err)) << err;
-    ASSERT_TRUE(buildModelFromUrdfFile(out, true, prior, &err)) << err;
+  for (const WearerSpec& spec : kSpecs) {
+    WrittenPrior written;
+    ASSERT_TRUE(writePrior(spec, dir, written));
+    const Model &exo = written.exo, &prior = written.prior;
     EXPECT_EQ(prior.body_names, exo.body_names);  // the wearer is lumped into the exo's links
     EXPECT_EQ(prior.joint_names, exo.joint_names);
     EXPECT_GE(prior.frameIndex("wearer_right_thigh"), 0);
@@ -54,8 +67,7 @@ TEST(WearerUrdf, PriorWeighsExoPlusWearerAndItsComMatchesTheSegments) {
     const Eigen::Vector3d c_exo = standingCom(exo, &m_exo), c_prior = standingCom(prior, &m_prior);
     EXPECT_NEAR(m_prior, m_exo + spec.mass_kg, 1e-9);
 
-    Wearer w;
-    ASSERT_TRUE(buildWearer(spec, w, &err)) << err;
+    const Wearer& w = written.wearer;
     Eigen::Vector3d moment = m_exo * c_exo;
     for (const BodySegment& s : w.segments) moment += s.mass * handPlacedCom(w, s);
     EXPECT_LT((c_prior - moment / (m_exo + spec.mass_kg)).norm(), 1e-9) << spec.mass_kg;
@@ -69,18 +81,12 @@ TEST(WearerUrdf, PriorWeighsExoPlusWearerAndItsComMatchesTheSegments) {
 // dL_y = sum I_i,yy w + m_i [(c_i - c) x c_i']_y about the system's CoM c, and dF_x = sum m_i (c_i - pivot)_z w'.
 TEST(WearerUrdf, ThePriorCarriesTheLumbarPivotAndItsUpperBodysLever) {
   test::TempDir dir("wearer_urdf_lumbar");
-  const std::string urdf = test::configPath("exo.urdf");
-  for (const WearerSpec& spec : {WearerSpec{75.0, 1.78, Sex::Male, 1, 0.0}, WearerSpec{52.0, 1.55, Sex::Female, 3, 0.15},
-                                 WearerSpec{110.0, 1.95, Sex::Male, 9, 0.15}}) {
-    const std::string out = dir.file("prior.urdf");
-    std::string err;
-    WearerMount mount;
-    ASSERT_TRUE(tools::writeWearerPrior(urdf, spec, out, &mount, &err)) << err;
-    Model prior, exo;
-    ASSERT_TRUE(buildModelFromUrdfFile(out, true, prior, &err)) << err;
-    ASSERT_TRUE(buildModelFromUrdfFile(urdf, true, exo, &err)) << err;
-    Wearer w;
-    ASSERT_TRUE(buildWearer(spec, w, &err)) << err;
+  for (const WearerSpec& spec : kSpecs) {
+    WrittenPrior written;
+    ASSERT_TRUE(writePrior(spec, dir, written));
+    const Model &exo = written.exo, &prior = written.prior;
+    const Wearer& w = written.wearer;
+    const WearerMount& mount = written.mount;
     const double lower_trunk = w.segments[static_cast<size_t>(w.index("lower_trunk"))].length;
     MountedSegment body;
     Eigen::Vector3d pivot;
