@@ -72,8 +72,10 @@ int cmdModelWearer(int argc, char** argv) {
       "Writes the clinic's prior of the exoskeleton with its wearer: the exoskeleton URDF plus the wearer's 16 body\n"
       "segments from de Leva (1996) Table 4 at the given mass, height and sex (masses, CoM positions and radii of\n"
       "gyration scaled to the height), each a link on a fixed joint to the exoskeleton link it rides on (thighs,\n"
-      "shanks, feet; head, trunk and arms rigid on the pelvis). --variation draws a person who is not the table\n"
-      "(each mass, CoM fraction and radius x (1 + U[-V, V]), seeded; masses renormalised to --mass).",
+      "shanks, feet; head, trunk and arms rigid on the pelvis), and a massless link 'wearer_lumbar' on the pelvis at\n"
+      "the lumbar pivot, where the upper body turns (the controller's CoM observer takes its lever from it).\n"
+      "--variation draws a person who is not the table (each mass, CoM fraction and radius x (1 + U[-V, V]), seeded;\n"
+      "masses renormalised to --mass).",
       "exoid model wearer"};
   common::configureCli(app);
   std::string path = std::string(EXOID_CONFIG_DIR) + "/exo.urdf", out, sex;
