@@ -319,6 +319,8 @@ void BalanceController::applyComObserver() {
   const Eigen::Vector3d force = plate_force_[0] + plate_force_[1];
   const Eigen::Vector3d moment = plate_moment_[0] + plate_moment_[1];
   const bool plates = platePairFresh();
+  const Eigen::Matrix3d R = observer_->state().base_orientation.toRotationMatrix();  // the pelvis is the base
+  com_observer_.setHeading(std::atan2(R(1, 0), R(0, 0)));
   com_observer_.update(dyn_.com, dyn_.com_velocity, angular_momentum_urdf_, plates ? &force : nullptr,
                        plates ? &moment : nullptr, dyn_.mass, gap_);
   if (!com_observer_.fusing()) return;

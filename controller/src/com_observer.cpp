@@ -65,9 +65,13 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
   previous_momentum_ = angular_momentum_urdf;
   previous_com_velocity_ = com_velocity_model;
   // What the model's dL/dt lacks: the upper body's turning, from the force its CoM acceleration lacks (header).
+  // K = R_z diag(lever) R_z^T (world axes): (dL_y, -dL_x) gain K dF.
   const Eigen::Vector3d missing_force = force_low_passed_ - mass * com_acceleration_;
-  const double dLy = momentum_rate_.y() + lever_.x() * missing_force.x();
-  const double dLx = momentum_rate_.x() - lever_.y() * missing_force.y();
+  const double c = heading_cos_, s = heading_sin_;
+  const double kxx = lever_.x() * c * c + lever_.y() * s * s, kyy = lever_.x() * s * s + lever_.y() * c * c,
+               kxy = (lever_.x() - lever_.y()) * s * c;
+  const double dLy = momentum_rate_.y() + (kxx * missing_force.x() + kxy * missing_force.y());
+  const double dLx = momentum_rate_.x() - (kxy * missing_force.x() + kyy * missing_force.y());
   const double cz = com_model.z();
   balance_com_ << (cz * F.x() - M.y() + dLy) / F.z(), (M.x() + cz * F.y() - dLx) / F.z(), cz;
   plates_com_.z() = cz;

@@ -187,14 +187,17 @@ TEST(ComObserver, TheCorrectionEntersAfterTheSettleTimeAndStopsWithThePlates) {
 // diag(2.1, 1.55, 0.5) kg m^2, CoM 0.25 m above a pivot at 1.05 m) that turns about the pivot's y axis (axis 1,
 // theta = A sin(W t)) or x axis (axis 0). The plates report the exact wrench: F = m c_t'' + M g z,
 // M_O = dH_O/dt + M g c x z with H_O = I w + m c_t x c_t' (the exoskeleton does not move). The model holds the upper
-// body rigid at theta = 0: its CoM, velocity and angular momentum are constant. Returns the RMS of c_1 - c along the
-// other horizontal axis (x for a pitch, y for a roll) over the last half of 20 s.
-double upperBodyBalanceError(int axis, const Eigen::Vector2d& lever, double hz) {
+// body rigid at theta = 0: its CoM, velocity and angular momentum are constant. The whole scene is turned by `yaw`
+// about the world's z (the pelvis's heading), which the observer is told when `told`. Returns the RMS of c_1 - c along
+// the pelvis's other horizontal axis (x for a pitch, y for a roll) over the last half of 20 s.
+double upperBodyBalanceError(int axis, const Eigen::Vector2d& lever, double hz, double yaw = 0.0, bool told = true) {
   const double Mr = 80.0, m = 37.0, h = 0.25, A = 0.02, W = 2.0 * M_PI * hz;
   const Eigen::Vector3d cr(0.01, 0.0, 0.9), pivot(0.0, 0.0, 1.05), inertia(2.1, 1.55, 0.5);
   const double M = Mr + m;
   const Eigen::Vector3d c_rest = (Mr * cr + m * (pivot + Eigen::Vector3d(0.0, 0.0, h))) / M;
   ComObserver obs(config(), kPeriod, kG, lever);
+  if (told) obs.setHeading(yaw);
+  const Eigen::Matrix3d Rz = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const int along = axis == 1 ? 0 : 1;  // a pitch moves the CoM along x, a roll along -y
   const double sign = axis == 1 ? 1.0 : -1.0;
   double sum = 0.0;
@@ -212,8 +215,11 @@ double upperBodyBalanceError(int axis, const Eigen::Vector2d& lever, double hz) 
     Eigen::Vector3d dH = m * ct.cross(ctdd);
     dH[axis] += inertia[axis] * thdd;  // about a principal axis: no gyroscopic term
     const Eigen::Vector3d Mo = dH + M * kG * c.cross(Eigen::Vector3d::UnitZ());
-    obs.update(c_rest, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), &F, &Mo, M, 1);
-    if (t >= 10.0) sum += std::pow(obs.balanceCom()[along] - c[along], 2), ++n;
+    const Eigen::Vector3d F_world = Rz * F, Mo_world = Rz * Mo;  // moments about the origin turn as vectors
+    obs.update(Rz * c_rest, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), &F_world, &Mo_world, M, 1);
+    Eigen::Vector3d balance = obs.balanceCom();
+    balance.z() = (Rz * c).z();
+    if (t >= 10.0) sum += std::pow((Rz.transpose() * (balance - Rz * c))[along], 2), ++n;
   }
   return std::sqrt(sum / n);
 }
@@ -234,6 +240,13 @@ TEST(ComObserver, TheUpperBodysTurningIsTakenFromTheForceTheModelLacks) {
   // A wrong lever (the inertia alone, no orbital term) leaves more than twice as much.
   const Eigen::Vector2d short_lever(1.55 / (m * h), 2.1 / (m * h));
   EXPECT_GT(upperBodyBalanceError(1, short_lever, 0.5), 2.0 * upperBodyBalanceError(1, lever, 0.5));
+  // A pelvis heading 90 degrees off the world's x: told, the same as at 0 (1e-9); not told, the pitch gets the
+  // roll's lever, (kappa_y - kappa_x) / kappa_x = 13 % of the correction more.
+  const double at0 = upperBodyBalanceError(1, lever, 0.5);
+  EXPECT_NEAR(upperBodyBalanceError(1, lever, 0.5, M_PI / 2.0, true), at0, 1e-9);
+  const double untold = upperBodyBalanceError(1, lever, 0.5, M_PI / 2.0, false);
+  const double without = upperBodyBalanceError(1, Eigen::Vector2d::Zero(), 0.5);
+  EXPECT_GT(untold, at0 + 0.5 * (lever.y() - lever.x()) / lever.x() * without);
 }
 
 }  // namespace

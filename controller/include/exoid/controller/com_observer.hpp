@@ -29,6 +29,7 @@
 // Fusing needs both plates fresh and loaded (F_z above half the weight); otherwise it restarts (w = 0).
 // Allocation-free per tick.
 #include <Eigen/Core>
+#include <cmath>
 #include <cstdint>
 
 #include "exoid/controller/config.hpp"
@@ -43,8 +44,9 @@ namespace exoid::controller {
 /// along x: the model lacks the force dF_x = m h theta'' and, about the system's CoM, the angular momentum
 /// dL_y = (I_yy + m d h) theta' (L = sum I_i w_i + m_i (c_i - c) x c_i'), so dL_y/dt = kappa_x dF_x with
 ///        kappa_x = I_yy / (m h) + d,   and about x:  dL_x/dt = -kappa_y dF_y,  kappa_y = I_xx / (m h) + d.
-/// In the standing pose (the model's zero state: pelvis level, heading along the world's x). Zero where the model
-/// has no such body (the empty exoskeleton), so the observer is then unchanged.
+/// In the standing pose (the model's zero state: pelvis level), along the pelvis's x and y (ComObserver::setHeading
+/// turns them into the world's). Zero where the model has no such body (the empty exoskeleton), so the observer is
+/// then unchanged.
 Eigen::Vector2d upperBodyLever(const Model& model);
 
 class ComObserver {
@@ -72,7 +74,13 @@ class ComObserver {
   /// m and m/s, world [3]: what to add to the controller's CoM and CoM velocity (w delta; z always 0).
   const Eigen::Vector3d& correction() const { return delta_; }
   const Eigen::Vector3d& velocityCorrection() const { return delta_velocity_; }
-  /// m [2]: the lever in use (zero: no upper body, or `upper_body_momentum` off).
+  /// rad: the pelvis's heading in the world (yaw about z), which turns the lever's axes into the world's:
+  /// K = R_z diag(kappa_x, kappa_y) R_z^T on the missing force (0 until set).
+  void setHeading(double yaw) {
+    heading_cos_ = std::cos(yaw);
+    heading_sin_ = std::sin(yaw);
+  }
+  /// m [2]: the lever in use, pelvis axes (zero: no upper body, or `upper_body_momentum` off).
   const Eigen::Vector2d& upperBodyLever() const { return lever_; }
   /// The moment balance's CoM c_1 and the fused plates' CoM c_P [3] (lab frame; z: the model's), the weight w of
   /// the last update.
@@ -94,7 +102,8 @@ class ComObserver {
   double a0_ = 0.0, a1_ = 0.0, a2_ = 0.0, a3_ = 0.0;  // D(s) coefficients
   Eigen::Matrix<double, 4, 2> x_ = Eigen::Matrix<double, 4, 2>::Zero();  // the pair's states (rows) per axis x, y
   Eigen::Vector2d anchor_ = Eigen::Vector2d::Zero();      // m: the low-passed c_P - c_model
-  Eigen::Vector2d lever_;                                 // m: upperBodyLever, or zero
+  Eigen::Vector2d lever_;                                 // m: upperBodyLever, or zero (pelvis axes)
+  double heading_cos_ = 1.0, heading_sin_ = 0.0;           // the pelvis's heading (setHeading)
   Eigen::Vector3d previous_momentum_ = Eigen::Vector3d::Zero(), momentum_rate_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d previous_com_velocity_ = Eigen::Vector3d::Zero(), com_acceleration_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d force_low_passed_ = Eigen::Vector3d::Zero();  // N: the plates' force through the same low-pass
