@@ -66,7 +66,7 @@ BodySegment drawSegment(const WearerSpec& s, SegmentKind kind, int side, std::mt
   BodySegment seg;
   seg.kind = kind;
   seg.side = side;
-  seg.name = std::string(side < 0 ? "right_" : side > 0 ? "left_" : "") + segmentKindName(kind);
+  seg.name = segmentName(kind, side);
   seg.length = row.length_m * s.height_m / deLevaStature(s.sex);
   const double v = s.variation;
   seg.mass = row.mass_fraction * s.mass_kg * (1.0 + v * symmetricUniform(rng));
@@ -89,6 +89,10 @@ const SegmentRow& deLevaRow(Sex sex, SegmentKind kind) {
 double deLevaStature(Sex sex) { return sex == Sex::Male ? 1.741 : 1.735; }
 
 const char* segmentKindName(SegmentKind kind) { return kNames[static_cast<int>(kind)]; }
+
+std::string segmentName(SegmentKind kind, int side) {
+  return std::string(side < 0 ? "right_" : side > 0 ? "left_" : "") + segmentKindName(kind);
+}
 
 bool isBilateral(SegmentKind kind) { return static_cast<int>(kind) >= static_cast<int>(SegmentKind::UpperArm); }
 

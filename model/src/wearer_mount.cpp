@@ -40,7 +40,9 @@ Eigen::Vector3d worldCom(const Wearer& w, const BodySegment& s, const ExoStandin
 
 const char* exoPelvisLink() { return "body"; }
 
-const char* lumbarPivotFrame() { return "wearer_lumbar"; }
+std::string wearerFrameName(const std::string& segment) { return "wearer_" + segment; }
+
+std::string lumbarPivotFrame() { return wearerFrameName("lumbar"); }
 
 std::string exoLegLink(const char* part, int side) { return std::string(side < 0 ? "right_" : "left_") + part; }
 
@@ -88,20 +90,15 @@ bool upperBodyFromModel(const Model& model, MountedSegment& body, Eigen::Vector3
   const int pelvis = model.bodyIndex(exoPelvisLink());
   const int f = model.frameIndex(lumbarPivotFrame());
   if (pelvis < 0 || f < 0 || model.frames[static_cast<size_t>(f)].body != pelvis) return false;
-  // "wearer_" + [side_] + kind name, the names `exoid model wearer` writes (tools/lib/io/src/wearer_urdf.cpp).
-  const std::string prefix = "wearer_";
-  auto above = [&](const std::string& frame) {
-    if (frame.compare(0, prefix.size(), prefix) != 0) return false;
-    std::string name = frame.substr(prefix.size());
-    for (const char* side : {"right_", "left_"})
-      if (name.compare(0, std::string(side).size(), side) == 0) name = name.substr(std::string(side).size());
-    for (int k = 0; k < kNumSegmentKinds; ++k)
-      if (name == segmentKindName(static_cast<SegmentKind>(k))) return aboveLumbar(static_cast<SegmentKind>(k));
-    return false;
-  };
   Vector10d phi = Vector10d::Zero();
-  for (const Model::Frame& fr : model.frames)
-    if (fr.body == pelvis && above(fr.name)) phi += fr.phi;
+  for (int k = 0; k < kNumSegmentKinds; ++k) {
+    const SegmentKind kind = static_cast<SegmentKind>(k);
+    if (!aboveLumbar(kind)) continue;
+    for (int side : isBilateral(kind) ? std::vector<int>{-1, 1} : std::vector<int>{0}) {
+      const int fr = model.frameIndex(wearerFrameName(segmentName(kind, side)));
+      if (fr >= 0 && model.frames[static_cast<size_t>(fr)].body == pelvis) phi += model.frames[static_cast<size_t>(fr)].phi;
+    }
+  }
   InertialProperties p;
   if (!inertialFromParams(phi, p)) return false;
   body.segment = "upper_body";

@@ -45,6 +45,8 @@ double deLevaStature(Sex sex);
 const char* segmentKindName(SegmentKind kind);
 /// Bilateral segments (arms, legs) exist once per side.
 bool isBilateral(SegmentKind kind);
+/// A segment's name (BodySegment::name): "right_" or "left_" (side -1, +1) for a bilateral kind, then its kind's name.
+std::string segmentName(SegmentKind kind, int side);
 
 /// What a clinician types, plus the simulated person's deviation from the table.
 struct WearerSpec {

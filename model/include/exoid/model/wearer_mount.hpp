@@ -56,8 +56,11 @@ struct WearerMount {
 /// Whether a segment of this kind is above the lumbar joint (head, upper and middle trunk, arms).
 bool aboveLumbar(SegmentKind kind);
 
+/// The prior URDF's link (a model's frame) of a wearer segment: "wearer_" + BodySegment::name ("wearer_right_thigh").
+std::string wearerFrameName(const std::string& segment);
+
 /// The massless frame "wearer_lumbar" that the prior URDF carries at the lumbar pivot, on the pelvis link.
-const char* lumbarPivotFrame();
+std::string lumbarPivotFrame();
 
 /// Places every segment of `wearer` on `exo` (rules above).
 WearerMount mountWearer(const Wearer& wearer, const ExoStanding& exo);

@@ -44,7 +44,7 @@ bool exoStandingFromModel(const Model& exo, ExoStanding& out, std::string* err) 
   return true;
 }
 
-std::string wearerLinkName(const MountedSegment& segment) { return "wearer_" + segment.segment; }
+std::string wearerLinkName(const MountedSegment& segment) { return wearerFrameName(segment.segment); }
 
 bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const std::string& urdf_out,
                      std::string* err) {
@@ -80,11 +80,12 @@ bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const
   // Massless: where the upper body turns on the pelvis in a person (the CoM observer's lever, com_observer.hpp).
   char pivot[512];
   const Eigen::Vector3d& o = mount.lumbar_pivot;
+  const std::string lumbar = lumbarPivotFrame();
   std::snprintf(pivot, sizeof pivot,
                 "  <link name=\"%s\"/>\n"
                 "  <joint name=\"%s_mount\" type=\"fixed\"><parent link=\"%s\"/><child link=\"%s\"/>"
                 "<origin xyz=\"%.17g %.17g %.17g\" rpy=\"0 0 0\"/></joint>\n",
-                lumbarPivotFrame(), lumbarPivotFrame(), exoPelvisLink(), lumbarPivotFrame(), o.x(), o.y(), o.z());
+                lumbar.c_str(), lumbar.c_str(), exoPelvisLink(), lumbar.c_str(), o.x(), o.y(), o.z());
   add += pivot;
   text.insert(end, add);
   AtomicCsvWriter out;  // atomic text file (the writer is not CSV-specific)
