@@ -15,6 +15,10 @@ A seeded effect is "found as K" when K is the kind of the first finding on its j
 a finding on a joint without a seeded effect counts in the row "(none)". A wearer's trunk is seeded as "moving_body" on
 "base" and found when the base rows' stage names an unmeasured body in either plane (summary.json "unmeasured_body").
 
+A finding that the data do not tell from another kind on its joint (summary.json "or", docs/diagnose.md "Selection" step
+4) shows as "found K (or K2)"; the summary counts the right findings named with an alternative and the wrong kinds whose
+alternative was the seeded kind.
+
 Effect size (issue 9's criterion: "every seeded effect that changes its joint's torque by >= 3x the torque noise is
 named"), from the validation run's ground truth:
   - dynamics effects (viscous, dry friction, armature): the RMS over the run of y - K phi_URDF on the effect's
@@ -215,13 +219,18 @@ def main():
                 found = "none"
             confusion[(kind, found)] = confusion.get((kind, found), 0) + 1
             expected = "none" if kind == "payload" else found if kind == "passive" and found in PASSIVE_KINDS else kind
-            verdicts.append(f"{joint} {kind} {value:g}: {'ok' if found == expected else 'found ' + found}")
+            # The finding's alternative: another kind the data do not tell from it (summary.json "or"), named beside it.
+            alt = first[joint].get("or", {}).get("kind", "") if found != "none" else ""
+            alt_right = alt != "" and (alt == kind or (kind == "passive" and alt in PASSIVE_KINDS))
+            verdicts.append(f"{joint} {kind} {value:g}: {'ok' if found == expected else 'found ' + found}"
+                            + (f" (or {alt})" if alt else ""))
             size = effect_rms(joint, kind, value, residual, tau_rms)
             effect_rows.append({"scenario": name, "joint": joint, "kind": kind, "value": f"{value:g}",
                                 "effect_rms_nm": f"{size:.4f}", "torque_noise_nm": f"{sigma:g}",
                                 "meets_3x_noise": "n/a" if size != size else "yes" if size >= 3.0 * sigma else "no",
-                                "found": found,
-                                "right": "yes" if found == expected else "no"})
+                                "found": found, "or": alt,
+                                "right": "yes" if found == expected else "no",
+                                "alternative_right": "yes" if found != expected and alt_right else "no"})
         for fd in findings:
             if fd["joint"] not in seeded_joints:
                 confusion[("(none)", fd["kind"])] = confusion.get(("(none)", fd["kind"]), 0) + 1
@@ -237,7 +246,7 @@ def main():
             "effect_rms_nm": "; ".join(e["effect_rms_nm"] for e in scenario_effects) or "",
             "meets_3x_noise": "; ".join(e["meets_3x_noise"] for e in scenario_effects) or "",
             "findings": "; ".join(f"{fd['joint']} {fd['kind']} {fd['value']:.3g} ({100 * fd['explained']:.0f} %)"
-                                  for fd in findings) or "none",
+                                  + (f" or {fd['or']['kind']}" if "or" in fd else "") for fd in findings) or "none",
             "verdict": "; ".join(verdicts),
             "heldout_before": f"{summary['pooled_rmse_before']:.4f}",
             "heldout_after": f"{summary['pooled_rmse_after']:.4f}",
@@ -269,6 +278,13 @@ def main():
     def rate(es):
         ok = sum(e["right"] == "yes" for e in es)
         return f"{ok} of {len(es)}" + (f" ({100.0 * ok / len(es):.0f} %)" if es else "")
+    # Findings named with an alternative: right ones (a correct name that the data barely separate from another) and
+    # wrong ones whose alternative is the seeded kind (a wrong name the report flags).
+    flagged_right = sum(e["right"] == "yes" and e["or"] != "" for e in cols)
+    flagged_wrong = sum(e["alternative_right"] == "yes" for e in cols)
+    wrong = sum(e["right"] == "no" and e["found"] != "none" for e in cols)
+    ambiguity = (f"Named with an alternative kind the data do not separate ('or'): {flagged_right} right findings; "
+                 f"{flagged_wrong} of the {wrong} wrong kinds had the seeded kind as their alternative.")
     with open(os.path.join(a.out, "confusion.md"), "w") as f:
         f.write(f"Seeded effect kind (rows) x kind of the first finding on its joint (columns); {len(rows)} scenarios, "
                 f"{a.moves} moves per run, train on move seed 1"
@@ -282,14 +298,14 @@ def main():
         f.write(f"\nDetection (right joint and kind; payloads excluded): {rate(cols)} of all seeded effects, "
                 f"{rate(big)} of those that change their joint's torque by >= 3x the torque noise. "
                 f"Findings on clean runs: {len(clean_false)} of {len(clean)}; findings on joints without a seeded "
-                f"effect in the other runs: {false_other}.\n")
+                f"effect in the other runs: {false_other}. {ambiguity}\n")
         f.write("\n| scenario | seeded effect | effect RMS, N m | >= 3x noise? | found (first finding on its joint) |\n")
         f.write("|---|---|---|---|---|\n")
         for e in effect_rows:
             f.write(f"| {e['scenario']} | {e['joint']} {e['kind']} {e['value']} | {e['effect_rms_nm']} | "
                     + (f"{e['meets_3x_noise']} ({float(e['effect_rms_nm']) / max(float(e['torque_noise_nm']), 1e-12):.1f}x) | "
                        if e['meets_3x_noise'] != "n/a" else "n/a | ") +
-                    f"{e['found']}{'' if e['right'] == 'yes' else ' (wrong)'} |\n")
+                    f"{e['found']}{' or ' + e['or'] if e['or'] else ''}{'' if e['right'] == 'yes' else ' (wrong)'} |\n")
         f.write("\n| scenario | seeded | effect RMS, N m | >= 3x noise? | findings (value, share of its joint's residual) | "
                 "held-out RMSE before -> after, N m |\n")
         f.write("|---|---|---|---|---|---|\n")
@@ -298,6 +314,7 @@ def main():
                     f"{r['heldout_before']} -> {r['heldout_after']} |\n")
     print(f"detection: {rate(cols)} of all seeded effects, {rate(big)} of those >= 3x the torque noise; "
           f"clean runs with a finding: {len(clean_false)} of {len(clean)}")
+    print(ambiguity)
     print(f"written: {a.out}/confusion.csv, confusion.md, effects.csv, scenarios.csv")
 
 

@@ -45,6 +45,10 @@ EffectKind refinedKind(EffectKind k) {
     default: return k;
   }
 }
+EffectKind effectFamily(EffectKind k) {
+  if (isElastic(k)) return EffectKind::Elastic;
+  return isDryFriction(k) ? EffectKind::Coulomb : k;
+}
 bool admissibleValue(EffectKind k, double value) {
   switch (k) {
     case EffectKind::Viscous:

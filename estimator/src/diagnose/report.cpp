@@ -205,6 +205,16 @@ void describeFindings(const Model& model, const DiagnoseOptions& opt, DiagnosisR
                   formatValue(f.effect.kind, f.effect.value, f.std_error).c_str(), width, 100.0 * f.explained,
                   f.p_value, f.tested);
     f.sentence = buf;
+    if (f.ambiguous) {
+      const Effect& a = f.alternative;
+      char of[128] = "";
+      if (isCoupled(a.kind)) std::snprintf(of, sizeof of, " on %s's angle", model.joint_names[a.coupled].c_str());
+      std::snprintf(buf, sizeof buf, "; or %s %s%s: the data do not tell the two apart (its held-out gain %.0f %% of "
+                    "this one's, p = %.2g that this one predicts better)", effectKindWords(a.kind),
+                    formatValue(a.kind, a.value, f.alternative_std_error).c_str(), of, 100.0 * f.alternative_gain,
+                    f.separation_p);
+      f.sentence += buf;
+    }
   }
 }
 

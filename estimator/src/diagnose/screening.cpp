@@ -25,19 +25,6 @@ Eigen::MatrixXd upperSolve(const Eigen::MatrixXd& R, const Eigen::MatrixXd& B) {
   return R.triangularView<Eigen::Upper>().solve(B);
 }
 
-// One-sided tests over the F folds that the held-out reductions d [F] lie above 0: the paired t-test, t = mean / (sd /
-// sqrt F), sd with F - 1, and Wilcoxon's signed-rank test, p = 2 min(p_t, p_W) (Bonferroni over the two). The t-test
-// alone loses an effect whose gain comes unevenly: an exponential spring's residual lies in the few chunks where the
-// joint is far out, and a two-angle one that explained all of its joint's held-out residual, with every fold's gain
-// positive (13 to 2720), had p_t = 0.008 (the fold-gain spread taken as noise); p_W = 1e-6. The signed-rank test uses
-// signs and ranks only, so one fold's large gain does not decide it either way.
-void pairedTest(const Eigen::VectorXd& d, int F, double& mean, double& t_stat, double& p_value) {
-  mean = d.mean();
-  const double sd = std::sqrt((d.array() - mean).square().sum() / (F - 1));
-  t_stat = sd > 0 ? mean / (sd / std::sqrt(static_cast<double>(F))) : (mean > 0 ? INFINITY : 0.0);
-  p_value = std::min(1.0, 2.0 * std::min(studentTUpperTail(t_stat, F - 1), signedRankUpperTail(d)));
-}
-
 // Candidate c with its training estimate beta, refitted without each fold f (value bfold[f]) and scored on it: the
 // pooled held-out reduction d[f] and, on the candidate's own coordinate, num / den (the explained fraction).
 void heldOutCandidate(const DiagnoseData& data, const CurrentFits& fits, int F, int c, Eigen::VectorXd& d,
@@ -65,6 +52,19 @@ void heldOutCandidate(const DiagnoseData& data, const CurrentFits& fits, int F, 
   explained = den > 0 ? num / den : 0.0;
 }
 }  // namespace
+
+// One-sided tests over the F folds that the held-out reductions d [F] lie above 0: the paired t-test, t = mean / (sd /
+// sqrt F), sd with F - 1, and Wilcoxon's signed-rank test, p = 2 min(p_t, p_W) (Bonferroni over the two). The t-test
+// alone loses an effect whose gain comes unevenly: an exponential spring's residual lies in the few chunks where the
+// joint is far out, and a two-angle one that explained all of its joint's held-out residual, with every fold's gain
+// positive (13 to 2720), had p_t = 0.008 (the fold-gain spread taken as noise); p_W = 1e-6. The signed-rank test uses
+// signs and ranks only, so one fold's large gain does not decide it either way.
+void pairedTest(const Eigen::VectorXd& d, int F, double& mean, double& t_stat, double& p_value) {
+  mean = d.mean();
+  const double sd = std::sqrt((d.array() - mean).square().sum() / (F - 1));
+  t_stat = sd > 0 ? mean / (sd / std::sqrt(static_cast<double>(F))) : (mean > 0 ? INFINITY : 0.0);
+  p_value = std::min(1.0, 2.0 * std::min(studentTUpperTail(t_stat, F - 1), signedRankUpperTail(d)));
+}
 
 void currentFits(const DiagnoseOptions& opt, const DiagnoseData& data, CurrentFits& fits) {
   const int F = opt.folds, P = data.P, ns = fits.ns = static_cast<int>(data.S.size());
@@ -121,6 +121,7 @@ std::vector<CandidateEval> screenCandidates(const Model&, const DiagnoseOptions&
     heldOutCandidate(data, fits, F, c, d, bfold, ev.f.explained);
     ev.c = c;
     pairedTest(d, F, ev.gain, ev.f.t_stat, ev.f.p_value);
+    ev.fold_gains = d;
     ev.admissible = admissibleValue(cd.kind, beta);
     ev.separable = nrc / col.squaredNorm();
     // Delete-one-fold jackknife of the value: the time-block folds keep the residual's correlation (filtered data: the

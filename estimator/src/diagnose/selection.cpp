@@ -57,6 +57,31 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
     if (coarser < 0) break;
     ch.best = evals[coarser].c, ch.best_finding = evals[coarser].f, chosen_gain = evals[coarser].gain;
   }
+  // Another family's strongest competitor on the chosen coordinate: named beside the choice when the folds do not
+  // show the choice predicting better (the paired test of the fold gains' difference at alpha).
+  if (ch.best >= 0) {
+    const DiagnosisCandidate& chosen = data.cands[ch.best];
+    const CandidateEval* best_eval = nullptr;
+    const CandidateEval* rival = nullptr;
+    for (const CandidateEval& ev : evals) {
+      if (ev.c == ch.best) best_eval = &ev;
+      const DiagnosisCandidate& cd = data.cands[ev.c];
+      if (competes(ev) && cd.coord == chosen.coord && effectFamily(cd.kind) != effectFamily(chosen.kind) &&
+          (!rival || ev.gain > rival->gain))
+        rival = &ev;
+    }
+    if (best_eval && rival && best_eval->fold_gains.size() == opt.folds && rival->fold_gains.size() == opt.folds &&
+        opt.folds > 1) {
+      double mean = 0.0, t = 0.0, p = 1.0;
+      pairedTest(best_eval->fold_gains - rival->fold_gains, opt.folds, mean, t, p);
+      Finding& f = ch.best_finding;
+      f.separation_p = p;
+      f.alternative = rival->f.effect;
+      f.alternative_std_error = rival->f.std_error;
+      f.alternative_gain = best_eval->gain > 0 ? rival->gain / best_eval->gain : 0.0;
+      f.ambiguous = p >= opt.alpha;
+    }
+  }
   const auto pusable = [&](const PayloadEval& pe) { return pe.admissible && pe.gain > 0 && pe.f.explained >= opt.min_explained; };
   for (size_t k = 0; k < pevals.size(); ++k)
     if (pusable(pevals[k]) && pevals[k].f.p_value < level &&

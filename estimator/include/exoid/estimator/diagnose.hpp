@@ -69,6 +69,9 @@ bool isCoupled(EffectKind k);
 /// otherwise. A refinement is named only when it predicts the held-out data clearly better than the kind it refines
 /// (DiagnoseOptions).
 EffectKind refinedKind(EffectKind k);
+/// The physical family of a kind, for telling whether two findings are different explanations: every elastic kind is
+/// Elastic (a spring, whatever its shape or angle), Stribeck is Coulomb (dry friction); every other kind its own.
+EffectKind effectFamily(EffectKind k);
 /// s: the largest time delay the linearised column -d dtau/dt stands for. tau(t - d) = tau(t) - d dtau/dt + O(d^2 w^2):
 /// at the ~1 Hz of the motions the second-order term reaches 5 % of the first at 50 ms; a larger fitted "delay" is some
 /// other slow structure borrowing the column (KUKA lwr_6: 324 ms), not a delay.
@@ -250,6 +253,16 @@ struct Finding {
   double p_value = 1.0;    ///< one-sided test over the folds: 2 min(t-test, signed-rank) (before the step's Bonferroni)
   double t_stat = 0.0;
   int tested = 0;          ///< candidates tested in its step (Bonferroni factor)
+  /// Another kind of effect on the same coordinate that the data do not tell from this one (effectFamily differs; it
+  /// competed in the same step and the paired test that this finding's held-out fold gains exceed its own failed at
+  /// alpha): the report names both, this one first. A hip's torque while standing is mostly the gravity moment of what
+  /// it carries, so a torque-sensor gain and a spring on its angle can be nearly one signal (docs/diagnose.md).
+  bool ambiguous = false;
+  Effect alternative;             ///< value: its training estimate when added instead of this finding
+  double alternative_std_error = 0.0;
+  double alternative_gain = 0.0;  ///< its mean held-out gain over this finding's (above 1 only where a refined
+                                  ///< kind lost to the coarser one within refinement_margin)
+  double separation_p = 1.0;      ///< one-sided p of the paired test that this finding predicts better than it
   std::string sentence;    ///< the finding in words
 };
 

@@ -88,12 +88,17 @@ struct CurrentFits {
 };
 
 /// A single candidate column scored in one selection step.
+/// One-sided tests over the F folds that the held-out reductions d [F] lie above 0: the paired t-test (F - 1 degrees of
+/// freedom) and Wilcoxon's signed-rank test, p = 2 min(p_t, p_W); mean = d's mean, t_stat the t-test's statistic.
+void pairedTest(const Eigen::VectorXd& d, int F, double& mean, double& t_stat, double& p_value);
+
 struct CandidateEval {
   int c = -1;                 ///< candidate index
   double gain = 0.0;          ///< mean over the folds of the pooled held-out weighted SSE reduction
   bool admissible = false;    ///< admissibleValue of the training estimate
   double separable = 0.0;     ///< fraction of the column outside the current columns' span
   double jackknife_se = 0.0;  ///< delete-one-fold jackknife standard error of the value
+  Eigen::VectorXd fold_gains; ///< [folds] the held-out reduction of each fold (gain is their mean)
   Finding f;
 };
 
