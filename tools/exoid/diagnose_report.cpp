@@ -331,8 +331,13 @@ nlohmann::json summaryJson(const Model& model, const est::DiagnoseOptions& opt, 
                               {"std_error", f.std_error}, {"explained", f.explained}, {"p_value", f.p_value},
                               {"tested", f.tested}, {"sentence", f.sentence}});
     if (f.ambiguous)  // another kind the data do not tell from this one (Finding::ambiguous)
-      js["findings"].back()["or"] = {{"kind", est::effectKindName(f.alternative.kind)}, {"value", f.alternative.value},
-                                     {"gain_ratio", f.alternative_gain}, {"separation_p", f.separation_p}};
+    {
+      nlohmann::json alt = {{"kind", est::effectKindName(f.alternative.kind)}, {"value", f.alternative.value},
+                            {"unit", est::effectUnit(f.alternative.kind)}, {"gain_ratio", f.alternative_gain},
+                            {"separation_p", f.separation_p}};
+      if (est::isCoupled(f.alternative.kind)) alt["angle_of"] = model.joint_names[f.alternative.coupled];
+      js["findings"].back()["or"] = alt;
+    }
     if (f.effect.width != 0.0) js["findings"].back()["width"] = f.effect.width;  // Coulomb, Stribeck: rad/s; elastic_exp: rad
     if (est::isElastic(f.effect.kind)) js["findings"].back()["center"] = f.effect.center;  // rad
     if (est::isCoupled(f.effect.kind)) js["findings"].back()["angle_of"] = model.joint_names[f.effect.coupled];

@@ -87,11 +87,11 @@ struct CurrentFits {
   double dof_res = 0.0;                        ///< measured rows - ns - 1
 };
 
-/// A single candidate column scored in one selection step.
 /// One-sided tests over the F folds that the held-out reductions d [F] lie above 0: the paired t-test (F - 1 degrees of
 /// freedom) and Wilcoxon's signed-rank test, p = 2 min(p_t, p_W); mean = d's mean, t_stat the t-test's statistic.
 void pairedTest(const Eigen::VectorXd& d, int F, double& mean, double& t_stat, double& p_value);
 
+/// A single candidate column scored in one selection step.
 struct CandidateEval {
   int c = -1;                 ///< candidate index
   double gain = 0.0;          ///< mean over the folds of the pooled held-out weighted SSE reduction
