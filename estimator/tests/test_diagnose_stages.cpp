@@ -91,6 +91,13 @@ struct Prepared {
   }
 };
 
+// The index of the candidate of this kind on this joint (-1: none), in the prepared data.
+int candidateIndex(const DiagnoseData& data, EffectKind kind, int joint) {
+  for (int c = 0; c < data.nc; ++c)
+    if (data.cands[c].kind == kind && data.cands[c].joint == joint) return c;
+  return -1;
+}
+
 TEST(DiagnoseStages, TriangularFactorKeepsTheGramOfTheStreamedRows) {
   std::mt19937_64 rng(3);
   std::normal_distribution<double> g;
@@ -262,9 +269,7 @@ TEST(DiagnoseStages, ScreeningMatchesPerFoldDenseRefits) {
   currentFits(p.opt, p.data, fits);
   const std::vector<CandidateEval> evals = screenCandidates(kuka(), p.opt, p.data, fits, 0, p.out);
   // The viscous candidate on joint 3, independently: dense weighted rows, fold of sample i = floor(t_i / 0.5) mod 5.
-  int cv = -1;
-  for (int c = 0; c < p.data.nc; ++c)
-    if (p.data.cands[c].kind == EffectKind::Viscous && p.data.cands[c].joint == 3) cv = c;
+  const int cv = candidateIndex(p.data, EffectKind::Viscous, 3);
   const CandidateEval* ev = nullptr;
   for (const CandidateEval& e : evals) ev = e.c == cv ? &e : ev;
   ASSERT_NE(ev, nullptr);
@@ -319,8 +324,7 @@ TEST(DiagnoseStages, SelectStepTestsTheCoordinateThenPicksTheKindByGain) {
   p.data.S.clear();
   auto eval = [&](EffectKind kind, int joint, double gain, double pv) {
     CandidateEval e;
-    for (int c = 0; c < p.data.nc; ++c)
-      if (p.data.cands[c].kind == kind && p.data.cands[c].joint == joint) e.c = c;
+    e.c = candidateIndex(p.data, kind, joint);
     e.gain = gain, e.admissible = true, e.f.explained = 0.5, e.f.p_value = pv;
     e.f.effect = {kind, joint, 1.0, 0.0};
     return e;
@@ -349,8 +353,7 @@ TEST(DiagnoseStages, SelectStepNamesAnotherKindTheFoldsDoNotSeparate) {
   p.data.S.clear();
   auto eval = [&](EffectKind kind, int joint, std::vector<double> folds, double value) {
     CandidateEval e;
-    for (int c = 0; c < p.data.nc; ++c)
-      if (p.data.cands[c].kind == kind && p.data.cands[c].joint == joint) e.c = c;
+    e.c = candidateIndex(p.data, kind, joint);
     EXPECT_GE(e.c, 0) << effectKindName(kind) << " on joint " << joint;
     e.fold_gains = Eigen::Map<Eigen::VectorXd>(folds.data(), static_cast<Eigen::Index>(folds.size()));
     e.gain = e.fold_gains.mean(), e.admissible = true, e.f.explained = 0.5, e.f.p_value = 1e-6;

@@ -274,8 +274,8 @@ TEST(DiagnoseScenarios, PayloadOnTheRightShankIsNamedAgainstTheHeldDeclaredModel
 // segments: m 36.9 kg, CoM 0.26 m above the pivot, J ~4.4 kg m^2 about it, so (k - m g h) / J gives 1.22 Hz in pitch,
 // 2.0 Hz in roll; the pelvis's own motion couples in); and no joint finding off the sagittal leg joints, where the
 // person's passive moments are, each a passive kind or named with one beside it. Measured: sagittal 1.41 Hz
-// (p 3.8e-4), frontal 2.0 Hz (p 7e-10); the same with the trunk made rigid names nothing (docs/diagnose.md "Does an unmeasured body move on the base?"). 6-move runs are too
-// short for the passive trunk (docs/wearer.md). ~30 s.
+// (p 3.8e-4), frontal 2.0 Hz (p 7e-10); the same with the trunk made rigid names nothing (docs/diagnose.md "Does an
+// unmeasured body move on the base?"). 6-move runs are too short for the passive trunk (docs/wearer.md). ~30 s.
 TEST(DiagnoseScenarios, AWearersTrunkIsNamedAsAnUnmeasuredBodyOnTheBase) {
   test::TempDir dir("diagnose_wearer_trunk");
   const test::CommandResult r = test::runCommand(

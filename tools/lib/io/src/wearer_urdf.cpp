@@ -44,8 +44,6 @@ bool exoStandingFromModel(const Model& exo, ExoStanding& out, std::string* err) 
   return true;
 }
 
-std::string wearerLinkName(const MountedSegment& segment) { return wearerFrameName(segment.segment); }
-
 bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const std::string& urdf_out,
                      std::string* err) {
   std::ifstream in(urdf_in);
@@ -64,6 +62,7 @@ bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const
   std::string add = "\n  <!-- The wearer (exoid model wearer, docs/wearer.md): de Leva 1996 segments -->\n";
   for (const MountedSegment& s : mount.segments) {
     const Eigen::Matrix3d& I = s.inertia_com;
+    const std::string name = wearerFrameName(s.segment);
     char buf[1024];
     std::snprintf(buf, sizeof buf,
                   "  <link name=\"%s\">\n    <inertial>\n      <origin xyz=\"%.17g %.17g %.17g\" rpy=\"0 0 0\"/>\n"
@@ -73,8 +72,8 @@ bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const
                   "    </inertial>\n  </link>\n"
                   "  <joint name=\"%s_mount\" type=\"fixed\"><parent link=\"%s\"/><child link=\"%s\"/>"
                   "<origin xyz=\"0 0 0\" rpy=\"0 0 0\"/></joint>\n",
-                  wearerLinkName(s).c_str(), s.com.x(), s.com.y(), s.com.z(), s.mass, I(0, 0), I(0, 1), I(0, 2),
-                  I(1, 1), I(1, 2), I(2, 2), wearerLinkName(s).c_str(), s.link.c_str(), wearerLinkName(s).c_str());
+                  name.c_str(), s.com.x(), s.com.y(), s.com.z(), s.mass, I(0, 0), I(0, 1), I(0, 2), I(1, 1), I(1, 2),
+                  I(2, 2), name.c_str(), s.link.c_str(), name.c_str());
     add += buf;
   }
   // Massless: where the upper body turns on the pelvis in a person (the CoM observer's lever, com_observer.hpp).

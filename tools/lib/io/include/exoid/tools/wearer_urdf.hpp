@@ -14,11 +14,9 @@ namespace exoid::tools {
 /// when a link ("body", "<side>_thigh", "_shank", "_ankle", "_foot") or sole frame ("<side>_sole") is missing.
 bool exoStandingFromModel(const Model& exo, ExoStanding& out, std::string* err);
 
-/// Name of a mounted segment's link in the written URDF: "wearer_" + segment ("wearer_right_thigh").
-std::string wearerLinkName(const MountedSegment& segment);
-
-/// Copies `urdf_in` with one `<link name="wearer_<segment>">` (its inertial in the carrying link's frame) and one
-/// fixed `<joint name="wearer_<segment>_mount">` per mounted segment, inserted before `</robot>`. Atomic write.
+/// Copies `urdf_in` with one `<link name="wearer_<segment>">` (wearerFrameName, model/wearer_mount.hpp; its inertial
+/// in the carrying link's frame) and one fixed `<joint name="wearer_<segment>_mount">` per mounted segment, inserted
+/// before `</robot>`. Atomic write.
 /// False with *err on an unreadable input, a URDF without `</robot>`, or an unwritable output.
 bool writeWearerUrdf(const std::string& urdf_in, const WearerMount& mount, const std::string& urdf_out,
                      std::string* err);
