@@ -177,6 +177,7 @@ def main():
     rows = []
     effect_rows = []
     false_other = 0  # findings on joints without a seeded effect, in runs that have one
+    false_flagged = 0  # of those, named with an alternative on a seeded joint (a coupling's rival, summary.json "or")
     for path in scenarios:
         name = os.path.splitext(os.path.basename(path))[0]
         d = os.path.join(a.out, name)
@@ -220,8 +221,12 @@ def main():
             confusion[(kind, found)] = confusion.get((kind, found), 0) + 1
             expected = "none" if kind == "payload" else found if kind == "passive" and found in PASSIVE_KINDS else kind
             # The finding's alternative: another kind the data do not tell from it (summary.json "or"), named beside it.
-            alt = first[joint].get("or", {}).get("kind", "") if found != "none" else ""
-            alt_right = alt != "" and (alt == kind or (kind == "passive" and alt in PASSIVE_KINDS))
+            alt_d = first[joint].get("or", {}) if found != "none" else {}
+            alt = alt_d.get("kind", "")
+            alt_elsewhere = alt != "" and alt_d.get("joint", joint) != joint  # a coupling's rival on its angle's joint
+            alt_right = alt != "" and not alt_elsewhere and (alt == kind or (kind == "passive" and alt in PASSIVE_KINDS))
+            if alt_elsewhere:
+                alt = f"{alt} on {alt_d['joint']}"
             verdicts.append(f"{joint} {kind} {value:g}: {'ok' if found == expected else 'found ' + found}"
                             + (f" (or {alt})" if alt else ""))
             size = effect_rms(joint, kind, value, residual, tau_rms)
@@ -234,8 +239,11 @@ def main():
         for fd in findings:
             if fd["joint"] not in seeded_joints:
                 confusion[("(none)", fd["kind"])] = confusion.get(("(none)", fd["kind"]), 0) + 1
-                verdicts.append(f"false finding: {fd['joint']} {fd['kind']}")
+                alt_d = fd.get("or", {})
+                alt = f" (or {alt_d['kind']} on {alt_d.get('joint', fd['joint'])})" if alt_d else ""
+                verdicts.append(f"false finding: {fd['joint']} {fd['kind']}{alt}")
                 false_other += 1 if effects else 0
+                false_flagged += 1 if effects and alt_d.get("joint", fd["joint"]) in seeded_joints else 0
         if not effects and not findings:
             confusion[("(none)", "none")] = confusion.get(("(none)", "none"), 0) + 1
             verdicts.append("clean: no finding")
@@ -284,7 +292,9 @@ def main():
     flagged_wrong = sum(e["alternative_right"] == "yes" for e in cols)
     wrong = sum(e["right"] == "no" and e["found"] != "none" for e in cols)
     ambiguity = (f"Named with an alternative kind the data do not separate ('or'): {flagged_right} right findings; "
-                 f"{flagged_wrong} of the {wrong} wrong kinds had the seeded kind as their alternative.")
+                 f"{flagged_wrong} of the {wrong} wrong kinds had the seeded kind as their alternative; "
+                 f"{false_flagged} of the {false_other} findings on joints without a seeded effect named an "
+                 f"alternative on a seeded joint.")
     with open(os.path.join(a.out, "confusion.md"), "w") as f:
         f.write(f"Seeded effect kind (rows) x kind of the first finding on its joint (columns); {len(rows)} scenarios, "
                 f"{a.moves} moves per run, train on move seed 1"

@@ -44,8 +44,10 @@ TEST(DiagnoseCli, KukaLwr4HeldOutRmseAndFindings) {
   EXPECT_TRUE(offset0) << js["findings"].dump(1);
   EXPECT_GE(coulomb, 3);
   // A kind the held-out folds do not tell from the chosen one is named beside it (docs/diagnose.md "Selection" step
-  // 4), in summary.json and the sentence alike: another family, its test failed at alpha. On these runs joints that
-  // mostly turn one way give offset-or-Coulomb and Coulomb-or-viscous pairs (4 of the 16 findings, measured).
+  // 4), in summary.json and the sentence alike: another family on the same joint, its test failed at alpha (or, beside
+  // a coupling, an effect on the joint whose angle it reads, with which in the model the coupling is not significant).
+  // On these runs joints that mostly turn one way give offset-or-Coulomb and Coulomb-or-viscous pairs (4 of the 16
+  // findings, measured; lwr_2's coupling on lwr_3's angle stays significant given lwr_3's gain, p = 6.6e-5).
   const auto family = [](const std::string& k) {
     return k.rfind("elastic", 0) == 0 ? std::string("elastic") : k == "stribeck" ? std::string("coulomb") : k;
   };
@@ -60,13 +62,20 @@ TEST(DiagnoseCli, KukaLwr4HeldOutRmseAndFindings) {
     }
     ++named_with_alternative;
     const auto& a = f["or"];
-    EXPECT_NE(family(a["kind"]), family(f["kind"])) << f.dump();
+    if (a["joint"] == f["joint"]) {
+      EXPECT_NE(family(a["kind"]), family(f["kind"])) << f.dump();
+    } else {  // a coupling's alternative on its angle's joint, said so in words
+      EXPECT_TRUE(f.contains("angle_of") && a["joint"] == f["angle_of"] &&
+                  sentence.find("on " + a["joint"].get<std::string>() + ", which the identified link parameters") !=
+                      std::string::npos) << f.dump();
+    }
     EXPECT_GE(a["separation_p"].get<double>(), 0.01) << f.dump();
     EXPECT_GT(a["gain_ratio"].get<double>(), 0.0) << f.dump();
     EXPECT_TRUE(std::isfinite(a["value"].get<double>())) << f.dump();
     EXPECT_NE(sentence.find("; or "), std::string::npos) << sentence;
-    if (a["kind"] != "gain" && a["kind"] != "delay")  // those two are written in % and ms
+    if (a["kind"] != "gain" && a["kind"] != "delay") {  // those two are written in % and ms
       EXPECT_NE(sentence.find(a["unit"].get<std::string>(), sentence.find("; or ")), std::string::npos) << sentence;
+    }
   }
   EXPECT_GE(named_with_alternative, 1) << js["findings"].dump(1);
   // The sidecar reads back into the same effects.

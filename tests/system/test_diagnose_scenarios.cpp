@@ -320,5 +320,62 @@ TEST(DiagnoseScenarios, AWearersTrunkIsNamedAsAnUnmeasuredBodyOnTheBase) {
   }
 }
 
+// The same person with the calibration swing (`exoid calibrate`: the pelvis in a harness, the legs through 0-1.3 rad),
+// where Riener & Edrich's exponentials are far from any one candidate and what the candidates leave is taken by
+// whatever correlates (docs/wearer.md "Diagnose the wearer"). Asserted against the simulated law, which acts on the
+// sagittal joints only (hip flexion, knee, ankle dorsiflexion): no finding on another joint stands alone, each names
+// beside it an effect on a sagittal joint (a coupling's rival on the joint whose angle it reads, docs/diagnose.md
+// "Selection" step 4); every sagittal finding is a passive kind, an offset on a sprung joint, or names a passive one
+// beside it; both knees are named with an elastic kind. Measured on these runs: the right hip ab/adduction's 1.33 N
+// m/rad coupling on the hip flexion's angle, named with "or constant torque offset -5.39 N m on right_hip_fe" (its
+// held-out gain 4x the coupling's, p = 1); knees exponential springs, 98 % of their residual. ~25 s.
+TEST(DiagnoseScenarios, AWearersCalibrationSwingNamesNoEffectAloneOnAJointThePersonLeavesAlone) {
+  test::TempDir dir("diagnose_wearer_calibration");
+  const std::string scenario = test::configPath("scenarios/wearer_nominal_passive.yaml");
+  for (const char* seed : {"1", "2"}) {
+    const test::CommandResult r = test::runCommand(test::exoidBinary() + " experiment --no-estimator --moves 6 --seed " +
+                                                       seed + " --scenario " + scenario + " --out " + dir.file(std::string("run") + seed),
+                                                   dir.path);
+    ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  }
+  const test::CommandResult c =
+      test::runCommand(test::exoidBinary() + " calibrate --scenario " + scenario + " --out " + dir.file("cal"), dir.path);
+  ASSERT_EQ(c.exit_code, 0) << c.out << c.err;
+  const test::CommandResult d = test::runCommand(
+      test::exoidBinary() + " diagnose --model " + test::configPath("exo.urdf") + " --floating-base --train " +
+          dir.file("run1/run.lcmlog") + " --calibration " + dir.file("cal/run.lcmlog") + " --validate " +
+          dir.file("run2/run.lcmlog") + " --no-plots --no-predictability --out " + dir.file("dg"),
+      dir.path);
+  ASSERT_EQ(d.exit_code, 0) << d.err;
+  const nlohmann::json js = nlohmann::json::parse(test::slurp(dir.file("dg/summary.json")));
+  const auto sagittal = [](const std::string& joint) {
+    return joint.find("hip_fe") != std::string::npos || joint.find("knee") != std::string::npos ||
+           joint.find("ankle_pd") != std::string::npos;
+  };
+  const auto passive = [](const std::string& kind) { return kind.rfind("elastic", 0) == 0 || kind == "viscous"; };
+  std::set<std::string> sprung, elastic_knees;
+  for (const auto& f : js["findings"])
+    if (f["kind"].get<std::string>().rfind("elastic", 0) == 0) sprung.insert(f["joint"].get<std::string>());
+  int off_sagittal = 0;
+  for (const auto& f : js["findings"]) {
+    const std::string joint = f["joint"], kind = f["kind"];
+    if (!sagittal(joint)) {
+      ++off_sagittal;
+      ASSERT_TRUE(f.contains("or")) << f.dump();
+      EXPECT_TRUE(sagittal(f["or"]["joint"].get<std::string>())) << f.dump();
+      EXPECT_NE(f["sentence"].get<std::string>().find("which the identified link parameters carry into this joint's row"),
+                std::string::npos) << f.dump();
+      continue;
+    }
+    if (joint.find("knee") != std::string::npos && sprung.count(joint)) elastic_knees.insert(joint);
+    if (kind == "offset" && sprung.count(joint)) continue;
+    EXPECT_TRUE(passive(kind) || (f.contains("or") && passive(f["or"]["kind"]))) << f.dump();
+  }
+  EXPECT_EQ(elastic_knees.size(), 2u) << js["findings"].dump(1);
+  // The rule's case is on these runs, so the loop above tested it (a library that names the hip flexion itself would
+  // remove it: then this line is the one to change).
+  EXPECT_GE(off_sagittal, 1) << js["findings"].dump(1);
+}
+
 }  // namespace
 }  // namespace exoid

@@ -332,7 +332,8 @@ nlohmann::json summaryJson(const Model& model, const est::DiagnoseOptions& opt, 
                               {"tested", f.tested}, {"sentence", f.sentence}});
     if (f.ambiguous)  // another kind the data do not tell from this one (Finding::ambiguous)
     {
-      nlohmann::json alt = {{"kind", est::effectKindName(f.alternative.kind)}, {"value", f.alternative.value},
+      nlohmann::json alt = {{"joint", model.joint_names[f.alternative.joint]},
+                            {"kind", est::effectKindName(f.alternative.kind)}, {"value", f.alternative.value},
                             {"unit", est::effectUnit(f.alternative.kind)}, {"gain_ratio", f.alternative_gain},
                             {"separation_p", f.separation_p}};
       if (est::isCoupled(f.alternative.kind)) alt["angle_of"] = model.joint_names[f.alternative.coupled];

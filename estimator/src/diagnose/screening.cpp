@@ -137,6 +137,20 @@ std::vector<CandidateEval> screenCandidates(const Model&, const DiagnoseOptions&
   return evals;
 }
 
+double conditionalCandidateTest(const DiagnoseOptions& opt, DiagnoseData& data, int c, int given, Eigen::VectorXd& d) {
+  const int F = opt.folds;
+  data.S.push_back(given);
+  CurrentFits fits;
+  currentFits(opt, data, fits);
+  Eigen::VectorXd bfold(F);
+  double explained = 0.0, mean = 0.0, t = 0.0, p = 1.0;
+  d.resize(F);
+  heldOutCandidate(data, fits, F, c, d, bfold, explained);
+  data.S.pop_back();
+  pairedTest(d, F, mean, t, p);
+  return p;
+}
+
 namespace {
 // Payload l refitted without each fold f (values bfold.col(f): m, m c) and scored on it (as heldOutCandidate, the
 // explained fraction over the rows that see the link).
