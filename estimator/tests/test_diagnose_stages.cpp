@@ -352,7 +352,7 @@ TEST(DiagnoseStages, ScreeningMatchesPerFoldDenseRefits) {
   const int co = candidateIndex(p.data, EffectKind::Offset, 0);
   ASSERT_GE(co, 0);
   Eigen::VectorXd dc;
-  const double pc = conditionalCandidateTest(p.opt, p.data, cv, p.data.m + co, dc);
+  const double pc = conditionalCandidateTest(p.opt, p.data, cv, {p.data.m + co}, dc);
   EXPECT_EQ(static_cast<int>(p.data.S.size()), p.data.m);
   const Eigen::VectorXd given = denseColumn(p, [](const State&) { return 1.0; }, 0);
   const Eigen::VectorXd dd = denseHeldOutGains(p, given, denseColumn(p, [](const State& s) { return s.v[3]; }, 3), value);
@@ -482,7 +482,7 @@ TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
     // The conditional test by hand (selectStep left data.S with the coupling appended: the declared ones again).
     declaredOnly(p);
     Eigen::VectorXd d;
-    const double pc = conditionalCandidateTest(p.opt, p.data, cc, p.data.m + offset3, d);
+    const double pc = conditionalCandidateTest(p.opt, p.data, cc, {p.data.m + offset3}, d);
     if (coupling == 0.0) {
       EXPECT_GE(pc, p.opt.alpha);
       EXPECT_TRUE(a.ambiguous);
@@ -494,9 +494,21 @@ TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
       describeFindings(kuka(), p.opt, p.out);
       const std::string& sentence = p.out.findings.back().sentence;
       EXPECT_NE(sentence.find("; or constant torque offset"), std::string::npos) << sentence;
-      EXPECT_NE(sentence.find(" on " + kuka().joint_names[3] + ", which the identified link parameters carry into this "
-                              "joint's row: with it in the model this one's held-out gain is not significant"),
+      EXPECT_NE(sentence.find(" on " + kuka().joint_names[3] + " (the strongest of its effects significant at alpha), "
+                              "which the identified link parameters carry into this joint's row: with them in the model "
+                              "this one's held-out gain is not significant"),
                 std::string::npos) << sentence;
+      // Two effects on joint 3 credible at alpha (an offset and viscous friction, independent columns): both in the
+      // model for the test, the stronger named.
+      const int viscous3 = candidateIndex(p.data, EffectKind::Viscous, 3);
+      ASSERT_GE(viscous3, 0);
+      declaredOnly(p);
+      ev = {eval(cc, steady, 1e-6), eval(viscous3, steady, 5e-3), eval(offset3, uneven, 5e-3)};
+      ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
+      declaredOnly(p);
+      EXPECT_DOUBLE_EQ(p.out.findings.back().separation_p,
+                       conditionalCandidateTest(p.opt, p.data, cc, {p.data.m + offset3, p.data.m + viscous3}, d));
+      EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Offset);
     } else {  // 3 N m/rad on q_3 (0.1-0.3 rad): the coupling keeps its own gain with the offset in
       EXPECT_LT(pc, 1e-3) << d.transpose();
       EXPECT_GT(d.minCoeff(), 0.0) << d.transpose();

@@ -66,7 +66,7 @@ TEST(DiagnoseCli, KukaLwr4HeldOutRmseAndFindings) {
       EXPECT_NE(family(a["kind"]), family(f["kind"])) << f.dump();
     } else {  // a coupling's alternative on its angle's joint, said so in words
       EXPECT_TRUE(f.contains("angle_of") && a["joint"] == f["angle_of"] &&
-                  sentence.find("on " + a["joint"].get<std::string>() + ", which the identified link parameters") !=
+                  sentence.find("on " + a["joint"].get<std::string>() + " (the strongest of its effects") !=
                       std::string::npos) << f.dump();
     }
     EXPECT_GE(a["separation_p"].get<double>(), 0.01) << f.dump();

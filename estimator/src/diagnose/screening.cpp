@@ -137,16 +137,18 @@ std::vector<CandidateEval> screenCandidates(const Model&, const DiagnoseOptions&
   return evals;
 }
 
-double conditionalCandidateTest(const DiagnoseOptions& opt, DiagnoseData& data, int c, int given, Eigen::VectorXd& d) {
+double conditionalCandidateTest(const DiagnoseOptions& opt, DiagnoseData& data, int c, const std::vector<int>& given,
+                                Eigen::VectorXd& d) {
   const int F = opt.folds;
-  data.S.push_back(given);
+  const size_t ns = data.S.size();
+  data.S.insert(data.S.end(), given.begin(), given.end());
   CurrentFits fits;
   currentFits(opt, data, fits);
   Eigen::VectorXd bfold(F);
   double explained = 0.0, mean = 0.0, t = 0.0, p = 1.0;
   d.resize(F);
   heldOutCandidate(data, fits, F, c, d, bfold, explained);
-  data.S.pop_back();
+  data.S.resize(ns);
   pairedTest(d, F, mean, t, p);
   return p;
 }

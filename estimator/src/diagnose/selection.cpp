@@ -29,7 +29,10 @@ double correlation(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 // gain. best: candidate index (-1: none), pbest: index into pevals (-1: none; when >= 0, best is -1).
 struct StepChoice {
   int best = -1, pbest = -1;
-  int source = -1, best_eval = -1;  ///< a coupling's source candidate and the choice, indices into the step's evals
+  /// A coupling's source candidates (the effects on the joint whose angle it reads, significant on their own at alpha,
+  /// strongest first) and the choice: indices into the step's evals.
+  std::vector<int> sources;
+  int best_eval = -1;
   double best_gain = 0.0;
   Finding best_finding;
   std::vector<char> coord_has_effect;
@@ -66,18 +69,17 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
     const DiagnosisCandidate& chosen = data.cands[ch.best];
     const CandidateEval* best_eval = nullptr;
     const CandidateEval* rival = nullptr;
-    const CandidateEval* source = nullptr;
     for (const CandidateEval& ev : evals) {
       if (ev.c == ch.best) best_eval = &ev;
       const DiagnosisCandidate& cd = data.cands[ev.c];
       if (competes(ev) && cd.coord == chosen.coord && effectFamily(cd.kind) != effectFamily(chosen.kind) &&
           (!rival || ev.gain > rival->gain))
         rival = &ev;
-      // A coupling's (joint j's moment on joint k's angle) source candidate: the strongest effect on k itself that is
-      // significant on its own at alpha, established on k or not (selectStep tests the coupling given it).
+      // A coupling's (joint j's moment on joint k's angle) sources: the effects on k itself that are significant on
+      // their own at alpha, established on k or not (selectStep tests the coupling given them).
       if (!opt.hold_declared && isCoupled(chosen.kind) && cd.joint == chosen.coupled && usable(ev) &&
-          ev.f.p_value < opt.alpha && (!source || ev.gain > source->gain))
-        source = &ev;
+          ev.f.p_value < opt.alpha)
+        ch.sources.push_back(static_cast<int>(&ev - evals.data()));
     }
     if (best_eval && rival && best_eval->fold_gains.size() == opt.folds && rival->fold_gains.size() == opt.folds &&
         opt.folds > 1) {
@@ -90,7 +92,9 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
       f.alternative_gain = best_eval->gain > 0 ? rival->gain / best_eval->gain : 0.0;
       f.ambiguous = p >= opt.alpha;
     }
-    if (best_eval && source) ch.source = static_cast<int>(source - evals.data()), ch.best_eval = static_cast<int>(best_eval - evals.data());
+    std::sort(ch.sources.begin(), ch.sources.end(), [&](int a, int b) { return evals[a].gain > evals[b].gain; });
+    if (best_eval) ch.best_eval = static_cast<int>(best_eval - evals.data());
+    if (!best_eval) ch.sources.clear();
   }
   const auto pusable = [&](const PayloadEval& pe) { return pe.admissible && pe.gain > 0 && pe.f.explained >= opt.min_explained; };
   for (size_t k = 0; k < pevals.size(); ++k)
@@ -162,23 +166,40 @@ StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseD
   }
   if (ch.best < 0) return StepOutcome::Stop;
   Finding f = ch.best_finding;
-  // A coupling (joint j's moment on joint k's angle) tested again with the strongest effect on k itself in the model.
-  // The declared model's link parameters are fitted to every joint's rows, so what an effect on k leaves in k's rows
-  // moves them, and through them j's prediction, as a function of k's angle: the coupling's own signal. Where the
-  // coupling's held-out gain is no longer significant at alpha with k's effect in, the data do not say which of the
-  // two is there; the report names both. Seen on a wearer's calibration swing: the person's hip flexion spring, which
-  // the candidates do not span over 0-1.3 rad (its best candidate p = 4e-4, not established at the level 1e-4), put a
-  // 1.3 N m/rad "coupling" on the hip ab/adduction (p = 1e-5), where the person has no moment. A coupling that is the
-  // person's own (an ankle's moment on the knee's angle) keeps its gain with the knee's effects in.
-  if (ch.source >= 0) {
-    const CandidateEval& source = evals[static_cast<size_t>(ch.source)];
+  // A coupling (joint j's moment on joint k's angle) tested again with the effects on k itself in the model (those
+  // significant on their own at alpha). The declared model's link parameters are fitted to every joint's rows, so
+  // what an effect on k leaves in k's rows moves them, and through them j's prediction, as a function of k's angle:
+  // the coupling's own signal. Where the coupling's held-out gain is no longer significant at alpha with k's effects
+  // in, the data do not say which is there; the report names the coupling and the strongest of them. Seen on a
+  // wearer's calibration swing: the person's hip flexion spring, which the candidates do not span over 0-1.3 rad (its
+  // best candidate p = 4e-4, not established at the level 1e-4), put a 1.3 N m/rad "coupling" on the hip
+  // ab/adduction (p = 1e-5; given the hip flexion's two candidates 0.04), where the person has no moment. A coupling
+  // that is the person's own (an ankle's moment on the knee's angle) keeps its gain with the knee's effects in (p <=
+  // 1.3e-4 on every shipped wearer). A leak from an effect no candidate on k spans (a reflex burst) is not caught.
+  if (!ch.sources.empty()) {
+    // Every source column that is not (nearly) a combination of the model's and the ones taken before it: at least
+    // 1 % of its norm^2 outside their span on all the training rows (near-collinear columns would make the refits'
+    // triangular solves ill-conditioned; what they would add is in the span already).
+    const int F = opt.folds;
+    std::vector<int> given;
+    for (int k : ch.sources) {
+      const int col = data.m + evals[static_cast<size_t>(k)].c;
+      Eigen::MatrixXd A(data.Rtrain[F].rows(), static_cast<Eigen::Index>(data.S.size() + given.size()));
+      Eigen::Index at = 0;
+      for (int s : data.S) A.col(at++) = data.Rtrain[F].col(s);
+      for (int s : given) A.col(at++) = data.Rtrain[F].col(s);
+      const Eigen::VectorXd x = data.Rtrain[F].col(col);
+      const Eigen::VectorXd r = x - A * A.colPivHouseholderQr().solve(x);
+      if (r.squaredNorm() > 0.01 * x.squaredNorm()) given.push_back(col);
+    }
+    const CandidateEval& source = evals[static_cast<size_t>(ch.sources.front())];
     Eigen::VectorXd d;
-    const double p = conditionalCandidateTest(opt, data, ch.best, data.m + source.c, d);
-    if (std::getenv("EXOID_DIAGNOSE_DEBUG"))
-      std::fprintf(stderr, "step %d coupling j%d on j%d given %s j%d: gain %.4g p %.3g\n", step, data.cands[ch.best].joint,
-                   data.cands[ch.best].coupled, effectKindName(data.cands[source.c].kind), data.cands[source.c].joint,
-                   d.mean(), p);
-    if (p >= opt.alpha) {
+    const double p = given.empty() ? 0.0 : conditionalCandidateTest(opt, data, ch.best, given, d);
+    if (std::getenv("EXOID_DIAGNOSE_DEBUG") && !given.empty())
+      std::fprintf(stderr, "step %d coupling j%d on j%d given %zu of %zu effects on j%d (strongest %s): gain %.4g p %.3g\n",
+                   step, data.cands[ch.best].joint, data.cands[ch.best].coupled, given.size(), ch.sources.size(),
+                   source.f.effect.joint, effectKindName(source.f.effect.kind), d.mean(), p);
+    if (!given.empty() && p >= opt.alpha) {
       const CandidateEval& chosen = evals[static_cast<size_t>(ch.best_eval)];
       f.ambiguous = true;
       f.alternative = source.f.effect;

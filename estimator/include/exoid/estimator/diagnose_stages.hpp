@@ -223,10 +223,12 @@ void currentFits(const DiagnoseOptions& opt, const DiagnoseData& data, CurrentFi
 /// span are excluded (in step 0 recorded in out.first_step as not separable).
 std::vector<CandidateEval> screenCandidates(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data,
                                             const CurrentFits& fits, int step, DiagnosisResult& out);
-/// Candidate c's held-out test (pairedTest's p; fold gains d [F]) against the current model with column `given`
-/// (an index into the columns, data.m + a candidate) added first: does c still predict the held-out folds with that
-/// effect in? data.S is restored. Selection asks it of a coupling given an effect on the joint whose angle it reads.
-double conditionalCandidateTest(const DiagnoseOptions& opt, DiagnoseData& data, int c, int given, Eigen::VectorXd& d);
+/// Candidate c's held-out test (pairedTest's p; fold gains d [F]) against the current model with the columns `given`
+/// (indices into the columns, data.m + a candidate; linearly independent of the model's) added first: does c still
+/// predict the held-out folds with those effects in? data.S is restored. Selection asks it of a coupling given the
+/// effects on the joint whose angle it reads.
+double conditionalCandidateTest(const DiagnoseOptions& opt, DiagnoseData& data, int c, const std::vector<int>& given,
+                                Eigen::VectorXd& d);
 /// Screening of the payload candidates (a link's 4 columns m, m c at once, a rank-4 update of the current fit), tested
 /// like the single columns; admissible: mass above 3 jackknife errors and CoM within payload_com_bound.
 std::vector<PayloadEval> screenPayloads(const Model& model, const DiagnoseOptions& opt, DiagnoseData& data,
