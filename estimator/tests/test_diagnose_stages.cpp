@@ -442,9 +442,9 @@ TEST(DiagnoseStages, SelectStepNamesAnotherKindTheFoldsDoNotSeparate) {
   EXPECT_EQ(p.out.findings[1].sentence.find("; or "), std::string::npos) << p.out.findings[1].sentence;
 }
 
-// A coupling (joint 2's moment on joint 3's angle) is tested again with the strongest effect on joint 3 itself in the
-// model (significant at alpha there, established or not): named with it where the coupling's held-out gain is then not
-// significant, named alone where it is. The step's evals are set by hand; the conditional test runs on the data.
+// A coupling (joint 2's moment on joint 3's angle) is tested again with every candidate on joint 3 itself in the model
+// (whatever their own tests): named with joint 3's strongest usable candidate where the coupling's held-out gain is then
+// not significant, named alone where it is. The step's evals are set by hand; the conditional test runs on the data.
 TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
   for (const double coupling : {0.0, 3.0}) {  // the data: no coupling (a coupling found would be a stand-in), a real one
     SCOPED_TRACE(coupling);
@@ -494,34 +494,37 @@ TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
       describeFindings(kuka(), p.opt, p.out);
       const std::string& sentence = p.out.findings.back().sentence;
       EXPECT_NE(sentence.find("; or constant torque offset"), std::string::npos) << sentence;
-      EXPECT_NE(sentence.find(" on " + kuka().joint_names[3] + " (the strongest of its effects significant at alpha), "
-                              "which the identified link parameters carry into this joint's row: with them in the model "
-                              "this one's held-out gain is not significant"),
+      EXPECT_NE(sentence.find(" on " + kuka().joint_names[3] + " (its strongest candidate), which the identified link "
+                              "parameters carry into this joint's row: with its candidates in the model this one's "
+                              "held-out gain is not significant"),
                 std::string::npos) << sentence;
-      // Two effects on joint 3 credible at alpha (an offset and viscous friction, independent columns): both in the
-      // model for the test, the stronger named.
+      // Two candidates on joint 3 (an offset and viscous friction, independent columns): both in the model for the
+      // test, the stronger usable one named; an inadmissible one (here the offset) is in the model but not named, and
+      // neither is its test (p 0.5) a condition.
       const int viscous3 = candidateIndex(p.data, EffectKind::Viscous, 3);
       ASSERT_GE(viscous3, 0);
       declaredOnly(p);
-      ev = {eval(cc, steady, 1e-6), eval(viscous3, steady, 5e-3), eval(offset3, uneven, 5e-3)};
+      ev = {eval(cc, steady, 1e-6), eval(viscous3, steady, 0.5), eval(offset3, uneven, 5e-3)};
       ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
       declaredOnly(p);
       EXPECT_DOUBLE_EQ(p.out.findings.back().separation_p,
                        conditionalCandidateTest(p.opt, p.data, cc, {p.data.m + offset3, p.data.m + viscous3}, d));
       EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Offset);
+      declaredOnly(p);
+      ev = {eval(cc, steady, 1e-6), eval(viscous3, steady, 0.5), eval(offset3, uneven, 5e-3)};
+      ev[2].admissible = false;
+      ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
+      EXPECT_TRUE(p.out.findings.back().ambiguous);
+      EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Viscous);
     } else {  // 3 N m/rad on q_3 (0.1-0.3 rad): the coupling keeps its own gain with the offset in
       EXPECT_LT(pc, 1e-3) << d.transpose();
       EXPECT_GT(d.minCoeff(), 0.0) << d.transpose();
       EXPECT_FALSE(a.ambiguous);
     }
-    // An effect on a joint the coupling does not read, one not credible at alpha, the declared model held, and a
-    // choice that is not a coupling: no conditional test, no alternative.
+    // A candidate on a joint the coupling does not read, the declared model held, and a choice that is not a coupling:
+    // no conditional test, no alternative.
     declaredOnly(p);
     ev = {eval(cc, steady, 1e-6), eval(offset4, uneven, 5e-3)};
-    ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
-    EXPECT_FALSE(p.out.findings.back().ambiguous);
-    declaredOnly(p);
-    ev = {eval(cc, steady, 1e-6), eval(offset3, uneven, 0.05)};
     ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
     EXPECT_FALSE(p.out.findings.back().ambiguous);
     declaredOnly(p);

@@ -45,9 +45,10 @@ TEST(DiagnoseCli, KukaLwr4HeldOutRmseAndFindings) {
   EXPECT_GE(coulomb, 3);
   // A kind the held-out folds do not tell from the chosen one is named beside it (docs/diagnose.md "Selection" step
   // 4), in summary.json and the sentence alike: another family on the same joint, its test failed at alpha (or, beside
-  // a coupling, an effect on the joint whose angle it reads, with which in the model the coupling is not significant).
-  // On these runs joints that mostly turn one way give offset-or-Coulomb and Coulomb-or-viscous pairs (4 of the 16
-  // findings, measured; lwr_2's coupling on lwr_3's angle stays significant given lwr_3's gain, p = 6.6e-5).
+  // a coupling, the strongest candidate on the joint whose angle it reads, with whose candidates in the model the
+  // coupling is not significant). On these runs joints that mostly turn one way give offset-or-Coulomb and
+  // Coulomb-or-viscous pairs (4 of the 16 findings, measured; the couplings of lwr_2 on lwr_3's angle and lwr_0 on
+  // lwr_1's stay significant with lwr_3's and lwr_1's candidates in, p = 1e-5 and 3e-7).
   const auto family = [](const std::string& k) {
     return k.rfind("elastic", 0) == 0 ? std::string("elastic") : k == "stribeck" ? std::string("coulomb") : k;
   };
@@ -66,7 +67,7 @@ TEST(DiagnoseCli, KukaLwr4HeldOutRmseAndFindings) {
       EXPECT_NE(family(a["kind"]), family(f["kind"])) << f.dump();
     } else {  // a coupling's alternative on its angle's joint, said so in words
       EXPECT_TRUE(f.contains("angle_of") && a["joint"] == f["angle_of"] &&
-                  sentence.find("on " + a["joint"].get<std::string>() + " (the strongest of its effects") !=
+                  sentence.find("on " + a["joint"].get<std::string>() + " (its strongest candidate)") !=
                       std::string::npos) << f.dump();
     }
     EXPECT_GE(a["separation_p"].get<double>(), 0.01) << f.dump();

@@ -29,8 +29,8 @@ double correlation(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 // gain. best: candidate index (-1: none), pbest: index into pevals (-1: none; when >= 0, best is -1).
 struct StepChoice {
   int best = -1, pbest = -1;
-  /// A coupling's source candidates (the effects on the joint whose angle it reads, significant on their own at alpha,
-  /// strongest first) and the choice: indices into the step's evals.
+  /// A coupling's source candidates (every candidate on the joint whose angle it reads; the usable ones first, each
+  /// group strongest first) and the choice: indices into the step's evals.
   std::vector<int> sources;
   int best_eval = -1;
   double best_gain = 0.0;
@@ -75,10 +75,9 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
       if (competes(ev) && cd.coord == chosen.coord && effectFamily(cd.kind) != effectFamily(chosen.kind) &&
           (!rival || ev.gain > rival->gain))
         rival = &ev;
-      // A coupling's (joint j's moment on joint k's angle) sources: the effects on k itself that are significant on
-      // their own at alpha, established on k or not (selectStep tests the coupling given them).
-      if (!opt.hold_declared && isCoupled(chosen.kind) && cd.joint == chosen.coupled && usable(ev) &&
-          ev.f.p_value < opt.alpha)
+      // A coupling's (joint j's moment on joint k's angle) sources: every candidate on k itself, whatever its test
+      // (selectStep tests the coupling given them: what the library can say about k's row, not a claim about k).
+      if (!opt.hold_declared && isCoupled(chosen.kind) && cd.joint == chosen.coupled)
         ch.sources.push_back(static_cast<int>(&ev - evals.data()));
     }
     if (best_eval && rival && best_eval->fold_gains.size() == opt.folds && rival->fold_gains.size() == opt.folds &&
@@ -93,6 +92,8 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
       f.ambiguous = p >= opt.alpha;
     }
     std::sort(ch.sources.begin(), ch.sources.end(), [&](int a, int b) { return evals[a].gain > evals[b].gain; });
+    // The one named: the strongest usable candidate on k (an admissible value that predicts), else the strongest.
+    std::stable_partition(ch.sources.begin(), ch.sources.end(), [&](int a) { return usable(evals[a]); });
     if (best_eval) ch.best_eval = static_cast<int>(best_eval - evals.data());
     if (!best_eval) ch.sources.clear();
   }
@@ -166,16 +167,17 @@ StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseD
   }
   if (ch.best < 0) return StepOutcome::Stop;
   Finding f = ch.best_finding;
-  // A coupling (joint j's moment on joint k's angle) tested again with the effects on k itself in the model (those
-  // significant on their own at alpha). The declared model's link parameters are fitted to every joint's rows, so
-  // what an effect on k leaves in k's rows moves them, and through them j's prediction, as a function of k's angle:
-  // the coupling's own signal. Where the coupling's held-out gain is no longer significant at alpha with k's effects
-  // in, the data do not say which is there; the report names the coupling and the strongest of them. Seen on a
-  // wearer's calibration swing: the person's hip flexion spring, which the candidates do not span over 0-1.3 rad (its
-  // best candidate p = 4e-4, not established at the level 1e-4), put a 1.3 N m/rad "coupling" on the hip
-  // ab/adduction (p = 1e-5; given the hip flexion's two candidates 0.04), where the person has no moment. A coupling
-  // that is the person's own (an ankle's moment on the knee's angle) keeps its gain with the knee's effects in (p <=
-  // 1.3e-4 on every shipped wearer). A leak from an effect no candidate on k spans (a reflex burst) is not caught.
+  // A coupling (joint j's moment on joint k's angle) tested again with every candidate on k itself in the model:
+  // whatever the library can say about k's row. The declared model's link parameters are fitted to every joint's
+  // rows, so what an effect on k leaves in k's rows moves them, and through them j's prediction, as a function of k's
+  // angle: the coupling's own signal. Where the coupling's held-out gain is no longer significant at alpha with k's
+  // candidates in, the data do not say which is there; the report names the coupling and k's strongest candidate.
+  // Seen on wearers' calibration swings: the person's hip flexion spring, which no one candidate spans over 0-1.3 rad,
+  // put a 0.7-1.4 N m/rad "coupling" on the hip ab/adduction (p ~1e-5), where the person has no moment, and held at
+  // the true rigid model the diagnosis names nothing there. Only k's candidates significant at alpha in the model
+  // caught 1 of 5 such couplings (p 0.04; the others had none, or kept p ~1e-5); all of them 3 of 5 (p 0.15-1). A
+  // coupling that is the person's own (an ankle's moment on the knee's angle) keeps p <= 1.7e-4 with the knee's
+  // candidates in, on every shipped wearer (docs/diagnose.md "Selection" step 4).
   if (!ch.sources.empty()) {
     // Every source column that is not (nearly) a combination of the model's and the ones taken before it: at least
     // 1 % of its norm^2 outside their span on all the training rows (near-collinear columns would make the refits'

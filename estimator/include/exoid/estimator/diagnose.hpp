@@ -257,10 +257,10 @@ struct Finding {
   /// competed in the same step and the paired test that this finding's held-out fold gains exceed its own failed at
   /// alpha): the report names both, this one first. A hip's torque while standing is mostly the gravity moment of what
   /// it carries, so a torque-sensor gain and a spring on its angle can be nearly one signal (docs/diagnose.md).
-  /// For a coupled kind (a moment on this joint from joint k's angle) the alternative may also be the strongest effect
-  /// on k itself (alternative.joint is then k) where, with k's effects significant at alpha in the model, this
-  /// finding's held-out test is not significant (separation_p is then that test's p): the identified link parameters
-  /// carry what an effect on k leaves in k's rows into this joint's row, as a function of k's angle (selection.cpp).
+  /// For a coupled kind (a moment on this joint from joint k's angle) the alternative may also be k's strongest
+  /// candidate (alternative.joint is then k) where, with every candidate on k in the model, this finding's held-out
+  /// test is not significant (separation_p is then that test's p): the identified link parameters carry what an
+  /// effect on k leaves in k's rows into this joint's row, as a function of k's angle (selection.cpp).
   bool ambiguous = false;
   Effect alternative;             ///< value: its training estimate when added instead of this finding
   double alternative_std_error = 0.0;
@@ -268,7 +268,7 @@ struct Finding {
                                   ///< the coarser one within refinement_margin, or for an effect on a coupling's
                                   ///< angle's joint)
   double separation_p = 1.0;      ///< one-sided p of the paired test that this finding predicts better than it (an
-                                  ///< alternative on another joint: this finding's test with k's effects in)
+                                  ///< alternative on another joint: this finding's test with k's candidates in)
   std::string sentence;    ///< the finding in words
 };
 
