@@ -198,8 +198,9 @@ StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseD
     Eigen::VectorXd d;
     const double p = given.empty() ? 0.0 : conditionalCandidateTest(opt, data, ch.best, given, d);
     if (std::getenv("EXOID_DIAGNOSE_DEBUG") && !given.empty())
-      std::fprintf(stderr, "step %d coupling j%d on j%d given %zu of %zu effects on j%d (strongest %s): gain %.4g p %.3g\n",
-                   step, data.cands[ch.best].joint, data.cands[ch.best].coupled, given.size(), ch.sources.size(),
+      std::fprintf(stderr,
+                   "step %d coupling j%d on j%d given %zu of %zu candidates on j%d (named %s): gain %.4g p %.3g\n", step,
+                   data.cands[ch.best].joint, data.cands[ch.best].coupled, given.size(), ch.sources.size(),
                    source.f.effect.joint, effectKindName(source.f.effect.kind), d.mean(), p);
     if (!given.empty() && p >= opt.alpha) {
       const CandidateEval& chosen = evals[static_cast<size_t>(ch.best_eval)];
