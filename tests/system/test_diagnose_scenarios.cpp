@@ -327,8 +327,9 @@ TEST(DiagnoseScenarios, AWearersTrunkIsNamedAsAnUnmeasuredBodyOnTheBase) {
 // beside it an effect on a sagittal joint (a coupling's rival on the joint whose angle it reads, docs/diagnose.md
 // "Selection" step 4); every sagittal finding is a passive kind, an offset on a sprung joint, or names a passive one
 // beside it; both knees are named with an elastic kind. Measured on these runs: the right hip ab/adduction's 1.33 N
-// m/rad coupling on the hip flexion's angle, named with "or constant torque offset -5.39 N m on right_hip_fe" (its
-// held-out gain 4x the coupling's, p = 1); knees exponential springs, 98 % of their residual. ~25 s.
+// m/rad coupling on the hip flexion's angle (p 1e-5), named with "or constant torque offset -5.4 N m on right_hip_fe"
+// (with the hip flexion's 11 candidates in the model the coupling's p is 0.15); knees exponential springs, 98 % of
+// their residual. ~25 s.
 TEST(DiagnoseScenarios, AWearersCalibrationSwingNamesNoEffectAloneOnAJointThePersonLeavesAlone) {
   test::TempDir dir("diagnose_wearer_calibration");
   const std::string scenario = test::configPath("scenarios/wearer_nominal_passive.yaml");
