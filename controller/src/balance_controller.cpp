@@ -270,9 +270,9 @@ void BalanceController::updateDynamics(const State& state) {
   Eigen::Vector3d com, com_velocity;
   LinearAngular6d momentum;
   centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
-  // Trust per world axis: the CoM's change from the model's against its uncertainty, k = 1 horizontally (the
-  // James-Stein weight) and 3 for the height (the velocity and the momentum follow their axis's CoM: their change
-  // comes from the same parameters). The height only when asked (use_com_height, the default; docs/controller.md).
+  // Trust per world axis: the CoM's change from the model's against its uncertainty, the horizontal axes at their
+  // own k (shipped 0: used whole), the height at 3 (the velocity and the momentum follow their axis's CoM: their
+  // change comes from the same parameters). The height only when asked (use_com_height, the default; docs/controller.md).
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i)
     t[i] = w * trustWeight(com[i] - dyn_.com[i], com_stddev_[i],

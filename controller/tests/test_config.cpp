@@ -53,7 +53,7 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_DOUBLE_EQ(c.estimate.blend_time, 1.0);
   EXPECT_DOUBLE_EQ(c.estimate.max_relative_mass_change, 0.5);
   EXPECT_DOUBLE_EQ(c.estimate.trust_sigmas, 3.0);
-  EXPECT_DOUBLE_EQ(c.estimate.trust_sigmas_horizontal_com, 1.0);
+  EXPECT_DOUBLE_EQ(c.estimate.trust_sigmas_horizontal_com, 0.0);
   EXPECT_TRUE(c.com_observer.enabled);
   EXPECT_TRUE(c.com_observer.upper_body_momentum);
   EXPECT_DOUBLE_EQ(c.com_observer.crossover_hz, 0.2);

@@ -258,14 +258,15 @@ TEST_F(FallbackTest, EstimateFeedforwardIsAppliedReportedAndAgesOut) {
 TEST_F(FallbackTest, TrustUsesOnlyWhatStandsOutOfTheEstimatesUncertainty) {
   // Issue 20: each quantity the estimate changes enters with weight max(0, 1 - (k sigma / |change|)^2), k =
   // estimate.trust_sigmas (3) for every tau_correction entry, the mass and the CoM height, and
-  // estimate.trust_sigmas_horizontal_com (1) for the CoM's horizontal axes; sigma the estimate's own one-sigma. A
+  // estimate.trust_sigmas_horizontal_com (0: used whole) for the CoM's horizontal axes; sigma the estimate's own
+  // one-sigma. A
   // hand-made estimate: the model plus 2 kg on the base link (the CoM moves on every axis), two joint corrections;
   // sigmas chosen to put each quantity on a known side of the threshold. Expected values computed here from the
   // parameters (centroidalWorld).
   ControllerConfig cfg = cfg_;
   cfg.estimate.blend_time = 0.0;
   ASSERT_EQ(cfg.estimate.trust_sigmas, 3.0);                 // the shipped configuration
-  ASSERT_EQ(cfg.estimate.trust_sigmas_horizontal_com, 1.0);
+  ASSERT_EQ(cfg.estimate.trust_sigmas_horizontal_com, 0.0);
   const int knee = model_.jointIndex("left_knee"), hip = model_.jointIndex("right_hip_fe");
   ASSERT_GE(knee, 0);
   ASSERT_GE(hip, 0);
@@ -317,14 +318,22 @@ TEST_F(FallbackTest, TrustUsesOnlyWhatStandsOutOfTheEstimatesUncertainty) {
     return u.tau_correction[model_.jointRow(joint)] -
            ctrl_->disturbanceObserver().estimate()[model_.jointRow(joint)];
   };
-  // Shipped: x at 10 sigma (weight 1 - 1/100), y and z at 2 sigma: y used at 1 - 1/4 (k = 1), z not (k = 3).
+  // Shipped: x at 10 sigma, y and z at 2 sigma: x and y used whole (k = 0), z not (k = 3).
   Used u = run(cfg, Eigen::Vector3d(10.0, 2.0, 2.0));
-  EXPECT_NEAR(u.used.x(), 0.99 * u.full.x(), 1e-9);
-  EXPECT_NEAR(u.used.y(), 0.75 * u.full.y(), 1e-9);
+  EXPECT_NEAR(u.used.x(), u.full.x(), 1e-9);
+  EXPECT_NEAR(u.used.y(), u.full.y(), 1e-9);
   EXPECT_NEAR(u.used.z(), 0.0, 1e-12);
   EXPECT_NEAR(u.mass, u.mass_model, 1e-9);  // within 1 sigma: the model's mass
   EXPECT_NEAR(ff(u, knee), 0.0, 1e-12);
   EXPECT_NEAR(ff(u, hip), 0.64 * 5.0, 1e-12);
+  // The horizontal axes at k = 1 (the James-Stein weight, shipped 2026-12-06 to stop 47): 10 sigma 1 - 1/100, 2 sigma
+  // 1 - 1/4; the height still at k = 3.
+  ControllerConfig one = cfg;
+  one.estimate.trust_sigmas_horizontal_com = 1.0;
+  u = run(one, Eigen::Vector3d(10.0, 2.0, 2.0));
+  EXPECT_NEAR(u.used.x(), 0.99 * u.full.x(), 1e-9);
+  EXPECT_NEAR(u.used.y(), 0.75 * u.full.y(), 1e-9);
+  EXPECT_NEAR(u.used.z(), 0.0, 1e-12);
   // The horizontal axes at k = 3 too (the rule before 2026-12-06): 10 sigma 0.91, 2 sigma not used; a zero sigma
   // (exact) is used whole.
   ControllerConfig three = cfg;
@@ -333,7 +342,7 @@ TEST_F(FallbackTest, TrustUsesOnlyWhatStandsOutOfTheEstimatesUncertainty) {
   EXPECT_NEAR(u.used.x(), 0.91 * u.full.x(), 1e-9);
   EXPECT_NEAR(u.used.y(), 0.0, 1e-12);
   EXPECT_NEAR(u.used.z(), u.full.z(), 1e-9);
-  // trust_sigmas 0 for both: everything as it is.
+  // trust_sigmas 0 for both: everything as it is (the mass and the joint corrections too).
   ControllerConfig none = cfg;
   none.estimate.trust_sigmas = 0.0;
   none.estimate.trust_sigmas_horizontal_com = 0.0;

@@ -174,8 +174,8 @@ TEST_F(Experiment, AWearerScenarioWithoutAModelRunsOnTheTablePrior) {
 // Issue 21 part 2: with the estimate fed back (the default) the whole system's horizontal true CoM, from 10 s on
 // (summary.json true_com_rmse_xy_settled_m, the worlds aligned by the soles), is at least 3x closer to the reference
 // than on the clinic's table prior alone. wearer_nominal_passive (its person 2.4 mm from the table person), 10
-// moves, move seed 3: 0.44 against 2.35 mm (5.4x; 3.5x with the horizontal CoM at the trust rule's k = 3, before
-// 2026-12-06; move seeds 1 and 2: 4.4x, 6.6x). ~20 s.
+// moves, move seed 3: 0.428 against 2.359 mm (5.51x with the horizontal CoM used whole, k = 0, since stop 47; 5.4x at
+// k = 1; 3.5x at the trust rule's k = 3, before 2026-12-06; move seeds 1 and 2 at k = 1: 4.4x, 6.6x). ~20 s.
 TEST(ExperimentWearer, TheEstimateFedBackTakesTheWearersCoMThreeTimesCloserThanTheTablePrior) {
   test::TempDir dir("exp_wearer_feedback");
   const std::string scenario = test::configPath("scenarios/wearer_nominal_passive.yaml");

@@ -116,7 +116,8 @@ struct EstimateConfig {
   /// (docs/controller.md, "Trust").
   double trust_sigmas = 0.0;
   /// k of the same rule for the CoM's horizontal axes (x, y and their velocity and momentum), which set the
-  /// balance: the positive-part James-Stein weight at k = 1 (docs/controller.md, "Trust"); 0: used as it is.
+  /// balance: 0 (shipped) uses the estimate's horizontal CoM as it is; k = 1 is the positive-part James-Stein weight
+  /// (docs/controller.md, "Trust").
   double trust_sigmas_horizontal_com = 0.0;
 };
 
