@@ -272,7 +272,8 @@ void BalanceController::updateDynamics(const State& state) {
   centroidalWorld(model_, phi_hat_, dyn_, mass, com, com_velocity, momentum);
   // Trust per world axis: the CoM's change from the model's against its uncertainty, the horizontal axes at their
   // own k (shipped 0: used whole), the height at 3 (the velocity and the momentum follow their axis's CoM: their
-  // change comes from the same parameters). The height only when asked (use_com_height, the default; docs/controller.md).
+  // change comes from the same parameters). The height only when asked (use_com_height, the default;
+  // docs/controller.md).
   Eigen::Vector3d t;
   for (int i = 0; i < 3; ++i)
     t[i] = w * trustWeight(com[i] - dyn_.com[i], com_stddev_[i],

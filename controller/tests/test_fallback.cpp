@@ -259,10 +259,9 @@ TEST_F(FallbackTest, TrustUsesOnlyWhatStandsOutOfTheEstimatesUncertainty) {
   // Issue 20: each quantity the estimate changes enters with weight max(0, 1 - (k sigma / |change|)^2), k =
   // estimate.trust_sigmas (3) for every tau_correction entry, the mass and the CoM height, and
   // estimate.trust_sigmas_horizontal_com (0: used whole) for the CoM's horizontal axes; sigma the estimate's own
-  // one-sigma. A
-  // hand-made estimate: the model plus 2 kg on the base link (the CoM moves on every axis), two joint corrections;
-  // sigmas chosen to put each quantity on a known side of the threshold. Expected values computed here from the
-  // parameters (centroidalWorld).
+  // one-sigma. A hand-made estimate: the model plus 2 kg on the base link (the CoM moves on every axis), two joint
+  // corrections; sigmas chosen to put each quantity on a known side of the threshold. Expected values computed here
+  // from the parameters (centroidalWorld).
   ControllerConfig cfg = cfg_;
   cfg.estimate.blend_time = 0.0;
   ASSERT_EQ(cfg.estimate.trust_sigmas, 3.0);                 // the shipped configuration
