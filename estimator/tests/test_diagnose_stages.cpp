@@ -442,9 +442,10 @@ TEST(DiagnoseStages, SelectStepNamesAnotherKindTheFoldsDoNotSeparate) {
   EXPECT_EQ(p.out.findings[1].sentence.find("; or "), std::string::npos) << p.out.findings[1].sentence;
 }
 
-// A coupling (joint 2's moment on joint 3's angle) is tested again with every candidate on joint 3 itself in the model
-// (whatever their own tests): named with joint 3's strongest usable candidate where the coupling's held-out gain is then
-// not significant, named alone where it is. The step's evals are set by hand; the conditional test runs on the data.
+// A coupling (joint 2's moment on joint 3's angle) is tested again with every single-joint candidate on the other joints
+// in the model (whatever their own tests; here those on joint 3, the only ones in the step's evals): named with joint
+// 3's strongest usable candidate where the coupling's held-out gain is then not significant, named alone where it is.
+// The step's evals are set by hand; the conditional test runs on the data.
 TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
   for (const double coupling : {0.0, 3.0}) {  // the data: no coupling (a coupling found would be a stand-in), a real one
     SCOPED_TRACE(coupling);
@@ -495,8 +496,8 @@ TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
       const std::string& sentence = p.out.findings.back().sentence;
       EXPECT_NE(sentence.find("; or constant torque offset"), std::string::npos) << sentence;
       EXPECT_NE(sentence.find(" on " + kuka().joint_names[3] + " (its strongest candidate), which the identified link "
-                              "parameters carry into this joint's row: with its candidates in the model this one's "
-                              "held-out gain is not significant"),
+                              "parameters carry into this joint's row: with the other joints' candidates in the model "
+                              "this one's held-out gain is not significant"),
                 std::string::npos) << sentence;
       // Two candidates on joint 3 (an offset and viscous friction, independent columns): both in the model for the
       // test, the stronger usable one named; an inadmissible one (here the offset) is in the model but not named, and
@@ -516,13 +517,23 @@ TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
       ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
       EXPECT_TRUE(p.out.findings.back().ambiguous);
       EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Viscous);
+      // A candidate on a joint the coupling does not read (joint 4's offset) is in the model for the test too, after
+      // the stronger one on joint 3; the one named is still joint 3's.
+      declaredOnly(p);
+      ev = {eval(cc, steady, 1e-6), eval(offset4, steady, 0.5), eval(offset3, uneven, 5e-3)};
+      ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
+      declaredOnly(p);
+      EXPECT_DOUBLE_EQ(p.out.findings.back().separation_p,
+                       conditionalCandidateTest(p.opt, p.data, cc, {p.data.m + offset3, p.data.m + offset4}, d));
+      EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Offset);
+      EXPECT_EQ(p.out.findings.back().alternative.joint, 3);
     } else {  // 3 N m/rad on q_3 (0.1-0.3 rad): the coupling keeps its own gain with the offset in
       EXPECT_LT(pc, 1e-3) << d.transpose();
       EXPECT_GT(d.minCoeff(), 0.0) << d.transpose();
       EXPECT_FALSE(a.ambiguous);
     }
-    // A candidate on a joint the coupling does not read, the declared model held, and a choice that is not a coupling:
-    // no conditional test, no alternative.
+    // No candidate on the joint the coupling reads (only joint 4's: nothing to name), the declared model held, and a
+    // choice that is not a coupling: no conditional test, no alternative.
     declaredOnly(p);
     ev = {eval(cc, steady, 1e-6), eval(offset4, uneven, 5e-3)};
     ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);

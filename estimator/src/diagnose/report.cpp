@@ -209,10 +209,10 @@ void describeFindings(const Model& model, const DiagnoseOptions& opt, DiagnosisR
       const Effect& a = f.alternative;
       char of[128] = "";
       if (isCoupled(a.kind)) std::snprintf(of, sizeof of, " on %s's angle", model.joint_names[a.coupled].c_str());
-      if (a.joint != f.effect.joint)  // a coupling given an effect on the joint whose angle it reads (selection.cpp)
+      if (a.joint != f.effect.joint)  // a coupling given the other joints' candidates (selection.cpp)
         std::snprintf(buf, sizeof buf, "; or %s %s on %s%s (its strongest candidate), which the identified link "
-                      "parameters carry into this joint's row: with its candidates in the model this one's held-out "
-                      "gain is not significant (p = %.2g; that candidate's own held-out gain %.0f %% of this one's)",
+                      "parameters carry into this joint's row: with the other joints' candidates in the model this "
+                      "one's held-out gain is not significant (p = %.2g; that candidate's own held-out gain %.0f %% of this one's)",
                       effectKindWords(a.kind),
                       formatValue(a.kind, a.value, f.alternative_std_error).c_str(), model.joint_names[a.joint].c_str(),
                       of, f.separation_p, 100.0 * f.alternative_gain);

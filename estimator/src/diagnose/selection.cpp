@@ -167,24 +167,34 @@ StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseD
   }
   if (ch.best < 0) return StepOutcome::Stop;
   Finding f = ch.best_finding;
-  // A coupling (joint j's moment on joint k's angle) tested again with every candidate on k itself in the model:
-  // whatever the library can say about k's row. The declared model's link parameters are fitted to every joint's
-  // rows, so what an effect on k leaves in k's rows moves them, and through them j's prediction, as a function of k's
-  // angle: the coupling's own signal. Where the coupling's held-out gain is no longer significant at alpha with k's
-  // candidates in, the data do not say which is there; the report names the coupling and k's strongest candidate.
+  // A coupling (joint j's moment on joint k's angle) tested again with every single-joint candidate on every other
+  // joint in the model: whatever the library can say about the other rows. The declared model's link parameters are
+  // fitted to every joint's rows, so what an effect elsewhere leaves in its rows moves them, and through them j's
+  // prediction, as a function of the angles: the coupling's own signal. Where the coupling's held-out gain is no
+  // longer significant at alpha with those candidates in, the data do not say which is there; the report names the
+  // coupling and k's strongest candidate (the likeliest source: the coupling reads k's angle).
   // Seen on wearers' calibration swings: the person's hip flexion spring, which no one candidate spans over 0-1.3 rad,
   // put a 0.7-1.4 N m/rad "coupling" on the hip ab/adduction (p ~1e-5), where the person has no moment, and held at
-  // the true rigid model the diagnosis names nothing there. Only k's candidates significant at alpha in the model
-  // caught 1 of 5 such couplings (p 0.04; the others had none, or kept p ~1e-5); all of them 3 of 5 (p 0.15-1). A
-  // coupling that is the person's own (an ankle's moment on the knee's angle) keeps p <= 1.7e-4 with the knee's
-  // candidates in, on every shipped wearer (docs/diagnose.md "Selection" step 4).
+  // the true rigid model the diagnosis names nothing there. With only k's candidates in, 3 of 5 such couplings lost
+  // their significance; one that kept p 6e-4 (a hip whose flexion also takes reflex bursts) did so with k's rows
+  // left out of the fit altogether, so it reaches j's row through the other joints' rows too. With every other
+  // joint's candidates in it has p 0.064. A coupling that is the person's own (an ankle's moment on the knee's
+  // angle, a knee's on the ankle's or the hip's) keeps p <= 2.8e-4 on every shipped wearer, KUKA's two <= 1.2e-5
+  // (docs/diagnose.md "Selection" step 4).
   if (!ch.sources.empty()) {
-    // Every source column that is not (nearly) a combination of the model's and the ones taken before it: at least
-    // 1 % of its norm^2 outside their span on all the training rows (near-collinear columns would make the refits'
-    // triangular solves ill-conditioned; what they would add is in the span already).
-    const int F = opt.folds;
+    // Every other joint's single-joint candidates, strongest first, each taken when it is not (nearly) a combination
+    // of the model's columns and the ones taken before it: at least 1 % of its norm^2 outside their span on all the
+    // training rows (near-collinear columns would make the refits' triangular solves ill-conditioned; what they would
+    // add is in the span already).
+    const int F = opt.folds, j = data.cands[ch.best].joint;
+    std::vector<int> order;
+    for (size_t e = 0; e < evals.size(); ++e) {
+      const DiagnosisCandidate& cd = data.cands[evals[e].c];
+      if (cd.joint != j && cd.coupled < 0) order.push_back(static_cast<int>(e));
+    }
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return evals[a].gain > evals[b].gain; });
     std::vector<int> given;
-    for (int k : ch.sources) {
+    for (int k : order) {
       const int col = data.m + evals[static_cast<size_t>(k)].c;
       Eigen::MatrixXd A(data.Rtrain[F].rows(), static_cast<Eigen::Index>(data.S.size() + given.size()));
       Eigen::Index at = 0;
@@ -199,9 +209,10 @@ StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseD
     const double p = given.empty() ? 0.0 : conditionalCandidateTest(opt, data, ch.best, given, d);
     if (std::getenv("EXOID_DIAGNOSE_DEBUG") && !given.empty())
       std::fprintf(stderr,
-                   "step %d coupling j%d on j%d given %zu of %zu candidates on j%d (named %s): gain %.4g p %.3g\n", step,
-                   data.cands[ch.best].joint, data.cands[ch.best].coupled, given.size(), ch.sources.size(),
-                   source.f.effect.joint, effectKindName(source.f.effect.kind), d.mean(), p);
+                   "step %d coupling j%d on j%d given %zu of %zu single-joint candidates on the other joints (named %s on "
+                   "j%d): gain %.4g p %.3g\n",
+                   step, j, data.cands[ch.best].coupled, given.size(), order.size(),
+                   effectKindName(source.f.effect.kind), source.f.effect.joint, d.mean(), p);
     if (!given.empty() && p >= opt.alpha) {
       const CandidateEval& chosen = evals[static_cast<size_t>(ch.best_eval)];
       f.ambiguous = true;
