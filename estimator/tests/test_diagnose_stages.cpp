@@ -504,13 +504,18 @@ TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
       // neither is its test (p 0.5) a condition.
       const int viscous3 = candidateIndex(p.data, EffectKind::Viscous, 3);
       ASSERT_GE(viscous3, 0);
-      declaredOnly(p);
-      ev = {eval(cc, steady, 1e-6), eval(viscous3, steady, 0.5), eval(offset3, uneven, 5e-3)};
-      ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
-      declaredOnly(p);
-      EXPECT_DOUBLE_EQ(p.out.findings.back().separation_p,
-                       conditionalCandidateTest(p.opt, p.data, cc, {p.data.m + offset3, p.data.m + viscous3}, d));
-      EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Offset);
+      // selectStep on these evals; its p against the conditional test given `second` after the offset on joint 3, and
+      // the alternative named: joint 3's offset.
+      const auto givenOffsetAnd = [&](const std::vector<CandidateEval>& evals, int second) {
+        declaredOnly(p);
+        ASSERT_EQ(selectStep(kuka(), p.opt, p.data, evals, {}, 1, p.out), StepOutcome::Effect);
+        declaredOnly(p);
+        EXPECT_DOUBLE_EQ(p.out.findings.back().separation_p,
+                         conditionalCandidateTest(p.opt, p.data, cc, {p.data.m + offset3, p.data.m + second}, d));
+        EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Offset);
+        EXPECT_EQ(p.out.findings.back().alternative.joint, 3);
+      };
+      givenOffsetAnd({eval(cc, steady, 1e-6), eval(viscous3, steady, 0.5), eval(offset3, uneven, 5e-3)}, viscous3);
       declaredOnly(p);
       ev = {eval(cc, steady, 1e-6), eval(viscous3, steady, 0.5), eval(offset3, uneven, 5e-3)};
       ev[2].admissible = false;
@@ -519,14 +524,7 @@ TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
       EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Viscous);
       // A candidate on a joint the coupling does not read (joint 4's offset) is in the model for the test too, after
       // the stronger one on joint 3; the one named is still joint 3's.
-      declaredOnly(p);
-      ev = {eval(cc, steady, 1e-6), eval(offset4, steady, 0.5), eval(offset3, uneven, 5e-3)};
-      ASSERT_EQ(selectStep(kuka(), p.opt, p.data, ev, {}, 1, p.out), StepOutcome::Effect);
-      declaredOnly(p);
-      EXPECT_DOUBLE_EQ(p.out.findings.back().separation_p,
-                       conditionalCandidateTest(p.opt, p.data, cc, {p.data.m + offset3, p.data.m + offset4}, d));
-      EXPECT_EQ(p.out.findings.back().alternative.kind, EffectKind::Offset);
-      EXPECT_EQ(p.out.findings.back().alternative.joint, 3);
+      givenOffsetAnd({eval(cc, steady, 1e-6), eval(offset4, steady, 0.5), eval(offset3, uneven, 5e-3)}, offset4);
     } else {  // 3 N m/rad on q_3 (0.1-0.3 rad): the coupling keeps its own gain with the offset in
       EXPECT_LT(pc, 1e-3) << d.transpose();
       EXPECT_GT(d.minCoeff(), 0.0) << d.transpose();
