@@ -443,8 +443,8 @@ TEST(DiagnoseStages, SelectStepNamesAnotherKindTheFoldsDoNotSeparate) {
 }
 
 // A coupling (joint 2's moment on joint 3's angle) is tested again with every single-joint candidate on the other joints
-// in the model (whatever their own tests; here those on joint 3, the only ones in the step's evals): named with joint
-// 3's strongest usable candidate where the coupling's held-out gain is then not significant, named alone where it is.
+// in the model (whatever their own tests; the step's evals hold candidates on joints 3 and 4): named with joint 3's
+// strongest usable candidate where the coupling's held-out gain is then not significant, named alone where it is.
 // The step's evals are set by hand; the conditional test runs on the data.
 TEST(DiagnoseStages, SelectStepTestsACouplingGivenAnEffectOnItsAnglesJoint) {
   for (const double coupling : {0.0, 3.0}) {  // the data: no coupling (a coupling found would be a stand-in), a real one
