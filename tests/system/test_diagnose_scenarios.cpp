@@ -328,8 +328,8 @@ TEST(DiagnoseScenarios, AWearersTrunkIsNamedAsAnUnmeasuredBodyOnTheBase) {
 // "Selection" step 4); every sagittal finding is a passive kind, an offset on a sprung joint, or names a passive one
 // beside it; both knees are named with an elastic kind. Measured on these runs: the right hip ab/adduction's 1.33 N
 // m/rad coupling on the hip flexion's angle (p 1e-5), named with "or constant torque offset -5.4 N m on right_hip_fe"
-// (with the hip flexion's 11 candidates in the model the coupling's p is 0.15); knees exponential springs, 98 % of
-// their residual. ~25 s.
+// (with the other joints' candidates in the model the coupling's p is 0.35; 0.15 with the hip flexion's alone, stop
+// 46); knees exponential springs, 98 % of their residual. ~25 s.
 TEST(DiagnoseScenarios, AWearersCalibrationSwingNamesNoEffectAloneOnAJointThePersonLeavesAlone) {
   test::TempDir dir("diagnose_wearer_calibration");
   const std::string scenario = test::configPath("scenarios/wearer_nominal_passive.yaml");

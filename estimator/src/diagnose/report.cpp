@@ -212,7 +212,8 @@ void describeFindings(const Model& model, const DiagnoseOptions& opt, DiagnosisR
       if (a.joint != f.effect.joint)  // a coupling given the other joints' candidates (selection.cpp)
         std::snprintf(buf, sizeof buf, "; or %s %s on %s%s (its strongest candidate), which the identified link "
                       "parameters carry into this joint's row: with the other joints' candidates in the model this "
-                      "one's held-out gain is not significant (p = %.2g; that candidate's own held-out gain %.0f %% of this one's)",
+                      "one's held-out gain is not significant (p = %.2g; that candidate's own held-out gain %.0f %% "
+                      "of this one's)",
                       effectKindWords(a.kind),
                       formatValue(a.kind, a.value, f.alternative_std_error).c_str(), model.joint_names[a.joint].c_str(),
                       of, f.separation_p, 100.0 * f.alternative_gain);

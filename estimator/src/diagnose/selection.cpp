@@ -29,9 +29,9 @@ double correlation(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 // gain. best: candidate index (-1: none), pbest: index into pevals (-1: none; when >= 0, best is -1).
 struct StepChoice {
   int best = -1, pbest = -1;
-  /// A coupling's source candidates (every candidate on the joint whose angle it reads; the usable ones first, each
-  /// group strongest first) and the choice: indices into the step's evals.
-  std::vector<int> sources;
+  /// A coupling's source: the strongest usable candidate on the joint whose angle it reads, else the strongest there
+  /// (-1: none, or not a coupling); and the choice. Indices into the step's evals.
+  int source = -1;
   int best_eval = -1;
   double best_gain = 0.0;
   Finding best_finding;
@@ -75,10 +75,14 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
       if (competes(ev) && cd.coord == chosen.coord && effectFamily(cd.kind) != effectFamily(chosen.kind) &&
           (!rival || ev.gain > rival->gain))
         rival = &ev;
-      // A coupling's (joint j's moment on joint k's angle) sources: every candidate on k itself, whatever its test
-      // (selectStep tests the coupling given them: what the library can say about k's row, not a claim about k).
-      if (!opt.hold_declared && isCoupled(chosen.kind) && cd.joint == chosen.coupled)
-        ch.sources.push_back(static_cast<int>(&ev - evals.data()));
+      // A coupling's (joint j's moment on joint k's angle) source, the one selectStep names beside it where the
+      // other joints' candidates take its significance: k's strongest usable candidate (an admissible value that
+      // predicts), else k's strongest, whatever its test.
+      if (!opt.hold_declared && isCoupled(chosen.kind) && cd.joint == chosen.coupled) {
+        const CandidateEval* s = ch.source >= 0 ? &evals[static_cast<size_t>(ch.source)] : nullptr;
+        if (!s || (usable(ev) && !usable(*s)) || (usable(ev) == usable(*s) && ev.gain > s->gain))
+          ch.source = static_cast<int>(&ev - evals.data());
+      }
     }
     if (best_eval && rival && best_eval->fold_gains.size() == opt.folds && rival->fold_gains.size() == opt.folds &&
         opt.folds > 1) {
@@ -91,11 +95,8 @@ StepChoice chooseStep(const DiagnoseOptions& opt, const DiagnoseData& data, cons
       f.alternative_gain = best_eval->gain > 0 ? rival->gain / best_eval->gain : 0.0;
       f.ambiguous = p >= opt.alpha;
     }
-    std::sort(ch.sources.begin(), ch.sources.end(), [&](int a, int b) { return evals[a].gain > evals[b].gain; });
-    // The one named: the strongest usable candidate on k (an admissible value that predicts), else the strongest.
-    std::stable_partition(ch.sources.begin(), ch.sources.end(), [&](int a) { return usable(evals[a]); });
     if (best_eval) ch.best_eval = static_cast<int>(best_eval - evals.data());
-    if (!best_eval) ch.sources.clear();
+    if (!best_eval) ch.source = -1;
   }
   const auto pusable = [&](const PayloadEval& pe) { return pe.admissible && pe.gain > 0 && pe.f.explained >= opt.min_explained; };
   for (size_t k = 0; k < pevals.size(); ++k)
@@ -181,7 +182,7 @@ StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseD
   // joint's candidates in it has p 0.064. A coupling that is the person's own (an ankle's moment on the knee's
   // angle, a knee's on the ankle's or the hip's) keeps p <= 2.8e-4 on every shipped wearer, KUKA's two <= 1.2e-5
   // (docs/diagnose.md "Selection" step 4).
-  if (!ch.sources.empty()) {
+  if (ch.source >= 0) {
     // Every other joint's single-joint candidates, strongest first, each taken when it is not (nearly) a combination
     // of the model's columns and the ones taken before it: at least 1 % of its norm^2 outside their span on all the
     // training rows (near-collinear columns would make the refits' triangular solves ill-conditioned; what they would
@@ -204,13 +205,13 @@ StepOutcome selectStep(const Model& model, const DiagnoseOptions& opt, DiagnoseD
       const Eigen::VectorXd r = x - A * A.colPivHouseholderQr().solve(x);
       if (r.squaredNorm() > 0.01 * x.squaredNorm()) given.push_back(col);
     }
-    const CandidateEval& source = evals[static_cast<size_t>(ch.sources.front())];
+    const CandidateEval& source = evals[static_cast<size_t>(ch.source)];
     Eigen::VectorXd d;
     const double p = given.empty() ? 0.0 : conditionalCandidateTest(opt, data, ch.best, given, d);
     if (std::getenv("EXOID_DIAGNOSE_DEBUG") && !given.empty())
       std::fprintf(stderr,
-                   "step %d coupling j%d on j%d given %zu of %zu single-joint candidates on the other joints (named %s on "
-                   "j%d): gain %.4g p %.3g\n",
+                   "step %d coupling j%d on j%d given %zu of %zu single-joint candidates on the other joints "
+                   "(named %s on j%d): gain %.4g p %.3g\n",
                    step, j, data.cands[ch.best].coupled, given.size(), order.size(),
                    effectKindName(source.f.effect.kind), source.f.effect.joint, d.mean(), p);
     if (!given.empty() && p >= opt.alpha) {
