@@ -306,7 +306,15 @@ bool BalanceController::setForcePlate(const ForcePlateSample& p) {
   const Eigen::Matrix3d R = p.plate_orientation.normalized().toRotationMatrix();
   const Eigen::Vector3d F_plate = R * p.force;
   plate_force_[i] = -F_plate;  // ON the foot
-  plate_moment_[i] = -(R * p.moment + p.plate_position.cross(F_plate));
+  // The moment about the world origin. With the CoM observer's `plates` anchor, once the soles are latched, each
+  // plate sits where its sole does (the sole's centre on the plate's reported origin, the identification's
+  // convention), so the plates' CoM (com_observer.hpp) and the plate residual below are in the controller's world;
+  // otherwise at the plate's lab position (a few mm from the controller's world: what the base moved before the
+  // latch; the `model` anchor removes that offset from the CoM, docs/controller.md "The CoM observer").
+  const bool at_sole = cfg_.com_observer.enabled && cfg_.com_observer.anchor == ComObserverConfig::Anchor::kPlates &&
+                       observer_->latched();
+  const Eigen::Vector3d origin = at_sole ? Eigen::Vector3d(observer_->solePosition(p.plate)) : p.plate_position;
+  plate_moment_[i] = -(R * p.moment + origin.cross(F_plate));
   plate_tick_[i] = p.tick;
   return true;
 }
@@ -324,7 +332,7 @@ void BalanceController::applyComObserver() {
   com_observer_.setHeading(std::atan2(R(1, 0), R(0, 0)));
   com_observer_.update(dyn_.com, dyn_.com_velocity, angular_momentum_urdf_, plates ? &force : nullptr,
                        plates ? &moment : nullptr, dyn_.mass, gap_);
-  if (!com_observer_.fusing()) return;
+  if (!com_observer_.applies()) return;
   dyn_.com += com_observer_.correction();
   dyn_.com_velocity += com_observer_.velocityCorrection();
   dyn_.momentum.head<3>() += dyn_.mass * com_observer_.velocityCorrection();

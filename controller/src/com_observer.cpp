@@ -40,10 +40,14 @@ ComObserver::ComObserver(const ComObserverConfig& config, double period, double 
 void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d& com_velocity_model,
                          const Eigen::Vector3d& angular_momentum_urdf, const Eigen::Vector3d* force,
                          const Eigen::Vector3d* moment, double mass, int64_t ticks_since_last) {
+  const bool plates_anchor = cfg_.anchor == ComObserverConfig::Anchor::kPlates;
   fusing_ = false;
   delta_.setZero();
   delta_velocity_.setZero();
   weight_ = 0.0;
+  // With the plates' anchor the last correction stands in until the plates are back (header).
+  holding_ = cfg_.enabled && plates_anchor && !held_.isZero();
+  if (holding_) delta_.head<2>() = held_;
   if (!cfg_.enabled || force == nullptr || moment == nullptr || !(mass > 0.0) || !force->allFinite() ||
       !moment->allFinite() || !(force->z() > kMinLoadFraction * mass * gravity_) || ticks_since_last < 1) {
     started_ = false;
@@ -81,8 +85,9 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
       x_(1, i) = a3_ * balance_com_[i] + com_velocity_model[i];
       x_(2, i) = a3_ * com_velocity_model[i];
       x_(3, i) = 0.0;
-      anchor_[i] = balance_com_[i] - com_model[i];
+      anchor_[i] = plates_anchor ? 0.0 : balance_com_[i] - com_model[i];
     }
+    restart_hold_ = held_;
     fused_time_ = 0.0;
     started_ = true;
     return;
@@ -90,7 +95,7 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
   fused_time_ += dt;
   const double r = std::clamp((fused_time_ - cfg_.settle_time) / cfg_.settle_time, 0.0, 1.0);
   weight_ = r * r * (3.0 - 2.0 * r);  // smoothstep: no kick at either end
-  const double k = std::min(1.0, dt / cfg_.anchor_time_constant);
+  const double k = plates_anchor ? 0.0 : std::min(1.0, dt / cfg_.anchor_time_constant);  // anchor_ stays 0
   for (int i = 0; i < 2; ++i) {
     const double u = balance_com_[i], a = F[i] / mass;
     const double x1 = x_(0, i), x2 = x_(1, i), x3 = x_(2, i), x4 = x_(3, i);
@@ -100,12 +105,19 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
     x_(3, i) = x4 + dt * (-a0_ * x1 + a0_ * u);
     plates_com_[i] = x_(0, i);
     const double d = x_(0, i) - com_model[i];  // c_P - c_model
-    anchor_[i] += k * (d - anchor_[i]);
-    delta_[i] = weight_ * (d - anchor_[i]);
     const double d_rate = -a3_ * x_(0, i) + x_(1, i) - com_velocity_model[i];
-    delta_velocity_[i] = weight_ * (d_rate - (d - anchor_[i]) / cfg_.anchor_time_constant);
+    if (plates_anchor) {
+      delta_[i] = weight_ * d + (1.0 - weight_) * restart_hold_[i];
+      delta_velocity_[i] = weight_ * d_rate;
+      held_[i] = delta_[i];
+    } else {
+      anchor_[i] += k * (d - anchor_[i]);
+      delta_[i] = weight_ * (d - anchor_[i]);
+      delta_velocity_[i] = weight_ * (d_rate - (d - anchor_[i]) / cfg_.anchor_time_constant);
+    }
   }
   fusing_ = true;
+  holding_ = false;
 }
 
 }  // namespace exoid::controller

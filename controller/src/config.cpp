@@ -117,6 +117,24 @@ class Reader {
     out = n.Scalar();
   }
 
+  /// A string that must be one of `options`; out is its index.
+  void choice(const YAML::Node& sec, const std::string& sname, const char* key,
+              std::initializer_list<const char*> options, int& out) {
+    std::string v;
+    text(sec, sname, key, v);
+    if (!ok_) return;
+    std::string list;
+    int i = 0;
+    for (const char* o : options) {
+      if (v == o) {
+        out = i;
+        return;
+      }
+      list += (i++ ? ", " : "") + std::string(o);
+    }
+    fail(sname + "." + key, "expected one of " + list + ", got '" + v + "'");
+  }
+
   template <int N>
   void vector(const YAML::Node& sec, const std::string& sname, const char* key, Eigen::Matrix<double, N, 1>& out) {
     if (!ok_) return;
@@ -313,8 +331,12 @@ void readDisturbanceSection(Reader& r, const YAML::Node& root, ControllerConfig&
 void readComObserverSection(Reader& r, const YAML::Node& root, ControllerConfig& c) {
   const char* n = "com_observer";
   const auto s =
-      r.section(root, n, {"enabled", "upper_body_momentum", "crossover_hz", "anchor_time_constant", "settle_time"});
+      r.section(root, n,
+                {"enabled", "anchor", "upper_body_momentum", "crossover_hz", "anchor_time_constant", "settle_time"});
   r.boolean(s, n, "enabled", c.com_observer.enabled);
+  int anchor = 0;
+  r.choice(s, n, "anchor", {"plates", "model"}, anchor);
+  c.com_observer.anchor = anchor == 0 ? ComObserverConfig::Anchor::kPlates : ComObserverConfig::Anchor::kModel;
   r.boolean(s, n, "upper_body_momentum", c.com_observer.upper_body_momentum);
   r.number(s, n, "crossover_hz", c.com_observer.crossover_hz);
   r.number(s, n, "anchor_time_constant", c.com_observer.anchor_time_constant);

@@ -1,6 +1,6 @@
 // ComObserver: the moment balance's CoM against a rigid body's wrench built here, the complementary pair against its
-// transfer function evaluated independently (complex polynomials from the Butterworth poles), the anchor to the
-// model, a plate offset, the start and the restart.
+// transfer function evaluated independently (complex polynomials from the Butterworth poles), both anchors (the
+// plates, the model), a plate offset, the start, the restart and the hold.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,9 +30,10 @@ double lowPassGain(double w, double W) {
   return std::abs(N / D);
 }
 
-ComObserverConfig config() {
+ComObserverConfig config(ComObserverConfig::Anchor anchor = ComObserverConfig::Anchor::kModel) {
   ComObserverConfig c;
   c.enabled = true;
+  c.anchor = anchor;
   c.crossover_hz = 0.2;
   c.anchor_time_constant = 20.0;
   c.settle_time = 3.0;
@@ -54,6 +55,7 @@ struct Figures {
   double balance = 0.0;     // RMS of c_1 - c, x
   double plates = 0.0;      // RMS of c_P - c, x
   double controller = 0.0;  // RMS of (model + correction) - (c + bias), x
+  double truth = 0.0;       // RMS of (model + correction) - c, x
   double velocity = 0.0;    // RMS of (model velocity + velocity correction) - c', x
 };
 Figures simulate(const Case& k, ComObserver& obs) {
@@ -80,6 +82,7 @@ Figures simulate(const Case& k, ComObserver& obs) {
       f.balance += sq(obs.balanceCom().x() - x);
       f.plates += sq(obs.platesCom().x() - x);
       f.controller += sq(model.x() + obs.correction().x() - (x + k.bias));
+      f.truth += sq(model.x() + obs.correction().x() - x);
       f.velocity += sq(model_v.x() + obs.velocityCorrection().x() - xd);
       ++n;
     }
@@ -87,6 +90,7 @@ Figures simulate(const Case& k, ComObserver& obs) {
   f.balance = std::sqrt(f.balance / n);
   f.plates = std::sqrt(f.plates / n);
   f.controller = std::sqrt(f.controller / n);
+  f.truth = std::sqrt(f.truth / n);
   f.velocity = std::sqrt(f.velocity / n);
   return f;
 }
@@ -129,6 +133,35 @@ TEST(ComObserver, TheControllersCoMKeepsTheModelsBiasAndLosesWhatTheModelMisses)
   EXPECT_GT(missing, 30.0 * f.controller);
 }
 
+TEST(ComObserver, ThePlatesAnchorTakesTheModelsBiasAndItsSlowMisses) {
+  const auto P = ComObserverConfig::Anchor::kPlates, Mo = ComObserverConfig::Anchor::kModel;
+  // The model 3 mm off and missing a 0.5 Hz motion of 4 mm: with the plates' anchor the controller's CoM is the
+  // true one (the bias gone too); with the model's it keeps the 3 mm (the case above).
+  Case k;
+  k.bias = 0.003;
+  k.E = 0.004;
+  k.seconds = 120.0;
+  k.from = 60.0;
+  ComObserver plates(config(P), kPeriod, kG), model(config(Mo), kPeriod, kG);
+  const Figures fp = simulate(k, plates), fm = simulate(k, model);
+  EXPECT_LT(fp.truth, 0.03 * k.E / std::sqrt(2.0));
+  EXPECT_NEAR(fm.truth, k.bias, 0.03 * k.E);
+  EXPECT_TRUE(plates.applies());
+  // A miss slower than the model's anchor (a trunk's lean at 0.004 Hz, below its corner 1 / (2 pi 20 s) = 0.008
+  // Hz): the model's anchor leaves 1 / |tau s + 1| = 0.89 of it, the plates' none (the pair's low-pass is 1 there).
+  // Two whole periods of the lean from 300 s on.
+  Case slow;
+  slow.E = 0.004;
+  slow.We = 2.0 * M_PI * 0.004;
+  slow.seconds = 800.0;
+  slow.from = 300.0;
+  ComObserver plates_slow(config(P), kPeriod, kG), model_slow(config(Mo), kPeriod, kG);
+  const Figures sp = simulate(slow, plates_slow), sm = simulate(slow, model_slow);
+  const double lean = slow.E / std::sqrt(2.0), tw = 20.0 * slow.We;
+  EXPECT_NEAR(sm.truth, lean / std::sqrt(1.0 + tw * tw), 0.05 * lean);
+  EXPECT_LT(sp.truth, 0.02 * lean);  // the pair's own floor on the fast motion (0.04 mm; 0.9 mm without the plates)
+}
+
 TEST(ComObserver, APlateForceOffsetBiasesThePlatesCoMButNotTheControllers) {
   // 5 N horizontal offset on a 110 kg system. Twice integrated it would be a parabola; H / s^2 has a zero at s = 0,
   // so the acceleration path leaves none of it. The moment balance reads it as a lean of the ground force: c_1 moves
@@ -143,6 +176,12 @@ TEST(ComObserver, APlateForceOffsetBiasesThePlatesCoMButNotTheControllers) {
   EXPECT_NEAR(fo.plates, std::hypot(fc.plates, 0.9 * 5.0 / (kMass * kG)), 2e-5);
   EXPECT_LT(std::abs(fo.controller - fc.controller), 2e-5);
   EXPECT_LT(fc.controller, 1e-4);
+  // The plates' anchor keeps it (what config/controller.yaml says it assumes: zeroed plates).
+  ComObserver c(config(ComObserverConfig::Anchor::kPlates), kPeriod, kG),
+      d(config(ComObserverConfig::Anchor::kPlates), kPeriod, kG);
+  const Figures pc = simulate(clean, c), po = simulate(offset, d);
+  EXPECT_LT(pc.truth, 1e-4);
+  EXPECT_NEAR(po.truth, std::hypot(pc.truth, 0.9 * 5.0 / (kMass * kG)), 2e-5);
 }
 
 TEST(ComObserver, TheCorrectionEntersAfterTheSettleTimeAndStopsWithThePlates) {
@@ -181,6 +220,41 @@ TEST(ComObserver, TheCorrectionEntersAfterTheSettleTimeAndStopsWithThePlates) {
   ComObserver none(off, kPeriod, kG);
   for (int i = 0; i < 10; ++i) none.update(model, v, L, &F, &M, kMass, 1);
   EXPECT_FALSE(none.fusing());
+  EXPECT_FALSE(none.applies());
+}
+
+TEST(ComObserver, ThePlatesAnchorHoldsItsCorrectionWhileThePlatesAreLost) {
+  ComObserver obs(config(ComObserverConfig::Anchor::kPlates), kPeriod, kG);
+  const Eigen::Vector3d c(0.01, -0.02, 0.9), v = Eigen::Vector3d::Zero(), L = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d F(0.0, 0.0, kMass * kG), M = c.cross(F);
+  const Eigen::Vector3d model = c + Eigen::Vector3d(0.004, 0.0, 0.0);  // 4 mm off
+  for (int i = 0; i < 7000; ++i) obs.update(model, v, L, &F, &M, kMass, 1);
+  EXPECT_GT(obs.weight(), 0.999);
+  EXPECT_NEAR(obs.correction().x(), -0.004, 1e-6);  // the model's bias, measured
+  EXPECT_NEAR(obs.correction().y(), 0.0, 1e-6);
+  // The plates lost: the correction stays, its velocity 0, until they are back.
+  for (int i = 0; i < 500; ++i) obs.update(model, v, L, nullptr, nullptr, kMass, 1);
+  EXPECT_FALSE(obs.fusing());
+  EXPECT_TRUE(obs.applies());
+  EXPECT_NEAR(obs.correction().x(), -0.004, 1e-6);
+  EXPECT_EQ(obs.velocityCorrection().norm(), 0.0);
+  // Back, with the model now 1 mm off: the restarted pair blends from the held -4 mm to the new -1 mm over the
+  // settle time (smoothstep from 3 to 6 s).
+  const Eigen::Vector3d better = c + Eigen::Vector3d(0.001, 0.0, 0.0);
+  std::vector<double> x;
+  for (int i = 0; i <= 7000; ++i) {
+    obs.update(better, v, L, &F, &M, kMass, 1);
+    if (i % 1000 == 0) x.push_back(obs.correction().x());
+  }
+  EXPECT_NEAR(x[0], -0.004, 1e-6);
+  EXPECT_NEAR(x[3], -0.004, 1e-6);
+  EXPECT_NEAR(x[4], -0.004 + 7.0 / 27.0 * 0.003, 2e-6);
+  EXPECT_NEAR(x[7], -0.001, 1e-6);
+  // The controller's world fixed anew: nothing held.
+  obs.reset();
+  obs.update(better, v, L, nullptr, nullptr, kMass, 1);
+  EXPECT_FALSE(obs.applies());
+  EXPECT_EQ(obs.correction().norm(), 0.0);
 }
 
 // A rigid exoskeleton standing still (80 kg, CoM at 0.9 m) carrying an upper body (37 kg, inertia about its CoM

@@ -57,6 +57,7 @@ TEST(ControllerConfig, DefaultFileLoadsWithTheDocumentedValues) {
   EXPECT_TRUE(c.com_observer.enabled);
   EXPECT_TRUE(c.com_observer.upper_body_momentum);
   EXPECT_DOUBLE_EQ(c.com_observer.crossover_hz, 0.2);
+  EXPECT_EQ(c.com_observer.anchor, ComObserverConfig::Anchor::kModel);
   EXPECT_DOUBLE_EQ(c.com_observer.anchor_time_constant, 5.0);
   EXPECT_DOUBLE_EQ(c.com_observer.settle_time, 3.0);
   EXPECT_TRUE(usesForcePlates(c));
@@ -102,6 +103,13 @@ TEST(ControllerConfig, ErrorsNameTheField) {
       << err;
   EXPECT_FALSE(parseControllerConfig(withLine(text, "anchor_time_constant", "anchor_time_constant: 0"), "cfg", c, &err));
   EXPECT_NE(err.find("com_observer.anchor_time_constant: must be > 0"), std::string::npos) << err;
+  ControllerConfig m;
+  EXPECT_TRUE(parseControllerConfig(withLine(text, "anchor", "anchor: plates"), "cfg", m, &err)) << err;
+  EXPECT_EQ(m.com_observer.anchor, ComObserverConfig::Anchor::kPlates);
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "anchor", "anchor: soles"), "cfg", c, &err));
+  EXPECT_EQ(err, "cfg: com_observer.anchor: expected one of plates, model, got 'soles'");
+  EXPECT_FALSE(parseControllerConfig(withLine(text, "anchor", ""), "cfg", c, &err));
+  EXPECT_EQ(err, "cfg: com_observer.anchor: missing");
   EXPECT_FALSE(parseControllerConfig(withLine(text, "settle_time", ""), "cfg", c, &err));
   EXPECT_EQ(err, "cfg: com_observer.settle_time: missing");
   EXPECT_FALSE(parseControllerConfig("loop: [1, 2", "cfg", c, &err));

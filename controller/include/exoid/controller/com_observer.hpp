@@ -13,20 +13,25 @@
 //        dL_y/dt += kappa_x (F_x - m c''_model,x),   dL_x/dt -= kappa_y (F_y - m c''_model,y),
 //     both sides through the same 20 ms low-pass as dL/dt;
 //  2. Newton, c'' = F_xy / m: exact at high frequency, useless at low (an offset integrates twice; in 1. a force
-//     offset is a constant, c_z offset / F_z, which the anchor below removes).
+//     offset is a constant, c_z offset / F_z).
 // They are fused by a 4th-order complementary pair (D the Butterworth polynomial at w = 2 pi crossover_hz):
 //        c_P = L(s) c_1 + H(s) (F / m) / s^2,   L = (a2 s^2 + a1 s + a0) / D,   H = 1 - L = s^3 (s + a3) / D,
 // in observable canonical form, forward Euler at the control period:
 //        x1' = -a3 x1 + x2,   x2' = -a2 x1 + x3 + a2 u + a,   x3' = -a1 x1 + x4 + a1 u + a3 a,   x4' = -a0 x1 + a0 u,
 //        c_P = x1,  c_P' = -a3 x1 + x2.
-// c_P is in the plates' (lab) frame, which the controller's world (fixed by its kinematics at the latch) is a few mm
-// from, and the model's CoM is right at low frequency once its parameters are (the online estimate). So the
-// controller's CoM is the model's plus what the plates see beyond it above 1 / (2 pi anchor_time_constant):
-//        delta = HP(c_P - c_model),   HP = tau s / (tau s + 1),   c = c_model + w delta,
-// c_model the controller's (the URDF's, or blended toward the estimate's: a change of belief enters within tau),
-// w a smoothstep from 0 at settle_time to 1 at twice that, counted from the start of fusing (the pair's start-up
-// transient decays first). tau puts HP's corner below the moves (0.1-0.35 Hz) and keeps the estimate's lag short.
-// Fusing needs both plates fresh and loaded (F_z above half the weight); otherwise it restarts (w = 0).
+// F and M are in the frame the caller gives them in. What the controller's CoM takes of c_P (`anchor`):
+//  - plates (the default): all of it. The caller places each plate in the controller's world by its latched sole
+//    (the sole's centre on the plate's reported origin, the identification's convention: docs/identification.md
+//    "Input pipelines"), so c_P is in that world and right at every frequency, the model's error and a body it holds
+//    rigid (a wearer's trunk, its slow lean included) with it:  c = c_model + w (c_P - c_model);
+//  - model: the model's CoM below 1 / (2 pi anchor_time_constant), c_P above (the plates may then stay in the lab's
+//    frame, whose offset the anchor removes; the model's bias stays, for the online estimate to correct):
+//        c = c_model + w HP(c_P - c_model),   HP = tau s / (tau s + 1).
+// c_model is the controller's (the URDF's, or blended toward the estimate's), w a smoothstep from 0 at settle_time to
+// 1 at twice that, counted from the start of fusing (the pair's start-up transient decays first). Fusing needs both
+// plates fresh and loaded (F_z above half the weight); otherwise it restarts. With `plates` the last correction is
+// then held (it is mostly the model's static error, still right without the plates) and the restarted pair's blends
+// in from it; with `model` the correction drops to 0 (its HP part has no static share).
 // Allocation-free per tick.
 #include <Eigen/Core>
 #include <cmath>
@@ -61,6 +66,8 @@ class ComObserver {
     started_ = fusing_ = false;
     delta_.setZero();
     delta_velocity_.setZero();
+    held_.setZero();
+    restart_hold_.setZero();
     weight_ = 0.0;
   }
   /// One tick. com_model, com_velocity_model [3] world: the controller's CoM and its velocity (the URDF's or blended
@@ -71,7 +78,7 @@ class ComObserver {
   void update(const Eigen::Vector3d& com_model, const Eigen::Vector3d& com_velocity_model,
               const Eigen::Vector3d& angular_momentum_urdf, const Eigen::Vector3d* force,
               const Eigen::Vector3d* moment, double mass, int64_t ticks_since_last);
-  /// m and m/s, world [3]: what to add to the controller's CoM and CoM velocity (w delta; z always 0).
+  /// m and m/s, world [3]: what to add to the controller's CoM and CoM velocity (z always 0; zero unless applies()).
   const Eigen::Vector3d& correction() const { return delta_; }
   const Eigen::Vector3d& velocityCorrection() const { return delta_velocity_; }
   /// rad: the pelvis's heading in the world (yaw about z), which turns the lever's axes into the world's:
@@ -89,6 +96,8 @@ class ComObserver {
   double weight() const { return weight_; }
   /// Whether the last update fused the plates (false: disabled, no plates, or restarting).
   bool fusing() const { return fusing_; }
+  /// Whether correction() is to be applied: fusing, or (anchor `plates`) holding the last correction.
+  bool applies() const { return fusing_ || holding_; }
 
   /// s, time constant of the low-pass on the model's dL/dt and CoM acceleration (differences of the encoders'
   /// velocities) and on the plates' force beside the latter.
@@ -101,7 +110,9 @@ class ComObserver {
   double period_, gravity_;
   double a0_ = 0.0, a1_ = 0.0, a2_ = 0.0, a3_ = 0.0;  // D(s) coefficients
   Eigen::Matrix<double, 4, 2> x_ = Eigen::Matrix<double, 4, 2>::Zero();  // the pair's states (rows) per axis x, y
-  Eigen::Vector2d anchor_ = Eigen::Vector2d::Zero();      // m: the low-passed c_P - c_model
+  Eigen::Vector2d anchor_ = Eigen::Vector2d::Zero();      // m: anchor `model`: the low-passed c_P - c_model
+  Eigen::Vector2d held_ = Eigen::Vector2d::Zero();        // m: anchor `plates`: the last correction applied
+  Eigen::Vector2d restart_hold_ = Eigen::Vector2d::Zero();  // m: held_ when the pair last restarted
   Eigen::Vector2d lever_;                                 // m: upperBodyLever, or zero (pelvis axes)
   double heading_cos_ = 1.0, heading_sin_ = 0.0;           // the pelvis's heading (setHeading)
   Eigen::Vector3d previous_momentum_ = Eigen::Vector3d::Zero(), momentum_rate_ = Eigen::Vector3d::Zero();
@@ -110,7 +121,7 @@ class ComObserver {
   Eigen::Vector3d balance_com_ = Eigen::Vector3d::Zero(), plates_com_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d delta_ = Eigen::Vector3d::Zero(), delta_velocity_ = Eigen::Vector3d::Zero();
   double fused_time_ = 0.0, weight_ = 0.0;
-  bool started_ = false, fusing_ = false;
+  bool started_ = false, fusing_ = false, holding_ = false;
 };
 
 }  // namespace exoid::controller

@@ -133,10 +133,16 @@ struct DisturbanceConfig {
 /// Horizontal CoM observer: the CoM the force plates measure, fused with the model's (com_observer.hpp;
 /// docs/controller.md, "The CoM observer").
 struct ComObserverConfig {
+  /// What the controller's CoM follows at low frequency (com_observer.hpp).
+  enum class Anchor {
+    kPlates,  ///< the plates' CoM at every frequency, placed in the controller's world by its latched soles
+    kModel,   ///< the model's CoM below 1 / (2 pi anchor_time_constant), the plates' above
+  };
   bool enabled = false;               ///< the controller's horizontal CoM takes the plates' correction
+  Anchor anchor = Anchor::kPlates;
   bool upper_body_momentum = false;   ///< the moment balance takes the upper body's turning (upperBodyLever)
   double crossover_hz = 0.0;          ///< Hz: the plates' moment balance below, their acceleration above
-  double anchor_time_constant = 0.0;  ///< s: the model's CoM below 1 / (2 pi this), the plates' above
+  double anchor_time_constant = 0.0;  ///< s: with Anchor::kModel, the model's CoM below 1 / (2 pi this)
   double settle_time = 0.0;           ///< s of fusing before the correction enters (in fully at twice this)
 };
 
