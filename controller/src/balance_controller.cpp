@@ -306,14 +306,12 @@ bool BalanceController::setForcePlate(const ForcePlateSample& p) {
   const Eigen::Matrix3d R = p.plate_orientation.normalized().toRotationMatrix();
   const Eigen::Vector3d F_plate = R * p.force;
   plate_force_[i] = -F_plate;  // ON the foot
-  // The moment about the world origin. With the CoM observer's `plates` anchor, once the soles are latched, each
-  // plate sits where its sole does (the sole's centre on the plate's reported origin, the identification's
-  // convention), so the plates' CoM (com_observer.hpp) and the plate residual below are in the controller's world;
-  // otherwise at the plate's lab position (a few mm from the controller's world: what the base moved before the
-  // latch; the `model` anchor removes that offset from the CoM, docs/controller.md "The CoM observer").
-  const bool at_sole = cfg_.com_observer.enabled && cfg_.com_observer.anchor == ComObserverConfig::Anchor::kPlates &&
-                       observer_->latched();
-  const Eigen::Vector3d origin = at_sole ? Eigen::Vector3d(observer_->solePosition(p.plate)) : p.plate_position;
+  // The moment about the controller's world origin, each plate placed where its latched sole is (the sole's centre
+  // on the plate's reported origin, the identification's convention): the plate residual below and the CoM observer
+  // work in the controller's world, whatever the lab's origin (`plate_position` is in the lab's frame, which may be
+  // metres from this world). Before the latch that world is not fixed yet: the sample is valid but not used.
+  if (!observer_->latched()) return true;
+  const Eigen::Vector3d& origin = observer_->solePosition(p.plate);
   plate_moment_[i] = -(R * p.moment + origin.cross(F_plate));
   plate_tick_[i] = p.tick;
   return true;

@@ -97,8 +97,8 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
   est.tau_correction = Eigen::VectorXd::Zero(model.nv);
   est.tau_correction_stddev = Eigen::VectorXd::Zero(model.nv);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  // Force plates for the disturbance observer: the wrench the controller planned last tick, as a plate at the
-  // world origin reads it (this loop's MuJoCo has no plates), stamped with the tick its command is applied at.
+  // Force plates for the disturbance observer: the wrench the controller planned last tick, as a plate under each
+  // sole reads it (this loop's MuJoCo has no plates), stamped with the tick its command is applied at.
   std::array<ForcePlateSample, 2> plates;
   for (int i = 0; i < 2; ++i) plates[static_cast<size_t>(i)].plate = i;
   ASSERT_TRUE(cfg.disturbance.enabled && cfg.disturbance.force_plates);
@@ -130,8 +130,9 @@ TEST(NoAllocation, ControllerTickInClosedLoop) {
         const Eigen::Vector3d& p = ctrl.dynamics().foot_position[static_cast<size_t>(i)];
         ForcePlateSample& plate = plates[static_cast<size_t>(i)];
         plate.tick = tick_id;
+        plate.plate_position = p;  // each sole on its plate's origin (BalanceController::setForcePlate)
         plate.force = -w.head<3>();
-        plate.moment = -(w.tail<3>() + p.cross(w.head<3>()));
+        plate.moment = -w.tail<3>();  // about the plate's origin, the sole's
         ctrl.setForcePlate(plate);
       }
       ctrl.tick(state, cmd, st);

@@ -272,6 +272,55 @@ TEST(SimWearer, BalanceControllerHoldsEveryShippedWearerForTwoSeconds) {
   }
 }
 
+// The plates' reported origins are in the lab's frame, whose origin a lab chooses (a room corner, metres from the
+// robot); the controller places each plate where its sole is (BalanceController::setForcePlate), so where the lab's
+// origin lies changes nothing it commands: the same 4 s of a wearer run (the CoM observer and the plate residual of
+// the disturbance observer on, both anchors) with the plates reported 3 m and -2 m away gives the same commands, bit
+// for bit. Before 2026-12-07 the plate moments were taken about the lab's origin, and the residual's moments would
+// have been off by that offset times the load (~1.7 kN m per foot here).
+TEST(SimWearer, WhereTheLabPutsItsOriginChangesNoCommand) {
+  controller::ControllerConfig cfg;
+  std::string err;
+  ASSERT_TRUE(controller::testing::loadConfig(cfg, &err)) << err;
+  ASSERT_TRUE(cfg.com_observer.enabled);
+  ASSERT_TRUE(cfg.disturbance.enabled && cfg.disturbance.force_plates);
+  const Scenario sc = scenario("wearer_nominal_sway");
+  const std::string prior_path = ::testing::TempDir() + "lab_origin_prior.urdf";
+  WearerSpec typed = sc.wearer.spec;
+  typed.variation = 0.0;
+  ASSERT_TRUE(tools::writeWearerPrior(configPath("exo.urdf"), typed, prior_path, nullptr, &err)) << err;
+  Model prior;
+  ASSERT_TRUE(buildModelFromUrdfFile(prior_path, true, prior, &err)) << err;
+  for (const auto anchor : {controller::ComObserverConfig::Anchor::kModel, controller::ComObserverConfig::Anchor::kPlates}) {
+    controller::ControllerConfig c = cfg;
+    c.com_observer.anchor = anchor;
+    SimModel sm;
+    SimData sd;
+    load(sc, sm, sd);
+    controller::BalanceController here(prior, c, 1), away(prior, c, 1);
+    ASSERT_TRUE(here.ok() && away.ok());
+    JointCommandSample cmd = simZeroCommand(sm), cmd_away = cmd;
+    controller::ControllerStatus st, st_away;
+    const Eigen::Vector3d shift(3.0, -2.0, 0.0);
+    int differing = 0;
+    for (int k = 0; k < 4000; ++k) {
+      simStep(sm, sd, cmd);
+      here.tick(sd.state, cmd, st);
+      away.tick(sd.state, cmd_away, st_away);
+      for (ForcePlateSample p : sd.plates) {
+        ASSERT_TRUE(here.setForcePlate(p));
+        p.plate_position += shift;  // the same plate, its position in another lab frame; its own wrench unchanged
+        ASSERT_TRUE(away.setForcePlate(p));
+      }
+      differing += (cmd.tau - cmd_away.tau).cwiseAbs().maxCoeff() > 0.0 ? 1 : 0;
+    }
+    EXPECT_TRUE(st.trajectory_ready);
+    EXPECT_GT(st.moves_done, 0);  // the moves had begun: the observer and the residual were at work
+    EXPECT_EQ(differing, 0) << (anchor == controller::ComObserverConfig::Anchor::kModel ? "model" : "plates");
+    EXPECT_FALSE(simFell(sm, sd));
+  }
+}
+
 // The whole move protocol (cfg.trajectory.moves) with the scenario's wearer, the controller on the clinic's prior
 // (the table person at the typed mass, height and sex), without the estimator; realistic sensor noise off.
 struct ProtocolRun {

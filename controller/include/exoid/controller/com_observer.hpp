@@ -19,14 +19,13 @@
 // in observable canonical form, forward Euler at the control period:
 //        x1' = -a3 x1 + x2,   x2' = -a2 x1 + x3 + a2 u + a,   x3' = -a1 x1 + x4 + a1 u + a3 a,   x4' = -a0 x1 + a0 u,
 //        c_P = x1,  c_P' = -a3 x1 + x2.
-// F and M are in the frame the caller gives them in. What the controller's CoM takes of c_P (`anchor`):
-//  - plates (the default): all of it. The caller places each plate in the controller's world by its latched sole
-//    (the sole's centre on the plate's reported origin, the identification's convention: docs/identification.md
-//    "Input pipelines"), so c_P is in that world and right at every frequency, the model's error and a body it holds
-//    rigid (a wearer's trunk, its slow lean included) with it:  c = c_model + w (c_P - c_model);
-//  - model: the model's CoM below 1 / (2 pi anchor_time_constant), c_P above (the plates may then stay in the lab's
-//    frame, whose offset the anchor removes; the model's bias stays, for the online estimate to correct):
-//        c = c_model + w HP(c_P - c_model),   HP = tau s / (tau s + 1).
+// F and M are in the controller's world: BalanceController places each plate where its sole is (the sole's centre on
+// the plate's reported origin, the identification's convention: docs/identification.md "Input pipelines"), so c_P is
+// in that world. What the controller's CoM takes of it (`anchor`):
+//  - model (the default): the model's CoM below 1 / (2 pi anchor_time_constant), c_P above (the model's bias stays,
+//    for the online estimate to correct):  c = c_model + w HP(c_P - c_model),   HP = tau s / (tau s + 1);
+//  - plates: all of it, right at every frequency, the model's error and a body it holds rigid (a wearer's trunk, its
+//    slow lean included) with it:  c = c_model + w (c_P - c_model).
 // c_model is the controller's (the URDF's, or blended toward the estimate's), w a smoothstep from 0 at settle_time to
 // 1 at twice that, counted from the start of fusing (the pair's start-up transient decays first). Fusing needs both
 // plates fresh and loaded (F_z above half the weight); otherwise it restarts. With `plates` the last correction is

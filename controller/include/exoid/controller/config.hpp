@@ -139,7 +139,7 @@ struct ComObserverConfig {
     kModel,   ///< the model's CoM below 1 / (2 pi anchor_time_constant), the plates' above
   };
   bool enabled = false;               ///< the controller's horizontal CoM takes the plates' correction
-  Anchor anchor = Anchor::kPlates;
+  Anchor anchor = Anchor::kModel;
   bool upper_body_momentum = false;   ///< the moment balance takes the upper body's turning (upperBodyLever)
   double crossover_hz = 0.0;          ///< Hz: the plates' moment balance below, their acceleration above
   double anchor_time_constant = 0.0;  ///< s: with Anchor::kModel, the model's CoM below 1 / (2 pi this)
