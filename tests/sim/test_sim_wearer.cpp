@@ -32,6 +32,19 @@ Scenario scenario(const std::string& name) {
   return sc;
 }
 
+// The clinic's prior for the scenario's wearer: config/exo.urdf plus the table person at the typed mass, height and
+// sex (the person's deviation from the table unknown), written to `file` in the test's temp dir and built.
+Model clinicPrior(const Scenario& sc, const std::string& file) {
+  const std::string path = ::testing::TempDir() + file;
+  WearerSpec typed = sc.wearer.spec;
+  typed.variation = 0.0;
+  std::string err;
+  Model prior;
+  EXPECT_TRUE(tools::writeWearerPrior(configPath("exo.urdf"), typed, path, nullptr, &err)) << err;
+  EXPECT_TRUE(buildModelFromUrdfFile(path, true, prior, &err)) << err;
+  return prior;
+}
+
 void load(const Scenario& sc, SimModel& sm, SimData& sd) {
   SensorConfig realistic;
   std::string err;
@@ -239,12 +252,8 @@ TEST(SimWearer, BalanceControllerHoldsEveryShippedWearerForTwoSeconds) {
   for (const char* name : {"wearer_light_passive", "wearer_nominal_passive", "wearer_nominal_sway", "wearer_heavy_passive",
                            "wearer_heavy_sway_reflex", "wearer_short_reflex", "wearer_tall_light_sway"}) {
     const Scenario sc = scenario(name);
-    const std::string prior_path = ::testing::TempDir() + "wearer_prior.urdf";
-    WearerSpec typed = sc.wearer.spec;
-    typed.variation = 0.0;  // the clinic knows the mass, height and sex, not the person's deviation from the table
-    ASSERT_TRUE(tools::writeWearerPrior(configPath("exo.urdf"), typed, prior_path, nullptr, &err)) << err;
-    Model prior;
-    ASSERT_TRUE(buildModelFromUrdfFile(prior_path, true, prior, &err)) << err;
+    const Model prior = clinicPrior(sc, "wearer_prior.urdf");
+    ASSERT_GT(prior.nv, 0) << name;
     SimModel sm;
     SimData sd;
     load(sc, sm, sd);
@@ -285,12 +294,8 @@ TEST(SimWearer, WhereTheLabPutsItsOriginChangesNoCommand) {
   ASSERT_TRUE(cfg.com_observer.enabled);
   ASSERT_TRUE(cfg.disturbance.enabled && cfg.disturbance.force_plates);
   const Scenario sc = scenario("wearer_nominal_sway");
-  const std::string prior_path = ::testing::TempDir() + "lab_origin_prior.urdf";
-  WearerSpec typed = sc.wearer.spec;
-  typed.variation = 0.0;
-  ASSERT_TRUE(tools::writeWearerPrior(configPath("exo.urdf"), typed, prior_path, nullptr, &err)) << err;
-  Model prior;
-  ASSERT_TRUE(buildModelFromUrdfFile(prior_path, true, prior, &err)) << err;
+  const Model prior = clinicPrior(sc, "lab_origin_prior.urdf");
+  ASSERT_GT(prior.nv, 0);
   for (const auto anchor : {controller::ComObserverConfig::Anchor::kModel, controller::ComObserverConfig::Anchor::kPlates}) {
     controller::ControllerConfig c = cfg;
     c.com_observer.anchor = anchor;
@@ -339,13 +344,7 @@ struct ProtocolRun {
 };
 ProtocolRun runProtocol(const Scenario& sc, const controller::ControllerConfig& cfg) {
   ProtocolRun r;
-  std::string err;
-  const std::string prior_path = ::testing::TempDir() + "protocol_wearer_prior.urdf";
-  WearerSpec typed = sc.wearer.spec;
-  typed.variation = 0.0;
-  EXPECT_TRUE(tools::writeWearerPrior(configPath("exo.urdf"), typed, prior_path, nullptr, &err)) << err;
-  Model prior;
-  EXPECT_TRUE(buildModelFromUrdfFile(prior_path, true, prior, &err)) << err;
+  const Model prior = clinicPrior(sc, "protocol_wearer_prior.urdf");
   r.model_mass = prior.totalMass();
   SimModel sm;
   SimData sd;
