@@ -302,15 +302,16 @@ bool BalanceController::setForcePlate(const ForcePlateSample& p) {
   if (p.plate < 0 || p.plate > 1 || !p.force.allFinite() || !p.moment.allFinite() ||
       !p.plate_position.allFinite() || !p.plate_orientation.coeffs().allFinite())
     return false;
+  // Each plate is placed where its latched sole is (the sole's centre on the plate's reported origin, the
+  // identification's convention), its moment taken about the controller's world origin: the plate residual below and
+  // the CoM observer work in the controller's world, whatever the lab's origin (`plate_position` is in the lab's
+  // frame, which may be metres from this world). Before the latch that world is not fixed yet: the sample is valid
+  // but not used.
+  if (!observer_->latched()) return true;
   const size_t i = static_cast<size_t>(p.plate);
   const Eigen::Matrix3d R = p.plate_orientation.normalized().toRotationMatrix();
   const Eigen::Vector3d F_plate = R * p.force;
   plate_force_[i] = -F_plate;  // ON the foot
-  // The moment about the controller's world origin, each plate placed where its latched sole is (the sole's centre
-  // on the plate's reported origin, the identification's convention): the plate residual below and the CoM observer
-  // work in the controller's world, whatever the lab's origin (`plate_position` is in the lab's frame, which may be
-  // metres from this world). Before the latch that world is not fixed yet: the sample is valid but not used.
-  if (!observer_->latched()) return true;
   const Eigen::Vector3d& origin = observer_->solePosition(p.plate);
   plate_moment_[i] = -(R * p.moment + origin.cross(F_plate));
   plate_tick_[i] = p.tick;

@@ -45,9 +45,8 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
   delta_.setZero();
   delta_velocity_.setZero();
   weight_ = 0.0;
-  // With the plates' anchor the last correction stands in until the plates are back (header).
-  holding_ = cfg_.enabled && plates_anchor && !held_.isZero();
-  if (holding_) delta_.head<2>() = held_;
+  // With the plates' anchor the last correction stands in until the plates are back (header; zero until it fused).
+  if (cfg_.enabled && plates_anchor) delta_.head<2>() = held_;
   if (!cfg_.enabled || force == nullptr || moment == nullptr || !(mass > 0.0) || !force->allFinite() ||
       !moment->allFinite() || !(force->z() > kMinLoadFraction * mass * gravity_) || ticks_since_last < 1) {
     started_ = false;
@@ -85,7 +84,7 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
       x_(1, i) = a3_ * balance_com_[i] + com_velocity_model[i];
       x_(2, i) = a3_ * com_velocity_model[i];
       x_(3, i) = 0.0;
-      anchor_[i] = plates_anchor ? 0.0 : balance_com_[i] - com_model[i];
+      anchor_[i] = balance_com_[i] - com_model[i];  // anchor `model` only
     }
     restart_hold_ = held_;
     fused_time_ = 0.0;
@@ -95,7 +94,7 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
   fused_time_ += dt;
   const double r = std::clamp((fused_time_ - cfg_.settle_time) / cfg_.settle_time, 0.0, 1.0);
   weight_ = r * r * (3.0 - 2.0 * r);  // smoothstep: no kick at either end
-  const double k = plates_anchor ? 0.0 : std::min(1.0, dt / cfg_.anchor_time_constant);  // anchor_ stays 0
+  const double k = std::min(1.0, dt / cfg_.anchor_time_constant);
   for (int i = 0; i < 2; ++i) {
     const double u = balance_com_[i], a = F[i] / mass;
     const double x1 = x_(0, i), x2 = x_(1, i), x3 = x_(2, i), x4 = x_(3, i);
@@ -117,7 +116,6 @@ void ComObserver::update(const Eigen::Vector3d& com_model, const Eigen::Vector3d
     }
   }
   fusing_ = true;
-  holding_ = false;
 }
 
 }  // namespace exoid::controller

@@ -96,7 +96,9 @@ class ComObserver {
   /// Whether the last update fused the plates (false: disabled, no plates, or restarting).
   bool fusing() const { return fusing_; }
   /// Whether correction() is to be applied: fusing, or (anchor `plates`) holding the last correction.
-  bool applies() const { return fusing_ || holding_; }
+  bool applies() const {
+    return fusing_ || (cfg_.enabled && cfg_.anchor == ComObserverConfig::Anchor::kPlates && !held_.isZero());
+  }
 
   /// s, time constant of the low-pass on the model's dL/dt and CoM acceleration (differences of the encoders'
   /// velocities) and on the plates' force beside the latter.
@@ -120,7 +122,7 @@ class ComObserver {
   Eigen::Vector3d balance_com_ = Eigen::Vector3d::Zero(), plates_com_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d delta_ = Eigen::Vector3d::Zero(), delta_velocity_ = Eigen::Vector3d::Zero();
   double fused_time_ = 0.0, weight_ = 0.0;
-  bool started_ = false, fusing_ = false, holding_ = false;
+  bool started_ = false, fusing_ = false;
 };
 
 }  // namespace exoid::controller
