@@ -385,6 +385,8 @@ TEST_F(RunEnd, AKilledLoggerIsReportedAndTheLogMarkedIncomplete) {
   const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject kill:logger:2");
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
   ASSERT_TRUE(r.summary.is_object() && r.sim.is_object()) << r.cmd.out;
+  // It failed once under load (stop 48) and the cause was not kept: every figure below says what the run did.
+  SCOPED_TRACE("summary: " + r.summary.dump() + "\nsim: " + r.sim.dump() + "\nstdout: " + r.cmd.out);
   EXPECT_EQ(r.summary["outcome"], "failed");
   EXPECT_EQ(r.summary["log_complete"], false);
   EXPECT_NE(r.summary["failures"][0].get<std::string>().find("exoid_logger was killed by signal 9"), std::string::npos)

@@ -140,7 +140,7 @@ void addSupervisionOptions(CLI::App& app, tools::ExperimentOptions& o) {
                  "PROCESS (sim, controller, logger or estimator) SIGKILL (ACTION kill) or SIGSTOP\n"
                  "(ACTION stop: it hangs), or SIGKILL the estimator and start it again (restart:\n"
                  "it resumes from its checkpoint), e.g. --inject kill:controller:2 (controller\n"
-                 "only with --controller process)")
+                 "only with --controller process); stdout says at what simulated time it struck")
       ->type_name("SPEC");
 }
 

@@ -186,6 +186,10 @@ void injectFault(Run& run, RunFacts& facts) {
   Child& target = inject.process == "sim" ? run.sim : inject.process == "controller" ? run.ctrl
                   : inject.process == "estimator" ? run.est : run.logger;
   if (target.pid > 0) ::kill(target.pid, inject.action == "stop" ? SIGSTOP : SIGKILL);  // never kill(-1, ...)
+  // The sim's progress lines come once per simulated second and are polled every 20 ms: say when it really struck.
+  std::printf("exoid: --inject %s:%s done at simulated %.1f s\n", inject.action.c_str(), inject.process.c_str(),
+              run.sim_time);
+  std::fflush(stdout);
   if (inject.action == "restart" && target.pid > 0) {
     // Reap the killed estimator, keep what it wrote, start it again: it resumes from its checkpoint.
     waitFor(target.pid, 5000, &target.code);
