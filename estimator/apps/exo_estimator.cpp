@@ -16,6 +16,7 @@
 
 #include "estimator_node.hpp"
 #include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/sole_placement.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/signal/filters.hpp"
 
@@ -67,6 +68,7 @@ struct Args {
   double consistent_tolerance = 2.0, effect_prior_factor = 10.0, sensor_offset_sigma = Defaults{}.sensor_offset_sigma,
          sensor_gain_sigma = Defaults{}.sensor_gain_sigma;
   bool quiet = false, base_body_moves = false;
+  std::array<Eigen::Vector3d, 2> sole_on_plate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  // --sole-on-plate
 };
 
 /// The model, the prior and the state pipeline (filter, derivatives, base rate).
@@ -186,6 +188,20 @@ void addEstimatorOptions(CLI::App& app, Args& a) {
                "CoM height the base rows give, so the published height uncertainty keeps the prior's (the base\n"
                "link's mcz, one sigma) and the controller leaves the height at the prior's while it takes the\n"
                "horizontal CoM (exoid experiment sets it for a scenario with a wearer)");
+  app.add_option_function<std::vector<std::string>>(
+         "--sole-on-plate",
+         [&a](const std::vector<std::string>& specs) {
+           for (const std::string& spec : specs) {
+             std::string why;
+             if (!exoid::estimator::parseSoleOnPlate(spec, a.sole_on_plate, &why)) throw CLI::ValidationError(why);
+           }
+         },
+         "where a sole stands on its plate, SIDE:X,Y[,Z] (SIDE right or left; the sole frame's origin\n"
+         "minus the plate's reported sensor origin, lab axes, m; once per side); without it each sole\n"
+         "is centred on its plate. The base position and every base moment row rest on it: a common\n"
+         "1 cm left undeclared moves the estimated CoM by 1 cm, and the fed-back robot's with it\n"
+         "(docs/estimator.md \"Where the soles stand\")")
+      ->type_name("SPEC");
 }
 
 /// Publication, checkpoint, final estimate, LCM, idle timeout.
@@ -258,6 +274,7 @@ bool estimatorOptions(const Args& a, const exoid::Model& model, exoid::estimator
   opt.sensor_offset_sigma = a.sensor_offset_sigma;
   opt.sensor_gain_sigma = a.sensor_gain_sigma;
   opt.base_body_moves = a.base_body_moves;
+  opt.sole_on_plate = a.sole_on_plate;
   if (!a.effects_path.empty()) {
     if (!readEffects(a.effects_path, model, opt.effects, err)) return *err = "--effects " + *err, false;
     opt.effect_prior_factor = a.effect_prior_factor;

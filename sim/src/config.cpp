@@ -9,6 +9,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <initializer_list>
 #include <string>
 
@@ -156,8 +157,25 @@ bool parseEffects(const Ctx& c, const YAML::Node& n, Effects* e) {
   const std::string key = "effects";
   if (n.IsNull()) return true;  // "effects:" with nothing = none
   if (!checkKeys(c, n, key,
-                 {"joint_damping", "joint_frictionloss", "armature", "payload", "torque_sensor", "drive_torque_loop"}))
+                 {"joint_damping", "joint_frictionloss", "armature", "payload", "torque_sensor", "drive_torque_loop",
+                  "foot_placement"}))
     return false;
+  if (const YAML::Node fp = n["foot_placement"]) {
+    if (!fp.IsMap()) return c.fail("effects.foot_placement", std::string("expected a map {right: [x, y], left: [x, y]}, found ") + typeName(fp));
+    if (!checkKeys(c, fp, "effects.foot_placement", {"right", "left"})) return false;
+    const char* sides[2] = {"right", "left"};
+    for (int i = 0; i < 2; ++i) {
+      if (!fp[sides[i]]) continue;
+      const std::string k = join("effects.foot_placement", sides[i]);
+      if (!toVector<2>(c, fp[sides[i]], k, &e->foot_placement[static_cast<size_t>(i)], false)) return false;
+      if (e->foot_placement[static_cast<size_t>(i)].cwiseAbs().maxCoeff() > kMaxFootPlacement) {
+        char why[96];
+        std::snprintf(why, sizeof why, "each coordinate must be within +-%g m (the sole stays on its plate)",
+                      kMaxFootPlacement);
+        return c.fail(k, why);
+      }
+    }
+  }
   if (const YAML::Node d = n["drive_torque_loop"]) {
     std::string mode;
     if (!toString(c, d, "effects.drive_torque_loop", &mode)) return false;

@@ -328,6 +328,16 @@ bool setInitialConfiguration(SimModel& sm, const Scenario& scenario, std::string
   return true;
 }
 
+// effects.foot_placement: each plate moved by minus the sole's offset on it, so the robot and the world stay put and
+// the sole stands at +offset from the plate's sensor origin, which the plate reports (site_xpos, stagePlates).
+void applyFootPlacement(SimModel& sm, const Effects& e) {
+  for (int i = 0; i < kNumFeet; ++i) {
+    const int pb = sm.m->site_bodyid[sm.plate_site[i]];
+    sm.m->body_pos[3 * pb + 0] -= e.foot_placement[static_cast<size_t>(i)].x();
+    sm.m->body_pos[3 * pb + 1] -= e.foot_placement[static_cast<size_t>(i)].y();
+  }
+}
+
 // Derived constants (subtree masses, invweight0...) after the effects, the body inertials before any timed
 // payload, then the plate tare: the raw reading with nothing on the plates (contacts disabled), as a lab plate
 // is zeroed before a trial.
@@ -375,6 +385,7 @@ bool simLoad(const std::string& mjcf_path, const SensorConfig& noise, const Scen
       !applyTorqueSensorErrors(sm, scenario.effects, err))
     return false;
   if (scenario.harness.enabled) applyHarness(sm);
+  applyFootPlacement(sm, scenario.effects);
   if (!setInitialConfiguration(sm, scenario, err) || !setConstantsAndTare(sm, err)) return false;
   out = std::move(sm);
   return true;

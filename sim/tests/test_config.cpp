@@ -89,6 +89,7 @@ effects:
     all: {offset: 0.1, gain: 1.02}
     right_knee: {gain: 0.9}
   drive_torque_loop: sensor
+  foot_placement: {right: [0.01, -0.005], left: [0.0, 0.02]}
 initial_state:
   base_height_offset: 0.01
   joints: {right_knee: 0.2}
@@ -118,6 +119,8 @@ TEST(SimConfig, ScenarioParses) {
   ASSERT_EQ(s.initial.joints.size(), 1u);
   EXPECT_DOUBLE_EQ(s.initial.joints[0].value, 0.2);
   EXPECT_TRUE(s.effects.any());
+  EXPECT_DOUBLE_EQ(s.effects.foot_placement[0].y(), -0.005);
+  EXPECT_DOUBLE_EQ(s.effects.foot_placement[1].y(), 0.02);
   EXPECT_TRUE(s.harness.enabled);
   EXPECT_DOUBLE_EQ(s.harness.lift, 0.3);
   {  // no harness key: no harness; an empty map: the default lift
@@ -230,6 +233,12 @@ TEST(SimConfig, BadScenariosNameTheKey) {
       {"right_knee: {gain: 0.9}", "right_knee: {bias: 0.9}", "effects.torque_sensor.right_knee.bias: unknown key"},
       {"drive_torque_loop: sensor", "drive_torque_loop: motor",
        "effects.drive_torque_loop: expected ideal or sensor, got 'motor'"},
+      {"right: [0.01, -0.005]", "right: [0.06, -0.005]",
+       "effects.foot_placement.right: each coordinate must be within +-0.05 m (the sole stays on its plate)"},
+      {"right: [0.01, -0.005]", "right: [0.01]", "effects.foot_placement.right: expected a sequence of 2 numbers"},
+      {"left: [0.0, 0.02]", "middle: [0.0, 0.02]", "effects.foot_placement.middle: unknown key"},
+      {"foot_placement: {right: [0.01, -0.005], left: [0.0, 0.02]}", "foot_placement: [0.01, 0.0]",
+       "effects.foot_placement: expected a map {right: [x, y], left: [x, y]}, found a sequence"},
       {"joints: {right_knee: 0.2}", "joints: {all: 0.2}", "initial_state.joints.all: 'all' is not allowed here"},
       {"base_height_offset: 0.01", "base_height: 0.01", "initial_state.base_height: unknown key"},
       {"name: demo", "name: [demo]", "name: expected a string, found a sequence"},

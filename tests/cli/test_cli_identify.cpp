@@ -13,6 +13,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
+#include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <utility>
 #include <nlohmann/json.hpp>
@@ -208,6 +210,73 @@ TEST(IdentifyCli, TheSolesTiltFittedToThePlatesBeatsTheImusLowBand) {
   std::printf("held-out RMSE, default rank: plates %.5f, fused %.5f; full rank: %.5f, %.5f\n", p, f, pf, ff);
   EXPECT_LT(pf, 0.35 * ff);
   EXPECT_LT(p, f);
+}
+
+TEST(IdentifyCli, WhereTheSolesStandOnThePlatesIsDeclaredOrFittedOrItMovesTheCoM) {
+  // A lab places the feet by eye; exoid assumes each sole centred on its plate's reported origin unless told
+  // (--sole-on-plate). The legs' base position rests on it, and so every base row's moment: a placement error acts as
+  // a CoM shift of its mean (docs/identification.md "Where the soles stand"). A run whose soles stand (+10, +4) and
+  // (+6, -3) mm from their plates' origins (the scenario's effects.foot_placement), validated on an ideal run, the
+  // prior exact: measured (3 moves) the identified CoM 7.95 mm off horizontally, the held-out error 1.25 N m; with the
+  // placement declared 0.04 mm and 0.0076 N m; fitted (8.0, 0.5) mm against the true mean (8.0, 0.5).
+  test::TempDir dir("identify_sole_on_plate");
+  {
+    std::ofstream s(dir.file("placed.yaml"));
+    s << "name: placed\nseed: 3\nnoise: realistic\neffects:\n  foot_placement: {right: [0.01, 0.004], left: [0.006, -0.003]}\n";
+  }
+  for (const auto& [scenario, seed, out] : {std::tuple<std::string, int, std::string>{dir.file("placed.yaml"), 1, "train"},
+                                            {test::configPath("scenarios/ideal.yaml"), 2, "val"}}) {
+    const auto run = test::runCommand(test::exoidBinary() + " experiment --no-estimator --moves 3 --seed " +
+                                          std::to_string(seed) + " --scenario " + scenario + " --out " + dir.file(out), dir.path);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+  }
+  auto identify = [&](const std::string& extra, const std::string& out) {
+    const auto id = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("train/run.lcmlog") +
+                                         " --validate " + dir.file("val/run.lcmlog") + " --cutoff 30 " + extra +
+                                         " --out " + dir.file(out), dir.path);
+    EXPECT_EQ(id.exit_code, 0) << id.err;
+    return readJson(dir.file(out + "/summary.json"));
+  };
+  const nlohmann::json blind = identify("", "blind"),
+                       told = identify("--sole-on-plate right:0.01,0.004 --sole-on-plate left:0.006,-0.003,0", "told");
+  const double mean_x = 0.5 * (0.01 + 0.006), mean_y = 0.5 * (0.004 - 0.003);
+  const double shift = std::hypot(mean_x, mean_y);  // 8.0 mm
+  const double blind_xy = blind["system_com"]["identified_rmse_xy_m"], told_xy = told["system_com"]["identified_rmse_xy_m"];
+  std::printf("identified CoM horizontal RMSE: not told %.2f mm (the soles' mean offset %.2f mm), told %.3f mm; "
+              "held-out %.4f / %.4f N m\n", 1e3 * blind_xy, 1e3 * shift, 1e3 * told_xy,
+              blind["validation"]["rmse"].get<double>(), told["validation"]["rmse"].get<double>());
+  EXPECT_GT(blind_xy, 0.8 * shift);
+  EXPECT_LT(blind_xy, 1.2 * shift);
+  EXPECT_LT(told_xy, 0.05 * shift);
+  EXPECT_LT(told["validation"]["rmse"].get<double>(), 0.05 * blind["validation"]["rmse"].get<double>());
+  // Or fitted to the data (--sole-on-plate fit): the common offset the mean of the two, the difference cancels.
+  const nlohmann::json fitted = identify("--sole-on-plate fit", "fitted");
+  const nlohmann::json& sp = fitted["inputs"][0]["sole_placement"];
+  ASSERT_EQ(sp["fitted"], true) << sp;
+  const double fx = sp["offset_m"][0], fy = sp["offset_m"][1], fit_xy = fitted["system_com"]["identified_rmse_xy_m"];
+  std::printf("fitted common offset (%.2f, %.2f) mm (+- %.2f, %.2f), true mean (%.2f, %.2f); CoM %.3f mm, held-out %.4f\n",
+              1e3 * fx, 1e3 * fy, 1e3 * sp["standard_error_m"][0].get<double>(), 1e3 * sp["standard_error_m"][1].get<double>(),
+              1e3 * mean_x, 1e3 * mean_y, 1e3 * fit_xy, fitted["validation"]["rmse"].get<double>());
+  EXPECT_NEAR(fx, mean_x, 5e-4);
+  EXPECT_NEAR(fy, mean_y, 5e-4);
+  EXPECT_LT(fit_xy, 0.1 * shift);
+  EXPECT_LT(fitted["validation"]["rmse"].get<double>(), 0.05 * blind["validation"]["rmse"].get<double>());
+  ASSERT_EQ(fitted["inputs"].size(), 2u);
+  EXPECT_FALSE(fitted["inputs"][1].contains("sole_placement"));  // the truth-pipeline validation records its base
+  EXPECT_DOUBLE_EQ(told["options"]["sole_on_plate"]["right"][1].get<double>(), 0.004);
+  EXPECT_DOUBLE_EQ(told["options"]["sole_on_plate"]["left"][0].get<double>(), 0.006);
+  EXPECT_DOUBLE_EQ(blind["options"]["sole_on_plate"]["left"][0].get<double>(), 0.0);
+  // Bad values name the option and what is wrong, exit 2.
+  for (const auto& [spec, why] : {std::pair<std::string, std::string>{"middle:0.01,0", "the side must be right or left"},
+                                  {"right:0.01", "expected 2 or 3 coordinates, got 1"},
+                                  {"right:0.01,nan", "coordinate 2: not finite"},
+                                  {"right:2,0", "coordinate 1: "},
+                                  {"right", "expected SIDE:X,Y[,Z]"}}) {
+    const auto bad = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("train/run.lcmlog") +
+                                          " --sole-on-plate " + spec + " --out " + dir.file("bad"), dir.path);
+    EXPECT_EQ(bad.exit_code, 2) << spec;
+    EXPECT_NE(bad.err.find("--sole-on-plate '" + spec + "': " + why), std::string::npos) << bad.err;
+  }
 }
 
 TEST(IdentifyCli, IdentifiedUrdfRoundTrips) {

@@ -885,6 +885,45 @@ TEST(OnlineEstimator, TheStatedComUncertaintyIsHonestAndAPriorsErrorStandsOut) {
   EXPECT_GT(std::abs(prior_error.z()), 0.005);  // this prior is mostly wrong in height (30 mm)
 }
 
+// The feet off their plates' reported origins, as a lab places them by eye: the recorded run's plates re-expressed
+// about origins moved by -d (lab axes; each moment about the new origin M + R^T (d x R F), what a plate placed there
+// reports). Undeclared, the common part of d is a first moment to the base rows and the estimated CoM moves by it (fed
+// back, the robot's with it: docs/estimator.md "Where the soles stand"); declared (OnlineEstimatorOptions::
+// sole_on_plate), the rows are the recorded run's and so is the estimate.
+TEST(OnlineEstimator, WhereTheSolesStandOnThePlatesIsDeclaredOrTheCoMMovesWithIt) {
+  const Fixture& f = fixture();
+  const std::array<Eigen::Vector3d, 2> d = {Eigen::Vector3d(0.012, -0.004, 0.0), Eigen::Vector3d(0.008, 0.006, 0.0)};
+  Log moved = f.train;
+  for (auto& pair : moved.plates)
+    for (int i = 0; i < 2; ++i) {
+      ForcePlateSample& p = pair[static_cast<size_t>(i)];
+      const Eigen::Matrix3d R = p.plate_orientation.toRotationMatrix();
+      p.moment += R.transpose() * d[static_cast<size_t>(i)].cross(R * p.force);
+      p.plate_position -= d[static_cast<size_t>(i)];
+    }
+  DynamicsData dd(f.model);
+  auto lastCom = [&](const Log& log, const OnlineEstimatorOptions& opt) {
+    Eigen::Vector3d com = Eigen::Vector3d::Constant(NAN);
+    replayValid(f.model, f.base, f.model.phi, opt, log, [&](const OnlineEstimator& est, const EstimatorOutputSample& out) {
+      exoid::forwardKinematics(f.model, dd.kin, est.lastState());
+      centroidal(f.model, out.params, dd);
+      com = est.lastState().base_orientation.toRotationMatrix() * dd.com;  // world axes, from the base origin
+    });
+    return com;
+  };
+  OnlineEstimatorOptions told;
+  told.sole_on_plate = d;
+  const Eigen::Vector3d base = lastCom(f.train, {}), blind = lastCom(moved, {}), declared = lastCom(moved, told);
+  const Eigen::Vector2d mean = 0.5 * (d[0] + d[1]).head<2>();
+  std::printf("last estimate's CoM minus the recorded run's: not told (%.2f, %.2f) mm (the soles' mean offset (%.2f, "
+              "%.2f) mm), told (%.2e, %.2e) mm\n", 1e3 * (blind - base).x(), 1e3 * (blind - base).y(), 1e3 * mean.x(),
+              1e3 * mean.y(), 1e3 * (declared - base).x(), 1e3 * (declared - base).y());
+  ASSERT_TRUE(base.allFinite() && blind.allFinite() && declared.allFinite());
+  EXPECT_GT((blind - base).head<2>().norm(), 0.5 * mean.norm());
+  EXPECT_LT((blind - base).head<2>().norm(), 1.5 * mean.norm());
+  EXPECT_LT((declared - base).norm(), 1e-6);  // m: the same rows to rounding
+}
+
 // Torque sensors with offsets and gain errors (config/scenarios/torque_sensor_bias.yaml: +0.3 N m and +3 % on every
 // sensor, the knees -0.5 / +0.5 N m and -3 / +5 %), the exact model as the prior: the rigid model alone explains the
 // biased torques with its inertial parameters, and its CoM height moves millimetres beyond its stated sigma, which a

@@ -108,6 +108,47 @@ TEST_F(SimExo, PlatesCarryTheRobotWeightWhenStandingStill) {
   EXPECT_LT((sd.state.imu_accel - R.transpose() * Eigen::Vector3d(0, 0, kG)).norm(), 1e-4);
 }
 
+// effects.foot_placement moves each plate by minus the sole's offset on it: the robot, its contacts and the wrenches
+// they put on the plates stay where they were (to rounding: 5e-17 m, 7e-11 N after 1.5 s), and each plate
+// reports its own moved origin, so the sole stands at +offset from it. Standing still under a PD, 1.5 s.
+TEST_F(SimExo, AFootPlacementMovesThePlateNotTheRobot) {
+  const Eigen::Vector2d d[2] = {Eigen::Vector2d(0.02, -0.01), Eigen::Vector2d(-0.015, 0.005)};
+  SimModel sm0;
+  SimData sd0;
+  std::string err;
+  ASSERT_TRUE(simLoad(configPath("exo.xml"), noiseOff(realisticSensors()), makeScenario(NoiseMode::Off), sm0, &err)) << err;
+  ASSERT_TRUE(simMakeData(sm0, sd0, &err)) << err;
+  Scenario moved = makeScenario(NoiseMode::Off);
+  moved.effects.foot_placement = {d[0], d[1]};
+  load(moved);
+  JointCommandSample cmd = simZeroCommand(sm), cmd0 = simZeroCommand(sm0);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(sm.nj);
+  for (int k = 0; k < 1500; ++k) {
+    cmd.tick = cmd0.tick = k;
+    pd(sm, sd, zero, kStandGains, cmd);
+    pd(sm0, sd0, zero, kStandGains, cmd0);
+    simStep(sm, sd, cmd);
+    simStep(sm0, sd0, cmd0);
+  }
+  EXPECT_LT((sd.truth.base_position - sd0.truth.base_position).norm(), 1e-12);
+  for (int i = 0; i < kNumFeet; ++i) {
+    const ForcePlateSample &p = sd.plates[i], &p0 = sd0.plates[i];
+    const Eigen::Vector3d shift = p.plate_position - p0.plate_position;
+    EXPECT_NEAR(shift.x(), -d[i].x(), 1e-15) << i;
+    EXPECT_NEAR(shift.y(), -d[i].y(), 1e-15) << i;
+    EXPECT_EQ(shift.z(), 0.0) << i;
+    EXPECT_LT((p.force - p0.force).norm(), 1e-8) << i;  // of ~200 N
+    // The same wrench about the world origin; about the moved origin its moment differs by (origin shift) x force.
+    const Eigen::Matrix3d R = p.plate_orientation.toRotationMatrix();
+    EXPECT_LT((R * p.moment + p.plate_position.cross(R * p.force) -
+               (R * p0.moment + p0.plate_position.cross(R * p0.force))).norm(), 1e-9) << i;
+    // The sole's centre (its geom) now stands at +d from the plate's reported origin.
+    const Eigen::Vector3d sole(sd.d->geom_xpos + 3 * sm.foot_geom[i]);
+    const Eigen::Vector3d sole0(sd0.d->geom_xpos + 3 * sm0.foot_geom[i]);
+    EXPECT_LT((((sole - p.plate_position) - (sole0 - p0.plate_position)).head<2>() - d[i]).norm(), 1e-12) << i;
+  }
+}
+
 // Residuals of K(q, v, a) phi = y, with y built from external wrenches on the feet (about the world
 // origin, world coordinates) by the estimator's one implementation (thesis eq. 4). Returns max |K phi - y|
 // and max |y|.

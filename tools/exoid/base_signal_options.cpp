@@ -1,6 +1,7 @@
 #include "base_signal_options.hpp"
 
 #include "exoid/common/cli.hpp"
+#include "exoid/estimator/sole_placement.hpp"
 
 namespace exoid::cli {
 
@@ -22,6 +23,26 @@ void addBaseSignalOptions(CLI::App& app, tools::BaseSignals& b) {
                  "which the legs give the orientation; identify's rank rule's processing check uses it for the IMU's "
                  "rate and acceleration with every --base-orientation")
       ->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
+  app.add_option_function<std::vector<std::string>>(
+         "--sole-on-plate",
+         [&b](const std::vector<std::string>& specs) {
+           for (const std::string& spec : specs) {
+             if (spec == "fit") {
+               b.fit_sole_placement = true;
+               continue;
+             }
+             std::string why;
+             if (!estimator::parseSoleOnPlate(spec, b.sole_on_plate, &why)) throw CLI::ValidationError(why);
+           }
+         },
+         "floating base: where a sole stands on its plate, SIDE:X,Y[,Z] (SIDE right or left; the sole frame's origin "
+         "minus the plate's reported sensor origin, lab axes, m; once per side), and/or 'fit': the soles' common "
+         "offset (x, y) fitted to each file's rows on top of what is declared (reported per file; left out where the "
+         "data do not determine it). Without it each sole is centred on its plate. The legs' base position, and so "
+         "every base row's moment, rests on it: an unmeasured common 1 cm moves the identified CoM by 1 cm; a "
+         "difference between the feet cancels (docs/identification.md \"Where the soles stand\"). The declared "
+         "placement is the same for every file read")
+      ->type_name("SPEC");
 }
 
 }  // namespace exoid::cli

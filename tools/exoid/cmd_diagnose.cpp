@@ -276,6 +276,19 @@ int cmdDiagnose(int argc, char** argv) {
       if (st.refused_damaged) return fail(err), 3;
     return fail(err);
   }
+  {  // --sole-on-plate fit: what each file gave (segments in the order their statistics were made)
+    std::vector<std::string> files = a.in.train_files;
+    for (const auto* v : {&a.in.calib_files, &a.in.val_files, &a.in.val_calib_files}) files.insert(files.end(), v->begin(), v->end());
+    for (size_t k = 0; k < src.stats.size() && k < files.size(); ++k) {
+      const est::SolePlacement& sp = src.stats[k].sole_placement;
+      if (sp.fitted)
+        std::printf("%s: the soles' common offset on their plates, fitted: x %+.2f mm (+- %.2f), y %+.2f mm (+- %.2f)\n",
+                    files[k].c_str(), 1e3 * sp.offset.x(), 1e3 * sp.standard_error.x(), 1e3 * sp.offset.y(),
+                    1e3 * sp.standard_error.y());
+      else if (!sp.why_not.empty())
+        std::printf("%s: the soles' common offset on their plates: not fitted (%s)\n", files[k].c_str(), sp.why_not.c_str());
+    }
+  }
   est::OnlineComparison online;
   if (!est::compareOnline(model, a.opt, src.train, src.validate, res, effectSetOf(a.in.model_path, a.opt, res), online, &err))
     return fail(err);

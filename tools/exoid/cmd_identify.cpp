@@ -215,6 +215,16 @@ nlohmann::json inputsJson(const tools::IdentifyRun& run) {
                                     {"imu_correction_rms_rad", vec(st.sole_tilt.correction_rms)},
                                     {"residual_rms_rad", vec(st.sole_tilt.residual_rms)}};
     }
+    const estimator::SolePlacement& sp = st.sole_placement;
+    if (sp.fitted || !sp.why_not.empty()) {  // --sole-on-plate fit
+      inputs.back()["sole_placement"] = {{"fitted", sp.fitted},
+                                         {"offset_m", {sp.offset.x(), sp.offset.y()}},
+                                         {"standard_error_m", {sp.standard_error.x(), sp.standard_error.y()}},
+                                         {"separable", {sp.separable.x(), sp.separable.y()}},
+                                         {"weighted_rms_without", sp.weighted_rms_without},
+                                         {"weighted_rms_with", sp.weighted_rms_with}};
+      if (!sp.fitted) inputs.back()["sole_placement"]["why_not"] = sp.why_not;
+    }
   }
   return inputs;
 }
@@ -263,6 +273,8 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
   if (!o.only_links.empty()) j["options"]["only_links"] = o.only_links;  // the other links held at the prior
   if (!o.hold_path.empty()) j["options"]["hold"] = o.hold_path;
   j["options"]["rows"] = tools::baseRowsOnly(o) ? "base" : "all";
+  const auto& sp = o.base_signals.sole_on_plate;  // m, lab axes; zero: centred (the default)
+  j["options"]["sole_on_plate"] = {{"right", {sp[0].x(), sp[0].y(), sp[0].z()}}, {"left", {sp[1].x(), sp[1].y(), sp[1].z()}}};
   j["com_height_held_m"] = run.com_height_held ? nlohmann::json(run.com_height_m) : nlohmann::json(nullptr);
   if (!o.truth_model_path.empty()) j["options"]["truth_model"] = o.truth_model_path;
   j["timing_s"] = {{"read_filter_factor", run.read_s}, {"solve", run.solve_s}};

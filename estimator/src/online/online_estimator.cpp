@@ -115,6 +115,8 @@ bool OnlineEstimator::checkModelAndOptions() {
     return false;
   }
   footholds_ = defaultFootholds(model_);
+  for (DatasetOptions::Foothold& f : footholds_)
+    if (f.plate >= 0 && f.plate < 2) f.world = opt_.sole_on_plate[static_cast<size_t>(f.plate)];
   if (footholds_.empty()) {
     setError("the model needs right_sole / left_sole frames (base position from the legs)");
     return false;

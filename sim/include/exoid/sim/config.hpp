@@ -4,6 +4,7 @@
 // "<file>: <key>: <what>" and never throw. Formats: docs/sim.md.
 #include <Eigen/Core>
 #include <cstdint>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -55,6 +56,9 @@ struct TorqueSensorError {
 
 /// Physics and sensor effects that the URDF (hence controller and estimator) does not know about.
 /// Applied to the MuJoCo model / the sim's sensor model only.
+/// effects.foot_placement: the largest offset per axis (m) that keeps a sole on its 60 x 20 cm plate.
+inline constexpr double kMaxFootPlacement = 0.05;
+
 struct Effects {
   std::vector<JointValue> joint_damping;       ///< N m s/rad (MuJoCo dof_damping), >= 0
   std::vector<JointValue> joint_frictionloss;  ///< N m (MuJoCo dof_frictionloss: dry friction), >= 0
@@ -65,9 +69,14 @@ struct Effects {
   /// gain * tau + offset = the command, so the sensor errors become actuation errors. false: the drives apply
   /// the command exactly and the errors stay in the measurements.
   bool drive_loop_on_sensor = false;
+  /// Where each sole's centre stands relative to its plate's sensor origin, lab x and y, m ([0] right, [1] left):
+  /// a placement the lab did not measure (exoid assumes each sole centred on its plate unless told, e.g. `exoid
+  /// identify --sole-on-plate`). The plate is moved by minus it, so the robot and the world stay where they were and
+  /// the plate reports its own (moved) origin. |x|, |y| <= kMaxFootPlacement: the sole stays on its plate.
+  std::array<Eigen::Vector2d, 2> foot_placement{Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
   bool any() const {
     return !joint_damping.empty() || !joint_frictionloss.empty() || !armature.empty() || !payloads.empty() ||
-           !torque_sensor.empty();
+           !torque_sensor.empty() || !foot_placement[0].isZero() || !foot_placement[1].isZero();
   }
 };
 

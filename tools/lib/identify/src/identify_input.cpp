@@ -1,5 +1,6 @@
 #include "exoid/tools/identify_input.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -9,8 +10,12 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <string_view>
 #include <vector>
 
+#include "exoid/common/strict_number.hpp"
+#include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/sole_placement.hpp"
 #include "exoid/estimator/sole_tilt.hpp"
 
 
@@ -24,7 +29,10 @@ void applyBaseSignals(const BaseSignals& b, SourceOptions& so) {
   d.base_rate_from_legs = sensors && b.rate == "legs";
   d.base_acceleration_from_legs = sensors && b.acceleration == "legs";
   d.orientation_cutoff_hz = b.orientation_cutoff_hz;
+  so.sole_on_plate = b.sole_on_plate;
+  so.fit_sole_placement = b.fit_sole_placement;
 }
+
 
 std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& training, bool logs_on_floating_base) {
   std::vector<ProcessingAlternative> out;
@@ -81,7 +89,11 @@ bool datasetSetup(const Model& model, const SourceOptions& options, int feet[2],
       if (error) *error = "a floating-base identification needs the model's right_foot and left_foot links";
       return false;
     }
-    if (dopt.footholds.empty()) dopt.footholds = estimator::defaultFootholds(model);
+    if (dopt.footholds.empty()) {
+      dopt.footholds = estimator::defaultFootholds(model);
+      for (estimator::DatasetOptions::Foothold& f : dopt.footholds)
+        if (f.plate >= 0 && f.plate < 2) f.world = options.sole_on_plate[static_cast<size_t>(f.plate)];
+    }
   }
   return true;
 }
@@ -106,6 +118,50 @@ void heldBase(estimator::MeasuredSample& s) {
   s.has_base_domega = true;
   s.has_base_position = true;  // not needed by K; keeps the footholds (feet on the plates) out of it
   s.ncontacts = 0;
+}
+
+// SourceOptions::fit_sole_placement: the samples' rows built as declared (dopt) and with both soles moved by h in x and
+// in y (y is affine in the base position, so the difference over h is exact), fitted by estimator::SolePlacementFit.
+// Nothing to fit (out.why_not empty) where every sample records its base's position.
+bool fitSolePlacement(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
+                      const estimator::DatasetOptions& dopt, const std::string& path, estimator::SolePlacement& out,
+                      std::string* error) {
+  out = estimator::SolePlacement();
+  if (std::all_of(samples.begin(), samples.end(), [](const estimator::MeasuredSample& s) { return s.has_base_position; }))
+    return true;
+  constexpr double h = 0.01;  // m
+  auto build = [&](const Eigen::Vector3d& by, const estimator::RowSink& sink) {
+    estimator::DatasetOptions o = dopt;
+    for (estimator::DatasetOptions::Foothold& f : o.footholds) f.world += by;
+    estimator::DatasetBuilder b(model, o, sink);
+    std::string err;
+    for (const estimator::MeasuredSample& s : samples)
+      if (!b.add(s, &err)) return (error ? *error = path + ": " + err : err), false;
+    if (!b.finish(&err)) return (error ? *error = path + ": " + err : err), false;
+    return true;
+  };
+  std::vector<Eigen::VectorXd> yx, yy;
+  if (!build(Eigen::Vector3d(h, 0, 0), [&](double, const Eigen::MatrixXd&, const Eigen::VectorXd& y) { yx.push_back(y); }) ||
+      !build(Eigen::Vector3d(0, h, 0), [&](double, const Eigen::MatrixXd&, const Eigen::VectorXd& y) { yy.push_back(y); }))
+    return false;
+  estimator::SolePlacementFit fit(model, computeBaseParameters(model));
+  Eigen::MatrixXd dY(model.nv, 2);
+  size_t k = 0;
+  const bool ok = build(Eigen::Vector3d::Zero(), [&](double, const Eigen::MatrixXd& K, const Eigen::VectorXd& y) {
+    if (k < yx.size() && k < yy.size()) {
+      dY.col(0) = (yx[k] - y) / h;
+      dY.col(1) = (yy[k] - y) / h;
+      fit.add(K, y, dY);
+    }
+    ++k;
+  });
+  if (!ok) return false;
+  if (k != yx.size() || k != yy.size()) {
+    if (error) *error = path + ": the soles' placement fit: the three builds gave different row counts";
+    return false;
+  }
+  out = fit.finish();
+  return true;
 }
 
 using BuilderRowSink = std::function<void(const estimator::DatasetBuilder& builder, double t, const Eigen::MatrixXd& K,
@@ -136,6 +192,16 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
     const intake::SampleSink pass = [&](const estimator::MeasuredSample& s, std::string*) { return fit.add(s), true; };
     if (!readFile(path, model, options, feet, pass, first, error)) return stats = first, false;
     dopt.sole_tilt = fit.finish();
+  }
+  estimator::SolePlacement placement;
+  if (options.fit_sole_placement && model.floating_base && !options.held_base) {
+    std::vector<estimator::MeasuredSample> samples;
+    intake::InputStats first;  // the same file is read again below, counted there
+    const intake::SampleSink keep = [&](const estimator::MeasuredSample& s, std::string*) { return samples.push_back(s), true; };
+    if (!readFile(path, model, options, feet, keep, first, error)) return stats = first, false;
+    if (!fitSolePlacement(samples, model, dopt, path, placement, error)) return false;
+    if (placement.fitted)
+      for (estimator::DatasetOptions::Foothold& f : dopt.footholds) f.world.head<2>() += placement.offset;
   }
   if (options.held_function && (options.held_function->c.size() != model.nparams() || options.held_function->j < 0 ||
                                  options.held_function->j >= model.nparams())) {
@@ -181,6 +247,7 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
   };
   if (!readFile(path, model, options, feet, sink, stats, error)) return false;
   stats.sole_tilt = dopt.sole_tilt;  // the reader starts its statistics afresh
+  stats.sole_placement = placement;
   std::string err;
   if (!builder.finish(&err)) {
     if (error) *error = path + ": " + err;
@@ -257,6 +324,11 @@ bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, co
     estimator::SoleTiltFit fit(model, dopt.footholds);
     for (const estimator::MeasuredSample& s : samples) fit.add(s);
     dopt.sole_tilt = stats.sole_tilt = fit.finish();
+  }
+  if (options.fit_sole_placement && model.floating_base) {
+    if (!fitSolePlacement(samples, model, dopt, "samples", stats.sole_placement, error)) return false;
+    if (stats.sole_placement.fitted)
+      for (estimator::DatasetOptions::Foothold& f : dopt.footholds) f.world.head<2>() += stats.sole_placement.offset;
   }
   long nonfinite = 0;
   estimator::DatasetBuilder builder(model, dopt, accumulatorSink(acc, nonfinite));

@@ -490,7 +490,13 @@ void runJob(Study& st, Job& job, int workers) {
   jf.train->flush();
   job.seconds["training factor"] += since(ta);
   const std::string at = pipe + " pipeline, cutoff " + (job.cutoff > 0 ? fmt(job.cutoff) + " Hz" : std::string("none"));
-  st.sayLocked(at + ": " + std::to_string(stats.samples) + " training samples");
+  std::string placed;  // --sole-on-plate fit
+  if (stats.sole_placement.fitted)
+    placed = ", the soles' common offset on their plates fitted: (" + fmt(1e3 * stats.sole_placement.offset.x()) + ", " +
+             fmt(1e3 * stats.sole_placement.offset.y()) + ") mm";
+  else if (!stats.sole_placement.why_not.empty())
+    placed = ", the soles' common offset not fitted (" + stats.sole_placement.why_not + ")";
+  st.sayLocked(at + ": " + std::to_string(stats.samples) + " training samples" + placed);
   // The row-weighted factors (all folds, each fold left out) do not depend on the prior: once per data set.
   const auto tf0 = std::chrono::steady_clock::now();
   jf.plain = estimator::trainingFactors(*jf.train, st.model, estimator::Method::Ols);

@@ -17,6 +17,7 @@
 //
 // Real time: everything is sized by the constructor / sizeOutput(); addState, addPlate and fillOutput allocate
 // nothing and throw nothing. Checkpoints do file I/O: call them off the per-sample path.
+#include <array>
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <string>
@@ -146,6 +147,11 @@ struct OnlineEstimatorOptions {
   /// those rows); `exoid experiment` turns it on for a scenario with a wearer, and a sidecar with
   /// EffectSet::base_body_moves (a diagnosis that named an unmeasured body on the base) does too.
   bool base_body_moves = false;
+  /// Where each sole stands on its plate: the sole frame's origin minus the plate's reported sensor origin, lab axes,
+  /// m ([0] right, [1] left; exo_estimator --sole-on-plate). The base position, and so every base moment row, rests
+  /// on it: a common 1 cm not declared moved the estimate's CoM, and with it fed back the robot's, by 9.3 mm
+  /// (docs/estimator.md "Where the soles stand"). Not in the checkpoint: a restart takes the value it is given.
+  std::array<Eigen::Vector3d, 2> sole_on_plate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
 };
 
 /// What happened to one input message.

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "exoid/estimator/dataset.hpp"
+#include "exoid/estimator/sole_placement.hpp"
 #include "exoid/intake/log_events.hpp"
 #include "exoid/model/model.hpp"
 
@@ -30,6 +31,8 @@ struct InputStats {
   std::string damage_report;        ///< LCM only: damageReport() of the log, "" when intact
   bool refused_damaged = false;     ///< the read failed because the log is damaged (not allowed partial)
   estimator::SoleTilt sole_tilt;    ///< the soles' tilt fitted over this file (tools::SourceOptions::fit_sole_tilt)
+  /// The soles' common offset on their plates fitted to this file (tools::SourceOptions::fit_sole_placement)
+  estimator::SolePlacement sole_placement;
 
   /// Counts one skipped row/tick/event under `reason`; the first one skipped is remembered with `where`.
   void skip(const std::string& reason, const std::string& where) {

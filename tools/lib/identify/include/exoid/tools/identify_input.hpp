@@ -3,6 +3,7 @@
 // regressor rows, for `exoid identify`, `diagnose` and `study`. The file is read by the intake layer
 // (exoid/intake/measured_input.hpp): damaged input is refused naming the file and where, unless the options
 // allow skipping (skip_bad_rows, allow_partial), and what was skipped is counted in intake::InputStats.
+#include <array>
 #include <functional>
 #include <map>
 #include <string>
@@ -27,7 +28,15 @@ struct BaseSignals {
   std::string rate = "legs";          ///< "legs" (DatasetOptions::base_rate_from_legs) or "gyro"
   std::string acceleration = "legs";  ///< "legs" (DatasetOptions::base_acceleration_from_legs) or "accelerometer"
   double orientation_cutoff_hz = 5.0;
+  /// Where each sole stands on its plate: the sole frame's origin minus the plate's reported sensor origin, lab axes,
+  /// m ([0] right, [1] left; `--sole-on-plate`). Zero: each sole centred on its plate, as exoid assumes unless told.
+  /// The same for every file a command reads (the feet not moved between the runs).
+  std::array<Eigen::Vector3d, 2> sole_on_plate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  /// `--sole-on-plate fit`: the soles' common offset on their plates (x, y) fitted to each file's rows on top of
+  /// sole_on_plate (SourceOptions::fit_sole_placement).
+  bool fit_sole_placement = false;
 };
+
 
 struct SourceOptions;
 /// `b` into so.dataset and so.fit_sole_tilt; the legs only in the sensors pipeline (the truth pipeline records the
@@ -38,6 +47,14 @@ void applyBaseSignals(const BaseSignals& b, SourceOptions& so);
 struct SourceOptions {
   intake::LogPipeline pipeline = intake::LogPipeline::Sensors;  ///< LCM logs only
   estimator::DatasetOptions dataset;
+  /// Floating base, when dataset.footholds is empty: each default foothold's sole stands this far from its plate's
+  /// reported origin ([0] right, [1] left; BaseSignals::sole_on_plate), lab axes, m.
+  std::array<Eigen::Vector3d, 2> sole_on_plate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  /// Floating base on its plates (not held_base): fit the soles' common offset on their plates to each file's rows
+  /// first (estimator::SolePlacementFit; its rows built three times: as declared, and with both soles moved in x and
+  /// in y) and use it on top of sole_on_plate where the data determine it; the file's intake::InputStats::
+  /// sole_placement says what was found (`--sole-on-plate fit`).
+  bool fit_sole_placement = false;
   bool skip_bad_rows = false;                   ///< CSV only
   /// With dataset.orientation_from_legs on a floating base: fit the soles' tilt on their contacts to the plates'
   /// wrenches over the whole file first (estimator::SoleTiltFit, one more pass over it), into dataset.sole_tilt and
