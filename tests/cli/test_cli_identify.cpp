@@ -277,6 +277,13 @@ TEST(IdentifyCli, WhereTheSolesStandOnThePlatesIsDeclaredOrFittedOrItMovesTheCoM
     EXPECT_EQ(bad.exit_code, 2) << spec;
     EXPECT_NE(bad.err.find("--sole-on-plate '" + spec + "': " + why), std::string::npos) << bad.err;
   }
+  for (const std::string spec : {"fit", "right:0.01,0"}) {  // a fixed base stands on no plates
+    const auto arm = test::runCommand(test::exoidBinary() + " identify --fixed-base --model " + kuka("kuka_lwr4.urdf") +
+                                          " --data " + kuka("measurements_2.csv") + " --sole-on-plate " + spec +
+                                          " --out " + dir.file("arm"), dir.path);
+    EXPECT_EQ(arm.exit_code, 2) << spec << arm.err;
+    EXPECT_NE(arm.err.find("--sole-on-plate: a fixed-base robot has no soles on plates"), std::string::npos) << arm.err;
+  }
 }
 
 TEST(IdentifyCli, IdentifiedUrdfRoundTrips) {

@@ -385,7 +385,6 @@ TEST_F(RunEnd, AKilledLoggerIsReportedAndTheLogMarkedIncomplete) {
   const Result r = run(test::configPath("scenarios/ideal.yaml"), "--inject kill:logger:2");
   EXPECT_EQ(r.cmd.exit_code, 1) << r.cmd.out << r.cmd.err;
   ASSERT_TRUE(r.summary.is_object() && r.sim.is_object()) << r.cmd.out;
-  // It failed once under load (stop 48) and the cause was not kept: every figure below says what the run did.
   SCOPED_TRACE("summary: " + r.summary.dump() + "\nsim: " + r.sim.dump() + "\nstdout: " + r.cmd.out);
   EXPECT_EQ(r.summary["outcome"], "failed");
   EXPECT_EQ(r.summary["log_complete"], false);
@@ -395,7 +394,10 @@ TEST_F(RunEnd, AKilledLoggerIsReportedAndTheLogMarkedIncomplete) {
   EXPECT_EQ(r.summary["ticks_simulated"], r.sim["ticks"]);
   EXPECT_EQ(r.summary["realtime_factor"], r.sim["realtime_factor"]);
   const long simulated = r.summary["ticks_simulated"], logged = r.summary["ticks_logged"];
-  EXPECT_GT(r.summary["missing_ticks"].get<long>(), 0);
+  // What the log lacks: the ticks simulated after the kill, or, when the run was stopped before the sim got further
+  // than the logger (a fresh-clone CI run, stop 49: killed at 2.0 s, the sim stopped at tick 2001, all 2001 logged),
+  // the event the logger was writing: the log is cut off, not short of ticks.
+  EXPECT_TRUE(r.summary["missing_ticks"].get<long>() > 0 || !r.summary["log_damage"].get<std::string>().empty());
   EXPECT_GE(r.summary["missing_ticks"].get<long>(), simulated - logged);
   EXPECT_NE(r.cmd.out.find("| log | INCOMPLETE"), std::string::npos) << r.cmd.out;
   EXPECT_TRUE(leftovers().empty()) << ::testing::PrintToString(leftovers());

@@ -191,6 +191,9 @@ bool modelAndPrior(const IdentifyRunOptions& o, IdentifyRun& run, Eigen::VectorX
       if (bo.held[static_cast<size_t>(i)]) (*held_phi)[i] = run.prior[i];
   }
   if (!comHeightFunction(o, run, bo, *height, error)) return false;
+  const auto& sp = o.base_signals.sole_on_plate;
+  if (!model.floating_base && (o.base_signals.fit_sole_placement || !sp[0].isZero() || !sp[1].isZero()))
+    return *error = "--sole-on-plate: a fixed-base robot has no soles on plates", false;
   run.base = computeBaseParameters(model, bo);
   return true;
 }
