@@ -10,10 +10,8 @@
 #include <optional>
 #include <set>
 #include <sstream>
-#include <string_view>
 #include <vector>
 
-#include "exoid/common/strict_number.hpp"
 #include "exoid/estimator/base_parameters.hpp"
 #include "exoid/estimator/sole_placement.hpp"
 #include "exoid/estimator/sole_tilt.hpp"
@@ -32,7 +30,6 @@ void applyBaseSignals(const BaseSignals& b, SourceOptions& so) {
   so.sole_on_plate = b.sole_on_plate;
   so.fit_sole_placement = b.fit_sole_placement;
 }
-
 
 std::vector<ProcessingAlternative> processingAlternatives(const SourceOptions& training, bool logs_on_floating_base) {
   std::vector<ProcessingAlternative> out;
