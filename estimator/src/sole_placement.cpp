@@ -179,7 +179,8 @@ SolePlacement SolePlacementFit::finish() {
   }
   mean_var /= used;
   for (int r = 0; r < nv_; ++r)
-    if (coord[static_cast<size_t>(r)].rows > 0) w[static_cast<size_t>(r)] = 1.0 / std::max(w[static_cast<size_t>(r)], 1e-12 * mean_var);
+    if (coord[static_cast<size_t>(r)].rows > 0)
+      w[static_cast<size_t>(r)] = 1.0 / std::max(w[static_cast<size_t>(r)], 1e-12 * mean_var);
   const Normal all = combine(w, -1);
   const Eigen::VectorXd x = solve(all, n), xb = solve(all, m_);
   out.weighted_rms_with = std::sqrt(std::max(rss(all, x), 0.0) / static_cast<double>(all.rows));

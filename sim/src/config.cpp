@@ -161,7 +161,9 @@ bool parseEffects(const Ctx& c, const YAML::Node& n, Effects* e) {
                   "foot_placement"}))
     return false;
   if (const YAML::Node fp = n["foot_placement"]) {
-    if (!fp.IsMap()) return c.fail("effects.foot_placement", std::string("expected a map {right: [x, y], left: [x, y]}, found ") + typeName(fp));
+    if (!fp.IsMap())
+      return c.fail("effects.foot_placement",
+                    std::string("expected a map {right: [x, y], left: [x, y]}, found ") + typeName(fp));
     if (!checkKeys(c, fp, "effects.foot_placement", {"right", "left"})) return false;
     const char* sides[2] = {"right", "left"};
     for (int i = 0; i < 2; ++i) {

@@ -278,7 +278,8 @@ int cmdDiagnose(int argc, char** argv) {
   }
   {  // --sole-on-plate fit: what each file gave (segments in the order their statistics were made)
     std::vector<std::string> files = a.in.train_files;
-    for (const auto* v : {&a.in.calib_files, &a.in.val_files, &a.in.val_calib_files}) files.insert(files.end(), v->begin(), v->end());
+    for (const auto* v : {&a.in.calib_files, &a.in.val_files, &a.in.val_calib_files})
+      files.insert(files.end(), v->begin(), v->end());
     for (size_t k = 0; k < src.stats.size() && k < files.size(); ++k) {
       const est::SolePlacement& sp = src.stats[k].sole_placement;
       if (sp.fitted)

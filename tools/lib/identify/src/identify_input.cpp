@@ -124,7 +124,8 @@ bool fitSolePlacement(const std::vector<estimator::MeasuredSample>& samples, con
                       const estimator::DatasetOptions& dopt, const std::string& path, estimator::SolePlacement& out,
                       std::string* error) {
   out = estimator::SolePlacement();
-  if (std::all_of(samples.begin(), samples.end(), [](const estimator::MeasuredSample& s) { return s.has_base_position; }))
+  const auto recorded = [](const estimator::MeasuredSample& s) { return s.has_base_position; };
+  if (std::all_of(samples.begin(), samples.end(), recorded))
     return true;
   constexpr double h = 0.01;  // m
   auto build = [&](const Eigen::Vector3d& by, const estimator::RowSink& sink) {
@@ -138,9 +139,10 @@ bool fitSolePlacement(const std::vector<estimator::MeasuredSample>& samples, con
     return true;
   };
   std::vector<Eigen::VectorXd> yx, yy;
-  if (!build(Eigen::Vector3d(h, 0, 0), [&](double, const Eigen::MatrixXd&, const Eigen::VectorXd& y) { yx.push_back(y); }) ||
-      !build(Eigen::Vector3d(0, h, 0), [&](double, const Eigen::MatrixXd&, const Eigen::VectorXd& y) { yy.push_back(y); }))
-    return false;
+  const auto keepY = [](std::vector<Eigen::VectorXd>& into) {
+    return [&into](double, const Eigen::MatrixXd&, const Eigen::VectorXd& y) { into.push_back(y); };
+  };
+  if (!build(Eigen::Vector3d(h, 0, 0), keepY(yx)) || !build(Eigen::Vector3d(0, h, 0), keepY(yy))) return false;
   estimator::SolePlacementFit fit(model, computeBaseParameters(model));
   Eigen::MatrixXd dY(model.nv, 2);
   size_t k = 0;
@@ -194,7 +196,9 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
   if (options.fit_sole_placement && model.floating_base && !options.held_base) {
     std::vector<estimator::MeasuredSample> samples;
     intake::InputStats first;  // the same file is read again below, counted there
-    const intake::SampleSink keep = [&](const estimator::MeasuredSample& s, std::string*) { return samples.push_back(s), true; };
+    const intake::SampleSink keep = [&](const estimator::MeasuredSample& s, std::string*) {
+      return samples.push_back(s), true;
+    };
     if (!readFile(path, model, options, feet, keep, first, error)) return stats = first, false;
     if (!fitSolePlacement(samples, model, dopt, path, placement, error)) return false;
     if (placement.fitted)
