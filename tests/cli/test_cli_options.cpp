@@ -109,6 +109,11 @@ TEST_F(CliOptions, UnknownOptionsAndStrayArgumentsAreRefused) {
   expectError(bin("exoid") + " experiment --scenario " + test::configPath("scenarios/ideal.yaml") + " --out " +
                   dir_.file("out_fx") + " --estimator-args --effects=" + dir_.file("joint.yaml"),
               "unknown joint 'knee'");
+  // Where the soles stand: the estimator's option, read by the experiment too (its replay places the base alike).
+  expectError(bin("exo_estimator") + " --sole-on-plate right:x,1", "--sole-on-plate 'right:x,1': coordinate 1: not a number");
+  expectError(bin("exoid") + " experiment --scenario " + test::configPath("scenarios/ideal.yaml") + " --out " +
+                  dir_.file("out_sp") + " --estimator-args \"--sole-on-plate right:0.01\"",
+              "--estimator-args --sole-on-plate 'right:0.01': expected 2 or 3 coordinates, got 1");
 }
 
 TEST_F(CliOptions, ExperimentRefusesWhatTheControllerWouldBeforeStarting) {

@@ -131,8 +131,10 @@ void addSupervisionOptions(CLI::App& app, tools::ExperimentOptions& o) {
   app.add_option("--estimator-args", o.estimator_args,
                  "options for exo_estimator, separated by spaces (see exo_estimator --help); they replace\n"
                  "the experiment's defaults, \"--forgetting none\". --effects FILE (a\n"
-                 "diagnose sidecar) is checked before the run and applied by the summary's replay too; a\n"
-                 "scenario with a wearer adds --base-body-moves (the trunk moves on the pelvis on its own)")
+                 "diagnose sidecar) is checked before the run and applied by the summary's replay too, and\n"
+                 "so is --sole-on-plate SPEC (where the soles stand: the replay's and the batch comparison's\n"
+                 "base placed alike); a scenario with a wearer adds --base-body-moves (the trunk moves on the\n"
+                 "pelvis on its own)")
       ->type_name("\"ARGS\"");
   app.add_option("--inject", o.inject,
                  "testing only; SPEC = ACTION,PROCESS,SECONDS written ACTION:PROCESS:SECONDS:\n"

@@ -12,6 +12,7 @@
 #include "exoid/controller/balance_controller.hpp"
 #include "exoid/controller/config.hpp"
 #include "exoid/estimator/base_parameters.hpp"
+#include "exoid/estimator/sole_placement.hpp"
 #include "exoid/model/urdf.hpp"
 #include "exoid/sim/config.hpp"
 #include "exoid/sim/sim.hpp"
@@ -92,7 +93,8 @@ bool checkController(ExperimentPlan& plan, std::string* error) {
 
 /// exo_estimator's arguments. A diagnose sidecar (--effects FILE) is read here too, with the estimator's model: a
 /// bad one stops the experiment before any process starts, its path is made absolute for the estimator, and the
-/// summary's replay applies it like the process does (online held-out RMSE with and without it).
+/// summary's replay applies it like the process does (online held-out RMSE with and without it). So is where the
+/// soles stand (--sole-on-plate SPEC): the replay and the batch comparison place the base as the process does.
 bool checkEstimatorArgs(ExperimentPlan& plan, std::string* error) {
   std::vector<std::string>& words = plan.estimator_words;
   std::istringstream in(plan.options.estimator_args);
@@ -101,7 +103,7 @@ bool checkEstimatorArgs(ExperimentPlan& plan, std::string* error) {
     std::string name = words[i], inline_value;
     if (const size_t eq = name.find('='); name.rfind("--", 0) == 0 && eq != std::string::npos)
       inline_value = name.substr(eq + 1), name = name.substr(0, eq);
-    if (name != "--effects" && name != "--effect-prior-factor") continue;
+    if (name != "--effects" && name != "--effect-prior-factor" && name != "--sole-on-plate") continue;
     if (!inline_value.empty()) {  // --name=VALUE: split, so the value can be rewritten
       words[i] = name;
       words.insert(words.begin() + static_cast<std::ptrdiff_t>(i + 1), inline_value);
@@ -112,6 +114,10 @@ bool checkEstimatorArgs(ExperimentPlan& plan, std::string* error) {
       *value = std::filesystem::absolute(*value).string();
       if (!estimator::readEffects(*value, plan.controller_model, plan.replay_options.effects, error))
         return *error = "--estimator-args --effects " + *error, false;
+    } else if (name == "--sole-on-plate") {
+      std::string why;
+      if (!estimator::parseSoleOnPlate(*value, plan.replay_options.sole_on_plate, &why))
+        return *error = "--estimator-args " + why, false;
     } else if (!common::parseDouble(*value, plan.replay_options.effect_prior_factor)) {
       return *error = "--estimator-args --effect-prior-factor: not a number '" + *value + "'", false;
     }

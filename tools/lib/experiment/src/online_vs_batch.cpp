@@ -183,6 +183,8 @@ OnlineVsBatch compareOnlineBatch(const Model& model, const intake::RunLog& log, 
   cmp.dopt.cutoff_hz = 30.0;
   cmp.dopt.filter = FilterMode::Inputs;
   cmp.dopt.footholds = defaultFootholds(model);
+  for (DatasetOptions::Foothold& f : cmp.dopt.footholds)  // where the estimator was told the soles stand
+    if (f.plate >= 0 && f.plate < 2) f.world = options.sole_on_plate[static_cast<size_t>(f.plate)];
   LsqAccumulator train(model, base), whole(model, base);
   AccumulatorOptions one;
   one.folds = 1;
