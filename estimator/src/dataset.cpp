@@ -156,7 +156,8 @@ bool heldBaseRowMeasured(const Model& model, int row) {
   return j >= 0 && j < model.njoints && (model.effort_limit.size() != model.njoints || model.effort_limit[j] > 0.0);
 }
 
-std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model) {
+std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model,
+                                                       const std::array<Eigen::Vector3d, 2>& sole_on_plate) {
   std::vector<DatasetOptions::Foothold> out;
   const char* soles[2] = {"right_sole", "left_sole"};
   for (int i = 0; i < 2; ++i) {
@@ -167,6 +168,7 @@ std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model) {
     h.point_in_body = model.frames[f].position;
     h.rotation_in_body = model.frames[f].rotation;
     h.plate = i;
+    h.world = sole_on_plate[static_cast<size_t>(i)];
     out.push_back(h);
   }
   return out;

@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string_view>
 
 #include "exoid/common/strict_number.hpp"
@@ -32,6 +33,14 @@ bool parseSoleOnPlate(const std::string& spec, std::array<Eigen::Vector3d, 2>& o
   if (v.size() != 2 && v.size() != 3) return bad("expected 2 or 3 coordinates, got " + std::to_string(v.size()));
   out[side == "right" ? 0 : 1] = Eigen::Vector3d(v[0], v[1], v.size() == 3 ? v[2] : 0.0);
   return true;
+}
+
+std::string describeSolePlacement(const SolePlacement& p) {
+  if (!p.fitted) return "not fitted (" + p.why_not + ")";
+  char s[160];
+  std::snprintf(s, sizeof s, "fitted: x %+.2f mm (+- %.2f), y %+.2f mm (+- %.2f)", 1e3 * p.offset.x(),
+                1e3 * p.standard_error.x(), 1e3 * p.offset.y(), 1e3 * p.standard_error.y());
+  return s;
 }
 
 SolePlacementFit::SolePlacementFit(const Model& model, const BaseParameters& base, int folds, int chunk)

@@ -282,12 +282,9 @@ int cmdDiagnose(int argc, char** argv) {
       files.insert(files.end(), v->begin(), v->end());
     for (size_t k = 0; k < src.stats.size() && k < files.size(); ++k) {
       const est::SolePlacement& sp = src.stats[k].sole_placement;
-      if (sp.fitted)
-        std::printf("%s: the soles' common offset on their plates, fitted: x %+.2f mm (+- %.2f), y %+.2f mm (+- %.2f)\n",
-                    files[k].c_str(), 1e3 * sp.offset.x(), 1e3 * sp.standard_error.x(), 1e3 * sp.offset.y(),
-                    1e3 * sp.standard_error.y());
-      else if (!sp.why_not.empty())
-        std::printf("%s: the soles' common offset on their plates: not fitted (%s)\n", files[k].c_str(), sp.why_not.c_str());
+      if (sp.fitted || !sp.why_not.empty())
+        std::printf("%s: the soles' common offset on their plates, %s\n", files[k].c_str(),
+                    est::describeSolePlacement(sp).c_str());
     }
   }
   est::OnlineComparison online;

@@ -114,9 +114,7 @@ bool OnlineEstimator::checkModelAndOptions() {
     setError("the model needs right_foot and left_foot links (the plates' bodies)");
     return false;
   }
-  footholds_ = defaultFootholds(model_);
-  for (DatasetOptions::Foothold& f : footholds_)
-    if (f.plate >= 0 && f.plate < 2) f.world = opt_.sole_on_plate[static_cast<size_t>(f.plate)];
+  footholds_ = defaultFootholds(model_, opt_.sole_on_plate);
   if (footholds_.empty()) {
     setError("the model needs right_sole / left_sole frames (base position from the legs)");
     return false;

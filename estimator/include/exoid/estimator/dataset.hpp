@@ -9,6 +9,7 @@
 // streamed block by block so that memory does not depend on the length of the run.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -179,8 +180,11 @@ struct DatasetOptions {
 bool heldBaseRowMeasured(const Model& model, int row);
 
 /// The footholds of a lab setup: the model's `right_sole` / `left_sole` frames on their plates' sensor origins
-/// (each sole centred on its plate, as the feet are placed in the lab); frames the model lacks are skipped.
-std::vector<DatasetOptions::Foothold> defaultFootholds(const Model& model);
+/// plus sole_on_plate[plate] (where each sole stands on its plate, lab axes, m: `--sole-on-plate`; zero, the
+/// default, is each sole centred on its plate); frames the model lacks are skipped.
+std::vector<DatasetOptions::Foothold> defaultFootholds(
+    const Model& model,
+    const std::array<Eigen::Vector3d, 2>& sole_on_plate = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()});
 
 /// Base position (world) from leg kinematics: each foothold's point stays where the lab placed it,
 /// p_b = p_world - R_wb p_base(q), averaged over the footholds. Requires forwardKinematics (kin.p, kin.R) of

@@ -47,6 +47,9 @@ struct SolePlacement {
   long samples = 0;
 };
 
+/// One line for a report: "fitted: x +10.02 mm (+- 0.02), y +0.00 mm (+- 0.00)", or "not fitted (why)".
+std::string describeSolePlacement(const SolePlacement& placement);
+
 /// Accumulates the rows of one run (or several: one common offset) and fits the offset at finish().
 class SolePlacementFit {
  public:

@@ -3,8 +3,8 @@
 // (config/scenarios/*.yaml). Loaders run once at startup; they report the first problem as one line
 // "<file>: <key>: <what>" and never throw. Formats: docs/sim.md.
 #include <Eigen/Core>
-#include <cstdint>
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -54,11 +54,11 @@ struct TorqueSensorError {
   double gain = 1.0;
 };
 
-/// Physics and sensor effects that the URDF (hence controller and estimator) does not know about.
-/// Applied to the MuJoCo model / the sim's sensor model only.
 /// effects.foot_placement: the largest offset per axis (m) that keeps a sole on its 60 x 20 cm plate.
 inline constexpr double kMaxFootPlacement = 0.05;
 
+/// Physics and sensor effects that the URDF (hence controller and estimator) does not know about.
+/// Applied to the MuJoCo model / the sim's sensor model only.
 struct Effects {
   std::vector<JointValue> joint_damping;       ///< N m s/rad (MuJoCo dof_damping), >= 0
   std::vector<JointValue> joint_frictionloss;  ///< N m (MuJoCo dof_frictionloss: dry friction), >= 0

@@ -182,9 +182,7 @@ OnlineVsBatch compareOnlineBatch(const Model& model, const intake::RunLog& log, 
   Comparison cmp{model, ticks, base, prior, publish_every, {model.bodyIndex("right_foot"), model.bodyIndex("left_foot")}, {}, {}};
   cmp.dopt.cutoff_hz = 30.0;
   cmp.dopt.filter = FilterMode::Inputs;
-  cmp.dopt.footholds = defaultFootholds(model);
-  for (DatasetOptions::Foothold& f : cmp.dopt.footholds)  // where the estimator was told the soles stand
-    if (f.plate >= 0 && f.plate < 2) f.world = options.sole_on_plate[static_cast<size_t>(f.plate)];
+  cmp.dopt.footholds = defaultFootholds(model, options.sole_on_plate);  // where the estimator was told they stand
   LsqAccumulator train(model, base), whole(model, base);
   AccumulatorOptions one;
   one.folds = 1;

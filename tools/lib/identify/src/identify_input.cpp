@@ -86,11 +86,7 @@ bool datasetSetup(const Model& model, const SourceOptions& options, int feet[2],
       if (error) *error = "a floating-base identification needs the model's right_foot and left_foot links";
       return false;
     }
-    if (dopt.footholds.empty()) {
-      dopt.footholds = estimator::defaultFootholds(model);
-      for (estimator::DatasetOptions::Foothold& f : dopt.footholds)
-        if (f.plate >= 0 && f.plate < 2) f.world = options.sole_on_plate[static_cast<size_t>(f.plate)];
-    }
+    if (dopt.footholds.empty()) dopt.footholds = estimator::defaultFootholds(model, options.sole_on_plate);
   }
   return true;
 }
@@ -118,10 +114,11 @@ void heldBase(estimator::MeasuredSample& s) {
 }
 
 // SourceOptions::fit_sole_placement: the samples' rows built as declared (dopt) and with both soles moved by h in x and
-// in y (y is affine in the base position, so the difference over h is exact), fitted by estimator::SolePlacementFit.
-// Nothing to fit (out.why_not empty) where every sample records its base's position.
+// in y (y is affine in the base position, so the difference over h is exact), fitted by estimator::SolePlacementFit;
+// where fitted, the offset is added to dopt's footholds. Nothing to fit (out.why_not empty) where every sample records
+// its base's position.
 bool fitSolePlacement(const std::vector<estimator::MeasuredSample>& samples, const Model& model,
-                      const estimator::DatasetOptions& dopt, const std::string& path, estimator::SolePlacement& out,
+                      estimator::DatasetOptions& dopt, const std::string& path, estimator::SolePlacement& out,
                       std::string* error) {
   out = estimator::SolePlacement();
   const auto recorded = [](const estimator::MeasuredSample& s) { return s.has_base_position; };
@@ -160,6 +157,8 @@ bool fitSolePlacement(const std::vector<estimator::MeasuredSample>& samples, con
     return false;
   }
   out = fit.finish();
+  if (out.fitted)
+    for (estimator::DatasetOptions::Foothold& f : dopt.footholds) f.world.head<2>() += out.offset;
   return true;
 }
 
@@ -185,24 +184,23 @@ bool streamRows(const std::string& path, const Model& model, const SourceOptions
     dopt.base_rate_from_legs = false;
     dopt.base_acceleration_from_legs = false;
   }
-  if (options.fit_sole_tilt && dopt.orientation_from_legs && model.floating_base && !options.held_base) {
-    estimator::SoleTiltFit fit(model, dopt.footholds);
-    intake::InputStats first;  // the same file is read again below, counted there
-    const intake::SampleSink pass = [&](const estimator::MeasuredSample& s, std::string*) { return fit.add(s), true; };
-    if (!readFile(path, model, options, feet, pass, first, error)) return stats = first, false;
-    dopt.sole_tilt = fit.finish();
-  }
+  // The fits over the whole file first, from one more read of it (the samples kept in memory for the placement's
+  // three builds; the tilt alone streams them); the file is read again below, counted there.
+  const bool tilt = options.fit_sole_tilt && dopt.orientation_from_legs && model.floating_base && !options.held_base;
+  const bool place = options.fit_sole_placement && model.floating_base && !options.held_base;
   estimator::SolePlacement placement;
-  if (options.fit_sole_placement && model.floating_base && !options.held_base) {
+  if (tilt || place) {
+    estimator::SoleTiltFit tilt_fit(model, dopt.footholds);
     std::vector<estimator::MeasuredSample> samples;
-    intake::InputStats first;  // the same file is read again below, counted there
-    const intake::SampleSink keep = [&](const estimator::MeasuredSample& s, std::string*) {
-      return samples.push_back(s), true;
+    intake::InputStats first;
+    const intake::SampleSink pass = [&](const estimator::MeasuredSample& s, std::string*) {
+      if (tilt) tilt_fit.add(s);
+      if (place) samples.push_back(s);
+      return true;
     };
-    if (!readFile(path, model, options, feet, keep, first, error)) return stats = first, false;
-    if (!fitSolePlacement(samples, model, dopt, path, placement, error)) return false;
-    if (placement.fitted)
-      for (estimator::DatasetOptions::Foothold& f : dopt.footholds) f.world.head<2>() += placement.offset;
+    if (!readFile(path, model, options, feet, pass, first, error)) return stats = first, false;
+    if (tilt) dopt.sole_tilt = tilt_fit.finish();
+    if (place && !fitSolePlacement(samples, model, dopt, path, placement, error)) return false;
   }
   if (options.held_function && (options.held_function->c.size() != model.nparams() || options.held_function->j < 0 ||
                                  options.held_function->j >= model.nparams())) {
@@ -326,11 +324,9 @@ bool accumulateSamples(const std::vector<estimator::MeasuredSample>& samples, co
     for (const estimator::MeasuredSample& s : samples) fit.add(s);
     dopt.sole_tilt = stats.sole_tilt = fit.finish();
   }
-  if (options.fit_sole_placement && model.floating_base) {
-    if (!fitSolePlacement(samples, model, dopt, "samples", stats.sole_placement, error)) return false;
-    if (stats.sole_placement.fitted)
-      for (estimator::DatasetOptions::Foothold& f : dopt.footholds) f.world.head<2>() += stats.sole_placement.offset;
-  }
+  if (options.fit_sole_placement && model.floating_base &&
+      !fitSolePlacement(samples, model, dopt, "samples", stats.sole_placement, error))
+    return false;
   long nonfinite = 0;
   estimator::DatasetBuilder builder(model, dopt, accumulatorSink(acc, nonfinite));
   for (const estimator::MeasuredSample& s : samples)

@@ -259,15 +259,10 @@ bool load(const std::vector<std::string>& files, const SourceOptions& opt, estim
     if (st.sole_tilt.fitted || st.sole_tilt.samples > 0)
       std::fprintf(stderr, "exoid identify: %s: the soles' tilt from the plates: %s\n", f.c_str(),
                    estimator::describeSoleTilt(st.sole_tilt).c_str());
-    if (const estimator::SolePlacement& sp = st.sole_placement; sp.fitted || !sp.why_not.empty()) {
-      if (sp.fitted)
-        std::fprintf(stderr, "exoid identify: %s: the soles' common offset on their plates, fitted: x %+.2f mm (+- %.2f), "
-                     "y %+.2f mm (+- %.2f), added to the declared placement\n", f.c_str(), 1e3 * sp.offset.x(),
-                     1e3 * sp.standard_error.x(), 1e3 * sp.offset.y(), 1e3 * sp.standard_error.y());
-      else
-        std::fprintf(stderr, "exoid identify: %s: the soles' common offset on their plates: not fitted (%s); the declared "
-                     "placement used\n", f.c_str(), sp.why_not.c_str());
-    }
+    if (const estimator::SolePlacement& sp = st.sole_placement; sp.fitted || !sp.why_not.empty())
+      std::fprintf(stderr, "exoid identify: %s: the soles' common offset on their plates, %s; %s\n", f.c_str(),
+                   estimator::describeSolePlacement(sp).c_str(),
+                   sp.fitted ? "added to the declared placement" : "the declared placement used");
     if (!st.damage_report.empty())
       std::fprintf(stderr, "exoid identify: warning: %s: damaged log, its readable part used: %s\n", f.c_str(),
                    st.damage_report.c_str());

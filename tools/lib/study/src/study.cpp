@@ -20,6 +20,7 @@
 #include "exoid/estimator/dataset.hpp"
 #include "exoid/estimator/measurement.hpp"
 #include "exoid/estimator/metrics.hpp"
+#include "exoid/estimator/sole_placement.hpp"
 #include "exoid/model/inertial.hpp"
 #include "exoid/model/kinematics.hpp"
 #include "exoid/model/regressor.hpp"
@@ -490,12 +491,10 @@ void runJob(Study& st, Job& job, int workers) {
   jf.train->flush();
   job.seconds["training factor"] += since(ta);
   const std::string at = pipe + " pipeline, cutoff " + (job.cutoff > 0 ? fmt(job.cutoff) + " Hz" : std::string("none"));
-  std::string placed;  // --sole-on-plate fit
-  if (stats.sole_placement.fitted)
-    placed = ", the soles' common offset on their plates fitted: (" + fmt(1e3 * stats.sole_placement.offset.x()) + ", " +
-             fmt(1e3 * stats.sole_placement.offset.y()) + ") mm";
-  else if (!stats.sole_placement.why_not.empty())
-    placed = ", the soles' common offset not fitted (" + stats.sole_placement.why_not + ")";
+  const estimator::SolePlacement& sp = stats.sole_placement;  // --sole-on-plate fit
+  const std::string placed = sp.fitted || !sp.why_not.empty()
+                                 ? ", the soles' common offset on their plates " + estimator::describeSolePlacement(sp)
+                                 : std::string();
   st.sayLocked(at + ": " + std::to_string(stats.samples) + " training samples" + placed);
   // The row-weighted factors (all folds, each fold left out) do not depend on the prior: once per data set.
   const auto tf0 = std::chrono::steady_clock::now();

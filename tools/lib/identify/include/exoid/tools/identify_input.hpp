@@ -37,7 +37,6 @@ struct BaseSignals {
   bool fit_sole_placement = false;
 };
 
-
 struct SourceOptions;
 /// `b` into so.dataset and so.fit_sole_tilt; the legs only in the sensors pipeline (the truth pipeline records the
 /// base's motion). Set so.pipeline first.
