@@ -163,6 +163,18 @@ TEST(IdentifyCli, TheLegsBaseSignalsBeatTheImusOnASensorRun) {
               imu["training"]["rmse"].get<double>());
   EXPECT_LT(l, 0.4 * i);
   EXPECT_LT(legs["training"]["rmse"].get<double>(), imu["training"]["rmse"].get<double>());
+  // Without --cutoff the encoders are differentiated unfiltered: the estimate is far worse, and the report says why.
+  EXPECT_TRUE(legs["warnings"].empty()) << legs["warnings"];
+  const auto raw = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("train/run.lcmlog") + " --validate " +
+                                        dir.file("val/run.lcmlog") + " --prior-perturb 0.25 --prior-seed 1 --out " + dir.file("raw"),
+                                    dir.path);
+  ASSERT_EQ(raw.exit_code, 0) << raw.err;
+  const nlohmann::json unfiltered = readJson(dir.file("raw/summary.json"));
+  std::printf("held-out RMSE unfiltered %.4f (30 Hz %.5f)\n", unfiltered["validation"]["rmse"].get<double>(), l);
+  EXPECT_GT(unfiltered["validation"]["rmse"].get<double>(), 10.0 * l);
+  ASSERT_FALSE(unfiltered["warnings"].empty());
+  EXPECT_NE(unfiltered["warnings"][0].get<std::string>().find("sensor logs without --cutoff"), std::string::npos);
+  EXPECT_NE(raw.out.find("warning: sensor logs without --cutoff"), std::string::npos) << raw.out;
 }
 
 TEST(IdentifyCli, TheSolesTiltFittedToThePlatesBeatsTheImusLowBand) {

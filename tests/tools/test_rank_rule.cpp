@@ -191,7 +191,7 @@ TEST(RankRule, HeldOutToTrainingRatioWarnsWhenTheValidationRunCarriesALoad) {
 }
 
 TEST(RankRule, ProcessingAlternativesChangeOneChoiceEach) {
-  // exoid identify's sensors pipeline on a floating base's logs: half the cutoff, and the IMU below the fusion
+  // exoid identify's sensors pipeline on a floating base's logs, the fused orientation: half the cutoff, and the IMU below the fusion
   // cutoff (the legs' rate and acceleration are the default); with the gyro's rate, the IMU's orientation; a CSV
   // (its orientation recorded) or an unfiltered run has fewer.
   tools::SourceOptions so;
@@ -218,4 +218,14 @@ TEST(RankRule, ProcessingAlternativesChangeOneChoiceEach) {
   tools::SourceOptions unfiltered = so;
   unfiltered.dataset.cutoff_hz = 0.0;
   EXPECT_EQ(names(tools::processingAlternatives(unfiltered, true)), (std::vector<std::string>{"IMU below the fusion cutoff"}));
+  // The soles' tilt fitted to the plates (the default orientation): the tilt is modelled, so the IMU's band is no
+  // alternative, only the filter; the gyro's rate keeps the IMU's orientation.
+  tools::SourceOptions plates = so;
+  plates.fit_sole_tilt = true;
+  EXPECT_EQ(names(tools::processingAlternatives(plates, true)), (std::vector<std::string>{"cutoff 15 Hz"}));
+  plates.dataset.cutoff_hz = 0.0;
+  EXPECT_TRUE(tools::processingAlternatives(plates, true).empty());
+  plates.dataset.cutoff_hz = 30.0;
+  plates.dataset.base_rate_from_legs = plates.dataset.base_acceleration_from_legs = false;
+  EXPECT_EQ(names(tools::processingAlternatives(plates, true)), (std::vector<std::string>{"cutoff 15 Hz", "IMU orientation"}));
 }

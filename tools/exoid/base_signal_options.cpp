@@ -20,8 +20,8 @@ void addBaseSignalOptions(CLI::App& app, tools::BaseSignals& b) {
                  "plates' wrenches then turn with the same orientation) or the 'accelerometer'")
       ->check(CLI::IsMember({"legs", "accelerometer"}));
   app.add_option("--orientation-cutoff", b.orientation_cutoff_hz, "--base-orientation fused: Hz below which the IMU, above "
-                 "which the legs give the orientation; identify's rank rule's processing check uses it for the IMU's "
-                 "rate and acceleration with every --base-orientation")
+                 "which the legs give the orientation; with the fused orientation identify's rank rule's processing "
+                 "check uses it for the IMU's rate and acceleration")
       ->transform(common::strictNumber(0.01, 400.0))->type_name("HZ");
   app.add_option_function<std::vector<std::string>>(
          "--sole-on-plate",

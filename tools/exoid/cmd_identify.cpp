@@ -12,6 +12,7 @@
 #include "exoid/estimator/batch/identify.hpp"
 #include "exoid/estimator/sole_tilt.hpp"
 #include "exoid/tools/csv.hpp"
+#include "exoid/tools/identify_input.hpp"
 #include "exoid/tools/identify_run.hpp"
 #include "exoid/tools/urdf_inertials.hpp"
 #include "base_signal_options.hpp"
@@ -45,7 +46,9 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
                  "'truth' (EXO_TRUTH state and applied torques + plates: the thesis protocol)")->check(CLI::IsMember({"sensors", "truth"}));
   app.add_option("--validate-pipeline", o.validate_pipeline, "pipeline of the validation logs (default: truth, ideal as in the thesis)")
       ->check(CLI::IsMember({"sensors", "truth"}));
-  app.add_option("--cutoff", o.cutoff_hz, "zero-phase 2nd-order Butterworth cutoff in Hz (0: no filter)")
+  app.add_option("--cutoff", o.cutoff_hz, "zero-phase 2nd-order Butterworth cutoff in Hz (0: no filter; "
+                 "on sensor logs a warning: their encoders are then differentiated unfiltered; 10-30 Hz on the "
+                 "exoskeleton's runs, docs/identification.md)")
       ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
   app.add_option("--filter-mode", o.filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
                  "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
@@ -66,7 +69,7 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
                  "choice), or from the training data alone: 'jackknife' (default: the directions of least expected "
                  "error: each one's time-block jackknife variance, plus how far it moves when the same data are "
                  "processed another way (half the cutoff; with --filter-mode parallel, filtering the inputs; with the "
-                 "legs' base rate or acceleration, the IMU's below --orientation-cutoff; with --base-rate gyro, the "
+                 "legs' base rate or acceleration and --base-orientation fused, the IMU's below --orientation-cutoff; with --base-rate gyro, the "
                  "IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
                  "--prior-uncertainty; z is the number kept), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them; with --only-links the default is 'full'");
@@ -130,9 +133,9 @@ struct PlotOptions {
   std::string python = "python3";
 };
 
-/// The report on stdout: method and rank, training and validation RMSE, consistency, excitation, a data-differ
-/// warning (returned, for summary.json; empty if none).
-std::string printReport(const tools::IdentifyRun& run) {
+/// The report on stdout: method and rank, training and validation RMSE, consistency, excitation, and the warnings
+/// (unfiltered sensor logs, data that differ; returned, for summary.json).
+std::vector<std::string> printReport(const tools::IdentifyRun& run, const tools::IdentifyRunOptions& o) {
   const estimator::IdentifyResult& r = run.result;
   const Model& model = run.model;
   std::printf("%s, rank %s: z = %d of %d base parameters (numerical rank %d), condition number %.3g\n",
@@ -163,19 +166,27 @@ std::string printReport(const tools::IdentifyRun& run) {
   std::printf("\nnot excited (left at the prior): %zu of %d parameters (estimate = prior); %zu more weakly excited "
               "(moved only through their correlation with the kept directions)\n",
               r.unexcited.size(), model.nparams(), r.weakly_excited.size());
-  std::string differ;
+  std::vector<std::string> warnings;
+  // Sensor logs carry encoder angles only: unfiltered, their twice-differenced accelerations swamp every column, a
+  // systematic error no rank rule sees (the exact prior's 5e-13 N m became 5.3 N m held-out; docs/identification.md).
+  bool logs = false;
+  for (const std::string& f : o.data) logs = logs || !tools::isCsvPath(f);
+  if (logs && o.pipeline == "sensors" && o.cutoff_hz <= 0.0)
+    warnings.push_back("sensor logs without --cutoff: the encoders are differentiated unfiltered, and their noise "
+                       "biases the estimate far beyond what the rank rule sees; give --cutoff (10-30 Hz on the "
+                       "exoskeleton's runs, docs/identification.md)");
   if (r.data_differ) {
     char b[256];
     std::snprintf(b, sizeof b, "held-out RMSE is %.2f x the training RMSE (warning above %g): the data differ (a load, "
                   "a tool, another state of the robot?)", r.heldout_ratio, run.options.data_differ_ratio);
-    differ = b;
-    std::printf("warning: %s\n", differ.c_str());
+    warnings.push_back(b);
   }
+  for (const std::string& w : warnings) std::printf("warning: %s\n", w.c_str());
   if (run.com_height_held)
     std::printf("system CoM height held at the prior's: %.4f m along the base z axis from the base origin at the "
                 "standing pose (--com-height prior)\n", run.com_height_m);
   std::fprintf(stderr, "exoid identify: read + filter + factor %.3f s, solve + rank choice %.3f s\n", run.read_s, run.solve_s);
-  return differ;
+  return warnings;
 }
 
 /// DIR/estimate.csv: name, prior, estimate, excited (atomically).
@@ -230,7 +241,8 @@ nlohmann::json inputsJson(const tools::IdentifyRun& run) {
 }
 
 /// summary.json without the identified URDF's entry.
-nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyRunOptions& o, const std::string& differ) {
+nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyRunOptions& o,
+                           const std::vector<std::string>& warnings) {
   const estimator::IdentifyResult& r = run.result;
   const std::vector<std::string> names = run.model.paramNames();
   nlohmann::json j;
@@ -265,7 +277,7 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
   j["not_excited"] = unexcited;
   for (int i : r.weakly_excited) weak.push_back(names[i]);
   j["weakly_excited"] = weak;
-  j["warnings"] = differ.empty() ? nlohmann::json::array() : nlohmann::json::array({differ});
+  j["warnings"] = warnings;
   j["inputs"] = inputsJson(run);
   j["options"] = {{"pipeline", o.pipeline}, {"cutoff_hz", o.cutoff_hz}, {"filter_mode", o.filter_mode}, {"noise", o.noise},
                   {"base_orientation", o.base_signals.orientation}, {"base_rate", o.base_signals.rate}, {"base_acceleration", o.base_signals.acceleration}, {"orientation_cutoff_hz", o.base_signals.orientation_cutoff_hz},
@@ -282,13 +294,13 @@ nlohmann::json summaryJson(const tools::IdentifyRun& run, const tools::IdentifyR
 }
 
 /// --out DIR: estimate.csv, summary.json and, only when every link is physically consistent, identified.urdf.
-bool writeOutputs(const tools::IdentifyRun& run, const tools::IdentifyRunOptions& o, const std::string& differ,
+bool writeOutputs(const tools::IdentifyRun& run, const tools::IdentifyRunOptions& o, const std::vector<std::string>& warnings,
                   const std::string& out_dir, const PlotOptions& plots, std::string* err) {
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   if (ec) return *err = "cannot create '" + out_dir + "': " + ec.message(), false;
   if (!writeEstimateCsv(run, out_dir + "/estimate.csv", err)) return false;
-  nlohmann::json j = summaryJson(run, o, differ);
+  nlohmann::json j = summaryJson(run, o, warnings);
   holdJson(run, j);
   if (!writeHoldOutputs(run, out_dir, !plots.no_plots, plots.python, err)) return false;
   int consistent = 0;
@@ -322,9 +334,9 @@ int cmdIdentify(int argc, char** argv) {
   std::string err;
   tools::IdentifyRun run;
   if (!tools::runIdentify(o, run, &err)) return run.damaged ? (fail(err), 3) : fail(err);
-  const std::string differ = printReport(run);
+  const std::vector<std::string> warnings = printReport(run, o);
   printHoldReport(run);
-  if (!out_dir.empty() && !writeOutputs(run, o, differ, out_dir, plots, &err)) return fail(err);
+  if (!out_dir.empty() && !writeOutputs(run, o, warnings, out_dir, plots, &err)) return fail(err);
   return 0;
 }
 
