@@ -163,18 +163,27 @@ TEST(IdentifyCli, TheLegsBaseSignalsBeatTheImusOnASensorRun) {
               imu["training"]["rmse"].get<double>());
   EXPECT_LT(l, 0.4 * i);
   EXPECT_LT(legs["training"]["rmse"].get<double>(), imu["training"]["rmse"].get<double>());
-  // Without --cutoff the encoders are differentiated unfiltered: the estimate is far worse, and the report says why.
+  // Sensor logs without --cutoff are filtered at the default 30 Hz: the same figures as --cutoff 30. With --cutoff 0
+  // the encoders are differentiated unfiltered: the estimate is far worse, and the report says why.
   EXPECT_TRUE(legs["warnings"].empty()) << legs["warnings"];
-  const auto raw = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("train/run.lcmlog") + " --validate " +
-                                        dir.file("val/run.lcmlog") + " --prior-perturb 0.25 --prior-seed 1 --out " + dir.file("raw"),
-                                    dir.path);
-  ASSERT_EQ(raw.exit_code, 0) << raw.err;
-  const nlohmann::json unfiltered = readJson(dir.file("raw/summary.json"));
+  auto identifyAs = [&](const std::string& cutoff, const std::string& out) {
+    const auto r = test::runCommand(test::exoidBinary() + " identify --data " + dir.file("train/run.lcmlog") + " --validate " +
+                                        dir.file("val/run.lcmlog") + " --prior-perturb 0.25 --prior-seed 1 " + cutoff +
+                                        " --out " + dir.file(out), dir.path);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return std::make_pair(r, readJson(dir.file(out + "/summary.json")));
+  };
+  const auto [dflt, by_default] = identifyAs("", "default_cutoff");
+  EXPECT_EQ(by_default["options"]["cutoff_hz"].get<double>(), 30.0);
+  EXPECT_EQ(by_default["validation"]["rmse"].get<double>(), l);
+  EXPECT_TRUE(by_default["warnings"].empty()) << by_default["warnings"];
+  EXPECT_NE(dflt.err.find("--cutoff 30 Hz (the default on sensor logs)"), std::string::npos) << dflt.err;
+  const auto [raw, unfiltered] = identifyAs("--cutoff 0", "raw");
   std::printf("held-out RMSE unfiltered %.4f (30 Hz %.5f)\n", unfiltered["validation"]["rmse"].get<double>(), l);
   EXPECT_GT(unfiltered["validation"]["rmse"].get<double>(), 10.0 * l);
   ASSERT_FALSE(unfiltered["warnings"].empty());
-  EXPECT_NE(unfiltered["warnings"][0].get<std::string>().find("sensor logs without --cutoff"), std::string::npos);
-  EXPECT_NE(raw.out.find("warning: sensor logs without --cutoff"), std::string::npos) << raw.out;
+  EXPECT_NE(unfiltered["warnings"][0].get<std::string>().find("sensor logs with --cutoff 0"), std::string::npos);
+  EXPECT_NE(raw.out.find("warning: sensor logs with --cutoff 0"), std::string::npos) << raw.out;
 }
 
 TEST(IdentifyCli, TheSolesTiltFittedToThePlatesBeatsTheImusLowBand) {

@@ -46,10 +46,11 @@ void addDataOptions(CLI::App& app, tools::IdentifyRunOptions& o) {
                  "'truth' (EXO_TRUTH state and applied torques + plates: the thesis protocol)")->check(CLI::IsMember({"sensors", "truth"}));
   app.add_option("--validate-pipeline", o.validate_pipeline, "pipeline of the validation logs (default: truth, ideal as in the thesis)")
       ->check(CLI::IsMember({"sensors", "truth"}));
-  app.add_option("--cutoff", o.cutoff_hz, "zero-phase 2nd-order Butterworth cutoff in Hz (0: no filter; "
-                 "on sensor logs a warning: their encoders are then differentiated unfiltered; 10-30 Hz on the "
-                 "exoskeleton's runs, docs/identification.md)")
-      ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ");
+  app.add_option("--cutoff", o.cutoff_hz, "zero-phase 2nd-order Butterworth cutoff in Hz; 0: no filter (on sensor logs "
+                 "with a warning: their encoders are then differentiated unfiltered). Default: 30 Hz where the training "
+                 "data include sensor logs (the seed thesis's lowest, III-E; 10-15 Hz was better on the exoskeleton's "
+                 "runs, unfiltered 500 times worse: docs/identification.md), none otherwise (CSVs, truth logs)")
+      ->transform(common::strictNumber(0.0, 1e6))->type_name("HZ")->default_str("");
   app.add_option("--filter-mode", o.filter_mode, "'inputs': filter q (and gyro), differentiate, filter again (thesis III-E); "
                  "'parallel': q only differenced, then the one filter on every column of W and on y (lag and attenuation cancel)")->check(CLI::IsMember({"inputs", "parallel"}));
   addBaseSignalOptions(app, o.base_signals);
@@ -133,6 +134,18 @@ struct PlotOptions {
   std::string python = "python3";
 };
 
+/// --cutoff's default where the training data include sensor logs: the seed thesis's lowest cutoff (III-E: 30, 50,
+/// 70, 100 Hz). Their joint velocities and accelerations are the encoders differentiated; unfiltered, that noise
+/// biases every column (docs/identification.md "2026-12-07 (stop 50)").
+constexpr double kSensorLogCutoffHz = 30.0;
+
+/// Whether the training data include LCM logs read through the sensors pipeline.
+bool trainsOnSensorLogs(const tools::IdentifyRunOptions& o) {
+  bool logs = false;
+  for (const std::string& f : o.data) logs = logs || !tools::isCsvPath(f);
+  return logs && o.pipeline == "sensors";
+}
+
 /// The report on stdout: method and rank, training and validation RMSE, consistency, excitation, and the warnings
 /// (unfiltered sensor logs, data that differ; returned, for summary.json).
 std::vector<std::string> printReport(const tools::IdentifyRun& run, const tools::IdentifyRunOptions& o) {
@@ -169,12 +182,10 @@ std::vector<std::string> printReport(const tools::IdentifyRun& run, const tools:
   std::vector<std::string> warnings;
   // Sensor logs carry encoder angles only: unfiltered, their twice-differenced accelerations swamp every column, a
   // systematic error no rank rule sees (the exact prior's 5e-13 N m became 5.3 N m held-out; docs/identification.md).
-  bool logs = false;
-  for (const std::string& f : o.data) logs = logs || !tools::isCsvPath(f);
-  if (logs && o.pipeline == "sensors" && o.cutoff_hz <= 0.0)
-    warnings.push_back("sensor logs without --cutoff: the encoders are differentiated unfiltered, and their noise "
-                       "biases the estimate far beyond what the rank rule sees; give --cutoff (10-30 Hz on the "
-                       "exoskeleton's runs, docs/identification.md)");
+  if (trainsOnSensorLogs(o) && o.cutoff_hz <= 0.0)
+    warnings.push_back("sensor logs with --cutoff 0: the encoders are differentiated unfiltered, and their noise "
+                       "biases the estimate far beyond what the rank rule sees; give a cutoff (default 30 Hz; 10-15 Hz "
+                       "was best on the exoskeleton's runs, docs/identification.md)");
   if (r.data_differ) {
     char b[256];
     std::snprintf(b, sizeof b, "held-out RMSE is %.2f x the training RMSE (warning above %g): the data differ (a load, "
@@ -331,6 +342,10 @@ int cmdIdentify(int argc, char** argv) {
   app.add_option("--python", plots.python, "python interpreter for the plots (default python3; needs matplotlib)");
   if (const int code = common::parseCli(app, argc - 1, argv + 1); code >= 0) return code;
   o.rank_given = app.get_option("--rank")->count() > 0;
+  if (app.get_option("--cutoff")->count() == 0 && trainsOnSensorLogs(o)) {
+    o.cutoff_hz = kSensorLogCutoffHz;
+    std::fprintf(stderr, "exoid identify: --cutoff %g Hz (the default on sensor logs)\n", o.cutoff_hz);
+  }
   std::string err;
   tools::IdentifyRun run;
   if (!tools::runIdentify(o, run, &err)) return run.damaged ? (fail(err), 3) : fail(err);
