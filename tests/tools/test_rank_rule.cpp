@@ -191,9 +191,9 @@ TEST(RankRule, HeldOutToTrainingRatioWarnsWhenTheValidationRunCarriesALoad) {
 }
 
 TEST(RankRule, ProcessingAlternativesChangeOneChoiceEach) {
-  // exoid identify's sensors pipeline on a floating base's logs, the fused orientation: half the cutoff, and the IMU below the fusion
-  // cutoff (the legs' rate and acceleration are the default); with the gyro's rate, the IMU's orientation; a CSV
-  // (its orientation recorded) or an unfiltered run has fewer.
+  // exoid identify's sensors pipeline on a floating base's logs, the fused orientation: half the cutoff, and the IMU
+  // below the fusion cutoff (the legs' rate and acceleration are the default); with the gyro's rate, the IMU's
+  // orientation; a CSV (its orientation recorded) or an unfiltered run has fewer.
   tools::SourceOptions so;
   so.dataset.cutoff_hz = 30.0;
   so.dataset.orientation_from_legs = so.dataset.base_rate_from_legs = so.dataset.base_acceleration_from_legs = true;

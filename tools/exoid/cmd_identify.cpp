@@ -70,8 +70,8 @@ void addMethodOptions(CLI::App& app, tools::IdentifyRunOptions& o, std::string* 
                  "choice), or from the training data alone: 'jackknife' (default: the directions of least expected "
                  "error: each one's time-block jackknife variance, plus how far it moves when the same data are "
                  "processed another way (half the cutoff; with --filter-mode parallel, filtering the inputs; with the "
-                 "legs' base rate or acceleration and --base-orientation fused, the IMU's below --orientation-cutoff; with --base-rate gyro, the "
-                 "IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
+                 "legs' base rate or acceleration and --base-orientation fused, the IMU's below --orientation-cutoff; "
+                 "with --base-rate gyro, the IMU's orientation; see --no-processing-check), against the prior's variance along it, see "
                  "--prior-uncertainty; z is the number kept), 'cv', 'cv-1se' (time-block cross-validation), 'gcv'; "
                  "docs/identification.md compares them; with --only-links the default is 'full'");
   app.add_flag("--no-processing-check", o.no_processing_check, "--rank jackknife: leave out the processing term (the "

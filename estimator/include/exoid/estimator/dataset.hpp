@@ -164,7 +164,8 @@ struct DatasetOptions {
   bool base_acceleration_from_legs = false;
   /// With orientation_from_legs: the legs' rate and acceleration (above) take the IMU's (gyro, accelerometer) below
   /// orientation_cutoff_hz, as the orientation does. Not the default (the gyro's share below 5 Hz still costs
-  /// more than the feet's tilt on their contacts); with the fused orientation the rank rule's processing check compares it.
+  /// more than the feet's tilt on their contacts); with the fused orientation the rank rule's processing check
+  /// compares it.
   bool imu_below_fusion_cutoff = false;
   int block = 4096;                  ///< samples processed per block (memory ~ (block + 2 margin) x nv x p)
   /// With a filter: drop the samples within the filter's settling time (transient below e^-14, ~1e-6) of the
