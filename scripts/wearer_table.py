@@ -29,8 +29,9 @@ For every scenario given (default: config/scenarios/wearer_*.yaml), with the bin
 
 Writes OUT/wearer_table.csv (one row per scenario, every figure), OUT/wearer_table.md (the table and the targets met)
 and OUT/wearer_table.png (the balance ratio and the identified system CoM per scenario); each run's own output under
-OUT/<scenario>/. Runs one process at a time (the runs pin their processes to the first CPU); ~3 min per scenario on a
-2-core machine. Exit 1 when a command fails (its log named); a fall is a result, not a failure.
+OUT/<scenario>/. Runs one process at a time (the runs pin their processes to the first CPU); ~2 min per scenario on a
+2-core machine. Exit 1 when a command fails (its log named); a fall is a result, not a failure (a balance run's is in
+the table; an identification run's leaves that wearer's identification columns n/a).
 
 usage: scripts/wearer_table.py [--out DIR] [--bin build/bin] [--moves 20] [--id-moves 10] [--balance-seeds 3 5]
                                [--reuse] [SCENARIO.yaml ...]
